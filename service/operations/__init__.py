@@ -1,0 +1,1 @@
+"""Operation handlers: pure functions from a request model to a response model."""

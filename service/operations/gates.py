@@ -1,0 +1,168 @@
+"""Gate tests (seed 000 section on capture gates; DESIGN section 3).
+
+Plots arrive Cartesian or polar; both become positions z (m) and covariances P (m^2) in
+the common frame. The capture and tracking gates run on those. The polar gates (sector,
+first association) take range, azimuth and their sigmas about the *first* plot's sensor,
+from the same (z, P) through the Jacobian of DESIGN section 2, so a polar plot from that
+sensor keeps its own sigmas exactly.
+"""
+
+from collections.abc import Sequence
+
+import numpy as np
+
+import core
+from core import PlotgateError
+from service.schemas import GatePairsRequest, GateResults, GateTestRequest, Plot, PolarPlot
+from service.schemas.gates import Gate
+
+__all__ = ["GatePairsRequest", "GateResults", "GateTestRequest", "pairs", "pairs_field",
+           "test", "test_field"]
+
+_STAGES = ("none", "ring", "inner_ellipse", "outer_ellipse")
+_GATE_PARAMS = {"tau", "v_min", "v_max", "P_G", "p", "k", "K_R", "K_az"}
+_FIRST = {"z1", "P1", "z_pred", "r_pred", "az_pred", "sigma_r_pred", "sigma_az_pred",
+          "r1", "az1", "sigma_r1", "sigma_az1", "sensor"}
+_SECOND = {"z2", "P2", "z", "r", "az", "sigma_r2", "sigma_az2"}
+_STATISTICS = {
+    "ring": "distance |z2 - z1|, m",
+    "expanded": "(dX/a)^2 + (dY/b)^2, dimensionless",
+    "combined": "rho = nu^T B^-1 nu to the ring's edge (0 inside the ring)",
+    "ellipse": "rho = nu^T S^-1 nu",
+    "rectangular": "max(|dx|/sigma_x, |dy|/sigma_y), sigmas",
+    "sector": "max(|dr|/(K_R s_r), |d az|/(K_az s_az)), window fractions",
+    "first_association": "max(|dr|/W_R, |d az|/W_az), window fractions",
+}
+
+
+def _cartesian(plots: Sequence[Plot]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions (N, 2), covariances (N, 2, 2) and sensor positions (N, 2) of the plots."""
+    n = len(plots)
+    z = np.empty((n, 2))
+    P = np.empty((n, 2, 2))
+    sensor = np.array([p.sensor for p in plots], dtype=float)
+    polar = np.array([isinstance(p, PolarPlot) for p in plots], dtype=bool)
+    cart = [p for p in plots if not isinstance(p, PolarPlot)]
+    if cart:
+        z[~polar] = [(p.x, p.y) for p in cart]
+        P[~polar] = [p.covariance for p in cart]
+    if polar.any():
+        r, az_deg, s_r, s_az_deg = np.array(
+            [(p.r, p.az_deg, p.sigma_r, p.sigma_az_deg) for p in plots if isinstance(p, PolarPlot)]
+        ).T
+        az, s_az = np.radians(az_deg), np.radians(s_az_deg)
+        z[polar] = core.polar_to_cartesian(r, az) + sensor[polar]
+        P[polar] = core.polar_covariance_to_cartesian(r, az, s_r, s_az)
+    return z, P, sensor
+
+
+def _polar(z: np.ndarray, P: np.ndarray, sensor: np.ndarray, field: str):
+    """Range, azimuth (rad) and their sigmas about ``sensor``; errors name ``field``."""
+    rel = z - sensor
+    try:
+        r, az = core.cartesian_to_polar(rel)
+        C = core.cartesian_covariance_to_polar(rel, P)
+    except PlotgateError as exc:
+        raise type(exc)(field, exc.reason, exc.index) from exc
+    return r, az, np.sqrt(C[..., 0, 0]), np.sqrt(C[..., 1, 1])
+
+
+def _gate(gate: Gate, z1, P1, s1, z2, P2) -> core.GateResult:
+    """Run the gate of ``gate.kind`` on first marks (z1, P1, sensor s1) and second marks."""
+    match gate.kind:
+        case "ring":
+            return core.ring_gate(z1, z2, gate.tau, gate.v_min, gate.v_max)
+        case "expanded":
+            _, _, sigma_r, sigma_az = _polar(z1, P1, s1, "z1")
+            return core.expanded_gate(
+                z1, z2, gate.tau, gate.v_max, sigma_r, sigma_az, gate.p, sensor=s1
+            )
+        case "combined":
+            return core.combined_gate(z1, P1, z2, P2, gate.tau, gate.v_min, gate.v_max, gate.P_G)
+        case "ellipse":
+            return core.ellipse_gate(z2, z1, P1 + P2, gate.P_G)
+        case "rectangular":
+            S = P1 + P2
+            return core.rectangular_gate(
+                z2, z1, np.sqrt(S[..., 0, 0]), np.sqrt(S[..., 1, 1]), gate.k
+            )
+        case "sector":
+            r1, az1, sr1, saz1 = _polar(z1, P1, s1, "z1")
+            r2, az2, sr2, saz2 = _polar(z2, P2, s1, "z2")
+            return core.sector_gate(r2, az2, r1, az1, sr2, saz2, sr1, saz1, gate.K_R, gate.K_az)
+        case "first_association":
+            r1, az1, sr1, saz1 = _polar(z1, P1, s1, "z1")
+            r2, az2, sr2, saz2 = _polar(z2, P2, s1, "z2")
+            return core.first_association_gate(
+                r1, az1, r2, az2, gate.tau, gate.v_max, sr1, saz1, sr2, saz2, gate.K_R, gate.K_az
+            )
+    raise AssertionError(gate.kind)
+
+
+def _results(gate: Gate, result: core.GateResult) -> GateResults:
+    return GateResults(
+        kind=gate.kind,
+        statistic_name=_STATISTICS[gate.kind],
+        threshold=float(result.threshold),
+        inside=result.inside.tolist(),
+        statistic=result.statistic.tolist(),
+        stage=None if result.stage is None else [_STAGES[s] for s in result.stage],
+        count_inside=int(np.count_nonzero(result.inside)),
+    )
+
+
+def test(request: GateTestRequest) -> GateResults:
+    """Test the first plot against every candidate."""
+    z1, P1, s1 = _cartesian([request.first])
+    z2, P2, _ = _cartesian(request.candidates)
+    return _results(request.gate, _gate(request.gate, z1[0], P1[0], s1[0], z2, P2))
+
+
+def pairs(request: GatePairsRequest) -> GateResults:
+    """Test every (first, second) pair on its own."""
+    z1, P1, s1 = _cartesian([pair.first for pair in request.pairs])
+    z2, P2, _ = _cartesian([pair.second for pair in request.pairs])
+    return _results(request.gate, _gate(request.gate, z1, P1, s1, z2, P2))
+
+
+def _side(gate: Gate, exc: PlotgateError) -> str | None:
+    """Which plot a core argument came from: "first", "second", "both" or a gate parameter."""
+    if exc.field in _GATE_PARAMS:
+        return None
+    if exc.field in {"sigma_r", "sigma_az"}:
+        return "first" if gate.kind == "expanded" else "second"
+    if exc.field in _FIRST:
+        return "first"
+    if exc.field in _SECOND:
+        return "second"
+    return "both"
+
+
+def _covariance(plot: Plot, exc: PlotgateError) -> str:
+    return ".covariance" if exc.field in {"P1", "P2"} and not isinstance(plot, PolarPlot) else ""
+
+
+def test_field(request: GateTestRequest, exc: PlotgateError) -> str:
+    """The request field a core error on a ``gates.test`` request concerns."""
+    side = _side(request.gate, exc)
+    if side is None:
+        return f"gate.{exc.field}"
+    if side == "first":
+        return "first" + _covariance(request.first, exc)
+    if exc.index is None:
+        return "candidates"
+    return f"candidates[{exc.index}]" + _covariance(request.candidates[exc.index], exc)
+
+
+def pairs_field(request: GatePairsRequest, exc: PlotgateError) -> str:
+    """The request field a core error on a ``gates.pairs`` request concerns."""
+    side = _side(request.gate, exc)
+    if side is None:
+        return f"gate.{exc.field}"
+    if exc.index is None:
+        return "pairs"
+    pair = request.pairs[exc.index]
+    if side == "both":
+        return f"pairs[{exc.index}]"
+    plot = pair.first if side == "first" else pair.second
+    return f"pairs[{exc.index}].{side}" + _covariance(plot, exc)

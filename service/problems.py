@@ -1,0 +1,83 @@
+"""RFC 9457 problem details: the one place errors become HTTP answers.
+
+Kinds of problem (the ``type`` member), each with its status:
+
+- ``malformed-json`` (400): the body is not JSON;
+- ``invalid-input`` (422): a field fails the schema or the mathematics (core's errors);
+- ``not-found`` (404), ``method-not-allowed`` (405): no such route;
+- ``recording-unavailable`` (503): the exchange could not be recorded, so it is refused;
+- ``internal`` (500): a bug; never bad input.
+"""
+
+from dataclasses import dataclass, field
+
+from pydantic import ValidationError
+
+from core import PlotgateError
+from service.schemas import FieldError, Problem
+
+__all__ = ["ProblemError", "from_core", "from_validation", "problem"]
+
+PROBLEM_BASE = "urn:plotgate:problem:"
+TITLES = {
+    "malformed-json": "Malformed JSON body",
+    "invalid-input": "Invalid input",
+    "not-found": "Not found",
+    "method-not-allowed": "Method not allowed",
+    "recording-unavailable": "Recording unavailable",
+    "internal": "Internal error",
+}
+
+
+@dataclass
+class ProblemError(Exception):
+    """An answer that is a problem: raised by operations, rendered by the service."""
+
+    kind: str
+    status: int
+    detail: str
+    errors: list[FieldError] = field(default_factory=list)
+
+    def __str__(self) -> str:
+        return self.detail
+
+
+def problem(err: ProblemError, instance: str | None = None, request_id: str | None = None) -> Problem:
+    """Render a :class:`ProblemError` as an RFC 9457 body."""
+    return Problem(
+        type=PROBLEM_BASE + err.kind,
+        title=TITLES[err.kind],
+        status=err.status,
+        detail=err.detail,
+        instance=instance,
+        request_id=request_id,
+        errors=err.errors,
+    )
+
+
+def _path(loc: tuple[int | str, ...]) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "body"
+
+
+def from_validation(exc: ValidationError) -> ProblemError:
+    """Map pydantic's errors to field paths; a body that is not JSON is a 400."""
+    errors = exc.errors(include_url=False, include_input=False)
+    if any(e["type"] == "json_invalid" for e in errors):
+        reason = "; ".join(str(e.get("ctx", {}).get("error", e["msg"])) for e in errors)
+        return ProblemError(
+            "malformed-json", 400, f"body is not valid JSON: {reason}",
+            [FieldError(field="body", reason=reason)],
+        )
+    fields = [FieldError(field=_path(tuple(e["loc"])), reason=e["msg"]) for e in errors]
+    detail = "; ".join(f"{f.field}: {f.reason}" for f in fields)
+    return ProblemError("invalid-input", 422, detail, fields)
+
+
+def from_core(exc: PlotgateError, field: str) -> ProblemError:
+    """Map a core error to a 422 naming ``field``, the request path of the offending value."""
+    return ProblemError(
+        "invalid-input", 422, f"{field}: {exc.reason}", [FieldError(field=field, reason=exc.reason)]
+    )

@@ -1,0 +1,101 @@
+"""The operation registry: the one table that routes, recorder and replay all read.
+
+Each :class:`Operation` binds a wire contract (:class:`~service.schemas.Endpoint`: name such
+as ``gates.test``, HTTP path, request and response models) to a pure handler
+``(request) -> response`` that calls core. Adding a capability means declaring its endpoint
+in :mod:`service.schemas.endpoints` and adding one line to ``_HANDLERS``.
+
+:func:`execute` runs an operation on a raw request body exactly as the HTTP route does,
+so an in-process replay answers byte for byte what the server would.
+"""
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from core import PlotgateError
+from service.operations import gates
+from service.problems import ProblemError, from_core, from_validation, problem
+from service.schemas import ENDPOINTS, Endpoint
+
+__all__ = ["OPERATIONS", "Operation", "Outcome", "execute"]
+
+
+@dataclass(frozen=True)
+class Operation:
+    """One capability: its wire contract, handler and error-field mapping."""
+
+    endpoint: Endpoint
+    handler: Callable[[Any], BaseModel]
+    field_of: Callable[[Any, PlotgateError], str]
+    """Maps a core error raised for a request to the request field it concerns."""
+
+    @property
+    def name(self) -> str:
+        return self.endpoint.name
+
+    @property
+    def path(self) -> str:
+        return self.endpoint.path
+
+    @property
+    def request(self) -> type[BaseModel]:
+        return self.endpoint.request
+
+    @property
+    def response(self) -> type[BaseModel]:
+        return self.endpoint.response
+
+
+_HANDLERS = {
+    "gates.test": (gates.test, gates.test_field),
+    "gates.pairs": (gates.pairs, gates.pairs_field),
+}
+
+OPERATIONS: dict[str, Operation] = {
+    name: Operation(ENDPOINTS[name], handler, field_of)
+    for name, (handler, field_of) in _HANDLERS.items()
+}
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """The answer to one request: HTTP status and JSON body (result or problem)."""
+
+    status: int
+    content: bytes
+    error: ProblemError | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    def json(self) -> Any:
+        return json.loads(self.content)
+
+
+def execute(op: Operation, body: bytes, request_id: str | None = None) -> Outcome:
+    """Validate ``body`` against the operation's request model, run it, serialize the answer.
+
+    Bad input becomes an :class:`Outcome` whose content is an RFC 9457 problem naming the
+    field (``instance`` is the operation's path). Anything else that escapes is a bug.
+    """
+    try:
+        request = op.request.model_validate_json(body)
+        try:
+            response = op.handler(request)
+        except PlotgateError as exc:
+            raise from_core(exc, op.field_of(request, exc)) from exc
+    except ValidationError as exc:
+        return _failed(op, from_validation(exc), request_id)
+    except ProblemError as exc:
+        return _failed(op, exc, request_id)
+    return Outcome(status=200, content=response.model_dump_json().encode())
+
+
+def _failed(op: Operation, err: ProblemError, request_id: str | None) -> Outcome:
+    body = problem(err, instance=op.path, request_id=request_id)
+    return Outcome(err.status, body.model_dump_json(exclude_none=True).encode(), err)

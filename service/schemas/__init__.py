@@ -1,0 +1,55 @@
+"""Wire models shared by the service and its clients; imports pydantic only."""
+
+from service.schemas.common import (
+    MAX_PLOTS,
+    CartesianPlot,
+    FieldError,
+    Plot,
+    PolarPlot,
+    Position,
+    Problem,
+    Schema,
+)
+from service.schemas.gates import (
+    CombinedGate,
+    EllipseGate,
+    ExpandedGate,
+    FirstAssociationGate,
+    Gate,
+    GatePair,
+    GatePairsRequest,
+    GateResults,
+    GateTestRequest,
+    RectangularGate,
+    RingGate,
+    SectorGate,
+)
+from service.schemas.endpoints import ENDPOINTS, Endpoint
+from service.schemas.records import RequestRecord, ResponseRecord
+
+__all__ = [
+    "ENDPOINTS",
+    "MAX_PLOTS",
+    "CartesianPlot",
+    "CombinedGate",
+    "EllipseGate",
+    "Endpoint",
+    "ExpandedGate",
+    "FieldError",
+    "FirstAssociationGate",
+    "Gate",
+    "GatePair",
+    "GatePairsRequest",
+    "GateResults",
+    "GateTestRequest",
+    "Plot",
+    "PolarPlot",
+    "Position",
+    "Problem",
+    "RectangularGate",
+    "RequestRecord",
+    "ResponseRecord",
+    "RingGate",
+    "Schema",
+    "SectorGate",
+]

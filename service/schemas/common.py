@@ -1,0 +1,86 @@
+"""Shared wire types: finite numbers, plots in Cartesian or polar form, problem details.
+
+Every model forbids unknown fields and non-finite numbers (``NaN`` and ``Infinity`` are
+refused with the field named), so a typo or a broken sensor value never passes silently.
+Units are SI; angles on the wire are degrees in fields named ``*_deg``.
+"""
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = [
+    "MAX_PLOTS",
+    "CartesianPlot",
+    "FieldError",
+    "Plot",
+    "PolarPlot",
+    "Position",
+    "Problem",
+    "Schema",
+]
+
+MAX_PLOTS = 100_000
+"""Most plots (or pairs) one request may carry; a longer list is refused with 422."""
+
+
+class Schema(BaseModel):
+    """Base of every wire model: strict about unknown fields and non-finite floats."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+
+Position = tuple[float, float]
+"""A point (x east, y north) in metres."""
+
+Covariance = tuple[tuple[float, float], tuple[float, float]]
+
+
+class CartesianPlot(Schema):
+    """A mark (plot) at (x, y) with its 2x2 position covariance."""
+
+    frame: Literal["cartesian"] = Field(description="Discriminator: Cartesian plot.")
+    x: float = Field(description="East coordinate, m.")
+    y: float = Field(description="North coordinate, m.")
+    covariance: Covariance = Field(
+        description="Position covariance [[Pxx, Pxy], [Pxy, Pyy]], m^2; symmetric positive "
+        "definite."
+    )
+    sensor: Position = Field(
+        default=(0.0, 0.0), description="Position of the radar that made the plot, m."
+    )
+
+
+class PolarPlot(Schema):
+    """A mark measured in range and azimuth (clockwise from north) by a radar at ``sensor``."""
+
+    frame: Literal["polar"] = Field(description="Discriminator: polar plot.")
+    r: float = Field(gt=0, description="Range from the sensor, m.")
+    az_deg: float = Field(description="Azimuth, degrees clockwise from north.")
+    sigma_r: float = Field(gt=0, description="Range error standard deviation, m.")
+    sigma_az_deg: float = Field(gt=0, description="Azimuth error standard deviation, degrees.")
+    sensor: Position = Field(default=(0.0, 0.0), description="Position of the radar, m.")
+
+
+Plot = Annotated[CartesianPlot | PolarPlot, Field(discriminator="frame")]
+
+
+class FieldError(Schema):
+    """One offending input: where it is and what is wrong with it."""
+
+    field: str = Field(description="Dotted path into the request body, e.g. candidates[3].r.")
+    reason: str
+
+
+class Problem(BaseModel):
+    """RFC 9457 problem details, the body of every 4xx and 5xx answer."""
+
+    model_config = ConfigDict(extra="allow")
+
+    type: str = Field(description="URI naming the kind of problem.")
+    title: str
+    status: int
+    detail: str
+    instance: str | None = Field(default=None, description="The request path.")
+    request_id: str | None = None
+    errors: list[FieldError] = Field(default_factory=list)
