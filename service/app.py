@@ -1,0 +1,110 @@
+"""The FastAPI application factory.
+
+``create_app(settings)`` builds the app: operation routes from the registry under
+``/v1``, ``/healthz`` and ``/readyz`` at the root, RFC 9457 problem bodies for every
+error FastAPI or Starlette raise themselves (404, 405, ...), and a lifespan that opens
+the MCAP recorder on start and closes it (summary and index written) on shutdown.
+Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
+"""
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.concurrency import run_in_threadpool
+from fastapi.exceptions import RequestValidationError
+from fastapi.openapi.utils import get_openapi
+from fastapi.responses import Response
+from starlette.exceptions import HTTPException
+
+from service.config import Settings, get_settings
+from service.problems import ProblemError, problem
+from service.provenance import VERSION, provenance
+from service.recorder import Recorder
+from service.registry import OPERATIONS
+from service.routes import PROBLEM_JSON, health_router, operations_router
+from service.schemas import FieldError
+
+__all__ = ["create_app"]
+
+_KINDS = {404: "not-found", 405: "method-not-allowed"}
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """Build the plotgate app; ``settings`` default to the ``PLOTGATE_*`` environment."""
+    settings = settings or get_settings()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        recorder = None
+        if settings.record:
+            recorder = Recorder(
+                settings.log_dir,
+                OPERATIONS.values(),
+                max_bytes=settings.rotate_bytes,
+                max_age_s=settings.rotate_age_s,
+                metadata=provenance(settings),
+            ).start()
+        app.state.recorder = recorder
+        try:
+            yield
+        finally:
+            if recorder is not None:
+                await run_in_threadpool(recorder.close)
+
+    app = FastAPI(
+        title="plotgate",
+        version=VERSION,
+        summary="Radar track initiation and target localization, every exchange recorded.",
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    app.state.recorder = None
+    app.include_router(operations_router())
+    app.include_router(health_router())
+    app.add_exception_handler(HTTPException, _http_problem)
+    app.add_exception_handler(RequestValidationError, _validation_problem)
+    app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]
+    return app
+
+
+def _render(err: ProblemError, request: Request) -> Response:
+    body = problem(err, request.url.path, request.headers.get("x-request-id"))
+    return Response(
+        body.model_dump_json(exclude_none=True), err.status, media_type=PROBLEM_JSON
+    )
+
+
+async def _http_problem(request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, HTTPException)
+    kind = _KINDS.get(exc.status_code, "invalid-input")
+    return _render(ProblemError(kind, exc.status_code, str(exc.detail)), request)
+
+
+async def _validation_problem(request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, RequestValidationError)
+    errors = [
+        FieldError(field=".".join(str(p) for p in e["loc"]), reason=e["msg"])
+        for e in exc.errors()
+    ]
+    detail = "; ".join(f"{e.field}: {e.reason}" for e in errors)
+    return _render(ProblemError("invalid-input", 422, detail, errors), request)
+
+
+def _openapi(app: FastAPI) -> dict[str, Any]:
+    """FastAPI's schema plus the request models (routes read raw bodies) and problem+json."""
+    if app.openapi_schema:
+        return app.openapi_schema
+    schema = get_openapi(title=app.title, version=app.version, summary=app.summary,
+                         routes=app.routes)
+    components = schema.setdefault("components", {}).setdefault("schemas", {})
+    for op in OPERATIONS.values():
+        model = op.request.model_json_schema(ref_template="#/components/schemas/{model}")
+        components.update(model.pop("$defs", {}))
+        components[op.request.__name__] = model
+        for status, answer in schema["paths"][op.path]["post"]["responses"].items():
+            if status.startswith(("4", "5")) and "content" in answer:
+                answer["content"] = {PROBLEM_JSON: answer["content"]["application/json"]}
+    app.openapi_schema = schema
+    return schema

@@ -1,0 +1,30 @@
+"""Service settings, read from ``PLOTGATE_*`` environment variables (or a ``.env`` file)."""
+
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+__all__ = ["Settings", "get_settings"]
+
+
+class Settings(BaseSettings):
+    """Everything an operator can set; each field is ``PLOTGATE_<NAME>`` in the environment."""
+
+    model_config = SettingsConfigDict(env_prefix="PLOTGATE_", env_file=".env", extra="ignore")
+
+    host: str = Field(default="127.0.0.1", description="Address to listen on.")
+    port: int = Field(default=8000, ge=1, le=65535)
+    workers: int = Field(default=1, ge=1, description="uvicorn worker processes.")
+    record: bool = Field(default=True, description="Record every exchange to MCAP.")
+    log_dir: Path = Field(default=Path("recordings"), description="Folder of the MCAP files.")
+    rotate_bytes: int = Field(default=256 * 2**20, gt=0, description="Rotate files at this size.")
+    rotate_age_s: float = Field(default=3600.0, gt=0, description="Rotate files at this age, s.")
+    git_commit: str | None = Field(default=None, description="Build's commit, if not in git.")
+
+
+@lru_cache
+def get_settings() -> Settings:
+    """The process's settings, read once."""
+    return Settings()

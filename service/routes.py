@@ -1,0 +1,139 @@
+"""HTTP routes: one POST route per registry operation, plus the unversioned ops routes.
+
+Every operation route does the same five steps, in this order:
+
+1. take the request id (``X-Request-ID`` if the caller sent a sane one, else a new one);
+2. queue the request record, raw body included, before anything can fail;
+3. run :func:`service.registry.execute` in a worker thread;
+4. queue the response record and wait until it is handed to the operating system;
+5. answer, echoing ``X-Request-ID``.
+
+If the record cannot be written the answer is a 503 problem: nothing is acknowledged
+unrecorded.
+"""
+
+import asyncio
+import logging
+import re
+import time
+import uuid
+
+from fastapi import APIRouter, Request, Response
+from fastapi.concurrency import run_in_threadpool
+
+from service.problems import ProblemError, problem
+from service.recorder import Recorder, RecordingError, request_record, response_record
+from service.registry import OPERATIONS, Operation, Outcome, execute
+from service.schemas import Problem
+
+__all__ = ["health_router", "operations_router"]
+
+log = logging.getLogger("plotgate")
+PROBLEM_JSON = "application/problem+json"
+_REQUEST_ID = re.compile(r"^[A-Za-z0-9._:-]{1,128}$")
+
+
+def _request_id(request: Request) -> str:
+    given = request.headers.get("x-request-id", "")
+    return given if _REQUEST_ID.match(given) else uuid.uuid4().hex
+
+
+def _run(op: Operation, body: bytes, request_id: str) -> Outcome:
+    try:
+        return execute(op, body, request_id)
+    except Exception:
+        log.exception("operation %s failed on request %s", op.name, request_id)
+        err = ProblemError("internal", 500, f"{op.name} failed unexpectedly; this is a bug")
+        content = problem(err, op.path, request_id).model_dump_json(exclude_none=True)
+        return Outcome(500, content.encode(), err)
+
+
+def _unrecorded(op: Operation, request_id: str, exc: RecordingError) -> Response:
+    err = ProblemError("recording-unavailable", 503, f"the exchange was not recorded: {exc}")
+    content = problem(err, op.path, request_id).model_dump_json(exclude_none=True)
+    return Response(content, 503, {"X-Request-ID": request_id}, media_type=PROBLEM_JSON)
+
+
+def _endpoint(op: Operation):
+    async def endpoint(request: Request) -> Response:
+        request_id = _request_id(request)
+        recorder: Recorder | None = request.app.state.recorder
+        started = time.perf_counter()
+        body = await request.body()
+        try:
+            if recorder is not None:
+                recorder.request(op.name, request_record(request_id, op.name, body))
+            outcome = await run_in_threadpool(_run, op, body, request_id)
+            if recorder is not None:
+                record = response_record(
+                    request_id, op.name, outcome.status, time.perf_counter() - started,
+                    outcome.content,
+                )
+                await asyncio.wrap_future(recorder.response(op.name, record))
+        except RecordingError as exc:
+            return _unrecorded(op, request_id, exc)
+        return Response(
+            outcome.content,
+            outcome.status,
+            {"X-Request-ID": request_id},
+            media_type="application/json" if outcome.ok else PROBLEM_JSON,
+        )
+
+    endpoint.__name__ = op.name.replace(".", "_")
+    return endpoint
+
+
+def operations_router() -> APIRouter:
+    """One POST route per operation in the registry."""
+    router = APIRouter()
+    problems = {
+        status: {"model": Problem, "description": text}
+        for status, text in (
+            (400, "The body is not JSON."),
+            (422, "A field is invalid; `errors` names each one."),
+            (503, "The exchange could not be recorded, so it was refused."),
+        )
+    }
+    for op in OPERATIONS.values():
+        router.add_api_route(
+            op.path,
+            _endpoint(op),
+            methods=["POST"],
+            name=op.name,
+            summary=op.endpoint.summary,
+            tags=[op.endpoint.tag],
+            operation_id=op.name,
+            response_model=None,
+            responses={200: {"model": op.response}, **problems},
+            openapi_extra={
+                "requestBody": {
+                    "required": True,
+                    "content": {
+                        "application/json": {
+                            "schema": {"$ref": f"#/components/schemas/{op.request.__name__}"}
+                        }
+                    },
+                }
+            },
+        )
+    return router
+
+
+def health_router() -> APIRouter:
+    """``/healthz`` (the process answers) and ``/readyz`` (and it can record)."""
+    router = APIRouter(tags=["ops"])
+
+    @router.get("/healthz", summary="Liveness: the process answers")
+    async def healthz() -> dict[str, str]:
+        return {"status": "ok"}
+
+    @router.get("/readyz", summary="Readiness: requests can be answered and recorded")
+    async def readyz(request: Request) -> Response:
+        recorder: Recorder | None = request.app.state.recorder
+        if recorder is None or recorder.ready:
+            return Response('{"status":"ready"}', 200, media_type="application/json")
+        err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
+        content = problem(err, "/readyz").model_dump_json(exclude_none=True)
+        return Response(content, 503, media_type=PROBLEM_JSON)
+
+    return router
