@@ -1,0 +1,27 @@
+"""plotgate clients: typed httpx client (sync and async), recordings reader, replay, CLI.
+
+Imports only :mod:`service.schemas` from the service side (pydantic, no FastAPI).
+"""
+
+from clients.client import DEFAULT_TIMEOUT, DEFAULT_URL, AsyncClient, Client
+from clients.errors import (
+    InvalidInputError,
+    PlotgateClientError,
+    ProblemError,
+    RecordingUnavailable,
+    ServerError,
+    TransportError,
+)
+
+__all__ = [
+    "DEFAULT_TIMEOUT",
+    "DEFAULT_URL",
+    "AsyncClient",
+    "Client",
+    "InvalidInputError",
+    "PlotgateClientError",
+    "ProblemError",
+    "RecordingUnavailable",
+    "ServerError",
+    "TransportError",
+]

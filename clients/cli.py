@@ -1,0 +1,101 @@
+"""The ``plotgate`` command: serve, replay, inspect.
+
+``plotgate serve`` runs the service (flags override the ``PLOTGATE_*`` settings);
+``plotgate replay FILE_OR_DIR`` re-runs a recorded session and exits 1 if any answer
+changed; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and latencies.
+"""
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _serve(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from service.config import Settings
+
+    overrides = {
+        "PLOTGATE_HOST": args.host, "PLOTGATE_PORT": args.port,
+        "PLOTGATE_WORKERS": args.workers, "PLOTGATE_LOG_DIR": args.log_dir,
+        "PLOTGATE_RECORD": args.record,
+    }
+    os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
+    settings = Settings()
+    uvicorn.run(
+        "service.app:create_app",
+        factory=True,
+        host=settings.host,
+        port=settings.port,
+        workers=settings.workers,
+        log_level="info",
+    )
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> int:
+    from clients.replay import replay
+
+    report = replay(
+        args.path, server=args.server, rtol=args.rtol, atol=args.atol, out=args.out,
+        progress=None,
+    )
+    print(report.text())
+    if args.report:
+        Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
+    return 0 if report.ok else 1
+
+
+def _inspect(args: argparse.Namespace) -> int:
+    from clients.inspect import format_inspection, inspect
+
+    summary = inspect(args.path)
+    print(json.dumps(summary, indent=2) if args.json else format_inspection(summary))
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="plotgate", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    serve = sub.add_parser("serve", help="run the HTTP service, recording to MCAP")
+    serve.add_argument("--host", help="listen address (PLOTGATE_HOST, default 127.0.0.1)")
+    serve.add_argument("--port", type=int, help="port (PLOTGATE_PORT, default 8000)")
+    serve.add_argument("--workers", type=int, help="worker processes (PLOTGATE_WORKERS)")
+    serve.add_argument("--log-dir", help="recordings folder (PLOTGATE_LOG_DIR, ./recordings)")
+    serve.add_argument("--no-record", dest="record", action="store_const", const=False,
+                       help="do not record (PLOTGATE_RECORD=false)")
+    serve.set_defaults(func=_serve)
+
+    rep = sub.add_parser("replay", help="re-run recorded requests and compare the answers")
+    rep.add_argument("path", type=Path, help="an MCAP file or a folder of them")
+    rep.add_argument("--server", help="replay against this live server URL (default in-process)")
+    rep.add_argument("--rtol", type=float, default=1e-9, help="relative float tolerance")
+    rep.add_argument("--atol", type=float, default=1e-12, help="absolute float tolerance")
+    rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
+    rep.add_argument("--report", type=Path, help="write the report as JSON here")
+    rep.set_defaults(func=_replay)
+
+    ins = sub.add_parser("inspect", help="per-operation counts, errors and latencies")
+    ins.add_argument("path", type=Path, help="an MCAP file or a folder of them")
+    ins.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    ins.set_defaults(func=_inspect)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``plotgate`` console script."""
+    args = _parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except FileNotFoundError as exc:
+        print(f"plotgate: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,156 @@
+"""Typed HTTP clients of plotgate, sync and async, built on httpx and the shared schemas.
+
+Each operation of :data:`service.schemas.ENDPOINTS` is reachable through ``call(name,
+request)``; the common ones also have a typed method (``test_gate``). Errors are the
+exceptions of :mod:`clients.errors`. The README shows a full example.
+"""
+
+from collections.abc import Sequence
+from typing import Any
+
+import httpx
+from pydantic import BaseModel
+
+from clients.errors import TransportError, raise_for_problem
+from service.schemas import (
+    ENDPOINTS,
+    Gate,
+    GatePair,
+    GatePairsRequest,
+    GateResults,
+    GateTestRequest,
+    Plot,
+)
+
+__all__ = ["DEFAULT_TIMEOUT", "DEFAULT_URL", "AsyncClient", "Client"]
+
+DEFAULT_URL = "http://127.0.0.1:8000"
+DEFAULT_TIMEOUT = httpx.Timeout(30.0, connect=5.0)
+"""No call can hang forever: 30 s for an answer, 5 s to connect."""
+
+def _prepare(operation: str, request: BaseModel) -> tuple[str, bytes]:
+    endpoint = ENDPOINTS[operation]
+    if not isinstance(request, endpoint.request):
+        raise TypeError(
+            f"{operation} takes {endpoint.request.__name__}, not {type(request).__name__}"
+        )
+    return endpoint.path, request.model_dump_json().encode()
+
+
+def _parse(operation: str, response: httpx.Response) -> Any:
+    raise_for_problem(response)
+    return ENDPOINTS[operation].response.model_validate_json(response.content)
+
+
+class Client:
+    """Blocking client. Use as a context manager, or call :meth:`close`.
+
+    Parameters
+    ----------
+    base_url : where the service listens.
+    timeout : an ``httpx.Timeout`` or seconds; defaults to :data:`DEFAULT_TIMEOUT`.
+    transport : an httpx transport, e.g. ``httpx.ASGITransport(app)`` to call an app in-process.
+    headers : extra headers for every call (an API key, say).
+    """
+
+    def __init__(
+        self,
+        base_url: str = DEFAULT_URL,
+        *,
+        timeout: httpx.Timeout | float = DEFAULT_TIMEOUT,
+        transport: httpx.BaseTransport | None = None,
+        headers: dict[str, str] | None = None,
+    ) -> None:
+        self._http = httpx.Client(
+            base_url=base_url, timeout=timeout, transport=transport, headers=headers
+        )
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._http.close()
+
+    def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
+        """Run any operation by name; returns its response model."""
+        path, content = _prepare(operation, request)
+        headers = {"content-type": "application/json"}
+        if request_id:
+            headers["x-request-id"] = request_id
+        try:
+            response = self._http.post(path, content=content, headers=headers)
+        except httpx.TransportError as exc:
+            raise TransportError(f"{operation} at {self._http.base_url}: {exc}") from exc
+        return _parse(operation, response)
+
+    def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
+        """Test ``first`` against every candidate (operation ``gates.test``)."""
+        request = GateTestRequest(gate=gate, first=first, candidates=list(candidates))
+        return self.call("gates.test", request)
+
+    def test_gate_pairs(self, gate: Gate, pairs: Sequence[GatePair]) -> GateResults:
+        """Test independent (first, second) pairs (operation ``gates.pairs``)."""
+        return self.call("gates.pairs", GatePairsRequest(gate=gate, pairs=list(pairs)))
+
+    def ready(self) -> bool:
+        """True when the service answers ``/readyz`` with 200 (it can record)."""
+        try:
+            return self._http.get("/readyz").status_code == 200
+        except httpx.TransportError:
+            return False
+
+
+class AsyncClient:
+    """Asynchronous twin of :class:`Client`, same parameters and methods."""
+
+    def __init__(
+        self,
+        base_url: str = DEFAULT_URL,
+        *,
+        timeout: httpx.Timeout | float = DEFAULT_TIMEOUT,
+        transport: httpx.AsyncBaseTransport | None = None,
+        headers: dict[str, str] | None = None,
+    ) -> None:
+        self._http = httpx.AsyncClient(
+            base_url=base_url, timeout=timeout, transport=transport, headers=headers
+        )
+
+    async def __aenter__(self) -> "AsyncClient":
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.aclose()
+
+    async def aclose(self) -> None:
+        await self._http.aclose()
+
+    async def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
+        """Run any operation by name; returns its response model."""
+        path, content = _prepare(operation, request)
+        headers = {"content-type": "application/json"}
+        if request_id:
+            headers["x-request-id"] = request_id
+        try:
+            response = await self._http.post(path, content=content, headers=headers)
+        except httpx.TransportError as exc:
+            raise TransportError(f"{operation} at {self._http.base_url}: {exc}") from exc
+        return _parse(operation, response)
+
+    async def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
+        """Test ``first`` against every candidate (operation ``gates.test``)."""
+        request = GateTestRequest(gate=gate, first=first, candidates=list(candidates))
+        return await self.call("gates.test", request)
+
+    async def test_gate_pairs(self, gate: Gate, pairs: Sequence[GatePair]) -> GateResults:
+        """Test independent (first, second) pairs (operation ``gates.pairs``)."""
+        return await self.call("gates.pairs", GatePairsRequest(gate=gate, pairs=list(pairs)))
+
+    async def ready(self) -> bool:
+        """True when the service answers ``/readyz`` with 200 (it can record)."""
+        try:
+            return (await self._http.get("/readyz")).status_code == 200
+        except httpx.TransportError:
+            return False
