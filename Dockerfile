@@ -1,0 +1,34 @@
+# plotgate service image: docker build -t plotgate . && docker run -p 8000:8000 -v "$PWD/recordings:/data" plotgate
+FROM python:3.11-slim AS builder
+ENV PYTHONDONTWRITEBYTECODE=1 PIP_DISABLE_PIP_VERSION_CHECK=1
+WORKDIR /build
+RUN python -m venv /opt/venv
+# Dependencies first, from pyproject.toml alone, so code changes keep this layer cached.
+COPY pyproject.toml README.md ./
+RUN mkdir core service clients \
+    && touch core/__init__.py service/__init__.py clients/__init__.py \
+    && /opt/venv/bin/pip install --no-cache-dir . \
+    && /opt/venv/bin/pip uninstall -y plotgate
+COPY core ./core
+COPY service ./service
+COPY clients ./clients
+RUN /opt/venv/bin/pip install --no-cache-dir --no-deps .
+
+FROM python:3.11-slim
+ARG GIT_COMMIT=unknown
+RUN adduser --disabled-password --gecos "" --uid 10001 plotgate \
+    && mkdir /data && chown plotgate:plotgate /data
+COPY --from=builder /opt/venv /opt/venv
+ENV PATH=/opt/venv/bin:$PATH \
+    PYTHONUNBUFFERED=1 \
+    PLOTGATE_HOST=0.0.0.0 \
+    PLOTGATE_PORT=8000 \
+    PLOTGATE_LOG_DIR=/data \
+    PLOTGATE_GIT_COMMIT=$GIT_COMMIT
+VOLUME ["/data"]
+WORKDIR /data
+USER plotgate
+EXPOSE 8000
+HEALTHCHECK --interval=10s --timeout=3s \
+    CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/healthz', timeout=2)"]
+CMD ["plotgate", "serve"]
