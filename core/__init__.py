@@ -1,0 +1,74 @@
+"""plotgate core: stateless gating mathematics for radar track initiation.
+
+Pure functions over numpy arrays (numpy and scipy only; no I/O, no state): frame
+conversions, gate thresholds and the gates of the seed papers, each vectorized
+over a leading batch axis of N plots or pairs. Bad input raises a
+:class:`PlotgateError` subclass naming the argument.
+
+Symbols (SI units; angles in radians)
+-------------------------------------
+z, z1, z2 : mark positions, (2,) or (N, 2), x east / y north (m).
+P, P1, P2 : mark covariances, (2, 2) or (N, 2, 2) (m^2).
+d : z2 - z1; B = P1 + P2, its covariance.
+tau : time between marks (s); v_min, v_max : speed bounds (m/s).
+R_min, R_max : v_min tau, v_max tau, the ring radii (m).
+nu, S, rho : innovation, its covariance, and rho = nu^T S^-1 nu.
+P_G, gamma : gating probability and the chi-square threshold on rho.
+p, K_g : probability and expansion coefficient of the expanded gate.
+r, az : range (m) and azimuth, clockwise from north: x = r sin az, y = r cos az.
+K_R, K_az : window coefficients of the polar sector gates.
+"""
+
+from core.errors import (
+    CovarianceError,
+    GeometryError,
+    NonFiniteError,
+    ParameterError,
+    PlotgateError,
+)
+from core.frames import (
+    cartesian_covariance_to_polar,
+    cartesian_to_polar,
+    polar_covariance_to_cartesian,
+    polar_to_cartesian,
+    wrap_angle,
+)
+from core.gates import (
+    GateResult,
+    GateStage,
+    combined_gate,
+    ellipse_gate,
+    expanded_gate,
+    first_association_gate,
+    innovation_covariance,
+    rectangular_gate,
+    ring_gate,
+    sector_gate,
+)
+from core.thresholds import expansion_coefficient, gate_threshold, rectangular_coefficient
+
+__all__ = [
+    "CovarianceError",
+    "GateResult",
+    "GateStage",
+    "GeometryError",
+    "NonFiniteError",
+    "ParameterError",
+    "PlotgateError",
+    "cartesian_covariance_to_polar",
+    "cartesian_to_polar",
+    "combined_gate",
+    "ellipse_gate",
+    "expanded_gate",
+    "expansion_coefficient",
+    "first_association_gate",
+    "gate_threshold",
+    "innovation_covariance",
+    "polar_covariance_to_cartesian",
+    "polar_to_cartesian",
+    "rectangular_coefficient",
+    "rectangular_gate",
+    "ring_gate",
+    "sector_gate",
+    "wrap_angle",
+]
