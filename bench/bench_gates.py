@@ -1,0 +1,106 @@
+"""Throughput of the core gates on N = 10^6 seeded random pairs.
+
+Run from the repository root::
+
+    python bench/bench_gates.py
+
+Each gate is timed end to end (input validation included) as the best of 5 runs
+with time.perf_counter, and reported as pair tests per second. The baseline is
+the ellipse gate's rho = nu^T S^-1 nu computed the naive vectorized way, with
+np.linalg.solve over the batch and no validation; the last column is each
+gate's throughput relative to it. Prints a markdown table.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable
+
+import numpy as np
+import scipy
+
+from core import (
+    combined_gate,
+    ellipse_gate,
+    expanded_gate,
+    first_association_gate,
+    gate_threshold,
+    rectangular_gate,
+    ring_gate,
+    sector_gate,
+)
+
+N = 10**6
+REPEATS = 5
+SEED = 20240601
+
+
+def best_time(run: Callable[[], object]) -> float:
+    """Best wall time of REPEATS calls, in seconds."""
+    times = []
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def random_covariances(rng: np.random.Generator, n: int, sigma: float) -> np.ndarray:
+    """n random symmetric positive definite 2x2 matrices with scale sigma^2."""
+    A = rng.normal(0.0, sigma, (n, 2, 2))
+    return A @ A.transpose(0, 2, 1) + 0.1 * sigma**2 * np.eye(2)
+
+
+def solve_baseline(z: np.ndarray, z_pred: np.ndarray, S: np.ndarray, P_G: float) -> np.ndarray:
+    """rho = nu^T S^-1 nu <= gamma with one batched np.linalg.solve (no validation)."""
+    nu = z - z_pred
+    x = np.linalg.solve(S, nu[..., None])[..., 0]
+    rho = np.einsum("ni,ni->n", nu, x)
+    return rho <= gate_threshold(P_G)
+
+
+def main() -> None:
+    rng = np.random.default_rng(SEED)
+    z1 = rng.uniform(-5e4, 5e4, (N, 2))
+    z2 = z1 + rng.uniform(-3000.0, 3000.0, (N, 2))
+    P1 = random_covariances(rng, N, 150.0)
+    P2 = random_covariances(rng, N, 150.0)
+    S = P1 + P2
+    sigma_r = rng.uniform(50.0, 250.0, N)
+    sigma_az = rng.uniform(1e-3, 1e-2, N)
+    r1, r2 = np.hypot(z1[:, 0], z1[:, 1]), np.hypot(z2[:, 0], z2[:, 1])
+    az1, az2 = np.arctan2(z1[:, 0], z1[:, 1]), np.arctan2(z2[:, 0], z2[:, 1])
+
+    baseline_inside = solve_baseline(z2, z1, S, 0.9)
+    if not np.array_equal(ellipse_gate(z2, z1, S, 0.9).inside, baseline_inside):
+        sys.exit("ellipse_gate and the solve baseline disagree")
+
+    cases: list[tuple[str, Callable[[], object]]] = [
+        ("baseline: ellipse rho via np.linalg.solve", lambda: solve_baseline(z2, z1, S, 0.9)),
+        ("ellipse_gate", lambda: ellipse_gate(z2, z1, S, 0.9)),
+        ("combined_gate", lambda: combined_gate(z1, P1, z2, P2, 5.0, 100.0, 500.0, 0.9)),
+        ("ring_gate", lambda: ring_gate(z1, z2, 5.0, 100.0, 500.0)),
+        ("expanded_gate", lambda: expanded_gate(z1, z2, 5.0, 500.0, sigma_r, sigma_az, 0.9)),
+        ("rectangular_gate", lambda: rectangular_gate(z2, z1, sigma_r, sigma_r, 2.0)),
+        ("sector_gate", lambda: sector_gate(r2, az2, r1, az1, sigma_r, sigma_az, sigma_r,
+                                            sigma_az, 3.0, 3.0)),
+        ("first_association_gate", lambda: first_association_gate(
+            r1, az1, r2, az2, 5.0, 500.0, sigma_r, sigma_az, sigma_r, sigma_az, 3.0, 3.0)),
+    ]
+    rates = {name: N / best_time(run) for name, run in cases}
+    baseline = rates[cases[0][0]]
+
+    print(f"N = {N:,} pairs, best of {REPEATS}, seed {SEED}; Python {platform.python_version()},"
+          f" numpy {np.__version__}, scipy {scipy.__version__}, {os.cpu_count()} CPUs"
+          f" ({platform.machine()})\n")
+    print("| gate | best time (ms) | pair tests / s | vs solve baseline |")
+    print("|---|---:|---:|---:|")
+    for name, rate in rates.items():
+        print(f"| {name} | {1e3 * N / rate:.1f} | {rate:.3g} | {rate / baseline:.1f}x |")
+
+
+if __name__ == "__main__":
+    main()
