@@ -8,7 +8,8 @@ COPY pyproject.toml README.md ./
 RUN mkdir core service clients \
     && touch core/__init__.py service/__init__.py clients/__init__.py \
     && /opt/venv/bin/pip install --no-cache-dir . \
-    && /opt/venv/bin/pip uninstall -y plotgate
+    && /opt/venv/bin/pip uninstall -y plotgate \
+    && rm -rf core service clients build *.egg-info
 COPY core ./core
 COPY service ./service
 COPY clients ./clients
