@@ -1,0 +1,89 @@
+"""The typed clients: in-process against the app, and their error paths via MockTransport."""
+
+import asyncio
+
+import httpx
+import pytest
+
+from clients import (
+    AsyncClient,
+    Client,
+    InvalidInputError,
+    RecordingUnavailable,
+    ServerError,
+    TransportError,
+)
+from service.app import create_app
+from service.config import Settings
+from service.schemas import CartesianPlot, EllipseGate, GatePair, RingGate
+
+
+def _plot(x: float, y: float) -> CartesianPlot:
+    return CartesianPlot(frame="cartesian", x=x, y=y, covariance=((1e4, 0.0), (0.0, 1e4)))
+
+
+@pytest.fixture
+def app(tmp_path):
+    return create_app(Settings(log_dir=tmp_path, record=False))
+
+
+def test_async_client_in_process(app):
+    asyncio.run(_async_calls(app))
+
+
+async def _async_calls(app) -> None:
+    transport = httpx.ASGITransport(app=app)
+    async with AsyncClient("http://plotgate", transport=transport) as client:
+        result = await client.test_gate(
+            RingGate(kind="ring", tau=5.0, v_min=100.0, v_max=500.0),
+            _plot(0.0, 0.0), [_plot(0.0, 1000.0), _plot(0.0, 100.0)],
+        )
+        assert result.inside == [True, False]
+        assert result.statistic == pytest.approx([1000.0, 100.0])
+        pairs = [GatePair(first=_plot(0.0, 0.0), second=_plot(3.0, 4.0))]
+        result = await client.test_gate_pairs(EllipseGate(kind="ellipse", P_G=0.99), pairs)
+        assert result.statistic == pytest.approx([25.0 / 2e4])
+        with pytest.raises(InvalidInputError) as err:
+            await client.test_gate(
+                RingGate(kind="ring", tau=5.0, v_min=600.0, v_max=500.0),
+                _plot(0.0, 0.0), [_plot(0.0, 1000.0)],
+            )
+        assert err.value.problem.errors[0].field == "gate.v_min"
+        assert "gate.v_min" in str(err.value)
+
+
+def _client(status: int, body: bytes, content_type: str = "application/problem+json") -> Client:
+    def handler(request: httpx.Request) -> httpx.Response:
+        return httpx.Response(status, content=body, headers={"content-type": content_type})
+
+    return Client("http://plotgate", transport=httpx.MockTransport(handler))
+
+
+GATE = RingGate(kind="ring", tau=1.0, v_max=10.0)
+
+
+def test_recording_unavailable():
+    body = (b'{"type":"urn:plotgate:problem:recording-unavailable","title":"Recording '
+            b'unavailable","status":503,"detail":"disk full","request_id":"r1"}')
+    with _client(503, body) as client, pytest.raises(RecordingUnavailable, match="r1"):
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+
+
+def test_server_error_without_problem_body():
+    with _client(502, b"bad gateway", "text/plain") as client, pytest.raises(ServerError, match="502"):
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+
+
+def test_transport_error():
+    def refuse(request: httpx.Request) -> httpx.Response:
+        raise httpx.ConnectError("connection refused", request=request)
+
+    with Client("http://plotgate", transport=httpx.MockTransport(refuse)) as client:
+        with pytest.raises(TransportError, match="gates.test"):
+            client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+        assert not client.ready()
+
+
+def test_wrong_request_type():
+    with _client(200, b"{}") as client, pytest.raises(TypeError, match="GateTestRequest"):
+        client.call("gates.test", GATE)

@@ -1,0 +1,95 @@
+"""Shared fixtures: service settings on a temporary folder, the app, plots, the MCAP checker."""
+
+import contextlib
+import json
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+from fastapi.testclient import TestClient
+
+from service.app import create_app
+from service.config import Settings
+
+CHECKER = Path(__file__).resolve().parents[2] / "shared" / "tools" / "mcap-check"
+
+
+@pytest.fixture
+def settings(tmp_path: Path) -> Settings:
+    return Settings(log_dir=tmp_path / "recordings", git_commit="test")
+
+
+@pytest.fixture
+def client(settings: Settings):
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        yield c
+
+
+@pytest.fixture(scope="session")
+def mcap_check():
+    """Run the independent TypeScript MCAP checker on a file; returns its JSON report."""
+    node = shutil.which("node")
+    assert node, "node is needed for ../shared/tools/mcap-check"
+    if not (CHECKER / "node_modules").exists():
+        subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=CHECKER, check=True,
+                       capture_output=True)
+
+    def check(path: Path) -> tuple[int, dict]:
+        run = subprocess.run([node, str(CHECKER / "check.mjs"), str(path)],
+                             capture_output=True, text=True, timeout=120)
+        return run.returncode, json.loads(run.stdout)
+
+    return check
+
+
+def cartesian(x: float, y: float, sxx: float = 100.0**2, syy: float = 100.0**2,
+              sxy: float = 0.0) -> dict:
+    return {"frame": "cartesian", "x": x, "y": y, "covariance": [[sxx, sxy], [sxy, syy]]}
+
+
+def polar(r: float, az_deg: float, sigma_r: float = 200.0, sigma_az_deg: float = 0.5) -> dict:
+    return {"frame": "polar", "r": r, "az_deg": az_deg, "sigma_r": sigma_r,
+            "sigma_az_deg": sigma_az_deg}
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def serve(log_dir: Path, *args: str) -> Iterator[tuple[subprocess.Popen, str]]:
+    """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready."""
+    port = free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "clients.cli", "serve", "--port", str(port),
+         "--log-dir", str(log_dir), *args],
+        cwd=Path(__file__).resolve().parents[1],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 30
+    try:
+        while True:
+            assert proc.poll() is None, proc.stderr.read().decode() if proc.stderr else ""
+            try:
+                if httpx.get(url + "/readyz", timeout=1).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert time.monotonic() < deadline, "server did not become ready in 30 s"
+            time.sleep(0.1)
+        yield proc, url
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(timeout=30)
+        if proc.stderr:
+            proc.stderr.close()

@@ -1,0 +1,98 @@
+"""A server killed with SIGKILL mid-stream loses no exchange a client saw answered."""
+
+import json
+import threading
+import time
+
+import httpx
+
+from clients import Client
+from clients.recordings import read_recording
+from service.schemas import CombinedGate, GateTestRequest
+from tests.conftest import serve
+from tests.service.test_recording import GOOD
+
+
+def test_sigkill_keeps_every_answered_exchange(tmp_path, mcap_check):
+    answered: list[str] = []
+    stop = threading.Event()
+    body = json.dumps(GOOD).encode()
+
+    def load(url: str, worker: int) -> None:
+        with httpx.Client(base_url=url, timeout=10) as http:
+            for i in range(100_000):
+                if stop.is_set():
+                    return
+                rid = f"w{worker}-{i}"
+                try:
+                    r = http.post("/v1/gates/test", content=body,
+                                  headers={"x-request-id": rid, "content-type": "application/json"})
+                except httpx.TransportError:
+                    return
+                if r.status_code == 200:
+                    answered.append(rid)
+
+    with serve(tmp_path) as (proc, url):
+        threads = [threading.Thread(target=load, args=(url, k)) for k in range(8)]
+        for t in threads:
+            t.start()
+        time.sleep(2.0)
+        proc.kill()
+        proc.wait(timeout=10)
+        stop.set()
+        for t in threads:
+            t.join(timeout=30)
+
+    [path] = sorted(tmp_path.glob("*.mcap"))
+    rec = read_recording(path)
+    assert not rec.complete and rec.stopped_by is not None
+    recorded = {ex.request_id for ex in rec.exchanges if ex.response is not None}
+    assert len(answered) > 50
+    missing = set(answered) - recorded
+    assert not missing, f"{len(missing)} answered exchanges missing, e.g. {sorted(missing)[:5]}"
+
+    code, report = mcap_check(path)
+    assert code == 1 and report["truncated"]
+    assert report["recovered_messages"] >= 2 * len(answered)
+
+
+def test_sync_client_against_a_live_server(tmp_path):
+    request = GateTestRequest.model_validate(GOOD)
+    assert isinstance(request.gate, CombinedGate)
+    with serve(tmp_path) as (_, url), Client(url) as client:
+        assert client.ready()
+        result = client.test_gate(request.gate, request.first, request.candidates)
+    assert result.inside == [True, True]
+    assert result.stage == ["ring", "outer_ellipse"]
+
+
+def test_replay_reads_a_truncated_file(tmp_path, capsys):
+    from clients.cli import main
+
+    body = json.dumps(GOOD).encode()
+    with serve(tmp_path) as (proc, url), httpx.Client(base_url=url) as http:
+        for i in range(20):
+            http.post("/v1/gates/test", content=body, headers={"content-type": "application/json"})
+        proc.kill()
+        proc.wait(timeout=10)
+    capsys.readouterr()
+    assert main(["replay", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "truncated" in out and "recovered 40 messages" in out and "20 unchanged" in out
+
+
+def test_workers_write_their_own_files(tmp_path):
+    body = json.dumps(GOOD).encode()
+    ids = [f"r{i}" for i in range(60)]
+    with serve(tmp_path, "--workers", "2") as (_, url):
+        for rid in ids:  # a new connection each time, so both workers take requests
+            r = httpx.post(url + "/v1/gates/test", content=body,
+                           headers={"content-type": "application/json", "x-request-id": rid})
+            assert r.status_code == 200
+    files = sorted(tmp_path.glob("*.mcap"))
+    pids = {f.name.split("-pid")[1].split("-")[0] for f in files}
+    assert len(pids) == len(files) >= 2
+    recordings = [read_recording(f) for f in files]
+    assert all(rec.complete for rec in recordings)
+    answered = sorted(ex.request_id for rec in recordings for ex in rec.exchanges if ex.response)
+    assert answered == sorted(ids)

@@ -1,0 +1,57 @@
+"""Faults: a recorder that cannot write refuses to answer (503), a bug answers 500, both recorded
+where they can be."""
+
+import json
+
+from fastapi.testclient import TestClient
+from mcap.writer import Writer
+
+from clients.recordings import read_recording
+from service import registry
+from service.app import create_app
+from tests.service.test_recording import GOOD
+
+
+def test_unrecordable_exchange_is_refused_then_recovers(settings, monkeypatch):
+    real_flush = Writer.flush
+    failing = {"on": False}
+
+    def flush(self):
+        if failing["on"]:
+            raise OSError(28, "No space left on device")
+        return real_flush(self)
+
+    monkeypatch.setattr(Writer, "flush", flush)
+    with TestClient(create_app(settings)) as c:
+        assert c.post("/v1/gates/test", json=GOOD).status_code == 200
+        failing["on"] = True
+        r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "lost"})
+        assert r.status_code == 503
+        assert r.headers["content-type"].startswith("application/problem+json")
+        assert "No space left" in r.json()["detail"]
+        assert c.get("/readyz").status_code == 503
+        failing["on"] = False
+        assert c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "back"}).status_code == 200
+        assert c.get("/readyz").status_code == 200
+    files = sorted(settings.log_dir.glob("*.mcap"))
+    assert len(files) >= 2  # a file that failed is abandoned and a new one opened
+    answered = {ex.request_id for f in files for ex in read_recording(f).exchanges if ex.response}
+    assert "back" in answered and "lost" not in answered
+
+
+def test_a_bug_answers_500_and_is_recorded(settings, monkeypatch):
+    op = registry.OPERATIONS["gates.test"]
+
+    def broken(request):
+        raise RuntimeError("boom")
+
+    monkeypatch.setitem(registry.OPERATIONS, "gates.test",
+                        registry.Operation(op.endpoint, broken, op.field_of))
+    monkeypatch.setattr("service.routes.OPERATIONS", registry.OPERATIONS)
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "bug"})
+    assert r.status_code == 500 and r.json()["type"] == "urn:plotgate:problem:internal"
+    [f] = settings.log_dir.glob("*.mcap")
+    [ex] = read_recording(f).exchanges
+    assert ex.response["status"] == 500 and ex.response["error"]["request_id"] == "bug"
+    assert json.loads(ex.body) == GOOD
