@@ -45,7 +45,7 @@ def inspect(path: Path) -> dict[str, Any]:
             durations[ex.operation].append(ex.response["duration_s"] * 1e3)
     for op, values in durations.items():
         q = np.percentile(values, [50, 90, 99, 100])
-        stats[op].latency_ms = dict(zip(("p50", "p90", "p99", "max"), map(float, q)))
+        stats[op].latency_ms = dict(zip(("p50", "p90", "p99", "max"), map(float, q), strict=True))
     return {"files": files, "operations": {op: vars(s) for op, s in sorted(stats.items())}}
 
 

@@ -87,7 +87,9 @@ def _is_number(x: Any) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool)
 
 
-def diff(a: Any, b: Any, rtol: float, atol: float, path: str = "") -> Iterator[tuple[str, Any, Any]]:
+def diff(
+    a: Any, b: Any, rtol: float, atol: float, path: str = ""
+) -> Iterator[tuple[str, Any, Any]]:
     """Yield (field path, recorded, replayed) for every difference between two JSON trees."""
     if isinstance(a, dict) and isinstance(b, dict):
         for key in sorted(a.keys() | b.keys()):
@@ -104,7 +106,7 @@ def diff(a: Any, b: Any, rtol: float, atol: float, path: str = "") -> Iterator[t
             for i in np.flatnonzero(~close)[:10]:
                 yield f"{path}[{i}]", a[i], b[i]
         else:
-            for i, (x, y) in enumerate(zip(a, b)):
+            for i, (x, y) in enumerate(zip(a, b, strict=True)):
                 yield from diff(x, y, rtol, atol, f"{path}[{i}]")
     elif _is_number(a) and _is_number(b):
         if not np.isclose(a, b, rtol, atol):
@@ -169,6 +171,7 @@ def replay(
     run = over_http(server) if server else in_process()
     report = ReplayReport()
     writer = _SessionWriter(out, path) if out else None
+    quiet = None if progress is None else not progress
     try:
         for file in recording_files(path):
             rec = read_recording(file)
@@ -176,9 +179,7 @@ def replay(
                 "path": str(file), "exchanges": len(rec.exchanges), "complete": rec.complete,
                 "stopped_by": rec.stopped_by, "messages": rec.messages,
             })
-            for exchange in tqdm(
-                rec.exchanges, desc=file.name, unit="req", disable=None if progress is None else not progress,
-            ):
+            for exchange in tqdm(rec.exchanges, desc=file.name, unit="req", disable=quiet):
                 if exchange.response is None:
                     report.unanswered += 1
                     continue

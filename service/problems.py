@@ -42,7 +42,9 @@ class ProblemError(Exception):
         return self.detail
 
 
-def problem(err: ProblemError, instance: str | None = None, request_id: str | None = None) -> Problem:
+def problem(
+    err: ProblemError, instance: str | None = None, request_id: str | None = None
+) -> Problem:
     """Render a :class:`ProblemError` as an RFC 9457 body."""
     return Problem(
         type=PROBLEM_BASE + err.kind,
@@ -79,5 +81,6 @@ def from_validation(exc: ValidationError) -> ProblemError:
 def from_core(exc: PlotgateError, field: str) -> ProblemError:
     """Map a core error to a 422 naming ``field``, the request path of the offending value."""
     return ProblemError(
-        "invalid-input", 422, f"{field}: {exc.reason}", [FieldError(field=field, reason=exc.reason)]
+        "invalid-input", 422, f"{field}: {exc.reason}",
+        [FieldError(field=field, reason=exc.reason)],
     )

@@ -16,6 +16,7 @@ Design (DESIGN section 8):
   resolves, so a killed process leaves a file holding every exchange a client saw.
 """
 
+import contextlib
 import json
 import os
 import queue
@@ -263,9 +264,7 @@ class Recorder:
     def _abandon(self) -> None:
         """Drop a file that failed mid-write; the next batch opens a new one."""
         if self._stream is not None:
-            try:
+            with contextlib.suppress(OSError):
                 self._stream.close()
-            except OSError:
-                pass
         self._writer = None
         self._stream = None

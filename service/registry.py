@@ -23,15 +23,19 @@ from service.schemas import ENDPOINTS, Endpoint
 
 __all__ = ["OPERATIONS", "Operation", "Outcome", "execute"]
 
+Handler = Callable[[Any], BaseModel]
+"""A pure function from a validated request model to a response model."""
+FieldOf = Callable[[Any, PlotgateError], str]
+"""Maps a core error raised for a request to the request field it concerns."""
+
 
 @dataclass(frozen=True)
 class Operation:
     """One capability: its wire contract, handler and error-field mapping."""
 
     endpoint: Endpoint
-    handler: Callable[[Any], BaseModel]
-    field_of: Callable[[Any, PlotgateError], str]
-    """Maps a core error raised for a request to the request field it concerns."""
+    handler: Handler
+    field_of: FieldOf
 
     @property
     def name(self) -> str:
@@ -50,7 +54,7 @@ class Operation:
         return self.endpoint.response
 
 
-_HANDLERS = {
+_HANDLERS: dict[str, tuple[Handler, FieldOf]] = {
     "gates.test": (gates.test, gates.test_field),
     "gates.pairs": (gates.pairs, gates.pairs_field),
 }

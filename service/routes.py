@@ -17,6 +17,7 @@ import logging
 import re
 import time
 import uuid
+from typing import Any
 
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
@@ -86,7 +87,7 @@ def _endpoint(op: Operation):
 def operations_router() -> APIRouter:
     """One POST route per operation in the registry."""
     router = APIRouter()
-    problems = {
+    problems: dict[int | str, dict[str, Any]] = {
         status: {"model": Problem, "description": text}
         for status, text in (
             (400, "The body is not JSON."),

@@ -14,12 +14,12 @@ import numpy as np
 import core
 from core import PlotgateError
 from service.schemas import GatePairsRequest, GateResults, GateTestRequest, Plot, PolarPlot
-from service.schemas.gates import Gate
+from service.schemas.gates import Gate, Stage
 
 __all__ = ["GatePairsRequest", "GateResults", "GateTestRequest", "pairs", "pairs_field",
            "test", "test_field"]
 
-_STAGES = ("none", "ring", "inner_ellipse", "outer_ellipse")
+_STAGES: tuple[Stage, ...] = ("none", "ring", "inner_ellipse", "outer_ellipse")
 _GATE_PARAMS = {"tau", "v_min", "v_max", "P_G", "p", "k", "K_R", "K_az"}
 _FIRST = {"z1", "P1", "z_pred", "r_pred", "az_pred", "sigma_r_pred", "sigma_az_pred",
           "r1", "az1", "sigma_r1", "sigma_az1", "sensor"}

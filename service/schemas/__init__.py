@@ -10,6 +10,7 @@ from service.schemas.common import (
     Problem,
     Schema,
 )
+from service.schemas.endpoints import ENDPOINTS, Endpoint
 from service.schemas.gates import (
     CombinedGate,
     EllipseGate,
@@ -24,7 +25,6 @@ from service.schemas.gates import (
     RingGate,
     SectorGate,
 )
-from service.schemas.endpoints import ENDPOINTS, Endpoint
 from service.schemas.records import RequestRecord, ResponseRecord
 
 __all__ = [

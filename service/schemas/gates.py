@@ -27,7 +27,11 @@ __all__ = [
     "RectangularGate",
     "RingGate",
     "SectorGate",
+    "Stage",
 ]
+
+Stage = Literal["none", "ring", "inner_ellipse", "outer_ellipse"]
+"""Combined-gate stage that accepted a mark (seed 000): GateStage values 0..3 by name."""
 
 Probability = Annotated[float, Field(gt=0, lt=1)]
 Seconds = Annotated[float, Field(gt=0, description="Interval tau between the marks, s.")]
@@ -133,7 +137,7 @@ class GateResults(Schema):
     )
     inside: list[bool]
     statistic: list[float]
-    stage: list[Literal["none", "ring", "inner_ellipse", "outer_ellipse"]] | None = Field(
+    stage: list[Stage] | None = Field(
         default=None, description="Combined gate only: the stage that accepted each mark."
     )
     count_inside: int

@@ -70,7 +70,8 @@ def test_recording_unavailable():
 
 
 def test_server_error_without_problem_body():
-    with _client(502, b"bad gateway", "text/plain") as client, pytest.raises(ServerError, match="502"):
+    client = _client(502, b"bad gateway", "text/plain")
+    with client, pytest.raises(ServerError, match="502"):
         client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
 
 

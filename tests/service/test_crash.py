@@ -25,8 +25,8 @@ def test_sigkill_keeps_every_answered_exchange(tmp_path, mcap_check):
                     return
                 rid = f"w{worker}-{i}"
                 try:
-                    r = http.post("/v1/gates/test", content=body,
-                                  headers={"x-request-id": rid, "content-type": "application/json"})
+                    r = http.post("/v1/gates/test", content=body, headers={
+                        "x-request-id": rid, "content-type": "application/json"})
                 except httpx.TransportError:
                     return
                 if r.status_code == 200:
@@ -71,7 +71,7 @@ def test_replay_reads_a_truncated_file(tmp_path, capsys):
 
     body = json.dumps(GOOD).encode()
     with serve(tmp_path) as (proc, url), httpx.Client(base_url=url) as http:
-        for i in range(20):
+        for _ in range(20):
             http.post("/v1/gates/test", content=body, headers={"content-type": "application/json"})
         proc.kill()
         proc.wait(timeout=10)

@@ -31,7 +31,8 @@ def test_unrecordable_exchange_is_refused_then_recovers(settings, monkeypatch):
         assert "No space left" in r.json()["detail"]
         assert c.get("/readyz").status_code == 503
         failing["on"] = False
-        assert c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "back"}).status_code == 200
+        r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "back"})
+        assert r.status_code == 200
         assert c.get("/readyz").status_code == 200
     files = sorted(settings.log_dir.glob("*.mcap"))
     assert len(files) >= 2  # a file that failed is abandoned and a new one opened

@@ -34,7 +34,8 @@ def test_pairs_match_core(client):
     rng = np.random.default_rng(7)
     z1 = rng.uniform(-5e4, 5e4, (20, 2))
     z2 = z1 + rng.uniform(-3e3, 3e3, (20, 2))
-    pairs = [{"first": cartesian(*a), "second": cartesian(*b)} for a, b in zip(z1, z2)]
+    pairs = [{"first": cartesian(*a), "second": cartesian(*b)}
+             for a, b in zip(z1, z2, strict=True)]
     r = client.post("/v1/gates/pairs", json={"gate": COMBINED, "pairs": pairs})
     assert r.status_code == 200, r.text
     P = np.diag([1e4, 1e4])
@@ -100,7 +101,8 @@ def _request(**changes) -> dict:
 
 
 def test_malformed_json(client):
-    r = client.post("/v1/gates/test", content=b'{"gate": ', headers={"content-type": "application/json"})
+    r = client.post("/v1/gates/test", content=b'{"gate": ',
+                    headers={"content-type": "application/json"})
     _problem(r, 400, "body")
 
 
@@ -189,7 +191,8 @@ def test_expanded_gate_at_the_sensor(client):
 
 def test_unknown_route_and_method(client):
     r = client.get("/v1/nothing")
-    assert r.status_code == 404 and r.headers["content-type"].startswith("application/problem+json")
+    assert r.status_code == 404
+    assert r.headers["content-type"].startswith("application/problem+json")
     r = client.get("/v1/gates/test")
     assert r.status_code == 405 and r.json()["status"] == 405
 

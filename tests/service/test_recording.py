@@ -58,7 +58,8 @@ def test_every_exchange_is_recorded(settings, mcap_check):
     assert responses["req-2"]["status"] == 400 and responses["req-5"]["status"] == 422
     assert responses["req-5"]["error"]["errors"][0]["field"] == "candidates[0].covariance"
     assert responses["req-0"]["result"]["inside"] == [True, True]
-    request_2 = next(d for t, d in messages if t.endswith("/request") and d["request_id"] == "req-2")
+    request_2 = next(d for t, d in messages
+                     if t.endswith("/request") and d["request_id"] == "req-2")
     assert request_2["raw"] == '{"gate": {"kind": "combined", '
     assert {s.encoding for s in summary.schemas.values()} == {"jsonschema"}
     assert {c.message_encoding for c in summary.channels.values()} == {"json"}
