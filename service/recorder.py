@@ -14,14 +14,18 @@ Design (DESIGN section 8):
   them, flushes once (chunk closed, bytes handed to the OS) and only then resolves the
   futures of the responses in that batch. A response is answered after its future
   resolves, so a killed process leaves a file holding every exchange a client saw.
+- Only a response (which someone waits for) wakes the writer; a request record rides with
+  the next flush, at most ``REQUEST_FLUSH_S`` later. The waiters of a batch are released
+  with one wake-up per event loop. Both keep the cost of durability per request small.
 """
 
+import asyncio
 import contextlib
 import json
 import os
-import queue
 import threading
 import time
+from collections import defaultdict
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -41,15 +45,43 @@ class RecordingError(RuntimeError):
     """The recorder could not write a record (disk full, directory gone, closed)."""
 
 
+REQUEST_FLUSH_S = 0.1
+"""Longest a request record waits in memory for a response record to share its flush."""
+
+Waiter = Future[None] | asyncio.Future[None]
+
+
 @dataclass(frozen=True)
 class _Item:
     topic: str
     data: bytes
     log_time: int
-    done: Future[None] | None
+    done: Waiter | None
 
 
-_STOP = object()
+def _resolve(futures: list[asyncio.Future[None]], exc: Exception | None) -> None:
+    """Settle asyncio futures; runs on their event loop."""
+    for done in futures:
+        if not done.done():
+            if exc is None:
+                done.set_result(None)
+            else:
+                done.set_exception(exc)
+
+
+def _settle(waiters: list[Waiter], exc: Exception | None) -> None:
+    """Settle every waiter of a batch: one wake-up per event loop, not one per request."""
+    by_loop: dict[asyncio.AbstractEventLoop, list[asyncio.Future[None]]] = defaultdict(list)
+    for done in waiters:
+        if isinstance(done, asyncio.Future):
+            by_loop[done.get_loop()].append(done)
+        elif exc is None:
+            done.set_result(None)
+        else:
+            done.set_exception(exc)
+    for loop, futures in by_loop.items():
+        with contextlib.suppress(RuntimeError):  # the loop has closed: nobody waits
+            loop.call_soon_threadsafe(_resolve, futures, exc)
 
 
 def _is_strict_json(body: bytes) -> bool:
@@ -123,9 +155,11 @@ class Recorder:
                 ("response", ResponseRecord, op.response),
             )
         ]
-        self._queue: queue.SimpleQueue[_Item | object] = queue.SimpleQueue()
-        self._thread = threading.Thread(target=self._run, name="mcap-recorder", daemon=True)
+        self._cond = threading.Condition()
+        self._pending: list[_Item] = []
+        self._waited_for = False
         self._closing = False
+        self._thread = threading.Thread(target=self._run, name="mcap-recorder", daemon=True)
         self._error: Exception | None = None
         self._stream: IO[bytes] | None = None
         self._writer: Writer | None = None
@@ -143,10 +177,11 @@ class Recorder:
 
     def close(self) -> None:
         """Write what is queued, then the summary and index, and close the file."""
-        if self._closing:
-            return
-        self._closing = True
-        self._queue.put(_STOP)
+        with self._cond:
+            if self._closing:
+                return
+            self._closing = True
+            self._cond.notify()
         self._thread.join()
 
     @property
@@ -160,7 +195,7 @@ class Recorder:
         )
 
     def request(self, operation: str, data: bytes, log_time: int | None = None) -> None:
-        """Queue a request record; it is written with the next batch."""
+        """Queue a request record; it is written with the next flush (within REQUEST_FLUSH_S)."""
         self._put(f"{operation}/request", data, log_time, None)
 
     def response(self, operation: str, data: bytes, log_time: int | None = None) -> Future[None]:
@@ -169,29 +204,36 @@ class Recorder:
         self._put(f"{operation}/response", data, log_time, done)
         return done
 
-    def _put(self, topic: str, data: bytes, log_time: int | None, done: Future[None] | None):
-        if self._closing:
-            raise RecordingError("the recorder is closed")
-        self._queue.put(_Item(topic, data, log_time or time.time_ns(), done))
+    async def aresponse(self, operation: str, data: bytes, log_time: int | None = None) -> None:
+        """Queue a response record and wait, without blocking the loop, until it is written."""
+        done: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self._put(f"{operation}/response", data, log_time, done)
+        await done
+
+    def _put(self, topic: str, data: bytes, log_time: int | None, done: Waiter | None) -> None:
+        item = _Item(topic, data, log_time or time.time_ns(), done)
+        with self._cond:
+            if self._closing:
+                raise RecordingError("the recorder is closed")
+            self._pending.append(item)
+            if done is not None:
+                self._waited_for = True
+                self._cond.notify()
 
     # -- writer thread ----------------------------------------------------------------
 
     def _run(self) -> None:
         while True:
-            try:
-                first = self._queue.get(timeout=max(0.05, self._age_left()))
-            except queue.Empty:
-                self._maybe_rotate()
-                continue
-            batch = [first]
-            while True:
-                try:
-                    batch.append(self._queue.get_nowait())
-                except queue.Empty:
-                    break
-            items = [item for item in batch if isinstance(item, _Item)]
-            self._commit(items)
-            if len(items) < len(batch):
+            with self._cond:
+                timeout = self._age_left()
+                if self._pending:
+                    timeout = min(timeout, REQUEST_FLUSH_S)
+                self._cond.wait_for(lambda: self._waited_for or self._closing, max(0.0, timeout))
+                batch, self._pending, self._waited_for = self._pending, [], False
+                closing = self._closing
+            if batch:
+                self._commit(batch)
+            if closing:
                 self._finish()
                 return
             self._maybe_rotate()
@@ -210,12 +252,10 @@ class Recorder:
         except Exception as exc:
             self._error = exc
             self._abandon()
-            for done in waiters:
-                done.set_exception(RecordingError(f"could not record: {exc}"))
+            _settle(waiters, RecordingError(f"could not record: {exc}"))
             return
         self._error = None
-        for done in waiters:
-            done.set_result(None)
+        _settle(waiters, None)
 
     def _age_left(self) -> float:
         if self._stream is None:

@@ -12,7 +12,6 @@ If the record cannot be written the answer is a 503 problem: nothing is acknowle
 unrecorded.
 """
 
-import asyncio
 import logging
 import re
 import time
@@ -70,7 +69,7 @@ def _endpoint(op: Operation):
                     request_id, op.name, outcome.status, time.perf_counter() - started,
                     outcome.content,
                 )
-                await asyncio.wrap_future(recorder.response(op.name, record))
+                await recorder.aresponse(op.name, record)
         except RecordingError as exc:
             return _unrecorded(op, request_id, exc)
         return Response(
