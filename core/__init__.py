@@ -19,6 +19,7 @@ r, az : range (m) and azimuth, clockwise from north: x = r sin az, y = r cos az.
 K_R, K_az : window coefficients of the polar sector gates.
 """
 
+from core.capture_gates import combined_gate, expanded_gate, ring_gate
 from core.errors import (
     CovarianceError,
     GeometryError,
@@ -33,19 +34,10 @@ from core.frames import (
     polar_to_cartesian,
     wrap_angle,
 )
-from core.gates import (
-    GateResult,
-    GateStage,
-    combined_gate,
-    ellipse_gate,
-    expanded_gate,
-    first_association_gate,
-    innovation_covariance,
-    rectangular_gate,
-    ring_gate,
-    sector_gate,
-)
+from core.gating import GateResult, GateStage
+from core.polar_gates import first_association_gate, sector_gate
 from core.thresholds import expansion_coefficient, gate_threshold, rectangular_coefficient
+from core.tracking_gates import ellipse_gate, innovation_covariance, rectangular_gate
 
 __all__ = [
     "CovarianceError",

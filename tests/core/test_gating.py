@@ -1,0 +1,217 @@
+"""Tests of what every gate shares (core.gating): GateResult, batching, purity, errors."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from gate_helpers import combined_inputs, random_spd
+
+from core import (
+    CovarianceError,
+    GateResult,
+    GeometryError,
+    NonFiniteError,
+    ParameterError,
+    combined_gate,
+    ellipse_gate,
+    expanded_gate,
+    expansion_coefficient,
+    first_association_gate,
+    gate_threshold,
+    rectangular_gate,
+    ring_gate,
+    sector_gate,
+)
+from core.gating import (
+    _chi2_threshold_2d,
+    _expansion_coefficient,
+    _expansion_coefficient_of,
+    _gate_threshold,
+)
+
+# ---------------------------------------------------------------- broadcasting and purity
+
+
+def test_one_first_mark_against_many_candidates_equals_tiled_input():
+    rng = np.random.default_rng(109)
+    _, _, z2, P2 = combined_inputs(rng, 200)
+    z1 = z2[0] + 10.0
+    P1 = random_spd(rng, 1, 40.0)[0]
+    tiled = combined_gate(np.tile(z1, (200, 1)), np.tile(P1, (200, 1, 1)), z2, P2,
+                          5.0, 30.0, 100.0, 0.9)
+    broadcast = combined_gate(z1, P1, z2, P2, 5.0, 30.0, 100.0, 0.9)
+    for field in ("inside", "statistic", "stage"):
+        np.testing.assert_array_equal(getattr(broadcast, field), getattr(tiled, field))
+    ring = ring_gate(z1, z2, 5.0, 30.0, 100.0)
+    np.testing.assert_array_equal(ring.inside, ring_gate(np.tile(z1, (200, 1)), z2, 5.0,
+                                                         30.0, 100.0).inside)
+    ellipse = ellipse_gate(z2, z1, P1, 0.9)
+    np.testing.assert_array_equal(ellipse.statistic,
+                                  ellipse_gate(z2, np.tile(z1, (200, 1)), P1, 0.9).statistic)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: ring_gate([0.0, 0.0], [300.0, 400.0], 5.0, 20.0, 500.0),
+        lambda: combined_gate([0.0, 0.0], np.eye(2), [3.0, 4.0], np.eye(2), 1.0, 0.0, 9.0, 0.9),
+        lambda: ellipse_gate([1.0, 1.0], [0.0, 0.0], np.eye(2), 0.9),
+        lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, 0.9),
+        lambda: rectangular_gate([1.0, 1.0], [0.0, 0.0], 1.0, 1.0, 3.0),
+        lambda: sector_gate(1e3, 0.1, 1e3, 0.1, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
+        lambda: first_association_gate(1e3, 0.1, 1e3, 0.1, 1.0, 5.0, 1.0, 1e-3, 1.0, 1e-3,
+                                       3.0, 3.0),
+    ],
+    ids=["ring", "combined", "ellipse", "expanded", "rectangular", "sector", "first"],
+)
+def test_unbatched_input_gives_one_pair(call):
+    res = call()
+    assert isinstance(res, GateResult)
+    assert res.inside.shape == res.statistic.shape == (1,)
+    assert isinstance(res.threshold, float)
+    assert res.inside.tolist() == [True]
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda e, E, o: ring_gate([0.0, 0.0], e, 1.0, 0.0, 1.0),
+        lambda e, E, o: combined_gate([0.0, 0.0], np.eye(2), e, E, 1.0, 0.0, 1.0, 0.9),
+        lambda e, E, o: ellipse_gate(e, [0.0, 0.0], E, 0.9),
+        lambda e, E, o: expanded_gate([0.0, 1.0], e, 1.0, 1.0, 1.0, 0.1, 0.9),
+        lambda e, E, o: rectangular_gate(e, [0.0, 0.0], 1.0, 1.0, 3.0),
+        lambda e, E, o: sector_gate(o, o, 1.0, 0.0, 1.0, 0.1, 1.0, 0.1, 3.0, 3.0),
+        lambda e, E, o: first_association_gate(1.0, 0.0, o, o, 1.0, 1.0, 1.0, 0.1, 1.0, 0.1,
+                                               3.0, 3.0),
+    ],
+    ids=["ring", "combined", "ellipse", "expanded", "rectangular", "sector", "first"],
+)
+def test_no_candidates_gives_empty_result(call):
+    res = call(np.empty((0, 2)), np.empty((0, 2, 2)), np.empty(0))
+    assert res.inside.shape == res.statistic.shape == (0,)
+
+
+def test_gate_result_is_frozen():
+    res = ring_gate([0.0, 0.0], [1.0, 0.0], 1.0, 0.0, 2.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.threshold = 3.0
+
+
+def test_gates_accept_read_only_inputs_and_leave_them_unchanged():
+    rng = np.random.default_rng(111)
+    inputs = combined_inputs(rng, 50)
+    saved = [a.copy() for a in inputs]
+    for a in inputs:
+        a.flags.writeable = False
+    z1, P1, z2, P2 = inputs
+    combined_gate(z1, P1, z2, P2, 5.0, 30.0, 100.0, 0.9)
+    ellipse_gate(z2, z1, P1, 0.9)
+    expanded_gate(z1, z2, 5.0, 100.0, 10.0, 0.001, 0.9)
+    for a, b in zip(inputs, saved, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+# ---------------------------------------------------------------- validation errors
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: expanded_gate([0.0, 1e4], [[0.0, 1e4]] * 3, 5.0, 100.0, [10.0, -1.0, 2.0],
+                               0.001, 0.9), ParameterError, r"^sigma_r\[1\]: must be positive"),
+        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.0, 0.9),
+         ParameterError, r"^sigma_az: must be positive, got 0.0"),
+        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, -1.0, 10.0, 1e-3, 0.9),
+         ParameterError, r"^v_max: must be non-negative"),
+        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3, 1.2),
+         ParameterError, r"^p: must lie in the open interval"),
+        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3, [0.9, 0.9]),
+         ParameterError, r"^p: must be a scalar"),
+        (lambda: expanded_gate([[0.0, 1e4], [5.0, 5.0]], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3,
+                               0.9, sensor=[5.0, 5.0]),
+         GeometryError, r"^z1\[1\]: is at the sensor"),
+        (lambda: ellipse_gate([0.0, 1.0], [0.0, 0.0], np.zeros((2, 2)), 0.9),
+         CovarianceError, r"^S: is not positive definite"),
+        (lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, 1.0, 0.0),
+         ParameterError, r"^k: must be positive, got 0.0"),
+        (lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, [1.0, np.nan], 3.0),
+         NonFiniteError, r"^sigma_y\[1\]: must be finite, got nan"),
+        (lambda: sector_gate(-1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
+         ParameterError, r"^r: must be non-negative, got -1.0"),
+        (lambda: sector_gate(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, -1e-3, 3.0, 3.0),
+         ParameterError, r"^sigma_az_pred: must be positive"),
+        (lambda: sector_gate(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 0.0),
+         ParameterError, r"^K_az: must be positive"),
+        (lambda: sector_gate(np.ones(3), np.zeros(2), 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
+         ParameterError, r"^az: has batch length 2 but r has 3"),
+        (lambda: first_association_gate(1.0, 0.0, 1.0, 0.0, 0.0, 5.0, 1.0, 1e-3, 1.0, 1e-3,
+                                        3.0, 3.0), ParameterError, r"^tau: must be positive"),
+        (lambda: first_association_gate(1.0, 0.0, 1.0, 0.0, 1.0, 5.0, 1.0, 1e-3, 1.0, 1e-3,
+                                        -3.0, 3.0), ParameterError, r"^K_R: must be positive"),
+        (lambda: ring_gate([0.0, 0.0], [1.0, 1.0], 1.0, 3.0, 2.0),
+         ParameterError, r"^v_min: v_min \(3.0\) exceeds v_max \(2.0\)"),
+    ],
+    ids=["sigma_r-row", "sigma_az-zero", "v_max-negative", "p>1", "p-array", "z1-at-sensor",
+         "singular-S", "k=0", "nan-sigma_y", "negative-range", "sigma_az_pred", "K_az=0",
+         "sector-lengths", "first-tau", "first-K_R", "ring-speeds"],
+)
+def test_gate_validation_errors(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+# ---------------------------------------------------------------- cached scalar thresholds
+
+
+@pytest.mark.parametrize("P_G", [1e-9, 0.5, 0.9, 0.95, 0.99, 1.0 - 1e-12])
+def test_cached_thresholds_equal_the_public_functions_exactly(P_G):
+    for _ in range(2):  # computed, then looked up
+        assert _gate_threshold(P_G) == gate_threshold(P_G, 2)
+        assert _expansion_coefficient(P_G) == expansion_coefficient(P_G)
+        combined = combined_gate([0.0, 0.0], np.eye(2), [1.0, 0.0], np.eye(2), 1.0, 0.0, 9.0, P_G)
+        ellipse = ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), P_G)
+        assert combined.threshold == ellipse.threshold == gate_threshold(P_G)
+
+
+def test_each_probability_is_computed_once():
+    _chi2_threshold_2d.cache_clear()
+    _expansion_coefficient_of.cache_clear()
+    for P_G in (0.9, np.float64(0.9), np.array(0.9), 0.9):
+        ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), P_G)
+        expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, P_G)
+    for cached in (_chi2_threshold_2d, _expansion_coefficient_of):
+        info = cached.cache_info()
+        assert (info.misses, info.hits, info.currsize) == (1, 3, 1)
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda: ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), 1.0),
+         r"^P_G: must lie in the open interval \(0, 1\), got 1.0$"),
+        (lambda: ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), np.array([0.9])),
+         r"^P_G: must be a scalar, got shape \(1,\)$"),
+        (lambda: combined_gate([0.0, 0.0], np.eye(2), [1.0, 0.0], np.eye(2), 1.0, 0.0, 9.0,
+                               None), r"^P_G: must lie in the open interval \(0, 1\), got nan$"),
+        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, True),
+         r"^p: must lie in the open interval \(0, 1\), got 1.0$"),
+    ],
+    ids=["P_G=1", "P_G-array", "P_G-None", "p-True"],
+)
+def test_probabilities_are_validated_before_the_cache(call, message):
+    _chi2_threshold_2d.cache_clear()
+    _expansion_coefficient_of.cache_clear()
+    for _ in range(2):
+        with pytest.raises(ParameterError, match=message):
+            call()
+    assert _chi2_threshold_2d.cache_info().currsize == 0
+    assert _expansion_coefficient_of.cache_info().currsize == 0
+
+
+def test_public_thresholds_stay_uncached_and_take_arrays():
+    assert not hasattr(gate_threshold, "cache_info")
+    assert not hasattr(expansion_coefficient, "cache_info")
+    P_G = np.array([0.9, 0.99])
+    np.testing.assert_array_equal(gate_threshold(P_G), [_gate_threshold(p) for p in P_G])
+    np.testing.assert_array_equal(expansion_coefficient(P_G),
+                                  [_expansion_coefficient(p) for p in P_G])
