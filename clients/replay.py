@@ -232,6 +232,7 @@ class _SessionWriter:
         self._recorder.request(op, request_record(rid, op, exchange.body))
         content = json.dumps(answer).encode()
         self._recorder.response(op, response_record(rid, op, status, duration_s, content))
+        self._recorder.flush()
 
     def close(self) -> None:
         self._recorder.close()

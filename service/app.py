@@ -12,7 +12,6 @@ from contextlib import asynccontextmanager
 from typing import Any
 
 from fastapi import FastAPI, Request
-from fastapi.concurrency import run_in_threadpool
 from fastapi.exceptions import RequestValidationError
 from fastapi.openapi.utils import get_openapi
 from fastapi.responses import Response
@@ -51,7 +50,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             yield
         finally:
             if recorder is not None:
-                await run_in_threadpool(recorder.close)
+                recorder.close()
 
     app = FastAPI(
         title="plotgate",
