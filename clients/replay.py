@@ -7,6 +7,7 @@ the same way again (same status, problem type and offending fields). Requests a 
 server never answered are counted, not compared.
 """
 
+import contextlib
 import json
 import time
 from collections.abc import Callable, Iterator
@@ -135,9 +136,8 @@ def in_process() -> Runner:
     return run
 
 
-def over_http(server: str, timeout: float = 60.0) -> Runner:
-    """Send exchanges to a live server."""
-    http = httpx.Client(base_url=server, timeout=timeout)
+def over_http(http: httpx.Client) -> Runner:
+    """Send exchanges to a live server through ``http`` (its base URL is the server)."""
 
     def run(exchange: Exchange) -> tuple[int, Any]:
         response = http.post(
@@ -168,11 +168,14 @@ def replay(
     out : write the replayed session (recorded requests, new responses) to this MCAP file.
     progress : show a progress bar; None shows it only on a terminal.
     """
-    run = over_http(server) if server else in_process()
     report = ReplayReport()
-    writer = _SessionWriter(out, path) if out else None
     quiet = None if progress is None else not progress
-    try:
+    with contextlib.ExitStack() as resources:
+        if server:
+            run = over_http(resources.enter_context(httpx.Client(base_url=server, timeout=60)))
+        else:
+            run = in_process()
+        writer = resources.enter_context(_SessionWriter(out, path)) if out else None
         for file in recording_files(path):
             rec = read_recording(file)
             report.files.append({
@@ -188,9 +191,6 @@ def replay(
                 if writer is not None:
                     writer(exchange, status, answer, time.perf_counter() - started)
                 _compare(report, str(file), exchange, status, answer, rtol, atol)
-    finally:
-        if writer is not None:
-            writer.close()
     return report
 
 
@@ -234,5 +234,8 @@ class _SessionWriter:
         self._recorder.response(op, response_record(rid, op, status, duration_s, content))
         self._recorder.flush()
 
-    def close(self) -> None:
+    def __enter__(self) -> "_SessionWriter":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
         self._recorder.close()
