@@ -96,3 +96,18 @@ def test_workers_write_their_own_files(tmp_path):
     assert all(rec.complete for rec in recordings)
     answered = sorted(ex.request_id for rec in recordings for ex in rec.exchanges if ex.response)
     assert answered == sorted(ids)
+
+
+def test_replay_against_a_live_server(tmp_path, capsys):
+    from clients.cli import main
+
+    body = json.dumps(GOOD).encode()
+    recorded = tmp_path / "recorded"
+    with serve(recorded) as (_, url), httpx.Client(base_url=url) as http:
+        for content in (body, b"{not json", json.dumps(dict(GOOD, first={})).encode()):
+            http.post("/v1/gates/test", content=content,
+                      headers={"content-type": "application/json"})
+    with serve(tmp_path / "replayed") as (_, url):
+        capsys.readouterr()
+        assert main(["replay", str(recorded), "--server", url]) == 0
+    assert "3 compared: 3 unchanged" in capsys.readouterr().out

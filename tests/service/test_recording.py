@@ -1,6 +1,7 @@
 """Every exchange is recorded: 2N messages for N requests, read back by two MCAP readers."""
 
 import json
+import time
 from pathlib import Path
 
 from fastapi.testclient import TestClient
@@ -111,6 +112,17 @@ def test_rotation_by_size(tmp_path, mcap_check):
     for f in files:
         assert mcap_check(f)[0] == 0
     assert main(["replay", str(settings.log_dir)]) == 0
+
+
+def test_rotation_by_age(tmp_path, mcap_check):
+    settings = Settings(log_dir=tmp_path / "rec", rotate_age_s=0.2)
+    with TestClient(create_app(settings)) as c:
+        for _ in range(3):
+            assert c.post("/v1/gates/test", json=GOOD).status_code == 200
+            time.sleep(0.3)
+    files = sorted(settings.log_dir.glob("*.mcap"))
+    assert len(files) == 3
+    assert all(mcap_check(f)[0] == 0 for f in files)
 
 
 def test_inspect(settings, capsys):
