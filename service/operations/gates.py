@@ -16,8 +16,7 @@ from core import PlotgateError
 from service.schemas import GatePairsRequest, GateResults, GateTestRequest, Plot, PolarPlot
 from service.schemas.gates import Gate, Stage
 
-__all__ = ["GatePairsRequest", "GateResults", "GateTestRequest", "pairs", "pairs_field",
-           "test", "test_field"]
+__all__ = ["pairs", "pairs_field", "test", "test_field"]
 
 _STAGES: tuple[Stage, ...] = ("none", "ring", "inner_ellipse", "outer_ellipse")
 _GATE_PARAMS = {"tau", "v_min", "v_max", "P_G", "p", "k", "K_R", "K_az"}
