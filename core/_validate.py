@@ -30,6 +30,10 @@ __all__ = [
 ]
 
 SYMMETRY_RTOL = 1e-9
+MAX_CONDITION = 1e12
+"""Largest lambda_max / lambda_min of a covariance: an error ellipse with an axis ratio
+above 10^6 cannot be rotated in double precision (rounding of the large axis swamps the
+small one), so it is refused as numerically singular."""
 """Largest accepted |P12 - P21| relative to |P11| + |P22|."""
 
 
@@ -81,8 +85,9 @@ def as_covariance(name: str, value: ArrayLike) -> np.ndarray:
 
     Symmetry allows |P12 - P21| <= SYMMETRY_RTOL (|P11| + |P22|) for rounding;
     the math downstream reads the upper element P12. Positive definiteness uses
-    the 2x2 closed form P11 > 0 and det P > 0. Raises CovarianceError with the
-    first offending batch row.
+    the 2x2 closed form P11 > 0 and det P > 0, and the condition number must not exceed
+    MAX_CONDITION, checked as det P >= trace(P)^2 / MAX_CONDITION.
+    Raises CovarianceError with the first offending batch row.
     """
     P = as_array(name, value, (2, 2))
     P11, P12, P21, P22 = P[..., 0, 0], P[..., 0, 1], P[..., 1, 0], P[..., 1, 1]
@@ -90,13 +95,21 @@ def as_covariance(name: str, value: ArrayLike) -> np.ndarray:
     if not symmetric.all():
         symmetric = np.abs(P12 - P21) <= SYMMETRY_RTOL * (np.abs(P11) + np.abs(P22))
     det = P11 * P22 - P12 * P12  # as the math downstream computes it
-    valid = symmetric & (P11 > 0) & (det > 0)
+    trace = P11 + P22
+    # lambda_min / lambda_max = det / lambda_max^2 >= det / trace^2, so this refuses every
+    # condition number above MAX_CONDITION (and some within a factor 4 below it) cheaply.
+    valid = symmetric & (P11 > 0) & (det * MAX_CONDITION >= trace * trace)
     if not valid.all():
         index = first_index(~valid)
         if not _row(symmetric, index, 0):
             reason = "is not symmetric"
-        else:
+        elif not (_row(P11, index, 0) > 0 and _row(det, index, 0) > 0):
             reason = f"is not positive definite (det = {_row(det, index, 0).tolist()})"
+        else:
+            low, high = np.linalg.eigvalsh(_row(P, index, 2))
+            reason = (f"is numerically singular: eigenvalues {low:.3g} and {high:.3g}; "
+                      f"the error ellipse's axis ratio must stay below about "
+                      f"{np.sqrt(MAX_CONDITION):.0e}")
         raise CovarianceError(name, f"{reason}: {_row(P, index, 2).tolist()}", index)
     return P
 

@@ -188,3 +188,16 @@ def test_polar_covariance_of_mark_at_sensor_is_a_geometry_error():
     with pytest.raises(GeometryError, match=r"^xy\[1\]: is at the sensor") as info:
         cartesian_covariance_to_polar(xy, np.eye(2))
     assert info.value.index == 1
+
+
+def test_ill_conditioned_covariance_is_refused_not_rotated():
+    """An error ellipse 1 mm by 3000 km turned by a few degrees: rounding of the long axis
+    (about 1e-16 * 1e13 m^2) would swamp the 1e-6 m^2 short axis, even make it negative."""
+    from core import CovarianceError, cartesian_covariance_to_polar, polar_covariance_to_cartesian
+
+    P = polar_covariance_to_cartesian(1e9, 0.0, 1e-3, 3e-3)
+    with pytest.raises(CovarianceError, match=r"^P: is numerically singular"):
+        cartesian_covariance_to_polar(np.array([1.7e6, 1e9]), P)
+    well_conditioned = polar_covariance_to_cartesian(1e9, 0.0, 1.0, 1e-9)
+    C = cartesian_covariance_to_polar(np.array([0.0, 1e9]), well_conditioned)
+    np.testing.assert_allclose(np.sqrt(np.diag(C)), [1.0, 1e-9], rtol=1e-9)

@@ -132,6 +132,10 @@ def test_gates_accept_read_only_inputs_and_leave_them_unchanged():
          GeometryError, r"^z1\[1\]: is at the sensor"),
         (lambda: ellipse_gate([0.0, 1.0], [0.0, 0.0], np.zeros((2, 2)), 0.9),
          CovarianceError, r"^S: is not positive definite"),
+        # axis ratio 1e7 > 1e6: rotating it would lose the small axis to rounding
+        (lambda: ellipse_gate([[0.0, 1.0]] * 2, [0.0, 0.0],
+                              [np.eye(2), np.diag([1e14, 1.0])], 0.9),
+         CovarianceError, r"^S\[1\]: is numerically singular: eigenvalues 1 and 1e\+14"),
         (lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, 1.0, 0.0),
          ParameterError, r"^k: must be positive, got 0.0"),
         (lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, [1.0, np.nan], 3.0),
@@ -152,8 +156,8 @@ def test_gates_accept_read_only_inputs_and_leave_them_unchanged():
          ParameterError, r"^v_min: v_min \(3.0\) exceeds v_max \(2.0\)"),
     ],
     ids=["sigma_r-row", "sigma_az-zero", "v_max-negative", "p>1", "p-array", "z1-at-sensor",
-         "singular-S", "k=0", "nan-sigma_y", "negative-range", "sigma_az_pred", "K_az=0",
-         "sector-lengths", "first-tau", "first-K_R", "ring-speeds"],
+         "singular-S", "ill-conditioned-S", "k=0", "nan-sigma_y", "negative-range",
+         "sigma_az_pred", "K_az=0", "sector-lengths", "first-tau", "first-K_R", "ring-speeds"],
 )
 def test_gate_validation_errors(call, error, message):
     with pytest.raises(error, match=message):
