@@ -12,8 +12,15 @@ from collections.abc import Sequence
 import numpy as np
 
 import core
-from core import PlotgateError
-from service.schemas import GatePairsRequest, GateResults, GateTestRequest, Plot, PolarPlot
+from core import GeometryError, PlotgateError
+from service.schemas import (
+    MIN_RANGE,
+    GatePairsRequest,
+    GateResults,
+    GateTestRequest,
+    Plot,
+    PolarPlot,
+)
 from service.schemas.gates import Gate, Stage
 
 __all__ = ["pairs", "pairs_field", "test", "test_field"]
@@ -55,14 +62,28 @@ def _cartesian(plots: Sequence[Plot]) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return z, P, sensor
 
 
-def _polar(z: np.ndarray, P: np.ndarray, sensor: np.ndarray, field: str):
-    """Range, azimuth (rad) and their sigmas about ``sensor``; errors name ``field``."""
+def _polar(z: np.ndarray, P: np.ndarray, sensor: np.ndarray, side: str):
+    """Range, azimuth (rad) and their sigmas about ``sensor``.
+
+    ``side`` ("1" or "2") names the plots in errors: ``z1``/``P1`` are the first plots,
+    ``z2``/``P2`` the second.
+
+    A plot closer than :data:`MIN_RANGE` to the sensor has no usable azimuth (its azimuth
+    variance grows as 1/r^2), as a polar plot could not be that close either.
+    """
     rel = z - sensor
+    r, az = core.cartesian_to_polar(rel)
+    near = np.flatnonzero(np.atleast_1d(r) < MIN_RANGE)
+    if near.size:
+        index = int(near[0]) if np.ndim(r) else None
+        raise GeometryError(
+            "z" + side, f"is {np.atleast_1d(r)[near[0]]:.3g} m from the sensor of the first plot; "
+            f"polar gates need at least {MIN_RANGE:g} m", index,
+        )
     try:
-        r, az = core.cartesian_to_polar(rel)
         C = core.cartesian_covariance_to_polar(rel, P)
     except PlotgateError as exc:
-        raise type(exc)(field, exc.reason, exc.index) from exc
+        raise type(exc)("P" + side, exc.reason, exc.index) from exc
     return r, az, np.sqrt(C[..., 0, 0]), np.sqrt(C[..., 1, 1])
 
 
@@ -72,7 +93,7 @@ def _gate(gate: Gate, z1, P1, s1, z2, P2) -> core.GateResult:
         case "ring":
             return core.ring_gate(z1, z2, gate.tau, gate.v_min, gate.v_max)
         case "expanded":
-            _, _, sigma_r, sigma_az = _polar(z1, P1, s1, "z1")
+            _, _, sigma_r, sigma_az = _polar(z1, P1, s1, "1")
             return core.expanded_gate(
                 z1, z2, gate.tau, gate.v_max, sigma_r, sigma_az, gate.p, sensor=s1
             )
@@ -86,12 +107,12 @@ def _gate(gate: Gate, z1, P1, s1, z2, P2) -> core.GateResult:
                 z2, z1, np.sqrt(S[..., 0, 0]), np.sqrt(S[..., 1, 1]), gate.k
             )
         case "sector":
-            r1, az1, sr1, saz1 = _polar(z1, P1, s1, "z1")
-            r2, az2, sr2, saz2 = _polar(z2, P2, s1, "z2")
+            r1, az1, sr1, saz1 = _polar(z1, P1, s1, "1")
+            r2, az2, sr2, saz2 = _polar(z2, P2, s1, "2")
             return core.sector_gate(r2, az2, r1, az1, sr2, saz2, sr1, saz1, gate.K_R, gate.K_az)
         case "first_association":
-            r1, az1, sr1, saz1 = _polar(z1, P1, s1, "z1")
-            r2, az2, sr2, saz2 = _polar(z2, P2, s1, "z2")
+            r1, az1, sr1, saz1 = _polar(z1, P1, s1, "1")
+            r2, az2, sr2, saz2 = _polar(z2, P2, s1, "2")
             return core.first_association_gate(
                 r1, az1, r2, az2, gate.tau, gate.v_max, sr1, saz1, sr2, saz2, gate.K_R, gate.K_az
             )

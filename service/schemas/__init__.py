@@ -1,7 +1,9 @@
 """Wire models shared by the service and its clients; imports pydantic only."""
 
 from service.schemas.common import (
+    MAX_DISTANCE,
     MAX_PLOTS,
+    MIN_RANGE,
     CartesianPlot,
     FieldError,
     Plot,
@@ -29,7 +31,9 @@ from service.schemas.records import RequestRecord, ResponseRecord
 
 __all__ = [
     "ENDPOINTS",
+    "MAX_DISTANCE",
     "MAX_PLOTS",
+    "MIN_RANGE",
     "CartesianPlot",
     "CombinedGate",
     "EllipseGate",

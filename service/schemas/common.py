@@ -3,6 +3,11 @@
 Every model forbids unknown fields and non-finite numbers (``NaN`` and ``Infinity`` are
 refused with the field named), so a typo or a broken sensor value never passes silently.
 Units are SI; angles on the wire are degrees in fields named ``*_deg``.
+
+Magnitudes are bounded to what a radar can mean, which also keeps every quantity the
+gates compute finite in double precision: coordinates and ranges within 10^9 m
+(:data:`MAX_DISTANCE`), standard deviations from 1 mm to 10^9 m, azimuth sigmas from
+10^-6 to 180 degrees, ranges of polar plots at least 1 m (:data:`MIN_RANGE`).
 """
 
 from typing import Annotated, Literal
@@ -10,7 +15,9 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 __all__ = [
+    "MAX_DISTANCE",
     "MAX_PLOTS",
+    "MIN_RANGE",
     "CartesianPlot",
     "FieldError",
     "Plot",
@@ -22,6 +29,10 @@ __all__ = [
 
 MAX_PLOTS = 100_000
 """Most plots (or pairs) one request may carry; a longer list is refused with 422."""
+MAX_DISTANCE = 1e9
+"""Largest coordinate or range, m (beyond geostationary orbit)."""
+MIN_RANGE = 1.0
+"""Smallest range of a plot from the radar it is measured about, m."""
 
 
 class Schema(BaseModel):
@@ -30,18 +41,21 @@ class Schema(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 
 
-Position = tuple[float, float]
+Coordinate = Annotated[float, Field(ge=-MAX_DISTANCE, le=MAX_DISTANCE)]
+Position = tuple[Coordinate, Coordinate]
 """A point (x east, y north) in metres."""
 
-Covariance = tuple[tuple[float, float], tuple[float, float]]
+Variance = Annotated[float, Field(ge=1e-6, le=MAX_DISTANCE**2)]
+CrossCovariance = Annotated[float, Field(ge=-(MAX_DISTANCE**2), le=MAX_DISTANCE**2)]
+Covariance = tuple[tuple[Variance, CrossCovariance], tuple[CrossCovariance, Variance]]
 
 
 class CartesianPlot(Schema):
     """A mark (plot) at (x, y) with its 2x2 position covariance."""
 
     frame: Literal["cartesian"] = Field(description="Discriminator: Cartesian plot.")
-    x: float = Field(description="East coordinate, m.")
-    y: float = Field(description="North coordinate, m.")
+    x: Coordinate = Field(description="East coordinate, m.")
+    y: Coordinate = Field(description="North coordinate, m.")
     covariance: Covariance = Field(
         description="Position covariance [[Pxx, Pxy], [Pxy, Pyy]], m^2; symmetric positive "
         "definite."
@@ -55,10 +69,10 @@ class PolarPlot(Schema):
     """A mark measured in range and azimuth (clockwise from north) by a radar at ``sensor``."""
 
     frame: Literal["polar"] = Field(description="Discriminator: polar plot.")
-    r: float = Field(gt=0, description="Range from the sensor, m.")
-    az_deg: float = Field(description="Azimuth, degrees clockwise from north.")
-    sigma_r: float = Field(gt=0, description="Range error standard deviation, m.")
-    sigma_az_deg: float = Field(gt=0, description="Azimuth error standard deviation, degrees.")
+    r: float = Field(ge=MIN_RANGE, le=MAX_DISTANCE, description="Range from the sensor, m.")
+    az_deg: float = Field(ge=-360, le=360, description="Azimuth, degrees clockwise from north.")
+    sigma_r: float = Field(ge=1e-3, le=MAX_DISTANCE, description="Range error sigma, m.")
+    sigma_az_deg: float = Field(ge=1e-6, le=180, description="Azimuth error sigma, degrees.")
     sensor: Position = Field(default=(0.0, 0.0), description="Position of the radar, m.")
 
 

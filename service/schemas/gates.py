@@ -34,8 +34,9 @@ Stage = Literal["none", "ring", "inner_ellipse", "outer_ellipse"]
 """Combined-gate stage that accepted a mark (seed 000): GateStage values 0..3 by name."""
 
 Probability = Annotated[float, Field(gt=0, lt=1)]
-Seconds = Annotated[float, Field(gt=0, description="Interval tau between the marks, s.")]
-Speed = Annotated[float, Field(ge=0, description="Target speed bound, m/s.")]
+Seconds = Annotated[float, Field(gt=0, le=1e6, description="Interval tau between the marks, s.")]
+Speed = Annotated[float, Field(ge=0, le=1e6, description="Target speed bound, m/s.")]
+Coefficient = Annotated[float, Field(ge=0.01, le=100, description="Window width in sigmas.")]
 
 
 class RingGate(Schema):
@@ -53,7 +54,11 @@ class ExpandedGate(Schema):
     kind: Literal["expanded"]
     tau: Seconds
     v_max: Speed
-    p: Probability = Field(default=0.9, description="Probability p giving K_g.")
+    p: float = Field(
+        default=0.9, ge=1e-6, lt=1,
+        description="Probability p giving K_g = sqrt(-2 ln(1-p)); below 1e-6 the gate "
+        "would grow by less than a thousandth of a sigma.",
+    )
 
 
 class CombinedGate(Schema):
@@ -77,15 +82,15 @@ class RectangularGate(Schema):
     """|dx| <= k sigma_x and |dy| <= k sigma_y with sigma from S (seed 003)."""
 
     kind: Literal["rectangular"]
-    k: float = Field(default=3.0, gt=0, description="Half-width in standard deviations.")
+    k: Coefficient = 3.0
 
 
 class SectorGate(Schema):
     """Polar sector |dr| <= K_R s_r, |d az| <= K_az s_az about the first plot's sensor."""
 
     kind: Literal["sector"]
-    K_R: float = Field(default=3.0, gt=0, description="Range window in sigmas.")
-    K_az: float = Field(default=3.0, gt=0, description="Azimuth window in sigmas.")
+    K_R: Coefficient = 3.0
+    K_az: Coefficient = 3.0
 
 
 class FirstAssociationGate(Schema):
@@ -94,8 +99,8 @@ class FirstAssociationGate(Schema):
     kind: Literal["first_association"]
     tau: Seconds
     v_max: Speed
-    K_R: float = Field(default=3.0, gt=0)
-    K_az: float = Field(default=3.0, gt=0)
+    K_R: Coefficient = 3.0
+    K_az: Coefficient = 3.0
 
 
 Gate = Annotated[

@@ -124,21 +124,24 @@ def test_negative_sigma(client):
 
 
 @pytest.mark.parametrize(
-    "cov", [[[1e4, 0.0], [0.0, -1e4]], [[1e4, 2e4], [2e4, 1e4]], [[1e4, 5.0], [0.0, 1e4]]],
+    ("cov", "where"),
+    [([[1e4, 0.0], [0.0, -1e4]], ".cartesian.covariance[1][1]"),  # schema: variance > 0
+     ([[1e4, 2e4], [2e4, 1e4]], ".covariance"),  # core: indefinite
+     ([[1e4, 5.0], [0.0, 1e4]], ".covariance")],  # core: not symmetric
     ids=["negative", "indefinite", "asymmetric"],
 )
-def test_bad_covariance(client, cov):
+def test_bad_covariance(client, cov, where):
     bad = {"frame": "cartesian", "x": 0.0, "y": 51_000.0, "covariance": cov}
     good = cartesian(0.0, 51_000.0)
     _problem(client.post("/v1/gates/test", json=_request(candidates=[good, bad])), 422,
-             "candidates[1].covariance")
+             "candidates[1]" + where)
     pair = {"first": good, "second": bad}
     r = client.post("/v1/gates/pairs", json={"gate": COMBINED, "pairs": [pair, pair]})
-    _problem(r, 422, "pairs[0].second.covariance")
+    _problem(r, 422, "pairs[0].second" + where)
 
 
 def test_bad_first_covariance(client):
-    bad = {"frame": "cartesian", "x": 0.0, "y": 5e4, "covariance": [[1e4, 0.0], [0.0, 0.0]]}
+    bad = {"frame": "cartesian", "x": 0.0, "y": 5e4, "covariance": [[1e4, 2e4], [2e4, 1e4]]}
     _problem(client.post("/v1/gates/test", json=_request(first=bad)), 422, "first.covariance")
 
 
@@ -216,3 +219,25 @@ def test_openapi_documents_every_operation(client):
 def test_request_id_is_echoed(client):
     r = client.post("/v1/gates/test", json=_request(), headers={"x-request-id": "abc-123"})
     assert r.headers["x-request-id"] == "abc-123"
+
+
+def test_out_of_range_magnitudes(client):
+    far = dict(cartesian(0.0, 51_000.0), x=2e9)
+    _problem(client.post("/v1/gates/test", json=_request(first=far)), 422, "first.cartesian.x")
+    close = polar(0.5, 10.0)
+    _problem(client.post("/v1/gates/test", json=_request(candidates=[close])), 422,
+             "candidates[0].polar.r")
+
+
+def test_numerically_singular_covariance(client):
+    thin = {"frame": "cartesian", "x": 0.0, "y": 51_000.0,
+            "covariance": [[1e-6, 0.0], [0.0, 1e12]]}
+    body = _problem(client.post("/v1/gates/test", json=_request(candidates=[thin])), 422,
+                    "candidates[0].covariance")
+    assert "numerically singular" in body["detail"]
+
+
+def test_sector_gate_refuses_a_plot_on_the_sensor(client):
+    body = {"gate": {"kind": "sector"}, "first": polar(10_000.0, 45.0),
+            "candidates": [cartesian(0.0, 0.2)]}
+    _problem(client.post("/v1/gates/test", json=body), 422, "candidates[0]")
