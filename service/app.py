@@ -22,7 +22,7 @@ from service.problems import ProblemError, problem
 from service.provenance import VERSION, provenance
 from service.recorder import Recorder
 from service.registry import OPERATIONS
-from service.routes import PROBLEM_JSON, health_router, operations_router
+from service.routes import PROBLEM_JSON, health_router, operations_router, request_id_of
 from service.schemas import FieldError
 
 __all__ = ["create_app"]
@@ -69,9 +69,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
 
 def _render(err: ProblemError, request: Request) -> Response:
-    body = problem(err, request.url.path, request.headers.get("x-request-id"))
+    request_id = request_id_of(request)
+    body = problem(err, request.url.path, request_id)
     return Response(
-        body.model_dump_json(exclude_none=True), err.status, media_type=PROBLEM_JSON
+        body.model_dump_json(exclude_none=True), err.status, {"X-Request-ID": request_id},
+        media_type=PROBLEM_JSON,
     )
 
 

@@ -28,7 +28,7 @@ from service.recorder import Recorder, RecordingError, request_record, response_
 from service.registry import OPERATIONS, Operation, Outcome, execute
 from service.schemas import Problem
 
-__all__ = ["health_router", "operations_router"]
+__all__ = ["PROBLEM_JSON", "health_router", "operations_router", "request_id_of"]
 
 log = logging.getLogger("plotgate")
 PROBLEM_JSON = "application/problem+json"
@@ -37,7 +37,8 @@ INLINE_BODY_BYTES = 64 * 1024
 _REQUEST_ID = re.compile(r"^[A-Za-z0-9._:-]{1,128}$")
 
 
-def _request_id(request: Request) -> str:
+def request_id_of(request: Request) -> str:
+    """The caller's X-Request-ID when it is sane (1-128 of [A-Za-z0-9._:-]), else a new id."""
     given = request.headers.get("x-request-id", "")
     return given if _REQUEST_ID.match(given) else uuid.uuid4().hex
 
@@ -60,7 +61,7 @@ def _unrecorded(op: Operation, request_id: str, exc: RecordingError) -> Response
 
 def _endpoint(op: Operation):
     async def endpoint(request: Request) -> Response:
-        request_id = _request_id(request)
+        request_id = request_id_of(request)
         recorder: Recorder | None = request.app.state.recorder
         started = time.perf_counter()
         body = await request.body()

@@ -193,8 +193,9 @@ def test_expanded_gate_at_the_sensor(client):
 
 
 def test_unknown_route_and_method(client):
-    r = client.get("/v1/nothing")
-    assert r.status_code == 404
+    r = client.get("/v1/nothing", headers={"x-request-id": "lost-1"})
+    assert r.status_code == 404 and r.headers["x-request-id"] == "lost-1"
+    assert r.json()["request_id"] == "lost-1"
     assert r.headers["content-type"].startswith("application/problem+json")
     r = client.get("/v1/gates/test")
     assert r.status_code == 405 and r.json()["status"] == 405
