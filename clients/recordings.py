@@ -15,6 +15,7 @@ from typing import Any
 from mcap.exceptions import McapError
 from mcap.records import Channel, Footer, Message, Metadata
 from mcap.stream_reader import CRCValidationError, StreamReader
+from zstandard import ZstdError
 
 __all__ = ["Exchange", "Recording", "read_recording", "recording_files"]
 
@@ -60,12 +61,18 @@ def recording_files(path: Path) -> list[Path]:
     return [path]
 
 
+_DAMAGE = (McapError, struct.error, CRCValidationError, EOFError, ValueError, RuntimeError,
+           ZstdError)
+"""What reading a truncated or damaged file raises: an incomplete record, a chunk that
+fails its CRC or does not decompress (lz4 raises RuntimeError, zstandard ZstdError)."""
+
+
 def _records(path: Path, rec: Recording) -> Iterator[object]:
     with open(path, "rb") as stream:
         reader = StreamReader(stream, validate_crcs=True)
         try:
             yield from reader.records
-        except (McapError, struct.error, CRCValidationError, EOFError, ValueError) as exc:
+        except _DAMAGE as exc:
             rec.stopped_by = f"{type(exc).__name__}: {exc}".strip(": ")
 
 
