@@ -18,12 +18,11 @@ from fastapi.responses import Response
 from starlette.exceptions import HTTPException
 
 from service.config import Settings, get_settings
-from service.problems import ProblemError, problem
+from service.problems import ProblemError, field_errors, problem_json
 from service.provenance import VERSION, provenance
 from service.recorder import Recorder
 from service.registry import OPERATIONS
 from service.routes import PROBLEM_JSON, health_router, operations_router, request_id_of
-from service.schemas import FieldError
 
 __all__ = ["create_app"]
 
@@ -70,10 +69,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
 def _render(err: ProblemError, request: Request) -> Response:
     request_id = request_id_of(request)
-    body = problem(err, request.url.path, request_id)
     return Response(
-        body.model_dump_json(exclude_none=True), err.status, {"X-Request-ID": request_id},
-        media_type=PROBLEM_JSON,
+        problem_json(err, request.url.path, request_id), err.status,
+        {"X-Request-ID": request_id}, media_type=PROBLEM_JSON,
     )
 
 
@@ -85,10 +83,7 @@ async def _http_problem(request: Request, exc: Exception) -> Response:
 
 async def _validation_problem(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, RequestValidationError)
-    errors = [
-        FieldError(field=".".join(str(p) for p in e["loc"]), reason=e["msg"])
-        for e in exc.errors()
-    ]
+    errors = field_errors(exc.errors())
     detail = "; ".join(f"{e.field}: {e.reason}" for e in errors)
     return _render(ProblemError("invalid-input", 422, detail, errors), request)
 

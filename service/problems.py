@@ -9,14 +9,16 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``internal`` (500): a bug; never bad input.
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from pydantic import ValidationError
 
 from core import PlotgateError
 from service.schemas import FieldError, Problem
 
-__all__ = ["ProblemError", "from_core", "from_validation", "problem"]
+__all__ = ["ProblemError", "field_errors", "from_core", "from_validation", "problem_json"]
 
 PROBLEM_BASE = "urn:plotgate:problem:"
 TITLES = {
@@ -42,11 +44,11 @@ class ProblemError(Exception):
         return self.detail
 
 
-def problem(
+def problem_json(
     err: ProblemError, instance: str | None = None, request_id: str | None = None
-) -> Problem:
-    """Render a :class:`ProblemError` as an RFC 9457 body."""
-    return Problem(
+) -> bytes:
+    """Render a :class:`ProblemError` as an RFC 9457 JSON body (members left unset omitted)."""
+    body = Problem(
         type=PROBLEM_BASE + err.kind,
         title=TITLES[err.kind],
         status=err.status,
@@ -55,6 +57,7 @@ def problem(
         request_id=request_id,
         errors=err.errors,
     )
+    return body.model_dump_json(exclude_none=True).encode()
 
 
 def _path(loc: tuple[int | str, ...]) -> str:
@@ -62,6 +65,11 @@ def _path(loc: tuple[int | str, ...]) -> str:
     for part in loc:
         out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
     return out or "body"
+
+
+def field_errors(errors: Sequence[Any]) -> list[FieldError]:
+    """Pydantic's (or FastAPI's) error dicts as field paths like ``candidates[3].r``."""
+    return [FieldError(field=_path(tuple(e["loc"])), reason=e["msg"]) for e in errors]
 
 
 def from_validation(exc: ValidationError) -> ProblemError:
@@ -73,7 +81,7 @@ def from_validation(exc: ValidationError) -> ProblemError:
             "malformed-json", 400, f"body is not valid JSON: {reason}",
             [FieldError(field="body", reason=reason)],
         )
-    fields = [FieldError(field=_path(tuple(e["loc"])), reason=e["msg"]) for e in errors]
+    fields = field_errors(errors)
     detail = "; ".join(f"{f.field}: {f.reason}" for f in fields)
     return ProblemError("invalid-input", 422, detail, fields)
 

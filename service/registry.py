@@ -18,7 +18,7 @@ from pydantic import BaseModel, ValidationError
 
 from core import PlotgateError
 from service.operations import gates
-from service.problems import ProblemError, from_core, from_validation, problem
+from service.problems import ProblemError, from_core, from_validation, problem_json
 from service.schemas import ENDPOINTS, Endpoint
 
 __all__ = ["OPERATIONS", "Operation", "Outcome", "execute"]
@@ -101,5 +101,4 @@ def execute(op: Operation, body: bytes, request_id: str | None = None) -> Outcom
 
 
 def _failed(op: Operation, err: ProblemError, request_id: str | None) -> Outcome:
-    body = problem(err, instance=op.path, request_id=request_id)
-    return Outcome(err.status, body.model_dump_json(exclude_none=True).encode(), err)
+    return Outcome(err.status, problem_json(err, op.path, request_id), err)

@@ -23,7 +23,7 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
-from service.problems import ProblemError, problem
+from service.problems import ProblemError, problem_json
 from service.recorder import Recorder, RecordingError, request_record, response_record
 from service.registry import OPERATIONS, Operation, Outcome, execute
 from service.schemas import Problem
@@ -49,13 +49,12 @@ def _run(op: Operation, body: bytes, request_id: str) -> Outcome:
     except Exception:
         log.exception("operation %s failed on request %s", op.name, request_id)
         err = ProblemError("internal", 500, f"{op.name} failed unexpectedly; this is a bug")
-        content = problem(err, op.path, request_id).model_dump_json(exclude_none=True)
-        return Outcome(500, content.encode(), err)
+        return Outcome(500, problem_json(err, op.path, request_id), err)
 
 
 def _unrecorded(op: Operation, request_id: str, exc: RecordingError) -> Response:
     err = ProblemError("recording-unavailable", 503, f"the exchange was not recorded: {exc}")
-    content = problem(err, op.path, request_id).model_dump_json(exclude_none=True)
+    content = problem_json(err, op.path, request_id)
     return Response(content, 503, {"X-Request-ID": request_id}, media_type=PROBLEM_JSON)
 
 
@@ -141,7 +140,6 @@ def health_router() -> APIRouter:
         if recorder is None or recorder.ready:
             return Response('{"status":"ready"}', 200, media_type="application/json")
         err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
-        content = problem(err, "/readyz").model_dump_json(exclude_none=True)
-        return Response(content, 503, media_type=PROBLEM_JSON)
+        return Response(problem_json(err, "/readyz"), 503, media_type=PROBLEM_JSON)
 
     return router
