@@ -28,13 +28,19 @@ DEFAULT_URL = "http://127.0.0.1:8000"
 DEFAULT_TIMEOUT = httpx.Timeout(30.0, connect=5.0)
 """No call can hang forever: 30 s for an answer, 5 s to connect."""
 
-def _prepare(operation: str, request: BaseModel) -> tuple[str, bytes]:
+def _prepare(
+    operation: str, request: BaseModel, request_id: str | None
+) -> tuple[str, bytes, dict[str, str]]:
+    """Path, JSON body and headers of a call; refuses a request model of the wrong type."""
     endpoint = ENDPOINTS[operation]
     if not isinstance(request, endpoint.request):
         raise TypeError(
             f"{operation} takes {endpoint.request.__name__}, not {type(request).__name__}"
         )
-    return endpoint.path, request.model_dump_json().encode()
+    headers = {"content-type": "application/json"}
+    if request_id:
+        headers["x-request-id"] = request_id
+    return endpoint.path, request.model_dump_json().encode(), headers
 
 
 def _parse(operation: str, response: httpx.Response) -> Any:
@@ -76,10 +82,7 @@ class Client:
 
     def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
         """Run any operation by name; returns its response model."""
-        path, content = _prepare(operation, request)
-        headers = {"content-type": "application/json"}
-        if request_id:
-            headers["x-request-id"] = request_id
+        path, content, headers = _prepare(operation, request, request_id)
         try:
             response = self._http.post(path, content=content, headers=headers)
         except httpx.TransportError as exc:
@@ -129,10 +132,7 @@ class AsyncClient:
 
     async def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
         """Run any operation by name; returns its response model."""
-        path, content = _prepare(operation, request)
-        headers = {"content-type": "application/json"}
-        if request_id:
-            headers["x-request-id"] = request_id
+        path, content, headers = _prepare(operation, request, request_id)
         try:
             response = await self._http.post(path, content=content, headers=headers)
         except httpx.TransportError as exc:
