@@ -34,12 +34,64 @@ from core.frames import (
     polar_to_cartesian,
     wrap_angle,
 )
+from core.gate_analysis import (
+    FalseMarks,
+    GateDesign,
+    capture_probability,
+    combined_area_approximation,
+    design_gate,
+    false_marks,
+    gate_area,
+    resolution_cells,
+)
+from core.gate_probability import (
+    GateProbability,
+    conditional_probability,
+    monte_carlo_probability,
+    unconditional_probability,
+)
+from core.gate_regions import (
+    CombinedGate,
+    EllipseGate,
+    ExpandedGate,
+    FirstAssociationGate,
+    Gate,
+    MarkGeometry,
+    RectangularGate,
+    RingGate,
+    SectorGate,
+    StarRegion,
+    mark_geometry,
+)
 from core.gating import GateResult, GateStage
 from core.polar_gates import first_association_gate, sector_gate
 from core.thresholds import expansion_coefficient, gate_threshold, rectangular_coefficient
 from core.tracking_gates import ellipse_gate, innovation_covariance, rectangular_gate
 
 __all__ = [
+    "CombinedGate",
+    "EllipseGate",
+    "ExpandedGate",
+    "FalseMarks",
+    "FirstAssociationGate",
+    "Gate",
+    "GateDesign",
+    "GateProbability",
+    "MarkGeometry",
+    "RectangularGate",
+    "RingGate",
+    "SectorGate",
+    "StarRegion",
+    "capture_probability",
+    "combined_area_approximation",
+    "conditional_probability",
+    "design_gate",
+    "false_marks",
+    "gate_area",
+    "mark_geometry",
+    "monte_carlo_probability",
+    "resolution_cells",
+    "unconditional_probability",
     "CovarianceError",
     "GateResult",
     "GateStage",

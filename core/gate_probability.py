@@ -243,7 +243,7 @@ def _ring_features(ox: np.ndarray, oy: np.ndarray, ux: np.ndarray, uy: np.ndarra
 
 
 def _prior_weights(prior: str, R_min: float, R_max: float) -> tuple[float, float]:
-    """(c0, c1): the prior density of the displacement's length s is c0 + c1 s on [R_min, R_max]."""
+    """(c0, c1): the prior density of the length s is c0 + c1 s on [R_min, R_max]."""
     if prior == "speed":
         return 1.0 / (R_max - R_min), 0.0
     return 0.0, 2.0 / (R_max * R_max - R_min * R_min)
@@ -368,19 +368,24 @@ def unconditional_probability(
     """
     _validate_prior(v_min, v_max, prior)
     R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
+    high, low = (_unconditional(gate, geometry, R_min, R_max, prior, m)
+                 for m in (M_HIGH, M_LOW))
+    return GateProbability(high, np.abs(high - low))
+
+
+def _unconditional(gate: Gate, geometry: MarkGeometry, R_min: float, R_max: float,
+                   prior: str, m: int) -> np.ndarray:
+    """The unconditional probability with the m-point rule, in chunks of problems."""
     n = geometry.n
-    out = {M_HIGH: np.empty(n), M_LOW: np.empty(n)}
+    out = np.empty(n)
     step = max(1, _NODE_BUDGET // _NODES_PER_PROBLEM)
     for first in range(0, n, step):
         rows = slice(first, min(n, first + step))
         part = geometry.take(rows)
         region = gate.region(part)
         theta_edges = _theta_edges(region, part.B, R_min, R_max)
-        for m, result in out.items():
-            result[rows] = _unconditional_chunk(region, part.B, R_min, R_max, prior, m,
-                                                theta_edges)
-    high, low = out[M_HIGH], out[M_LOW]
-    return GateProbability(high, np.abs(high - low))
+        out[rows] = _unconditional_chunk(region, part.B, R_min, R_max, prior, m, theta_edges)
+    return out
 
 
 def monte_carlo_probability(

@@ -253,7 +253,7 @@ class CombinedGate:
     P_G: float
 
     def region(self, g: MarkGeometry) -> StarRegion:
-        """In direction u the gate is [max(0, R_min - h), R_max + h], h = sqrt(gamma/u^T B^-1 u)."""
+        """Direction u: [max(0, R_min - h), R_max + h], h = sqrt(gamma / u^T B^-1 u)."""
         R_min, R_max = _ring_radii(g.tau, self.v_min, self.v_max)
         gamma = _gate_threshold(self.P_G)
         n = g.n
