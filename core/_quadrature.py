@@ -12,10 +12,11 @@ panels), so all problems are integrated in one array expression.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["RATIO", "breakpoints", "panel_rule"]
+__all__ = ["RATIO", "adaptive_panels", "breakpoints", "panel_rule"]
 
 RATIO = 3.0
 """Growth factor of the panel widths away from a feature."""
@@ -115,3 +116,57 @@ def panel_rule(edges: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
     half = 0.5 * (edges[..., 1:, None] - a)
     shape = (*edges.shape[:-1], -1)
     return (a + half * (1.0 + x)).reshape(shape), (half * w).reshape(shape)
+
+
+def adaptive_panels(
+    integrand: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    edges: np.ndarray,
+    tol: float | np.ndarray,
+    orders: tuple[int, int] = (10, 5),
+    max_rounds: int = 40,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Integrate N problems over their panels, bisecting every panel that is not yet exact.
+
+    A panel is accepted when its two Gauss-Legendre rules (``orders``) agree within its
+    share of ``tol`` (tol times its width over the problem's span); otherwise it is cut
+    in two and tried again, all panels of all problems in one array per round.
+
+    Parameters
+    ----------
+    integrand : callable
+        ``integrand(rows, x)`` with x (P, m) nodes of panels that belong to problems
+        ``rows`` (P,); returns the values at x.
+    edges : (N, E) ndarray
+        Sorted starting panel edges per problem (empty panels are dropped).
+    tol : float or (N,) ndarray
+        Wanted absolute error per problem.
+
+    Returns
+    -------
+    integral, error : (N,) ndarray
+        The higher-order sums and the sums of the panels' |high - low|.
+    """
+    n = len(edges)
+    share = np.broadcast_to(tol, (n,)) / (edges[:, -1] - edges[:, 0])
+    a, b = edges[:, :-1], edges[:, 1:]
+    rows = np.broadcast_to(np.arange(n)[:, None], a.shape)
+    keep = b > a
+    rows, a, b = rows[keep], a[keep], b[keep]
+    integral, error = np.zeros(n), np.zeros(n)
+    (x_hi, w_hi), (x_lo, w_lo) = (_gauss_legendre(m) for m in orders)
+    for last in range(max_rounds):
+        mid, half = 0.5 * (a + b), 0.5 * (b - a)
+        x = mid[:, None] + half[:, None] * np.concatenate([x_hi, x_lo])
+        values = integrand(rows, x)
+        high = half * (values[:, : len(x_hi)] @ w_hi)
+        low = half * (values[:, len(x_hi):] @ w_lo)
+        diff = np.abs(high - low)
+        done = (diff <= share[rows] * (b - a)) | (last == max_rounds - 1)
+        np.add.at(integral, rows[done], high[done])
+        np.add.at(error, rows[done], diff[done])
+        if done.all():
+            break
+        rows, a, b, mid = rows[~done], a[~done], b[~done], mid[~done]
+        rows = np.repeat(rows, 2)
+        a, b = np.stack([a, mid], -1).ravel(), np.stack([mid, b], -1).ravel()
+    return integral, error

@@ -34,7 +34,7 @@ from core.gate_probability import Prior, _unconditional, unconditional_probabili
 from core.gate_regions import CombinedGate, ExpandedGate, Gate, MarkGeometry
 from core.gating import _gate_threshold, _ring_radii
 
-_SEARCH_ORDER = 6
+_SEARCH_RULE = (6, 1.0)
 
 __all__ = [
     "FalseMarks",
@@ -216,7 +216,7 @@ def design_gate(
     def gated(x: float) -> float:
         # the search runs on a cheaper rule (error ~1e-7); the answer is re-evaluated fully
         return float(_unconditional(replace(gate, **{field: x}), geometry, R_min, R_max,
-                                    prior, _SEARCH_ORDER)[0])
+                                    prior, _SEARCH_RULE)[0])
 
     wanted = capture / detection
     lo, hi = 1e-9, 1.0 - 1e-12

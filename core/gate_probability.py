@@ -32,6 +32,7 @@ themselves; it is for checking the quadrature, not for production use.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -39,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import ndtr
 
-from core._quadrature import breakpoints, panel_rule
+from core._quadrature import adaptive_panels, breakpoints, panel_rule
 from core._sym2 import Sym2
 from core._validate import as_points, pair_count, require_nonnegative
 from core.errors import ParameterError
@@ -57,16 +58,24 @@ __all__ = [
 Prior = Literal["area", "speed"]
 PRIORS: tuple[str, ...] = ("area", "speed")
 
-M_HIGH, M_LOW = 8, 7
-"""Gauss-Legendre orders per panel for the unconditional probability: the result and
-the error reference (the difference of the two is the error estimate)."""
-M_CONDITIONAL = (12, 8)
-"""The same for the (cheap, one-dimensional) conditional probability."""
+RULES = ((8, 1.0), (7, np.sqrt(3.0)))
+"""(Gauss-Legendre order per panel, scale of the grading widths) of the two rules of the
+unconditional probability: the result, and the reference whose difference from it is the
+error estimate. The reference's panels interleave with the result's, so the estimate
+catches a feature the panels miss as well as too low an order."""
+M_CONDITIONAL = (10, 5)
+"""Gauss-Legendre orders of the adaptive conditional probability's two rules."""
+_CONDITIONAL_TOL = 1e-10
+"""Absolute error the conditional probability's panels are refined to."""
 _NODE_BUDGET = 4_000_000
 """Quadrature nodes evaluated in one array (memory bound) ..."""
 _NODES_PER_PROBLEM = 400_000
 """... and a typical count for one unconditional problem, which sets the chunk size."""
+_BLOCK = 4096
+"""Points at which the prior-averaged density is computed in one array."""
 _SQRT_2PI = np.sqrt(2.0 * np.pi)
+_ECCENTRIC = 3.0
+"""Axis ratio sqrt(lambda_max / lambda_min) of B from which its axes get their own panels."""
 _TAIL = 9.0
 """Standard deviations beyond which a Gaussian's density (< e^-40) is left out."""
 
@@ -163,14 +172,17 @@ def _angle_breaks(
                        np.stack(widths, axis=-1), kinks, periodic=True, uniform=uniform)
 
 
-def _conditional(region: StarRegion, B: Sym2, mean: np.ndarray, m: int,
-                 edges: np.ndarray) -> np.ndarray:
-    theta, weight = panel_rule(edges, m)
-    Q = _column(_inverse(B), 2)
-    lo, hi = region.radii(theta)
-    rel = mean - region.origin
-    _, M1 = _ray_moments(np.cos(theta), np.sin(theta), rel[:, :1], rel[:, 1:], Q, lo, hi)
-    return np.einsum("nt,nt->n", weight, M1) / (2.0 * np.pi * np.sqrt(B.det))
+def _conditional_integrand(region: StarRegion, Q: Sym2, rel: np.ndarray) -> Callable:
+    """Closed-form radial integral M1 over the gate along rays theta, for given problems."""
+
+    def integrand(rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        lo, hi = region.radii(theta, rows)
+        Qr = Sym2(*(x[rows][:, None] for x in Q))
+        _, M1 = _ray_moments(np.cos(theta), np.sin(theta), rel[rows, :1], rel[rows, 1:], Qr,
+                             lo, hi)
+        return M1
+
+    return integrand
 
 
 def conditional_probability(gate: Gate, geometry: MarkGeometry,
@@ -187,7 +199,7 @@ def conditional_probability(gate: Gate, geometry: MarkGeometry,
     geometry : MarkGeometry
         N problems (first mark, sigmas, tau).
     velocity : (2,) or (N, 2) array_like
-        Target velocity (v_x east, v_y north), m/s.
+        Target velocity (v_x east, v_y north), m/s; N velocities may share one geometry.
 
     Returns
     -------
@@ -210,28 +222,37 @@ def conditional_probability(gate: Gate, geometry: MarkGeometry,
     (0.9, True)
     """
     v = as_points("velocity", velocity)
-    n = pair_count(geometry=(geometry.n,), velocity=v.shape[:-1])
-    if geometry.n != n:
-        raise ParameterError("velocity", f"has batch length {n} but the geometry has "
-                             f"{geometry.n}")
+    n = pair_count(geometry=(geometry.n,) if geometry.n > 1 else (), velocity=v.shape[:-1])
+    if geometry.n != n:  # one geometry, many velocities (a curve against speed)
+        geometry = geometry.take(np.zeros(n, dtype=int))
     region = gate.region(geometry)
     mean = np.broadcast_to(v * geometry.tau, (n, 2))
     rel = mean - region.origin
     lam_min, _, major = _axes(geometry.B)
     centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
-    # the Gaussian subtends about sigma / |m| seen from the origin, or sigma / lo where
-    # the inner edge lo of the gate cuts it (then about B's major axis)
+    # starting panels: the Gaussian subtends about sigma / |m| seen from the origin, or
+    # sigma / lo where the inner edge lo of the gate cuts it (then about B's major axis);
+    # panels are then bisected until two rules agree
     inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
     reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
     edges = _angle_breaks(region.start, region.span, centres, [np.sqrt(lam_min) / reach] * 3,
                           region.kinks, uniform=4)
-    high, low = (_conditional(region, geometry.B, mean, m, edges) for m in M_CONDITIONAL)
-    return GateProbability(high, np.abs(high - low))
+    norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
+    integral, error = adaptive_panels(
+        _conditional_integrand(region, _inverse(geometry.B), rel), edges,
+        _CONDITIONAL_TOL * norm, orders=M_CONDITIONAL)
+    return GateProbability(integral / norm, error / norm)
 
 
 def _ring_features(ox: np.ndarray, oy: np.ndarray, ux: np.ndarray, uy: np.ndarray,
-                   radii: tuple[float, float]) -> np.ndarray:
-    """Where rays o + t u cross circles |x| = R (NaN: they miss), and pass closest to 0."""
+                   radii: tuple[float, float], minor: np.ndarray | None) -> np.ndarray:
+    """Distances along rays o + t u to the edges of the blurred prior ring (NaN: none).
+
+    The ray's closest approach to z1, its crossings of the circles |x| = R, and, for an
+    eccentric B (``minor``, the direction of its minor axis, given), its crossings of
+    the lines x . e_minor = +-R: a long Gaussian smears the ring along its major axis,
+    and the smeared ring's sharp edges are those lines.
+    """
     along = ox * ux + oy * uy
     base = along * along - (ox * ox + oy * oy)
     out = [-along]
@@ -239,6 +260,11 @@ def _ring_features(ox: np.ndarray, oy: np.ndarray, ux: np.ndarray, uy: np.ndarra
         with np.errstate(invalid="ignore"):
             root = np.sqrt(base + R * R)
         out += [-along - root, -along + root]
+    if minor is not None:
+        ex, ey = np.cos(minor), np.sin(minor)
+        offset, rate = ox * ex + oy * ey, ux * ex + uy * ey
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out += [(c - offset) / rate for R in radii for c in (R, -R)]
     return np.stack(out, axis=-1)
 
 
@@ -250,8 +276,10 @@ def _prior_weights(prior: str, R_min: float, R_max: float) -> tuple[float, float
 
 
 def _unconditional_chunk(region: StarRegion, B: Sym2, R_min: float, R_max: float,
-                         prior: str, m: int, theta_edges: np.ndarray) -> np.ndarray:
+                         prior: str, rule: tuple[int, float], theta_edges: np.ndarray,
+                         ) -> np.ndarray:
     """Integral over the gate of the prior-averaged density, for a chunk of problems."""
+    m, scale = rule
     lam_min, lam_max, major = _axes(B)
     sigma = np.sqrt(lam_min)[:, None, None]
     reach = R_max + _TAIL * np.sqrt(lam_max)[:, None]  # beyond it the density is < 1e-17
@@ -262,30 +290,58 @@ def _unconditional_chunk(region: StarRegion, B: Sym2, R_min: float, R_max: float
     ox, oy = region.origin[:, :1], region.origin[:, 1:]
     # gate radii rho on the part of each ray within reach of z1, graded towards the
     # prior ring's edges and the ray's closest approach to z1: (n, T, R)
-    features = _ring_features(ox, oy, ux, uy, (R_min, R_max))
+    eccentric = bool((lam_max >= _ECCENTRIC**2 * lam_min).any())
+    minor = (major + 0.5 * np.pi)[:, None] if eccentric else None
+    features = _ring_features(ox, oy, ux, uy, (R_min, R_max), minor)
     closest = features[..., 0]
     with np.errstate(invalid="ignore"):
         chord = np.sqrt(np.maximum(reach**2 - (ox * ox + oy * oy - closest**2), 0.0))
     lo = np.maximum(lo, closest - chord)
     hi = np.maximum(np.minimum(hi, closest + chord), lo)
-    rho_edges = breakpoints(lo, hi, features, np.broadcast_to(sigma, features.shape))
+    rho_edges = breakpoints(lo, hi, features, np.broadcast_to(scale * sigma, features.shape))
     rho, w_rho = panel_rule(rho_edges, m)
-    dx = ox[..., None] + rho * ux[..., None]
-    dy = oy[..., None] + rho * uy[..., None]
-    # prior headings phi, within reach of d, graded about the direction of d and, where
-    # the inner circle cuts N(d, B), about B's major axis (it then subtends about
-    # sigma / R_min): (n, T, R, F)
+    n, T, R = rho.shape
+    dx = (ox[..., None] + rho * ux[..., None]).reshape(n, T * R)
+    dy = (oy[..., None] + rho * uy[..., None]).reshape(n, T * R)
+    density = np.empty((n, T * R))
+    block = max(1, _BLOCK // n)
+    for first in range(0, T * R, block):
+        cols = slice(first, first + block)
+        density[:, cols] = _prior_density(dx[:, cols], dy[:, cols], B, R_min, R_max, prior, m,
+                                          scale, eccentric)
+    radial = np.einsum("ntr,ntr->nt", w_rho * rho, density.reshape(n, T, R))
+    total = np.einsum("nt,nt->n", w_theta, radial)
+    return total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
+
+
+def _prior_density(dx: np.ndarray, dy: np.ndarray, B: Sym2, R_min: float, R_max: float,
+                   prior: str, m: int, scale: float, eccentric: bool) -> np.ndarray:
+    """2 pi |B|^1/2 (2 pi) g(d) at (n, K) points d: the heading integral of the prior's
+    closed-form radial integral of N(s e_phi; d, B).
+
+    Headings are integrated within reach of d and graded about the direction of d:
+    N(d, B) subtends about sigma_min / |d|, or sigma_min / R_min where the inner circle
+    cuts it. A long N(d, B) meets the prior ring along the line d + t e_major, and the
+    directions of that line's crossings of the ring's circles are sharp features too.
+    """
+    lam_min, lam_max, major = _axes(B)
+    sigma = np.sqrt(lam_min)[:, None]
     dist = np.hypot(dx, dy)
-    half = np.arcsin(np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None, None]
+    half = np.arcsin(np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None]
                                 / np.maximum(dist, 1e-300)))
     half = np.where(half < 0.5 * np.pi, half, np.pi)
-    width = sigma / np.maximum(dist, max(R_min, 1e-300))
-    centre = np.arctan2(dy, dx)
-    major = np.broadcast_to(major[:, None, None], centre.shape)
-    phi_edges = _angle_breaks(centre - half, 2.0 * half, [centre, major, major + np.pi],
-                              [width] * 3, None, uniform=2)
+    centres = [np.arctan2(dy, dx)]
+    widths = [scale * sigma / np.maximum(dist, max(R_min, 1e-300))]
+    if eccentric:
+        ex, ey = np.cos(major)[:, None], np.sin(major)[:, None]
+        crossings = _ring_features(dx, dy, ex, ey, (R_min, R_max), None)[..., 1:]
+        for k, R in enumerate((R_min, R_min, R_max, R_max)):
+            t = crossings[..., k]
+            centres.append(np.arctan2(dy + t * ey, dx + t * ex))
+            widths.append(np.broadcast_to(scale * sigma / max(R, 1e-300), t.shape))
+    phi_edges = _angle_breaks(centres[0] - half, 2.0 * half, centres, widths, None, uniform=2)
     phi, w_phi = panel_rule(phi_edges, m)
-    Q = _column(_inverse(B), 4)
+    Q = _column(_inverse(B), 3)
     ex, ey = np.cos(phi), np.sin(phi)
     mx, my = dx[..., None], dy[..., None]
     if R_max > R_min:
@@ -295,15 +351,14 @@ def _unconditional_chunk(region: StarRegion, B: Sym2, R_min: float, R_max: float
     else:  # v_min = v_max: the displacement's length is R_max exactly
         nx, ny = R_max * ex - mx, R_max * ey - my
         kernel = np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny + Q.yy * ny * ny))
-    density = np.einsum("ntrf,ntrf->ntr", w_phi, kernel)
-    radial = np.einsum("ntr,ntr->nt", w_rho * rho, density)
-    total = np.einsum("nt,nt->n", w_theta, radial)
-    return total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
+    density: np.ndarray = np.einsum("nkf,nkf->nk", w_phi, kernel)
+    return density
 
 
-def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float) -> np.ndarray:
+def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float,
+                 scale: float = 1.0) -> np.ndarray:
     """Gate-direction panels: kinks, plus the tangents to the prior ring from an outer origin."""
-    lam_min, _, _ = _axes(B)
+    lam_min, _, major = _axes(B)
     ox, oy = region.origin[:, 0], region.origin[:, 1]
     dist = np.hypot(ox, oy)
     towards = np.arctan2(-oy, -ox)
@@ -313,7 +368,15 @@ def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float) -> np.
             half = np.arcsin(R / dist)
             centres += [towards + half, towards - half]
             widths += [np.sqrt(lam_min) / dist] * 2
+    # an eccentric B blurs the ring's edges by sigma_min along its minor axis and by
+    # about sigma_max |alpha| at an angle alpha from it: features 1 / kappa wide
+    lam_max = B.xx + B.yy - lam_min
+    if (lam_max >= _ECCENTRIC**2 * lam_min).any():
+        width = np.where(lam_max >= _ECCENTRIC**2 * lam_min, np.sqrt(lam_min / lam_max), np.inf)
+        centres += [major + k * 0.5 * np.pi for k in range(4)]
+        widths += [width] * 4
     full = bool((region.span >= 2.0 * np.pi).all())
+    widths = [scale * w for w in widths]
     return _angle_breaks(region.start, region.span, centres, widths, region.kinks,
                          uniform=8 if full else 2)
 
@@ -368,14 +431,13 @@ def unconditional_probability(
     """
     _validate_prior(v_min, v_max, prior)
     R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
-    high, low = (_unconditional(gate, geometry, R_min, R_max, prior, m)
-                 for m in (M_HIGH, M_LOW))
+    high, low = (_unconditional(gate, geometry, R_min, R_max, prior, rule) for rule in RULES)
     return GateProbability(high, np.abs(high - low))
 
 
 def _unconditional(gate: Gate, geometry: MarkGeometry, R_min: float, R_max: float,
-                   prior: str, m: int) -> np.ndarray:
-    """The unconditional probability with the m-point rule, in chunks of problems."""
+                   prior: str, rule: tuple[int, float]) -> np.ndarray:
+    """The unconditional probability with one rule of :data:`RULES`, in chunks of problems."""
     n = geometry.n
     out = np.empty(n)
     step = max(1, _NODE_BUDGET // _NODES_PER_PROBLEM)
@@ -383,8 +445,9 @@ def _unconditional(gate: Gate, geometry: MarkGeometry, R_min: float, R_max: floa
         rows = slice(first, min(n, first + step))
         part = geometry.take(rows)
         region = gate.region(part)
-        theta_edges = _theta_edges(region, part.B, R_min, R_max)
-        out[rows] = _unconditional_chunk(region, part.B, R_min, R_max, prior, m, theta_edges)
+        theta_edges = _theta_edges(region, part.B, R_min, R_max, rule[1])
+        out[rows] = _unconditional_chunk(region, part.B, R_min, R_max, prior, rule,
+                                         theta_edges)
     return out
 
 

@@ -73,6 +73,9 @@ __all__ = [
 ]
 
 TWO_PI = 2.0 * np.pi
+Rows = slice | np.ndarray
+"""Problems a radii call is for: all (``slice(None)``) or an index array, one per row."""
+_ALL = slice(None)
 
 
 @dataclass(frozen=True)
@@ -111,7 +114,7 @@ class MarkGeometry:
     def n(self) -> int:
         return len(self.r)
 
-    def take(self, rows: slice) -> MarkGeometry:
+    def take(self, rows: slice | np.ndarray) -> MarkGeometry:
         """The problems in ``rows``."""
         return MarkGeometry(self.r[rows], self.az[rows], self.sigma_r1[rows],
                             self.sigma_az1[rows], self.sigma_r2[rows], self.sigma_az2[rows],
@@ -188,14 +191,16 @@ class StarRegion(NamedTuple):
     kinks : (N, K) ndarray
         Directions where lo or hi is not smooth (NaN: none).
     radii : callable
-        ``radii(theta)`` with theta (N, T) returns (lo, hi), each (N, T), metres.
+        ``radii(theta, rows)`` returns (lo, hi), each shaped like theta, metres: theta
+        is (N, T) for all problems, or (P, T) with ``rows`` (P,) naming the problem
+        of each row.
     """
 
     origin: np.ndarray
     start: np.ndarray
     span: np.ndarray
     kinks: np.ndarray
-    radii: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    radii: Callable[..., tuple[np.ndarray, np.ndarray]]
 
 
 def _col(x: np.ndarray | float, n: int) -> np.ndarray:
@@ -221,6 +226,10 @@ def _column_sym2(S: Sym2) -> Sym2:
     return Sym2(*(np.asarray(x)[:, None] for x in S))
 
 
+def _rows_of(S: Sym2, rows: Rows) -> Sym2:
+    return Sym2(*(x[rows] for x in S))
+
+
 @dataclass(frozen=True)
 class RingGate:
     """Ring gate R_min <= |d| <= R_max (seed 000, Fig. 1); speeds in m/s."""
@@ -228,14 +237,11 @@ class RingGate:
     v_min: float
     v_max: float
 
-    def radii_of(self, g: MarkGeometry) -> tuple[float, float]:
-        return _ring_radii(g.tau, self.v_min, self.v_max)
-
     def region(self, g: MarkGeometry) -> StarRegion:
-        R_min, R_max = self.radii_of(g)
+        R_min, R_max = _ring_radii(g.tau, self.v_min, self.v_max)
         n = g.n
 
-        def radii(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
             return np.full(theta.shape, R_min), np.full(theta.shape, R_max)
 
         return _full_turn(n, np.zeros(2), _no_kinks(n), radii)
@@ -259,8 +265,8 @@ class CombinedGate:
         n = g.n
         B = _column_sym2(g.B)
 
-        def radii(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            h = np.sqrt(gamma / _inverse_form(B, theta))
+        def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
+            h = np.sqrt(gamma / _inverse_form(_rows_of(B, rows), theta))
             return np.maximum(R_min - h, 0.0), R_max + h
 
         # kinks where h = R_min: u^T B^-1 u = A0 + A1 cos(2 theta - 2 theta0) = gamma / R_min^2
@@ -295,8 +301,9 @@ class ExpandedGate:
         a, b = (x[:, None] for x in self.semi_axes(g))
         los = (0.5 * np.pi - g.az)[:, None]  # math angle of the line of sight
 
-        def radii(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            along, across = np.cos(theta - los) / a, np.sin(theta - los) / b
+        def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
+            off = theta - los[rows]
+            along, across = np.cos(off) / a[rows], np.sin(off) / b[rows]
             return np.zeros(theta.shape), 1.0 / np.sqrt(along * along + across * across)
 
         return _full_turn(g.n, np.zeros(2), _no_kinks(g.n), radii)
@@ -326,8 +333,8 @@ class EllipseGate:
         gamma = _gate_threshold(self.P_G)
         S = _column_sym2(sym2(self._S(g)))
 
-        def radii(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return np.zeros(theta.shape), np.sqrt(gamma / _inverse_form(S, theta))
+        def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
+            return np.zeros(theta.shape), np.sqrt(gamma / _inverse_form(_rows_of(S, rows), theta))
 
         return _full_turn(g.n, as_points("offset", self.offset), _no_kinks(g.n), radii)
 
@@ -359,10 +366,10 @@ class RectangularGate:
         corner = np.arctan2(hy, hx)[:, None]
         hx, hy = hx[:, None], hy[:, None]
 
-        def radii(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
             c, s = np.abs(np.cos(theta)), np.abs(np.sin(theta))
             with np.errstate(divide="ignore"):
-                hi = np.minimum(hx / c, hy / s)
+                hi = np.minimum(hx[rows] / c, hy[rows] / s)
             return np.zeros(theta.shape), hi
 
         kinks = np.concatenate([corner, np.pi - corner, np.pi + corner, -corner], axis=-1)
@@ -381,8 +388,9 @@ def _sector(g: MarkGeometry, r_c: np.ndarray, az_c: np.ndarray, W_R: np.ndarray,
     r_hi = (r_c + W_R)[:, None]
     W_az = np.minimum(W_az, np.pi)
 
-    def radii(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return np.broadcast_to(r_lo, theta.shape), np.broadcast_to(r_hi, theta.shape)
+    def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
+        return (np.broadcast_to(r_lo[rows], theta.shape),
+                np.broadcast_to(r_hi[rows], theta.shape))
 
     # azimuth az (clockwise from north) is the math angle pi/2 - az
     return StarRegion(-g.z1, 0.5 * np.pi - az_c - W_az, 2.0 * W_az, _no_kinks(g.n), radii)
