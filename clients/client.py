@@ -1,11 +1,13 @@
 """Typed HTTP clients of plotgate, sync and async, built on httpx and the shared schemas.
 
 Each operation of :data:`service.schemas.ENDPOINTS` is reachable through ``call(name,
-request)``; the common ones also have a typed method (``test_gate``). Errors are the
-exceptions of :mod:`clients.errors`. The README shows a full example.
+request)``; the common ones also have a typed method (``test_gate``, ``gate_probability``
+...). The gating-probability methods take their request model or the same as a dict
+(validated here, so a bad dict raises pydantic's ``ValidationError`` before any call).
+Errors are the exceptions of :mod:`clients.errors`. The README shows a full example.
 """
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import httpx
@@ -15,23 +17,44 @@ from clients.errors import TransportError, raise_for_problem
 from service.schemas import (
     ENDPOINTS,
     Gate,
+    GateAnalysisRequest,
+    GateAnalysisResult,
+    GateDesignRequest,
+    GateDesignResult,
     GatePair,
     GatePairsRequest,
+    GateProbabilityCurve,
+    GateProbabilityCurveRequest,
+    GateProbabilityRequest,
+    GateProbabilityResult,
     GateResults,
     GateTestRequest,
     Plot,
 )
 
-__all__ = ["DEFAULT_TIMEOUT", "DEFAULT_URL", "AsyncClient", "Client"]
+__all__ = ["DEFAULT_TIMEOUT", "DEFAULT_URL", "SLOW_TIMEOUT", "AsyncClient", "Client"]
 
 DEFAULT_URL = "http://127.0.0.1:8000"
 DEFAULT_TIMEOUT = httpx.Timeout(30.0, connect=5.0)
 """No call can hang forever: 30 s for an answer, 5 s to connect."""
+SLOW_TIMEOUT = httpx.Timeout(600.0, connect=5.0)
+"""For operations whose endpoint is marked ``slow`` (quadratures, gate design)."""
+
+
+def _model(operation: str, request: BaseModel | Mapping[str, Any]) -> BaseModel:
+    """The request model of ``operation``: ``request`` itself, or validated from a dict."""
+    if isinstance(request, Mapping):
+        return ENDPOINTS[operation].request.model_validate(request)
+    return request
+
 
 def _prepare(
     operation: str, request: BaseModel, request_id: str | None
-) -> tuple[str, bytes, dict[str, str]]:
-    """Path, JSON body and headers of a call; refuses a request model of the wrong type."""
+) -> tuple[str, bytes, dict[str, str], Any]:
+    """Path, JSON body, headers and timeout of a call; refuses a request of the wrong type.
+
+    Slow operations get :data:`SLOW_TIMEOUT`; the others the client's own timeout.
+    """
     endpoint = ENDPOINTS[operation]
     if not isinstance(request, endpoint.request):
         raise TypeError(
@@ -40,7 +63,8 @@ def _prepare(
     headers = {"content-type": "application/json"}
     if request_id:
         headers["x-request-id"] = request_id
-    return endpoint.path, request.model_dump_json().encode(), headers
+    timeout = SLOW_TIMEOUT if endpoint.slow else httpx.USE_CLIENT_DEFAULT
+    return endpoint.path, request.model_dump_json().encode(), headers, timeout
 
 
 def _parse(operation: str, response: httpx.Response) -> Any:
@@ -82,9 +106,9 @@ class Client:
 
     def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
         """Run any operation by name; returns its response model."""
-        path, content, headers = _prepare(operation, request, request_id)
+        path, content, headers, timeout = _prepare(operation, request, request_id)
         try:
-            response = self._http.post(path, content=content, headers=headers)
+            response = self._http.post(path, content=content, headers=headers, timeout=timeout)
         except httpx.TransportError as exc:
             raise TransportError(f"{operation} at {self._http.base_url}: {exc}") from exc
         return _parse(operation, response)
@@ -97,6 +121,28 @@ class Client:
     def test_gate_pairs(self, gate: Gate, pairs: Sequence[GatePair]) -> GateResults:
         """Test independent (first, second) pairs (operation ``gates.pairs``)."""
         return self.call("gates.pairs", GatePairsRequest(gate=gate, pairs=list(pairs)))
+
+    def gate_probability(
+        self, request: GateProbabilityRequest | Mapping[str, Any]
+    ) -> GateProbabilityResult:
+        """Conditional or unconditional gating probability (operation ``gates.probability``)."""
+        return self.call("gates.probability", _model("gates.probability", request))
+
+    def gate_probability_curve(
+        self, request: GateProbabilityCurveRequest | Mapping[str, Any]
+    ) -> GateProbabilityCurve:
+        """Gating probability against speed or range (``gates.probability_curve``)."""
+        return self.call("gates.probability_curve", _model("gates.probability_curve", request))
+
+    def gate_analysis(
+        self, request: GateAnalysisRequest | Mapping[str, Any]
+    ) -> GateAnalysisResult:
+        """Area, cells, false marks and capture probability (operation ``gates.analysis``)."""
+        return self.call("gates.analysis", _model("gates.analysis", request))
+
+    def gate_design(self, request: GateDesignRequest | Mapping[str, Any]) -> GateDesignResult:
+        """P_G or p reaching a wanted capture probability (operation ``gates.design``)."""
+        return self.call("gates.design", _model("gates.design", request))
 
     def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
@@ -132,9 +178,10 @@ class AsyncClient:
 
     async def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
         """Run any operation by name; returns its response model."""
-        path, content, headers = _prepare(operation, request, request_id)
+        path, content, headers, timeout = _prepare(operation, request, request_id)
         try:
-            response = await self._http.post(path, content=content, headers=headers)
+            response = await self._http.post(path, content=content, headers=headers,
+                                             timeout=timeout)
         except httpx.TransportError as exc:
             raise TransportError(f"{operation} at {self._http.base_url}: {exc}") from exc
         return _parse(operation, response)
@@ -147,6 +194,32 @@ class AsyncClient:
     async def test_gate_pairs(self, gate: Gate, pairs: Sequence[GatePair]) -> GateResults:
         """Test independent (first, second) pairs (operation ``gates.pairs``)."""
         return await self.call("gates.pairs", GatePairsRequest(gate=gate, pairs=list(pairs)))
+
+    async def gate_probability(
+        self, request: GateProbabilityRequest | Mapping[str, Any]
+    ) -> GateProbabilityResult:
+        """Conditional or unconditional gating probability (operation ``gates.probability``)."""
+        return await self.call("gates.probability", _model("gates.probability", request))
+
+    async def gate_probability_curve(
+        self, request: GateProbabilityCurveRequest | Mapping[str, Any]
+    ) -> GateProbabilityCurve:
+        """Gating probability against speed or range (``gates.probability_curve``)."""
+        return await self.call(
+            "gates.probability_curve", _model("gates.probability_curve", request)
+        )
+
+    async def gate_analysis(
+        self, request: GateAnalysisRequest | Mapping[str, Any]
+    ) -> GateAnalysisResult:
+        """Area, cells, false marks and capture probability (operation ``gates.analysis``)."""
+        return await self.call("gates.analysis", _model("gates.analysis", request))
+
+    async def gate_design(
+        self, request: GateDesignRequest | Mapping[str, Any]
+    ) -> GateDesignResult:
+        """P_G or p reaching a wanted capture probability (operation ``gates.design``)."""
+        return await self.call("gates.design", _model("gates.design", request))
 
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""

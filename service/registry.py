@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from core import PlotgateError
-from service.operations import gates
+from service.operations import gates, probability
 from service.problems import ProblemError, from_core, from_validation, problem_json
 from service.schemas import ENDPOINTS, Endpoint
 
@@ -57,6 +57,10 @@ class Operation:
 _HANDLERS: dict[str, tuple[Handler, FieldOf]] = {
     "gates.test": (gates.test, gates.test_field),
     "gates.pairs": (gates.pairs, gates.pairs_field),
+    "gates.probability": (probability.probability, probability.field_of),
+    "gates.probability_curve": (probability.curve, probability.curve_field),
+    "gates.analysis": (probability.analysis, probability.field_of),
+    "gates.design": (probability.design, probability.field_of),
 }
 
 OPERATIONS: dict[str, Operation] = {

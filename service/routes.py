@@ -6,7 +6,8 @@ Every operation route does the same five steps, in this order:
 2. add the request record, raw body included, before anything can fail;
 3. run :func:`service.registry.execute`: on the event loop for a small body (a thread
    hand-off costs more than a gate test of a few hundred plots), in a worker thread for a
-   body over ``INLINE_BODY_BYTES`` so a large request does not stall the others;
+   body over ``INLINE_BODY_BYTES`` or an operation whose endpoint is marked ``slow``
+   (quadratures that take tenths of a second or more), so it does not stall the others;
 4. add the response record and wait for the flush that hands it to the operating system;
 5. answer, echoing ``X-Request-ID``.
 
@@ -67,7 +68,7 @@ def _endpoint(op: Operation):
         try:
             if recorder is not None:
                 recorder.request(op.name, request_record(request_id, op.name, body))
-            if len(body) <= INLINE_BODY_BYTES:
+            if len(body) <= INLINE_BODY_BYTES and not op.endpoint.slow:
                 outcome = _run(op, body, request_id)
             else:
                 outcome = await run_in_threadpool(_run, op, body, request_id)

@@ -9,19 +9,35 @@ from dataclasses import dataclass
 from pydantic import BaseModel
 
 from service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
+from service.schemas.probability import (
+    GateAnalysisRequest,
+    GateAnalysisResult,
+    GateDesignRequest,
+    GateDesignResult,
+    GateProbabilityCurve,
+    GateProbabilityCurveRequest,
+    GateProbabilityRequest,
+    GateProbabilityResult,
+)
 
 __all__ = ["ENDPOINTS", "Endpoint"]
 
 
 @dataclass(frozen=True)
 class Endpoint:
-    """One operation as seen from the wire."""
+    """One operation as seen from the wire.
+
+    ``slow`` marks an operation that may compute for seconds (unconditional
+    probabilities, curves, gate design): the server runs it off the event loop and
+    clients give it a longer timeout.
+    """
 
     name: str
     path: str
     summary: str
     request: type[BaseModel]
     response: type[BaseModel]
+    slow: bool = False
 
     @property
     def tag(self) -> str:
@@ -38,6 +54,27 @@ ENDPOINTS: dict[str, Endpoint] = {
         Endpoint(
             "gates.pairs", "/v1/gates/pairs", "Test many independent (first, second) plot pairs",
             GatePairsRequest, GateResults,
+        ),
+        Endpoint(
+            "gates.probability", "/v1/gates/probability",
+            "Probability that the second mark falls in a gate, for a known velocity or over "
+            "a speed prior",
+            GateProbabilityRequest, GateProbabilityResult, slow=True,
+        ),
+        Endpoint(
+            "gates.probability_curve", "/v1/gates/probability/curve",
+            "Gating probability against target speed or the first mark's range",
+            GateProbabilityCurveRequest, GateProbabilityCurve, slow=True,
+        ),
+        Endpoint(
+            "gates.analysis", "/v1/gates/analysis",
+            "Gate area, resolution cells, false marks and capture probability",
+            GateAnalysisRequest, GateAnalysisResult, slow=True,
+        ),
+        Endpoint(
+            "gates.design", "/v1/gates/design",
+            "Size a combined or expanded gate for a wanted capture probability",
+            GateDesignRequest, GateDesignResult, slow=True,
         ),
     )
 }

@@ -1,6 +1,7 @@
 """The typed clients: in-process against the app, and their error paths via MockTransport."""
 
 import asyncio
+import math
 
 import httpx
 import pytest
@@ -88,3 +89,74 @@ def test_transport_error():
 def test_wrong_request_type():
     with _client(200, b"{}") as client, pytest.raises(TypeError, match="GateTestRequest"):
         client.call("gates.test", GATE)
+
+
+PROBLEM = {"gate": {"kind": "ring", "v_min": 100.0, "v_max": 500.0},
+           "mark": {"r": 50_000.0, "sigma_r": 200.0, "sigma_az_deg": 0.5}, "tau": 5.0}
+PROBABILITY = {**PROBLEM, "velocity": {"speed": 300.0, "course_deg": 0.0}}
+RESOLUTION = {"range": 500.0, "azimuth_deg": 1.5}
+PRIOR = {"v_min": 100.0, "v_max": 500.0}
+
+
+def _in_process() -> Client:
+    """A sync client whose transport runs each request through the registry."""
+    from service.registry import OPERATIONS, execute
+
+    by_path = {op.path: op for op in OPERATIONS.values()}
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        outcome = execute(by_path[request.url.path], request.content)
+        kind = "application/json" if outcome.ok else "application/problem+json"
+        return httpx.Response(outcome.status, content=outcome.content,
+                              headers={"content-type": kind})
+
+    return Client("http://plotgate", transport=httpx.MockTransport(handler))
+
+
+def test_probability_methods_take_a_model_or_a_dict():
+    from service.schemas import (
+        GateAnalysisResult,
+        GateProbabilityCurve,
+        GateProbabilityRequest,
+        GateProbabilityResult,
+    )
+
+    with _in_process() as client:
+        from_dict = client.gate_probability(PROBABILITY)
+        from_model = client.gate_probability(GateProbabilityRequest.model_validate(PROBABILITY))
+        assert isinstance(from_dict, GateProbabilityResult) and from_dict == from_model
+        assert from_dict.conditional and 0.9 < from_dict.probability < 1.0
+        curve = client.gate_probability_curve(
+            {**PROBLEM, "against": "speed", "values": [150.0, 300.0]}
+        )
+        assert isinstance(curve, GateProbabilityCurve)
+        assert curve.probability[1] == pytest.approx(from_dict.probability, abs=1e-12)
+        analysis = client.gate_analysis({**PROBLEM, "resolution": RESOLUTION})
+        assert isinstance(analysis, GateAnalysisResult) and analysis.capture is None
+        design = {**PROBLEM, "gate": {"kind": "combined", "v_max": 500.0}, "capture": 0.95,
+                  "P_D1": 0.9, "resolution": RESOLUTION, "prior": PRIOR}
+        with pytest.raises(InvalidInputError) as err:
+            client.gate_design(design)
+        assert err.value.problem.errors[0].field == "capture"
+
+
+def test_async_probability_methods(app):
+    async def calls() -> None:
+        transport = httpx.ASGITransport(app=app)
+        async with AsyncClient("http://plotgate", transport=transport) as client:
+            result = await client.gate_probability(PROBABILITY)
+            assert result.conditional and 0.9 < result.probability < 1.0
+            curve = await client.gate_probability_curve(
+                {**PROBLEM, "against": "range", "values": [5e4], "speed": 300.0}
+            )
+            assert curve.probability == pytest.approx([result.probability], abs=1e-12)
+            analysis = await client.gate_analysis({**PROBLEM, "resolution": RESOLUTION})
+            assert analysis.area == pytest.approx(math.pi * (2500**2 - 500**2))
+            with pytest.raises(InvalidInputError) as err:
+                await client.gate_design(
+                    {**PROBLEM, "gate": {"kind": "expanded", "v_max": 500.0}, "capture": 0.5,
+                     "prior": PRIOR, "resolution": RESOLUTION}
+                )
+            assert err.value.problem.errors[0].field == "capture"
+
+    asyncio.run(calls())

@@ -1,0 +1,407 @@
+"""Wire models of the gating-probability operations (seed 000, eq. 1-6; DESIGN section 4).
+
+A problem is a first mark at range r and azimuth az from the radar, both marks' range
+and azimuth errors, the interval ``tau`` between the marks, and a gate built about the
+first mark. Unlike the gate-test models of :mod:`service.schemas.gates`, a gate here does
+not carry ``tau`` (the request does), and the tracking gates take the predicted
+displacement ``offset`` = z_pred - z1 instead of a predicted plot. The gate models are
+named ``*Region`` after the plane regions the probabilities integrate over.
+
+Operations: ``gates.probability`` (one probability, conditional on a velocity, eq. 2, or
+unconditional over a speed prior, eq. 3-6), ``gates.probability_curve`` (a probability
+against speed or range), ``gates.analysis`` (area, resolution cells, false marks and
+capture probability of a gate) and ``gates.design`` (the combined gate's P_G or the
+expanded gate's p that reaches a wanted capture probability).
+
+Rules that concern several fields (exactly one of ``velocity`` and ``prior``; what a curve
+needs for each ``against``; the value-count limits) are model validators that answer 422
+naming the offending field.
+"""
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, ValidationError, model_validator
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+from service.schemas.common import MAX_DISTANCE, MIN_RANGE, Position, Schema
+from service.schemas.gates import Coefficient, Probability, Seconds, Speed
+
+__all__ = [
+    "MAX_CURVE_POINTS",
+    "MAX_SPEED",
+    "MAX_UNCONDITIONAL_POINTS",
+    "AreaApproximation",
+    "CombinedRegion",
+    "DesignGate",
+    "EllipseRegion",
+    "ExpandedRegion",
+    "FalseMarks",
+    "FirstAssociationRegion",
+    "GateAnalysisRequest",
+    "GateAnalysisResult",
+    "GateDesignRequest",
+    "GateDesignResult",
+    "GateProbabilityCurve",
+    "GateProbabilityCurveRequest",
+    "GateProbabilityRequest",
+    "GateProbabilityResult",
+    "GateRegion",
+    "Mark",
+    "RectangularRegion",
+    "Resolution",
+    "RingRegion",
+    "SectorRegion",
+    "SpeedPrior",
+    "Velocity",
+]
+
+MAX_CURVE_POINTS = 1000
+"""Most values of a conditional curve (each costs a one-dimensional quadrature)."""
+MAX_UNCONDITIONAL_POINTS = 100
+"""Most values of an unconditional curve (each costs about a second of quadrature)."""
+MAX_SPEED = 1e6
+"""Largest speed, m/s, as the gate schemas allow."""
+
+Angle = Annotated[float, Field(ge=-360, le=360)]
+DetectionProbability = Annotated[float, Field(gt=0, le=1)]
+Offset = Annotated[
+    Position,
+    Field(description="Predicted displacement z_pred - z1 (x east, y north), m."),
+]
+CurveValue = Annotated[float, Field(ge=0, le=MAX_DISTANCE)]
+
+
+def _invalid(model: str, errors: list[tuple[tuple[str | int, ...], str, Any]]) -> ValidationError:
+    """A validation error at the given (location, reason, input) triples.
+
+    Raised from a model validator, its locations are kept (prefixed by the model's own),
+    so a rule over several fields still names the field it concerns.
+    """
+    return ValidationError.from_exception_data(model, [
+        InitErrorDetails(type=PydanticCustomError("invalid_combination", reason), loc=loc,
+                         input=value)
+        for loc, reason, value in errors
+    ])
+
+
+class RingRegion(Schema):
+    """Ring v_min tau <= |z2 - z1| <= v_max tau (seed 000, Fig. 1)."""
+
+    kind: Literal["ring"] = Field(description="Discriminator: ring gate.")
+    v_min: Speed = Field(default=0.0, description="Smallest target speed, m/s.")
+    v_max: Speed = Field(description="Largest target speed, m/s.")
+
+
+class CombinedRegion(Schema):
+    """Two-stage gate of seed 000 (Fig. 4): the ring, else the P_G ellipse of B at its edge."""
+
+    kind: Literal["combined"] = Field(description="Discriminator: combined two-stage gate.")
+    v_min: Speed = Field(default=0.0, description="Smallest target speed, m/s.")
+    v_max: Speed = Field(description="Largest target speed, m/s.")
+    P_G: Probability = Field(
+        default=0.9, description="Gating probability of the second stage's ellipse."
+    )
+
+
+class ExpandedRegion(Schema):
+    """Ellipse with semi-axes v_max tau + K_g sigma along and across the line of sight."""
+
+    kind: Literal["expanded"] = Field(description="Discriminator: expanded ellipse gate.")
+    v_max: Speed = Field(description="Largest target speed, m/s.")
+    p: float = Field(
+        default=0.9, ge=1e-6, lt=1,
+        description="Probability p giving K_g = sqrt(-2 ln(1-p)) (seed 000 ref. [4]).",
+    )
+
+
+class EllipseRegion(Schema):
+    """Chi-square prediction gate nu^T B^-1 nu <= gamma(P_G) about z1 + offset."""
+
+    kind: Literal["ellipse"] = Field(description="Discriminator: chi-square ellipse gate.")
+    P_G: Probability = Field(default=0.99, description="Gating probability.")
+    offset: Offset = (0.0, 0.0)
+
+
+class RectangularRegion(Schema):
+    """|dx| <= k sigma_x and |dy| <= k sigma_y about z1 + offset, sigmas from B (seed 003)."""
+
+    kind: Literal["rectangular"] = Field(description="Discriminator: rectangular gate.")
+    k: Coefficient = Field(default=3.0, description="Half-width in sigmas.")
+    offset: Offset = (0.0, 0.0)
+
+
+class SectorRegion(Schema):
+    """Polar sector about the prediction z1 + offset (seed 002 eq. 1-2, seed 003)."""
+
+    kind: Literal["sector"] = Field(description="Discriminator: polar sector gate.")
+    K_R: Coefficient = Field(default=3.0, description="Range window in summed sigmas.")
+    K_az: Coefficient = Field(default=3.0, description="Azimuth window in summed sigmas.")
+    offset: Offset = (0.0, 0.0)
+
+
+class FirstAssociationRegion(Schema):
+    """Seed 002's first-association windows (eq. 3-4): v_max tau plus the errors."""
+
+    kind: Literal["first_association"] = Field(
+        description="Discriminator: first-association polar window."
+    )
+    v_max: Speed = Field(description="Largest target speed, m/s.")
+    K_R: Coefficient = Field(default=3.0, description="Range error window in sigmas.")
+    K_az: Coefficient = Field(default=3.0, description="Azimuth error window in sigmas.")
+
+
+GateRegion = Annotated[
+    RingRegion | CombinedRegion | ExpandedRegion | EllipseRegion | RectangularRegion
+    | SectorRegion | FirstAssociationRegion,
+    Field(discriminator="kind", description="The gate, chosen by kind; tau is the request's."),
+]
+
+DesignGate = Annotated[
+    CombinedRegion | ExpandedRegion,
+    Field(
+        discriminator="kind",
+        description="The gate to size: combined (its P_G is found) or expanded (its p is "
+        "found); the given P_G or p is only a template and may be omitted.",
+    ),
+]
+
+
+class Mark(Schema):
+    """The first mark, seen from a radar at the origin, and both marks' errors."""
+
+    r: float = Field(ge=MIN_RANGE, le=MAX_DISTANCE, description="Range of the first mark, m.")
+    az_deg: Angle = Field(default=0.0, description="Its azimuth, degrees clockwise from north.")
+    sigma_r: float = Field(ge=1e-3, le=MAX_DISTANCE, description="Range error sigma, m.")
+    sigma_az_deg: float = Field(ge=1e-6, le=180, description="Azimuth error sigma, degrees.")
+    sigma_r2: float | None = Field(
+        default=None, ge=1e-3, le=MAX_DISTANCE,
+        description="The second mark's range sigma, m; null: equal to the first's.",
+    )
+    sigma_az2_deg: float | None = Field(
+        default=None, ge=1e-6, le=180,
+        description="The second mark's azimuth sigma, degrees; null: equal to the first's.",
+    )
+
+
+class Velocity(Schema):
+    """A known target velocity: v = speed (sin course, cos course), x east, y north."""
+
+    speed: Speed = Field(description="Target speed, m/s.")
+    course_deg: Angle = Field(default=0.0, description="Course, degrees clockwise from north.")
+
+
+class SpeedPrior(Schema):
+    """Uniform heading and a speed on [v_min, v_max] (seed 000, eq. 3-6)."""
+
+    kind: Literal["area", "speed"] = Field(
+        default="area",
+        description="area: the true displacement uniform over the ring (the paper's eq. 4, "
+        "speed density proportional to v); speed: the speed uniform.",
+    )
+    v_min: Speed = Field(default=0.0, description="Smallest target speed, m/s.")
+    v_max: Speed = Field(description="Largest target speed, m/s.")
+
+
+class Resolution(Schema):
+    """The radar's resolution: a cell is range x (R azimuth) at the first mark's range R."""
+
+    range: float = Field(gt=0, le=MAX_DISTANCE, description="Range resolution dR, m.")
+    azimuth_deg: float = Field(gt=0, le=360, description="Azimuth resolution dAz, degrees.")
+
+
+class GateProbabilityRequest(Schema):
+    """One gating probability: conditional on ``velocity`` or unconditional over ``prior``."""
+
+    gate: GateRegion
+    mark: Mark
+    tau: Seconds
+    velocity: Velocity | None = Field(
+        default=None, description="Known velocity: the conditional probability (eq. 2)."
+    )
+    prior: SpeedPrior | None = Field(
+        default=None, description="Speed prior: the unconditional probability (eq. 3-6)."
+    )
+
+    @model_validator(mode="after")
+    def _one_of(self) -> "GateProbabilityRequest":
+        if (self.velocity is None) == (self.prior is None):
+            reason = "give exactly one of velocity and prior"
+            raise _invalid(type(self).__name__, [
+                (("velocity",), reason, self.velocity), (("prior",), reason, self.prior)
+            ])
+        return self
+
+
+class GateProbabilityResult(Schema):
+    """The probability that the second mark falls in the gate."""
+
+    conditional: bool = Field(description="True for a known velocity, false over a prior.")
+    probability: float = Field(description="Gating probability.")
+    error: float = Field(description="Estimated absolute quadrature error.")
+
+
+class GateProbabilityCurveRequest(Schema):
+    """A gating probability against target speed, or against the first mark's range.
+
+    against = speed: ``values`` are speeds (m/s) at ``course_deg``, conditional;
+    ``speed`` and ``prior`` must be absent. against = range: ``values`` are ranges of the
+    first mark (m, replacing ``mark.r``); conditional with ``speed`` (at ``course_deg``),
+    unconditional with ``prior``: exactly one. At most :data:`MAX_CURVE_POINTS` values,
+    :data:`MAX_UNCONDITIONAL_POINTS` for an unconditional curve.
+    """
+
+    gate: GateRegion
+    mark: Mark
+    tau: Seconds
+    against: Literal["speed", "range"] = Field(description="What the values are.")
+    values: list[CurveValue] = Field(
+        min_length=1, max_length=MAX_CURVE_POINTS,
+        description="Speeds (m/s) or ranges of the first mark (m).",
+    )
+    course_deg: Angle = Field(default=0.0, description="Course, degrees clockwise from north.")
+    speed: Speed | None = Field(
+        default=None, description="Target speed of a conditional range curve, m/s."
+    )
+    prior: SpeedPrior | None = Field(
+        default=None, description="Speed prior of an unconditional range curve."
+    )
+
+    @property
+    def conditional(self) -> bool:
+        return self.prior is None
+
+    @model_validator(mode="after")
+    def _rules(self) -> "GateProbabilityCurveRequest":
+        errors: list[tuple[tuple[str | int, ...], str, Any]] = []
+        if self.against == "speed":
+            for name in ("speed", "prior"):
+                if getattr(self, name) is not None:
+                    errors.append(((name,), "must be absent when against is speed: the "
+                                   "values are the speeds", getattr(self, name)))
+            errors += [(("values", i), f"a speed must not exceed {MAX_SPEED:g} m/s", v)
+                       for i, v in enumerate(self.values) if v > MAX_SPEED]
+        else:
+            if (self.speed is None) == (self.prior is None):
+                reason = "give exactly one of speed and prior when against is range"
+                errors += [(("speed",), reason, self.speed), (("prior",), reason, self.prior)]
+            errors += [(("values", i), f"a range must be at least {MIN_RANGE:g} m", v)
+                       for i, v in enumerate(self.values) if v < MIN_RANGE]
+            if self.prior is not None and len(self.values) > MAX_UNCONDITIONAL_POINTS:
+                errors.append((("values",), f"an unconditional curve takes at most "
+                               f"{MAX_UNCONDITIONAL_POINTS} values, got {len(self.values)}",
+                               len(self.values)))
+        if errors:
+            raise _invalid(type(self).__name__, errors)
+        return self
+
+
+class GateProbabilityCurve(Schema):
+    """Gating probabilities, index i answering values[i]."""
+
+    against: Literal["speed", "range"] = Field(description="What the values are.")
+    values: list[float] = Field(description="The speeds (m/s) or ranges (m), as given.")
+    conditional: bool = Field(description="True for a known velocity, false over a prior.")
+    probability: list[float] = Field(description="Gating probability at each value.")
+    error: list[float] = Field(description="Estimated absolute quadrature error of each.")
+
+
+class FalseMarks(Schema):
+    """Poisson false marks in a gate of S' cells: mean F S' (seed 000)."""
+
+    mean: float = Field(description="Expected number F S' of false marks in the gate.")
+    probabilities: list[float] = Field(
+        description="P(exactly m false marks) for m = 0..m_max: exp(-F S') (F S')^m / m!."
+    )
+    at_least_one: float = Field(description="P(at least one) = 1 - exp(-F S').")
+
+
+class AreaApproximation(Schema):
+    """The paper's combined-gate area S_ring + S_ellipse / 2 and what follows from it."""
+
+    area: float = Field(description="Approximate gate area, m^2.")
+    cells: float = Field(description="Resolution cells S' it covers.")
+    false_marks: FalseMarks
+
+
+class GateAnalysisRequest(Schema):
+    """Area, resolution cells, false marks and (with a prior) capture probability of a gate."""
+
+    gate: GateRegion
+    mark: Mark
+    tau: Seconds
+    resolution: Resolution
+    false_alarm: Probability = Field(
+        default=1e-4, description="False-alarm probability F per resolution cell."
+    )
+    m_max: int = Field(
+        default=5, ge=0, le=1000, description="Largest false-mark count given a probability."
+    )
+    prior: SpeedPrior | None = Field(
+        default=None, description="Speed prior: also compute the unconditional gating and "
+        "capture probabilities.",
+    )
+    P_D1: DetectionProbability = Field(
+        default=1.0, description="Detection probability of the first mark."
+    )
+    P_D2: DetectionProbability = Field(
+        default=1.0, description="Detection probability of the second mark."
+    )
+
+
+class GateAnalysisResult(Schema):
+    """What a gate costs in false marks and, with a prior, what it captures."""
+
+    area: float = Field(description="Gate area S, m^2 (exact quadrature).")
+    cells: float = Field(description="Resolution cells S' = S / (dR R dAz).")
+    false_marks: FalseMarks
+    approximation: AreaApproximation | None = Field(
+        default=None, description="Combined gate only: the paper's approximate area."
+    )
+    gate_probability: float | None = Field(
+        default=None, description="Unconditional gating probability (with a prior)."
+    )
+    error: float | None = Field(
+        default=None, description="Its estimated absolute quadrature error."
+    )
+    capture: float | None = Field(
+        default=None, description="Capture probability P_gate P_D1 P_D2 (with a prior)."
+    )
+
+
+class GateDesignRequest(Schema):
+    """Size a combined or expanded gate for a wanted unconditional capture probability."""
+
+    gate: DesignGate
+    mark: Mark
+    tau: Seconds
+    capture: Probability = Field(description="Wanted capture probability P_gate P_D1 P_D2.")
+    prior: SpeedPrior
+    P_D1: DetectionProbability = Field(
+        default=1.0, description="Detection probability of the first mark."
+    )
+    P_D2: DetectionProbability = Field(
+        default=1.0, description="Detection probability of the second mark."
+    )
+    resolution: Resolution
+    false_alarm: Probability = Field(
+        default=1e-4, description="False-alarm probability F per resolution cell."
+    )
+
+
+class GateDesignResult(Schema):
+    """The gate parameter found, and the gate it gives."""
+
+    parameter: Literal["P_G", "p"] = Field(
+        description="P_G for the combined gate, p for the expanded gate."
+    )
+    value: float = Field(description="The parameter's value.")
+    threshold: float = Field(
+        description="gamma = chi2.ppf(P_G, 2) (combined) or K_g = sqrt(-2 ln(1-p)) "
+        "(expanded, in sigmas)."
+    )
+    probability: float = Field(description="Unconditional gating probability of the gate.")
+    error: float = Field(description="Its estimated absolute quadrature error.")
+    capture: float = Field(description="Capture probability P_gate P_D1 P_D2.")
+    area: float = Field(description="Gate area, m^2.")
+    cells: float = Field(description="Resolution cells S' it covers.")
+    false_marks: FalseMarks = Field(description="False marks in the gate (m_max = 5).")
