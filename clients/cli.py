@@ -1,8 +1,9 @@
-"""The ``plotgate`` command: serve, replay, inspect.
+"""The ``plotgate`` command: serve, replay, inspect, plot.
 
 ``plotgate serve`` runs the service (flags override the ``PLOTGATE_*`` settings);
 ``plotgate replay FILE_OR_DIR`` re-runs a recorded session and exits 1 if any answer
-changed; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and latencies.
+changed; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and latencies;
+``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability figures.
 """
 
 import argparse
@@ -58,6 +59,28 @@ def _inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _plot(args: argparse.Namespace) -> int:
+    from clients.errors import PlotgateClientError
+    from clients.plots import MissingMatplotlib, Setup, plot
+
+    setup = Setup(tau=args.tau, v_min=args.v_min, v_max=args.v_max,
+                  course_deg=args.course_deg, az_deg=args.az_deg)
+    try:
+        out = plot(args.figure, args.out, server=args.server, setup=setup, points=args.points)
+    except (MissingMatplotlib, PlotgateClientError) as exc:
+        print(f"plotgate: {exc}", file=sys.stderr)
+        return 2
+    print(out)
+    return 0
+
+
+def _at_least_two(text: str) -> int:
+    value = int(text)
+    if value < 2:
+        raise argparse.ArgumentTypeError(f"must be at least 2, got {value}")
+    return value
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="plotgate", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -84,6 +107,30 @@ def _parser() -> argparse.ArgumentParser:
     ins.add_argument("path", type=Path, help="an MCAP file or a folder of them")
     ins.add_argument("--json", action="store_true", help="print JSON instead of a table")
     ins.set_defaults(func=_inspect)
+
+    from clients.plots import DEFAULT_FILES, FIGURES
+
+    plo = sub.add_parser(
+        "plot", help="draw seed 000's gating-probability figures (needs plotgate[plot])",
+        description="fig2: ring gate, conditional probability against speed (20, 50 km) and "
+        "range (200, 300 m/s) for three sensor errors (seed 000 Fig. 2); fig5: the same for "
+        "the combined gate, P_G 0.9 (Fig. 5); compare: unconditional probability against "
+        "range for the ring, combined and expanded gates.",
+    )
+    plo.add_argument("figure", choices=FIGURES, help="which figure")
+    plo.add_argument("--out", type=Path,
+                     help="PNG to write (default " + ", ".join(DEFAULT_FILES.values()) + ")")
+    plo.add_argument("--server", help="compute on this live server URL (default in-process)")
+    plo.add_argument("--course-deg", type=float, default=0.0,
+                     help="target course, degrees clockwise from north (default 0)")
+    plo.add_argument("--az-deg", type=float, default=0.0,
+                     help="azimuth of the first mark, degrees (default 0: due north)")
+    plo.add_argument("--tau", type=float, default=5.0, help="interval between marks, s (5)")
+    plo.add_argument("--v-min", type=float, default=100.0, help="gate's minimum speed (100)")
+    plo.add_argument("--v-max", type=float, default=500.0, help="gate's maximum speed (500)")
+    plo.add_argument("--points", type=_at_least_two,
+                     help="values per curve (default 81 speeds, 96 ranges, 15 unconditional)")
+    plo.set_defaults(func=_plot)
     return parser
 
 
