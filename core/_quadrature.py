@@ -124,12 +124,15 @@ def adaptive_panels(
     tol: float | np.ndarray,
     orders: tuple[int, int] = (10, 5),
     max_rounds: int = 40,
+    max_panels: int = 100_000,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Integrate N problems over their panels, bisecting every panel that is not yet exact.
 
     A panel is accepted when its two Gauss-Legendre rules (``orders``) agree within its
     share of ``tol`` (tol times its width over the problem's span); otherwise it is cut
-    in two and tried again, all panels of all problems in one array per round.
+    in two and tried again, all panels of all problems in one array per round. After
+    ``max_rounds`` rounds, or when splitting would pass ``max_panels`` open panels, the
+    open panels are accepted as they are and their differences count in the error.
 
     Parameters
     ----------
@@ -161,7 +164,9 @@ def adaptive_panels(
         high = half * (values[:, : len(x_hi)] @ w_hi)
         low = half * (values[:, len(x_hi):] @ w_lo)
         diff = np.abs(high - low)
-        done = (diff <= share[rows] * (b - a)) | (last == max_rounds - 1)
+        done = diff <= share[rows] * (b - a)
+        if last == max_rounds - 1 or 2 * np.count_nonzero(~done) > max_panels:
+            done[:] = True
         np.add.at(integral, rows[done], high[done])
         np.add.at(error, rows[done], diff[done])
         if done.all():
