@@ -199,6 +199,7 @@ def test_ring_gate_unconditional_isotropic_is_rice_average(sigma_r, v_min, v_max
     res = unconditional_probability(RingGate(v_min, v_max), g, v_min, v_max, prior)
     assert res.error[0] < TARGET
     assert abs(res.probability[0] - ref) <= TARGET
+    assert abs(res.probability[0] - ref) <= res.error[0] + 1e-9  # the estimate is honest
 
 
 @pytest.mark.slow
@@ -222,6 +223,7 @@ def test_point_prior_is_heading_average_of_conditional(gate, speed):
         res = unconditional_probability(gate, g, speed, speed, prior)
         assert res.error[0] < TARGET
         assert abs(res.probability[0] - ref) <= TARGET
+        assert abs(res.probability[0] - ref) <= res.error[0] + 1e-9
 
 
 # ---------------------------------------------------------------- Monte Carlo agreement

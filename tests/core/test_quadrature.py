@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from core._quadrature import RATIO, breakpoints, panel_rule
+from core._quadrature import RATIO, adaptive_panels, breakpoints, panel_rule
 
 TWO_PI = 2.0 * math.pi
 
@@ -146,3 +146,23 @@ def test_panel_rule_exact_for_polynomials():
         np.testing.assert_allclose(value, exact, rtol=1e-13)
         x, w = panel_rule(edges, m)
         assert x.shape == w.shape == (3, 10 * m)
+
+
+@pytest.mark.parametrize("tol", [1e-8, 1e-12])
+def test_adaptive_panels_reach_tolerance(tol):
+    # problem 0: a Gaussian of width 0.02 at 0.3 on [0, 1] from two plain panels;
+    # problem 1: sqrt(x) on [0, 1] (unbounded derivative at 0), with an empty panel
+    def integrand(rows, x):
+        out = np.sqrt(x)
+        first = rows == 0
+        out[first] = np.exp(-0.5 * ((x[first] - 0.3) / 0.02) ** 2)
+        return out
+
+    edges = np.array([[0.0, 0.5, 1.0], [0.0, 1.0, 1.0]])
+    integral, error = adaptive_panels(integrand, edges, tol)
+    s = 0.02 * math.sqrt(2.0)
+    exact = np.array([0.02 * math.sqrt(2.0 * math.pi) * 0.5
+                      * (math.erf(0.7 / s) + math.erf(0.3 / s)), 2.0 / 3.0])
+    assert (error <= tol).all()
+    assert (np.abs(integral - exact) <= error + 1e-15).all()
+    assert (np.abs(integral - exact) <= tol).all()
