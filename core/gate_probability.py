@@ -42,7 +42,7 @@ from scipy.special import ndtr
 
 from core._quadrature import adaptive_panels, breakpoints, panel_rule
 from core._sym2 import Sym2
-from core._validate import as_points, pair_count, require_nonnegative
+from core._validate import as_points, pair_count
 from core.errors import ParameterError
 from core.gate_regions import Gate, MarkGeometry, StarRegion
 from core.gating import _ring_radii
@@ -383,10 +383,9 @@ def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float,
                          uniform=8 if full else 2)
 
 
-def _validate_prior(v_min: float, v_max: float, prior: str) -> None:
+def _validate_prior(prior: str) -> None:
     if prior not in PRIORS:
         raise ParameterError("prior", f"must be one of {', '.join(PRIORS)}, got {prior!r}")
-    require_nonnegative("v_min", v_min)
 
 
 def unconditional_probability(
@@ -431,7 +430,7 @@ def unconditional_probability(
     .. [1] A. A. Konovalov, seed 000, eq. (3)-(6); worked values 0.82 (50 km) and
        0.90 (20 km) for the ring gate, P'_Sigma = 0.9967 for the combined gate.
     """
-    _validate_prior(v_min, v_max, prior)
+    _validate_prior(prior)
     R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
     high, low = (_unconditional(gate, geometry, R_min, R_max, prior, rule) for rule in RULES)
     return GateProbability(high, np.abs(high - low))
@@ -481,7 +480,7 @@ def monte_carlo_probability(
     n = geometry.n
     v = None if velocity is None else np.broadcast_to(as_points("velocity", velocity), (n, 2))
     if v is None:
-        _validate_prior(v_min, v_max, prior)
+        _validate_prior(prior)
         R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
     p = np.empty(n)
     for i in range(n):

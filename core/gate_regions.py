@@ -203,10 +203,6 @@ class StarRegion(NamedTuple):
     radii: Callable[..., tuple[np.ndarray, np.ndarray]]
 
 
-def _col(x: np.ndarray | float, n: int) -> np.ndarray:
-    return to_pairs(x, n)[:, None]
-
-
 def _full_turn(n: int, origin: np.ndarray, kinks: np.ndarray, radii: Callable) -> StarRegion:
     return StarRegion(np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI),
                       kinks, radii)

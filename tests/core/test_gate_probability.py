@@ -199,7 +199,8 @@ def test_ring_gate_unconditional_isotropic_is_rice_average(sigma_r, v_min, v_max
     res = unconditional_probability(RingGate(v_min, v_max), g, v_min, v_max, prior)
     assert res.error[0] < TARGET
     assert abs(res.probability[0] - ref) <= TARGET
-    assert abs(res.probability[0] - ref) <= res.error[0] + 1e-9  # the estimate is honest
+    # the estimate is honest: within a factor 2 of the true error, above 1e-8
+    assert abs(res.probability[0] - ref) <= 2.0 * res.error[0] + 1e-8
 
 
 @pytest.mark.slow
@@ -223,7 +224,7 @@ def test_point_prior_is_heading_average_of_conditional(gate, speed):
         res = unconditional_probability(gate, g, speed, speed, prior)
         assert res.error[0] < TARGET
         assert abs(res.probability[0] - ref) <= TARGET
-        assert abs(res.probability[0] - ref) <= res.error[0] + 1e-9
+        assert abs(res.probability[0] - ref) <= 2.0 * res.error[0] + 1e-8
 
 
 # ---------------------------------------------------------------- Monte Carlo agreement
@@ -344,6 +345,13 @@ HONEST_CASES = [
     # B far wider than the ring (sigma across 1974 m against R_max 500 m)
     ("combined-B-dwarfs-ring", CombinedGate(20.0, 100.0, 0.9),
      (80e3, -0.4, 300.0, math.radians(1.0)), (20.0, 100.0), "area"),
+    # small errors far out (the "far-small-fast" Monte Carlo geometry)
+    ("ring-far-small-errors", RingGate(300.0, 900.0), (80e3, 2.5, 20.0, math.radians(0.05)),
+     (300.0, 900.0), "area"),
+    # the paper's geometry, an ellipse gate about a prediction 1500 m away
+    ("ellipse-paper-offset",
+     EllipseGate(0.9, offset=(1500.0 * math.cos(0.9), 1500.0 * math.sin(0.9))),
+     (50e3, 0.0, 200.0, math.radians(0.5)), (100.0, 500.0), "area"),
     ("rectangular-offset", RectangularGate(2.0, offset=(700.0, -400.0)),
      (12e3, 2.0, 60.0, math.radians(0.4)), (50.0, 250.0), "area"),
     ("sector-offset", SectorGate(3.0, 3.0, offset=(-900.0, 300.0)),
@@ -375,7 +383,8 @@ def test_unconditional_error_estimate_is_honest(gate, geo, speeds, prior):
     g = mark_geometry(*geo, tau=TAU)
     res = unconditional_probability(gate, g, *speeds, prior)
     fine = fine_unconditional(gate, g, speeds, prior, 14)  # (14 / 8)^3 = 5.4 times the nodes
-    assert abs(res.probability[0] - fine[0]) <= res.error[0] + 1e-12
+    # an estimate, not a bound: within a factor 2 of the true error, above 1e-8
+    assert abs(res.probability[0] - fine[0]) <= 2.0 * res.error[0] + 1e-8
     assert abs(res.probability[0] - fine[0]) <= TARGET  # and the target is met in truth
 
 
