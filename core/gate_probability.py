@@ -22,9 +22,13 @@ a 1-D integral over direction; the unconditional one integrates the gate's
 directions and radii and the prior's heading, with the prior's speed in closed form.
 Every integral uses composite Gauss-Legendre panels graded towards its thin features
 (:mod:`core._quadrature`): the Gaussian's angular peak, the kinks of the gate's
-boundary, and the edges of the prior's ring. Each result is computed with two rule
-orders on the same panels; the difference is reported as the error estimate (a
-conservative one: it is the error of the lower order).
+boundary, and the edges of the prior's ring. The conditional probability bisects its
+panels until a 10-point and a 5-point rule agree to 1e-10 and reports the sum of their
+differences (the error of the lower order: a bound in practice). The unconditional
+one reports its difference from a second, lower-order rule on interleaved panels: an
+estimate, not a bound. Checked against 14-point rules it was within a factor 5 of the
+true error wherever that exceeded 1e-9, and the true error stayed below 1e-7 on every
+tested case (the target is 1e-6).
 
 :func:`monte_carlo_probability` samples the same set-up and applies the gate tests
 themselves; it is for checking the quadrature, not for production use.
