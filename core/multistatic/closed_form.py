@@ -1,0 +1,371 @@
+"""Closed-form multistatic position solves of seed 001: sum-range and difference-range.
+
+Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov) compares the maximum-likelihood
+estimate with two analytic solutions of the position-line equations built on eq. (1)
+(its ref. [10]): the *sum-range* method intersects the ellipses of equal range sum
+(Fig. 3, curves 5), the *difference-range* method the hyperbolae of the receiver-pair
+differences of the range sums (curves 6). Both are solved here by spherical
+intersection (DESIGN section 6): squaring the range equation around a reference point
+makes it linear in the offset s and the reference range R,
+
+.. math:: \\mathbf{M} \\mathbf{s} = \\mathbf{h} + R \\, \\mathbf{g},
+
+whose least-squares solution is a line :math:`\\mathbf{s} = \\mathbf{a} + R\\mathbf{c}`;
+:math:`|\\mathbf{a} + R\\mathbf{c}|^2 = R^2` is then a quadratic with up to two roots.
+
+Root choice (both methods)
+--------------------------
+A root is *consistent* when it is real, R >= 0 and every range it implies is >= 0
+(within rounding), i.e. the squared equations hold unsquared. Of the consistent roots
+the one with the smaller range-sum residual ``|l - h(x)|`` is chosen (on a tie to
+rounding, the one nearer the reference point: smaller R); the other is
+reported as ``alternative`` when it is also consistent and a different point. With
+exactly as many equations as unknowns both roots fit the data exactly (two ellipse
+intersections) and both are reported; with more equations the wrong root usually
+leaves a large residual, given as ``alternative_residual`` so the caller can judge it
+(e.g. against sigma).
+
+Degenerate platforms: when M has rank D - 1 (2D: the reference and every receiver on
+one line; 3D: all platforms in one plane, e.g. at one altitude) the position is fixed
+only up to its mirror image in that line or plane. If there is an equation more than
+the rank, R follows from the equations outside the platforms' span and both mirror
+images are returned (on this tie the one with the larger last coordinate is chosen:
+3D, the target above the plane). ``solvable`` is False when no consistent root exists
+(the position lines do not meet, e.g. nested ellipses) or the rank is lower still
+(3D: all platforms on one line); those problems get a finite best-effort ``x`` (at the
+quadratic's vertex), never NaN and never an exception.
+
+Numerics: everything is computed relative to the reference point, (|b|^2 - l^2)/2 is
+formed as a product, and the discriminant through Lagrange's identity, so noise-free
+data are solved to about 1e-6 m even where M is poorly conditioned. Near a double root
+(two intersections close together) the root is inherently sensitive to rounding.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from core.errors import ParameterError
+from core.multistatic.model import COINCIDENT_RTOL, _scale, range_sums, validate_problem
+
+__all__ = [
+    "RANK_RTOL",
+    "ROOT_RTOL",
+    "ClosedFormSolution",
+    "difference_range_solve",
+    "sum_range_solve",
+]
+
+RANK_RTOL = 1e-10
+"""The linear system is rank deficient (solvable False) when its smallest singular
+value is below RANK_RTOL times its largest."""
+
+ROOT_RTOL = 1e-8
+"""Rounding allowance, relative to the problem's coordinate scale (largest |platform
+coordinate|, at least 1 m): on the signs of R and the implied ranges, between residuals
+that count as a tie, and below which two roots count as the same point."""
+
+
+@dataclass(frozen=True)
+class ClosedFormSolution:
+    """Closed-form positions of N range-sum problems.
+
+    Attributes
+    ----------
+    x : (N, D) ndarray
+        Chosen position, metres. Where ``solvable`` is False it is only a finite
+        best-effort point (the vertex of the quadratic), not a solution.
+    alternative : (N, D) ndarray
+        The other consistent root where ``has_alternative``; a copy of ``x`` elsewhere.
+    has_alternative : (N,) ndarray of bool
+        A second consistent, distinct root exists.
+    solvable : (N,) ndarray of bool
+        At least one consistent real root exists and the geometry has full rank.
+    residual : (N,) ndarray
+        Range-sum residual norm |l - h(x)| of ``x``, metres (sqrt of the sum of squares
+        over the P measurements).
+    alternative_residual : (N,) ndarray
+        The same for ``alternative`` (equal to ``residual`` where there is none).
+    """
+
+    x: np.ndarray
+    alternative: np.ndarray
+    has_alternative: np.ndarray
+    solvable: np.ndarray
+    residual: np.ndarray
+    alternative_residual: np.ndarray
+
+
+def _single_transmitter(tx: np.ndarray, tol: np.ndarray) -> None:
+    """Raise ParameterError (field tx) unless every pair of a problem shares its tx."""
+    spread = np.linalg.norm(tx - tx[:, :1], axis=-1)  # (N, P)
+    bad = (spread > tol[:, None]).any(axis=-1)
+    if bad.any():
+        index = int(np.argmax(bad))
+        k = int(np.argmax(spread[index] > tol[index]))
+        raise ParameterError(
+            "tx", f"this closed form needs one transmitter per problem, but pair {k} has "
+            f"tx {tx[index, k].tolist()} and pair 0 has {tx[index, 0].tolist()}; "
+            f"solve each transmitter's pairs separately", index)
+
+
+def _intersect(
+    M: np.ndarray,
+    g: np.ndarray,
+    h: np.ndarray,
+    ranges: np.ndarray,
+    ranges_slope: np.ndarray,
+    base: np.ndarray,
+    ls: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+) -> ClosedFormSolution:
+    """Solve M s = h + R g, |s| = R for s = x - base, batched; choose the root.
+
+    ``ranges + R * ranges_slope`` (N, K) are the other ranges the root implies; they
+    must be >= 0 for the root to be consistent.
+    """
+    n, _, d = M.shape
+    tol = ROOT_RTOL * _scale(tx, rx)  # (N,)
+
+    # Least squares s = a + R c through the SVD (batched pseudo-inverse).
+    U, S, Vt = np.linalg.svd(M, full_matrices=False)  # (N,K,D), (N,D), (N,D,D)
+    full_rank = S[:, -1] > RANK_RTOL * S[:, 0]
+    keep = S > RANK_RTOL * S[:, :1]
+    inv_s = np.divide(1.0, S, out=np.zeros_like(S), where=keep)
+    pinv = np.einsum("nji,nj,nkj->nik", Vt, inv_s, U)  # (N, D, K): V S^-1 U^T
+    a = np.einsum("ndk,nk->nd", pinv, h)
+    c = np.einsum("ndk,nk->nd", pinv, g)
+
+    # |a + R c|^2 = R^2:  alpha R^2 + 2 beta R + gamma = 0.
+    alpha = np.einsum("nd,nd->n", c, c) - 1.0
+    beta = np.einsum("nd,nd->n", a, c)
+    gamma = np.einsum("nd,nd->n", a, a)
+    # beta^2 - alpha gamma = |a|^2 - (|a|^2 |c|^2 - (a.c)^2) = |a|^2 - |a ^ c|^2
+    # (Lagrange's identity): a and c are nearly parallel when M is poorly conditioned,
+    # and the wedge product keeps the digits that beta^2 - alpha gamma would cancel.
+    wedge = a[:, :, None] * c[:, None, :] - a[:, None, :] * c[:, :, None]
+    wedge2 = 0.5 * np.einsum("nij,nij->n", wedge, wedge)
+    norm_a = np.sqrt(gamma)
+    norm_w = np.sqrt(wedge2)
+    disc = (norm_a - norm_w) * (norm_a + norm_w)
+    real = disc >= -1e-12 * (gamma + wedge2)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    q = -(beta + np.where(beta >= 0, root, -root))  # no cancellation
+    with np.errstate(divide="ignore", invalid="ignore"):
+        R = np.stack([q / alpha, gamma / q], axis=1)  # (N, 2); product gamma / alpha
+    s = a[:, None, :] + R[..., None] * c[:, None, :]  # (N, 2, D)
+
+    # Rank D - 1 (2D: receivers on one line through the reference; 3D: all platforms
+    # in one plane): M s fixes s only in the platforms' span, but the equations
+    # outside range(M) fix R, and |s| = R gives the offset +-t along the null
+    # direction n: two mirror images. Needs an equation more than the rank.
+    rank = keep.sum(axis=1)
+    g_out = g - np.einsum("nkd,nd->nk", U, keep * np.einsum("nkd,nk->nd", U, g))
+    h_out = h - np.einsum("nkd,nd->nk", U, keep * np.einsum("nkd,nk->nd", U, h))
+    gg = np.einsum("nk,nk->n", g_out, g_out)
+    mirror = (rank == d - 1) & (gg > 1e-16 * np.einsum("nk,nk->n", g, g))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        R_m = -np.einsum("nk,nk->n", h_out, g_out) / gg
+    R_m = np.where(mirror, R_m, 0.0)
+    s_m = a + R_m[:, None] * c
+    t2 = R_m * R_m - np.einsum("nd,nd->n", s_m, s_m)
+    t = np.sqrt(np.maximum(t2, 0.0))
+    null = Vt[:, -1]  # (N, D), unit
+    sign = np.array([1.0, -1.0])
+    s = np.where(mirror[:, None, None],
+                 s_m[:, None, :] + (sign[:, None] * t[:, None, None]) * null[:, None, :], s)
+    R = np.where(mirror[:, None], R_m[:, None], R)
+    real = np.where(mirror, t2 >= -1e-12 * R_m * R_m, real)
+    solvable_rank = full_rank | mirror
+
+    finite = np.isfinite(R) & np.isfinite(s).all(axis=-1)
+    R = np.where(finite, R, 0.0)
+    s = np.where(finite[..., None], s, 0.0)
+    x = base[:, None, :] + s
+    implied = ranges[:, None, :] + R[..., None] * ranges_slope[:, None, :]  # (N, 2, K)
+    consistent = (finite & real[:, None] & solvable_rank[:, None]
+                  & (R >= -tol[:, None])
+                  & (implied >= -tol[:, None, None]).all(axis=-1))
+    residual = np.linalg.norm(ls[:, None, :] - range_sums(x, tx[:, None], rx[:, None]),
+                              axis=-1)  # (N, 2)
+
+    # Smaller residual wins. Residuals equal to rounding (a square system, where both
+    # roots are exact) fall back to the smaller reference range R, and equal R (mirror
+    # images) to the larger last coordinate (3D: the target above the platforms' plane).
+    tie = np.abs(residual[:, 0] - residual[:, 1]) <= tol
+    same_r = np.abs(R[:, 0] - R[:, 1]) <= tol
+    by_r = np.where(same_r, x[:, 0, -1] >= x[:, 1, -1], R[:, 0] < R[:, 1])
+    first = np.where(tie, by_r, residual[:, 0] < residual[:, 1])
+    best = np.where(consistent[:, 0] & (first | ~consistent[:, 1]), 0, 1)  # (N,)
+    other = 1 - best
+    rows = np.arange(n)
+    solvable = consistent[rows, best]
+    x_best, x_other = x[rows, best], x[rows, other]
+    distinct = np.linalg.norm(x_best - x_other, axis=-1) > tol
+    has_alt = solvable & consistent[rows, other] & distinct
+
+    # Unsolvable problems: a finite best-effort point at the quadratic's vertex (or at
+    # the least-squares R of the rank-deficient case).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = np.maximum(np.where(mirror, R_m, -beta / alpha), 0.0)
+    vertex = np.where(np.isfinite(vertex), vertex, 0.0)
+    fallback = base + a + vertex[:, None] * c
+    x_out = np.where(solvable[:, None], x_best, fallback)
+    res_out = np.where(solvable, residual[rows, best],
+                       np.linalg.norm(ls - range_sums(fallback, tx, rx), axis=-1))
+    alt_out = np.where(has_alt[:, None], x_other, x_out)
+    alt_res = np.where(has_alt, residual[rows, other], res_out)
+    return ClosedFormSolution(x_out, alt_out, has_alt, solvable, res_out, alt_res)
+
+
+def sum_range_solve(
+    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    tx: ArrayLike,
+    rx: ArrayLike,
+    *,
+    baseline_tol: ArrayLike | None = None,
+) -> ClosedFormSolution:
+    """Sum-range method: intersect the ellipses of equal range sum (seed 001, curves 5).
+
+    With one transmitter per problem, s = x - tx, R_t = |s|, b_k = rx_k - tx, the
+    range to receiver k is l_k - R_t; squaring it gives the linear equations
+
+    .. math:: \\mathbf{b}_k^T \\mathbf{s} - l_k R_t = \\frac{|\\mathbf{b}_k|^2 - l_k^2}{2},
+              \\quad k = 1 \\ldots P,
+
+    solved in least squares as s = a + R_t c, then |a + R_t c|^2 = R_t^2 for R_t
+    (spherical intersection). A root is consistent when R_t >= 0 and every
+    l_k - R_t >= 0; see the module notes for the choice between the two roots.
+
+    Parameters
+    ----------
+    l : (N, P) or (P,) array_like
+        Range sums, metres; P >= D (P = D: a square system with up to two exact
+        solutions, e.g. two ellipses in 2D).
+    tx : (N, P, D), (P, D) or (D,) array_like
+        Transmitter, metres; the same point for every pair of a problem.
+    rx : (N, P, D) or (P, D) array_like
+        Receivers, metres; D = 2 or 3.
+    baseline_tol : float or array_like, optional
+        Metres a range sum may fall below its baseline (noise near a baseline crossing);
+        see :func:`core.multistatic.model.validate_problem`. Default 0.
+
+    Returns
+    -------
+    solution : ClosedFormSolution
+        Shapes (N, D) and (N,); N = 1 when nothing is batched.
+
+    Raises
+    ------
+    NonFiniteError, ParameterError, GeometryError
+        As :func:`core.multistatic.model.validate_problem`; also ParameterError
+        (field ``"tx"``) when the pairs of a problem do not share one transmitter.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
+       sum-range method (Fig. 3, curves 5); DESIGN section 6.
+
+    Examples
+    --------
+    Two receivers in 2D (square system): both ellipse intersections are exact and the
+    data cannot tell them apart; the one nearer the transmitter comes first.
+
+    >>> rx = [[6000.0, 0.0], [0.0, 8000.0], [7000.0, 9000.0]]
+    >>> l = range_sums([2000.0, 3000.0], [0.0, 0.0], rx)
+    >>> sol = sum_range_solve(l[:2], [0.0, 0.0], rx[:2])
+    >>> sol.x.round(1), sol.has_alternative, sol.alternative.round(1)
+    (array([[-1257.2,   447.8]]), array([ True]), array([[2000., 3000.]]))
+
+    A third receiver fits only the true point; the other root is still consistent in
+    sign but leaves a residual of about 1.5 km.
+
+    >>> sol = sum_range_solve(l, [0.0, 0.0], rx)
+    >>> sol.x.round(3), sol.solvable, sol.alternative_residual.round()
+    (array([[2000., 3000.]]), array([ True]), array([1463.]))
+    """
+    ls, tx, rx, _ = validate_problem(l, tx, rx, baseline_tol=baseline_tol)
+    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+    base = tx[:, 0]
+    b = rx - base[:, None]
+    norm_b = np.linalg.norm(b, axis=-1)
+    h = 0.5 * (norm_b - ls) * (norm_b + ls)  # (|b|^2 - l^2) / 2 without cancellation
+    return _intersect(M=b, g=ls, h=h, ranges=ls, ranges_slope=-np.ones_like(ls),
+                      base=base, ls=ls, tx=tx, rx=rx)
+
+
+def difference_range_solve(
+    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    tx: ArrayLike,
+    rx: ArrayLike,
+    *,
+    baseline_tol: ArrayLike | None = None,
+) -> ClosedFormSolution:
+    """Difference-range method: intersect hyperbolae of range-sum differences (curves 6).
+
+    The differences d_k = l_k - l_1 (k = 2 ... P) of one transmitter's range sums do
+    not depend on the transmitter: d_k = |x - rx_k| - |x - rx_1|. With u = x - rx_1,
+    r_1 = |u|, e_k = rx_k - rx_1, squaring r_k = r_1 + d_k gives (Chan-style)
+
+    .. math:: \\mathbf{e}_k^T \\mathbf{u} + d_k r_1 = \\frac{|\\mathbf{e}_k|^2 - d_k^2}{2},
+
+    solved in least squares as u = a + r_1 c, then |a + r_1 c|^2 = r_1^2. A root is
+    consistent when r_1 >= 0 and every r_1 + d_k >= 0. Receiver 1 (the reference) is
+    the first pair. The position comes from the differences alone; the range sums
+    (with the transmitter) only pick the root: of the consistent roots, the one with
+    the smaller range-sum residual wins. With P = D + 1 both roots fit the differences
+    exactly, and the transmitter usually tells the true one from the mirror one.
+
+    Parameters
+    ----------
+    l : (N, P) or (P,) array_like
+        Range sums, metres; P >= D + 1 (P - 1 differences for D unknowns).
+    tx : (N, P, D), (P, D) or (D,) array_like
+        Transmitter, metres; the same point for every pair of a problem.
+    rx : (N, P, D) or (P, D) array_like
+        Receivers, metres; D = 2 or 3.
+    baseline_tol : float or array_like, optional
+        As in :func:`sum_range_solve`.
+
+    Returns
+    -------
+    solution : ClosedFormSolution
+        Shapes (N, D) and (N,); residuals are range-sum residuals, as for the sum-range
+        method.
+
+    Raises
+    ------
+    NonFiniteError, ParameterError, GeometryError
+        As :func:`sum_range_solve`; ParameterError (field ``"l"``) also when P < D + 1.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
+       difference-range method (Fig. 3, curves 6); DESIGN section 6.
+
+    Examples
+    --------
+    >>> rx = [[6000.0, 0.0], [0.0, 8000.0], [7000.0, 9000.0]]
+    >>> l = range_sums([2000.0, 3000.0], [0.0, 0.0], rx)
+    >>> sol = difference_range_solve(l, [0.0, 0.0], rx)
+    >>> sol.x.round(3), sol.solvable
+    (array([[2000., 3000.]]), array([ True]))
+    """
+    ls, tx, rx, _ = validate_problem(l, tx, rx, baseline_tol=baseline_tol)
+    p, d = rx.shape[1], rx.shape[2]
+    if p < d + 1:
+        raise ParameterError(
+            "l", f"has {p} measurements, giving {p - 1} differences for {d} unknowns; "
+            f"the difference-range method needs at least {d + 1}")
+    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+    base = rx[:, 0]
+    e = rx[:, 1:] - base[:, None]
+    dk = ls[:, 1:] - ls[:, :1]
+    norm_e = np.linalg.norm(e, axis=-1)
+    h = 0.5 * (norm_e - dk) * (norm_e + dk)  # (|e|^2 - d^2) / 2 without cancellation
+    return _intersect(M=e, g=-dk, h=h, ranges=dk, ranges_slope=np.ones_like(dk),
+                      base=base, ls=ls, tx=tx, rx=rx)

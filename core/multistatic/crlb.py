@@ -1,0 +1,416 @@
+"""Cramer-Rao lower bounds of multistatic range-sum positioning (seed 001, eq. 3).
+
+Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov) bounds the position error
+of a target seen by range sums l_p = |x - rx_p| + |x - tx_p| with independent
+N(0, sigma_p^2) noise by the inverse of the Fisher information
+
+.. math:: \\mathbf{J} = \\sum_{i}\\sum_{p} \\frac{1}{\\sigma_p^2}
+          \\nabla l_{p,i} \\, \\nabla l_{p,i}^T = \\mathbf{H}^T \\mathbf{G} \\mathbf{H},
+          \\quad \\mathbf{G} = \\mathrm{diag}(1/\\sigma_p^2)
+
+(eq. 3; H the Jacobian of :func:`core.multistatic.model.range_sum_jacobian`), single
+shot (one sample, Fig. 3 curves 1) or accumulated over the samples of a
+constant-velocity track (curves 2).
+
+Conventions and decisions
+-------------------------
+* Shapes as :mod:`core.multistatic.model`: x (N, D) or (D,), tx / rx (N, P, D) or
+  (P, D), sigma scalar, (P,) or (N, P); results are batched (N, ...).
+* GDOP = sqrt(trace J^-1) / sigma_ref with the reference sigma
+  sigma_ref = (mean_p 1 / sigma_p^2)^(-1/2), the sigma that carries the average
+  information of one measurement. With equal sigmas sigma_ref = sigma and the GDOP is
+  the pure geometry factor sqrt(trace (H^T H)^-1); scaling every sigma by c leaves
+  the GDOP unchanged.
+* Where the target sits on a baseline the row of that pair vanishes (seed 001: the
+  ellipse degenerates to the segment). With too few other pairs J is then singular;
+  its eigenvalues are floored at INFORMATION_RTOL times the largest, so the bound in
+  the unobservable direction is huge (about 1e7 times the best sigma) but finite,
+  never NaN or an exception.
+* Trajectories: x0 is the position at the first sample time t_ref = t[0] and
+  x(t) = x0 + v (t - t_ref).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from core._validate import as_array, first_index
+from core.errors import GeometryError, ParameterError
+from core.multistatic.model import (
+    COINCIDENT_RTOL,
+    _scale,
+    range_sum_jacobian,
+    range_sums,
+    validate_problem,
+)
+
+__all__ = [
+    "CRLB",
+    "INFORMATION_RTOL",
+    "TrajectoryCRLB",
+    "crlb",
+    "difference_crlb",
+    "trajectory_crlb",
+]
+
+INFORMATION_RTOL = 1e-14
+"""Eigenvalues of a Fisher information matrix below INFORMATION_RTOL times its largest
+are raised to that floor before inversion (a numerically unobservable direction gets a
+huge but finite variance)."""
+
+_INFORMATION_FLOOR = 1e-150  # absolute floor (m^-2) for an all-zero information matrix
+
+
+@dataclass(frozen=True)
+class CRLB:
+    """Single-shot Cramer-Rao bound of N position problems.
+
+    Attributes
+    ----------
+    information : (N, D, D) ndarray
+        Fisher information J, m^-2.
+    covariance : (N, D, D) ndarray
+        The bound J^-1, m^2.
+    sigma : (N, D) ndarray
+        Standard deviation bound per axis, sqrt(diag J^-1), metres.
+    gdop : (N,) ndarray
+        sqrt(trace J^-1) / sigma_ref, dimensionless.
+    sigma_ref : (N,) ndarray
+        Reference sigma of the GDOP, (mean_p 1/sigma_p^2)^(-1/2), metres.
+    """
+
+    information: np.ndarray
+    covariance: np.ndarray
+    sigma: np.ndarray
+    gdop: np.ndarray
+    sigma_ref: np.ndarray
+
+
+@dataclass(frozen=True)
+class TrajectoryCRLB:
+    """Cramer-Rao bound of a constant-velocity track from T samples (seed 001, eq. 3).
+
+    Attributes
+    ----------
+    t_ref : float
+        Time (s) at which the state position applies: the first sample time.
+    information : (2D, 2D) ndarray
+        Fisher information of the state (x0, v), accumulated over all samples.
+    covariance : (2D, 2D) ndarray
+        The bound on the state, J^-1 (m^2, m^2/s, m^2/s^2 blocks).
+    sigma : (2D,) ndarray
+        sqrt of its diagonal: metres for x0, m/s for v.
+    position_covariance : (T, D, D) ndarray
+        Bound on the position at each sample time, A_i J^-1 A_i^T with
+        A_i = [I, (t_i - t_ref) I], m^2 (seed 001, Fig. 3 curves 2).
+    position_sigma : (T, D) ndarray
+        sqrt of its diagonal, metres.
+    gdop : (T,) ndarray
+        sqrt(trace position_covariance) / sigma_ref at each sample.
+    sigma_ref : float
+        (mean over all T P measurements of 1/sigma^2)^(-1/2), metres.
+    """
+
+    t_ref: float
+    information: np.ndarray
+    covariance: np.ndarray
+    sigma: np.ndarray
+    position_covariance: np.ndarray
+    position_sigma: np.ndarray
+    gdop: np.ndarray
+    sigma_ref: float
+
+
+def _inverse_information(J: np.ndarray) -> np.ndarray:
+    """J^-1 of symmetric PSD (..., K, K) matrices, eigenvalues floored (never NaN/inf)."""
+    J = 0.5 * (J + np.swapaxes(J, -1, -2))
+    w, V = np.linalg.eigh(J)
+    floor = np.maximum(INFORMATION_RTOL * w[..., -1:], _INFORMATION_FLOOR)
+    w = np.maximum(w, floor)
+    cov = np.einsum("...ik,...k,...jk->...ij", V, 1.0 / w, V)
+    return 0.5 * (cov + np.swapaxes(cov, -1, -2))
+
+
+def _diag_sqrt(cov: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.maximum(np.diagonal(cov, axis1=-2, axis2=-1), 0.0))
+
+
+def _sigma_ref(sigma: np.ndarray, axis: int | tuple[int, ...] = -1) -> np.ndarray:
+    return 1.0 / np.sqrt(np.mean(1.0 / (sigma * sigma), axis=axis))
+
+
+def _single_tx(tx: ArrayLike) -> ArrayLike:
+    """Let a single transmitter be given as (D,), as validate_problem does."""
+    try:
+        return np.asarray(tx, dtype=float)[None, :] if np.ndim(tx) == 1 else tx
+    except (TypeError, ValueError):
+        return tx  # as_array words the error
+
+
+def _geometry(
+    x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike, extra_pairs: int = 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Coerce and check a bound's inputs; (x (N, D), tx, rx (N, P, D), sigma (N, P)).
+
+    Each problem needs at least D + extra_pairs measurement pairs.
+    """
+    tx = _single_tx(tx)
+    x = as_array("x", x)
+    try:
+        d = np.shape(rx)[-1]
+    except (TypeError, ValueError, IndexError):
+        d = None  # range_sums words the error on rx
+    if x.ndim not in (1, 2) or (d is not None and x.shape[-1] != d):
+        raise ParameterError(
+            "x", f"must have shape (D,) or (N, D) with the D = {d} of rx, got {x.shape}")
+    ls = range_sums(x, tx, rx)  # shape, D, P and broadcast checks, field-named
+    batched = x.ndim == 2
+    d = x.shape[-1]
+    p = ls.shape[-1]
+    min_pairs = d + extra_pairs
+    if p < min_pairs:
+        raise ParameterError(
+            "rx", f"has {p} measurement pairs; this bound of {d} coordinates needs at "
+            f"least {min_pairs}")
+    _, tx, rx, sigma = validate_problem(ls, tx, rx, sigma)
+    n = tx.shape[0]
+    x = np.array(np.broadcast_to(x, (n, d)))
+    # the gradient of |x - platform| is undefined on the platform
+    tol = COINCIDENT_RTOL * _scale(tx, rx)
+    gap = np.minimum(np.linalg.norm(x[:, None] - tx, axis=-1),
+                     np.linalg.norm(x[:, None] - rx, axis=-1)).min(axis=-1)
+    on_platform = gap <= tol
+    if on_platform.any():
+        index = first_index(on_platform)
+        raise GeometryError(
+            "x", f"{x[index].tolist()} is at a platform, where the range-sum gradient is "
+            f"undefined", index if batched else None)
+    return x, tx, rx, sigma
+
+
+def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
+    """Single-shot Cramer-Rao bound of the position from P range sums (seed 001, eq. 3).
+
+    .. math:: \\mathbf{J} = \\mathbf{H}^T \\mathrm{diag}(1/\\sigma_p^2) \\mathbf{H},
+              \\quad \\mathbf{H}_{p} = \\frac{\\mathbf{x} - \\mathbf{rx}_p}
+              {|\\mathbf{x} - \\mathbf{rx}_p|} + \\frac{\\mathbf{x} - \\mathbf{tx}_p}
+              {|\\mathbf{x} - \\mathbf{tx}_p|}, \\quad
+              \\mathrm{GDOP} = \\sqrt{\\mathrm{tr}\\,\\mathbf{J}^{-1}} / \\sigma_{ref}
+
+    Parameters
+    ----------
+    x : (D,) or (N, D) array_like
+        True target positions, metres (D = 2 or 3).
+    tx : (D,), (P, D) or (N, P, D) array_like
+        Transmitter of each pair (or one transmitter for all), metres.
+    rx : (P, D) or (N, P, D) array_like
+        Receiver of each pair, metres; P >= D.
+    sigma : float, (P,) or (N, P) array_like
+        Range-sum noise standard deviations, metres, > 0.
+
+    Returns
+    -------
+    bound : CRLB
+        Information, covariance bound, per-axis sigma and GDOP, batched (N, ...).
+
+    Raises
+    ------
+    NonFiniteError
+        If an input contains NaN or infinity.
+    ParameterError
+        On wrong shapes, P < D (field ``"rx"``) or sigma <= 0.
+    GeometryError
+        On coincident platforms, or x at a platform.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3): the Fisher
+       information of the range sums, one sample (Fig. 3, curves 1).
+
+    Examples
+    --------
+    A transmitter at the origin and receivers 10 km east and north; the target at
+    (3, 4) km, sigma 0.5 m:
+
+    >>> b = crlb([3000.0, 4000.0], [0.0, 0.0], [[10000.0, 0.0], [0.0, 10000.0]], 0.5)
+    >>> b.sigma.round(3), b.gdop.round(3)
+    (array([[0.488, 0.406]]), array([1.269]))
+    """
+    x, tx, rx, sigma = _geometry(x, tx, rx, sigma)
+    H = range_sum_jacobian(x, tx, rx)  # (N, P, D)
+    Hw = H / sigma[..., None]
+    J = np.einsum("npi,npj->nij", Hw, Hw)
+    return _bound(J, _sigma_ref(sigma))
+
+
+def _bound(J: np.ndarray, sigma_ref: np.ndarray) -> CRLB:
+    cov = _inverse_information(J)
+    return CRLB(information=J, covariance=cov, sigma=_diag_sqrt(cov),
+                gdop=np.sqrt(np.trace(cov, axis1=-2, axis2=-1)) / sigma_ref,
+                sigma_ref=sigma_ref)
+
+
+def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
+    """Cramer-Rao bound of the position from the range-sum differences d_k = l_k - l_1.
+
+    The P - 1 differences d = A l (A the (P-1, P) differencing matrix against the
+    first pair) have correlated noise, C = A diag(sigma^2) A^T (the first pair's
+    noise enters every difference), so
+
+    .. math:: \\mathbf{J}_d = (\\mathbf{A}\\mathbf{H})^T \\mathbf{C}^{-1}
+              (\\mathbf{A}\\mathbf{H}), \\quad
+              \\mathbf{C} = \\mathbf{A}\\,\\mathrm{diag}(\\sigma_p^2)\\,\\mathbf{A}^T.
+
+    With one transmitter the rows of AH are (x - rx_k)/|x - rx_k| - (x - rx_1)/|x -
+    rx_1|: the transmitter cancels (the hyperbolae of the difference-range method).
+    J_d <= J of :func:`crlb` (differencing drops one measurement's worth of
+    information), so this bound is never below the sum-range one.
+
+    Parameters
+    ----------
+    x : (D,) or (N, D) array_like
+        True target positions, metres.
+    tx, rx : (P, D) or (N, P, D) array_like
+        Transmitter and receiver of each pair, metres; P >= D + 1. The first pair is
+        the reference (as in :func:`core.multistatic.closed_form.difference_range_solve`).
+    sigma : float, (P,) or (N, P) array_like
+        Range-sum noise standard deviations, metres, > 0.
+
+    Returns
+    -------
+    bound : CRLB
+        As :func:`crlb`; sigma_ref is that of the P range sums, so the two GDOPs
+        compare directly.
+
+    Raises
+    ------
+    NonFiniteError, ParameterError, GeometryError
+        As :func:`crlb`; ParameterError (field ``"rx"``) when P < D + 1.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3) applied to
+       the difference-range method's measurements (Fig. 3, curves 6).
+
+    Examples
+    --------
+    >>> rx = [[10000.0, 0.0], [0.0, 10000.0], [-8000.0, -6000.0]]
+    >>> s = crlb([3000.0, 4000.0], [0.0, 0.0], rx, 0.5).sigma
+    >>> sd = difference_crlb([3000.0, 4000.0], [0.0, 0.0], rx, 0.5).sigma
+    >>> bool((sd >= s).all())
+    True
+    """
+    x, tx, rx, sigma = _geometry(x, tx, rx, sigma, extra_pairs=1)
+    H = range_sum_jacobian(x, tx, rx)  # (N, P, D)
+    Hd = H[:, 1:] - H[:, :1]  # A H
+    var = sigma * sigma
+    # C = A diag(sigma^2) A^T: sigma_k^2 + sigma_1^2 on the diagonal, sigma_1^2 off it
+    C = np.eye(var.shape[1] - 1) * var[:, 1:, None] + var[:, :1, None]
+    J = np.einsum("nki,nkj->nij", Hd, np.linalg.solve(C, Hd))
+    return _bound(J, _sigma_ref(sigma))
+
+
+def _track_inputs(
+    x0: ArrayLike, v: ArrayLike, t: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    t = as_array("t", t)
+    if t.ndim != 1 or t.size < 1:
+        raise ParameterError("t", f"must have shape (T,) with T >= 1, got {t.shape}")
+    x0 = as_array("x0", x0)
+    if x0.shape not in ((2,), (3,)):
+        raise ParameterError("x0", f"must have shape (D,) with D = 2 or 3, got {x0.shape}")
+    v = as_array("v", v)
+    if v.shape != x0.shape:
+        raise ParameterError("v", f"must have the shape of x0 {x0.shape}, got {v.shape}")
+    return x0, v, t
+
+
+def trajectory_crlb(
+    x0: ArrayLike, v: ArrayLike, t: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike
+) -> TrajectoryCRLB:
+    """Accumulated Cramer-Rao bound of a constant-velocity track (seed 001, eq. 3, curves 2).
+
+    The state theta = (x0, v) gives x_i = x0 + v (t_i - t_ref); the Jacobian of
+    l_{p,i} is [H_{p,i}, (t_i - t_ref) H_{p,i}], and the information is summed over the
+    T samples and P pairs:
+
+    .. math:: \\mathbf{J} = \\sum_{i=1}^{T}\\sum_{p=1}^{P} \\frac{1}{\\sigma_{p,i}^2}
+              \\begin{bmatrix} 1 & \\tau_i \\\\ \\tau_i & \\tau_i^2 \\end{bmatrix}
+              \\otimes \\mathbf{H}_{p,i}^T \\mathbf{H}_{p,i}, \\quad
+              \\tau_i = t_i - t_{ref}.
+
+    Parameters
+    ----------
+    x0 : (D,) array_like
+        Target position at the first sample time t[0], metres.
+    v : (D,) array_like
+        Target velocity, m/s.
+    t : (T,) array_like
+        Sample times, seconds (any epoch).
+    tx, rx : (P, D) or (T, P, D) array_like
+        Platforms of each pair, fixed or per sample (e.g. from
+        :func:`core.multistatic.model.platform_positions`), metres; P >= D.
+    sigma : float, (P,) or (T, P) array_like
+        Range-sum noise standard deviations, metres, > 0.
+
+    Returns
+    -------
+    bound : TrajectoryCRLB
+        The state bound and the position bound at every sample time.
+
+    Raises
+    ------
+    NonFiniteError, ParameterError, GeometryError
+        As :func:`crlb` (the index is the sample), and ParameterError when x0, v or t
+        have the wrong shape.
+
+    Notes
+    -----
+    One sample (T = 1), or samples at a single time, leave v unobservable: the
+    information is singular and the floored bound is huge, not an error.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3) with the sum
+       over the n accumulated samples (Fig. 3, curves 2).
+
+    Examples
+    --------
+    Three samples a second apart give a bound below the single-shot one:
+
+    >>> rx = [[10000.0, 0.0], [0.0, 10000.0]]
+    >>> b = trajectory_crlb([3000.0, 4000.0], [0.0, 80.0], [0.0, 1.0, 2.0], [0.0, 0.0], rx, 0.5)
+    >>> bool((b.position_sigma[0] < crlb([3000.0, 4000.0], [0.0, 0.0], rx, 0.5).sigma).all())
+    True
+    """
+    x0, v, t = _track_inputs(x0, v, t)
+    tau = t - t[0]
+    x = x0 + tau[:, None] * v  # (T, D)
+    x, tx, rx, sigma = _geometry(x, tx, rx, sigma)
+    H = range_sum_jacobian(x, tx, rx) / sigma[..., None]  # (T, P, D), whitened
+    Hs = np.concatenate([H, tau[:, None, None] * H], axis=-1)  # (T, P, 2D)
+    J = np.einsum("tpi,tpj->ij", Hs, Hs)
+    cov = _inverse_information(J)
+    return _track_bound(J, cov, tau, float(t[0]), float(_sigma_ref(sigma, axis=(0, 1))))
+
+
+def _position_covariance(cov: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """A cov A^T with A = [I, tau I] for each tau: (M, D, D)."""
+    d = cov.shape[0] // 2
+    P_xx, P_xv, P_vv = cov[:d, :d], cov[:d, d:], cov[d:, d:]
+    tau = tau[:, None, None]
+    out = P_xx + tau * (P_xv + P_xv.T) + tau * tau * P_vv
+    return 0.5 * (out + np.swapaxes(out, -1, -2))
+
+
+def _track_bound(
+    J: np.ndarray, cov: np.ndarray, tau: np.ndarray, t_ref: float, sigma_ref: float
+) -> TrajectoryCRLB:
+    pos = _position_covariance(cov, tau)
+    return TrajectoryCRLB(
+        t_ref=t_ref, information=J, covariance=cov, sigma=_diag_sqrt(cov),
+        position_covariance=pos, position_sigma=_diag_sqrt(pos),
+        gdop=np.sqrt(np.trace(pos, axis1=-2, axis2=-1)) / sigma_ref, sigma_ref=sigma_ref)

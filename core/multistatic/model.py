@@ -1,0 +1,443 @@
+"""Range-sum measurement model of seed 001 (multistatic radar, moving platforms).
+
+Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, coordinate accuracy of a
+multistatic forward-scattering radar with mobile positions), eq. (1): a transmitter at
+``tx`` and a receiver at ``rx`` measure the range sum
+
+.. math:: l = |\\mathbf{x} - \\mathbf{rx}| + |\\mathbf{x} - \\mathbf{tx}|
+
+of a target at ``x``; its level curve is the ellipse (3D: ellipsoid) of equal range sum
+with foci ``tx`` and ``rx``. Noise is N(0, sigma^2), independent per measurement.
+
+Symbols and shapes (SI, metres)
+-------------------------------
+D : 2 (x east, y north) or 3 (x, y, z).
+P : measurements per problem; each is a (transmitter, receiver) pair with its own
+    positions, so several transmitters are simply pairs with different ``tx``.
+N : independent problems (a batch, or the T samples of a trajectory).
+x : (N, D) target positions. tx, rx : (N, P, D) or unbatched (P, D), broadcast.
+l : (N, P) or (P,) range sums. sigma : scalar, (P,) or (N, P) noise standard deviations.
+
+Platform positions are known at each time; moving platforms are either given per
+sample or generated with :func:`platform_positions` (constant velocity, seed 001 Fig. 2).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from core._validate import as_array, first_index
+from core.errors import GeometryError, ParameterError
+
+__all__ = [
+    "COINCIDENT_RTOL",
+    "BASELINE_SIGMAS",
+    "Problem",
+    "platform_positions",
+    "range_sum_jacobian",
+    "range_sums",
+    "validate_problem",
+]
+
+COINCIDENT_RTOL = 1e-9
+"""Two platforms closer than COINCIDENT_RTOL times the problem's coordinate scale
+(the largest |coordinate| of its platforms, at least 1 m) are coincident."""
+
+BASELINE_SIGMAS = 5.0
+"""With a known sigma, a range sum may fall this many sigma below its baseline
+|tx - rx| before it is refused: noise alone puts about half the measurements of a
+target on a baseline below it (seed 001 studies exactly such baseline crossings)."""
+
+
+class Problem(NamedTuple):
+    """Validated multistatic problem from :func:`validate_problem` (a tuple; unpack it).
+
+    Attributes
+    ----------
+    l : (N, P) ndarray
+        Range sums, metres.
+    tx, rx : (N, P, D) ndarray
+        Transmitter and receiver of each pair, metres (new arrays, broadcast over N).
+    sigma : (N, P) ndarray or None
+        Noise standard deviations, metres; None when no sigma was given.
+    """
+
+    l: np.ndarray  # noqa: E741 (the contract and seed 001 name the range sum l)
+    tx: np.ndarray
+    rx: np.ndarray
+    sigma: np.ndarray | None
+
+
+def _shape(name: str, value: ArrayLike) -> tuple[int, ...]:
+    """Shape of an array_like; ParameterError (naming it) for ragged nesting."""
+    try:
+        return np.shape(value)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(name, f"must be a regular array of real numbers ({exc})") from None
+
+
+def _with_tx_axis(tx: ArrayLike) -> ArrayLike:
+    """A single transmitter given as (D,) becomes (1, D), broadcast over the pairs."""
+    return np.asarray(tx)[None, :] if len(_shape("tx", tx)) == 1 else tx
+
+
+def _platforms(name: str, value: ArrayLike, max_ndim: int | None = 3) -> np.ndarray:
+    """Coerce a (..., P, D) finite platform array with D in {2, 3}; index = batch row."""
+    shape = _shape(name, value)
+    if len(shape) < 2 or shape[-1] not in (2, 3) or (max_ndim and len(shape) > max_ndim):
+        form = "(P, D) or (N, P, D)" if max_ndim == 3 else "(..., P, D)"
+        raise ParameterError(name, f"must have shape {form} with D = 2 or 3, got {shape}")
+    return as_array(name, value, tuple(shape[-2:]))
+
+
+def _positions(name: str, value: ArrayLike) -> np.ndarray:
+    """Coerce (..., D) finite positions with D in {2, 3}."""
+    shape = _shape(name, value)
+    if len(shape) < 1 or shape[-1] not in (2, 3):
+        raise ParameterError(name, f"must have shape (..., D) with D = 2 or 3, got {shape}")
+    return as_array(name, value, (shape[-1],))
+
+
+def _model_inputs(
+    x: ArrayLike, tx: ArrayLike, rx: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Coerce x (..., D), tx/rx (..., P, D) and check that D and P agree."""
+    x = _positions("x", x)
+    tx = _platforms("tx", _with_tx_axis(tx), max_ndim=None)
+    rx = _platforms("rx", rx, max_ndim=None)
+    d = x.shape[-1]
+    for name, arr in (("tx", tx), ("rx", rx)):
+        if arr.shape[-1] != d:
+            raise ParameterError(name, f"has D = {arr.shape[-1]} but x has D = {d}")
+    if tx.shape[-2] not in (1, rx.shape[-2]):
+        raise ParameterError(
+            "tx", f"has P = {tx.shape[-2]} measurements but rx has {rx.shape[-2]}")
+    try:
+        np.broadcast_shapes(x.shape[:-1], tx.shape[:-2], rx.shape[:-2])
+    except ValueError:
+        raise ParameterError(
+            "x", f"batch shape {x.shape[:-1]} does not broadcast with tx {tx.shape[:-2]} "
+            f"and rx {rx.shape[:-2]}") from None
+    return x, tx, rx
+
+
+def platform_positions(initial: ArrayLike, velocity: ArrayLike, t: ArrayLike) -> np.ndarray:
+    """Positions of platforms moving at constant velocity (seed 001, Fig. 2).
+
+    .. math:: \\mathbf{p}(t) = \\mathbf{p}_0 + \\mathbf{v} t
+
+    Platforms whose positions are known per sample need no model: pass those arrays
+    directly as ``tx`` / ``rx``.
+
+    Parameters
+    ----------
+    initial : (..., D) array_like
+        Positions at t = 0, metres (D = 2 or 3).
+    velocity : (..., D) array_like
+        Velocities, m/s; broadcast against ``initial``.
+    t : (T,) array_like or float
+        Sample times, seconds (any epoch; positions are ``initial`` at t = 0).
+
+    Returns
+    -------
+    positions : (T, ..., D) ndarray
+        Position of every platform at every time (no T axis for a scalar t).
+
+    Raises
+    ------
+    NonFiniteError
+        If an input contains NaN or infinity.
+    ParameterError
+        If D is not 2 or 3, the D of the two arrays differ, their batch shapes do not
+        broadcast, or t has more than one axis.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, Fig. 2: positions
+       move on straight lines at constant speed (10 m/s in the paper's example).
+
+    Examples
+    --------
+    >>> platform_positions([[0.0, 0.0], [1000.0, 0.0]], [10.0, 0.0], [0.0, 2.0])
+    array([[[   0.,    0.],
+            [1000.,    0.]],
+    <BLANKLINE>
+           [[  20.,    0.],
+            [1020.,    0.]]])
+    """
+    initial = _positions("initial", initial)
+    velocity = _positions("velocity", velocity)
+    if velocity.shape[-1] != initial.shape[-1]:
+        raise ParameterError(
+            "velocity", f"has D = {velocity.shape[-1]} but initial has D = {initial.shape[-1]}")
+    try:
+        batch = np.broadcast_shapes(initial.shape, velocity.shape)
+    except ValueError:
+        raise ParameterError(
+            "velocity", f"shape {velocity.shape} does not broadcast with initial "
+            f"{initial.shape}") from None
+    t = as_array("t", t)
+    if t.ndim > 1:
+        raise ParameterError("t", f"must have shape (T,), got {t.shape}")
+    t = t.reshape(t.shape + (1,) * len(batch))
+    return initial + t * velocity
+
+
+def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
+    """Range sums l_p = |x - rx_p| + |x - tx_p| (seed 001, eq. 1).
+
+    Parameters
+    ----------
+    x : (N, D) or (D,) array_like
+        Target positions, metres (any leading batch shape broadcasting with tx, rx).
+    tx, rx : (N, P, D) or (P, D) array_like
+        Transmitter and receiver of each of the P pairs, metres. A single transmitter
+        may also be given as (D,) (or with P = 1), broadcast over the pairs.
+
+    Returns
+    -------
+    l : (N, P) ndarray
+        Range sums in metres; (P,) when nothing is batched.
+
+    Raises
+    ------
+    NonFiniteError
+        If an input contains NaN or infinity.
+    ParameterError
+        If D is not 2 or 3, D or P differ between the arguments, or the batch shapes
+        do not broadcast.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1).
+
+    Examples
+    --------
+    >>> range_sums([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
+    array([10000.])
+    """
+    x, tx, rx = _model_inputs(x, tx, rx)
+    xp = x[..., None, :]
+    return np.linalg.norm(xp - rx, axis=-1) + np.linalg.norm(xp - tx, axis=-1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    """v / |v| along the last axis; 0 where v = 0 (the smallest subgradient of |v|)."""
+    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.divide(v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)),
+                     where=norm > 0)
+
+
+def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
+    """Jacobian H of the range sums: dl_p/dx (seed 001, the H_n of eq. 6).
+
+    .. math:: \\frac{\\partial l_p}{\\partial \\mathbf{x}} =
+              \\frac{\\mathbf{x} - \\mathbf{rx}_p}{|\\mathbf{x} - \\mathbf{rx}_p|} +
+              \\frac{\\mathbf{x} - \\mathbf{tx}_p}{|\\mathbf{x} - \\mathbf{tx}_p|}
+
+    The row is the sum of the unit vectors from the two foci; it vanishes on the
+    baseline between them (seed 001: the ellipse degenerates to the segment and the
+    cross-baseline derivative is zero). Where x sits exactly on a platform the
+    gradient of that distance is undefined; its term is taken as 0 (the smallest
+    subgradient) so the result stays finite.
+
+    Parameters
+    ----------
+    x : (N, D) or (D,) array_like
+        Target positions, metres.
+    tx, rx : (N, P, D) or (P, D) array_like
+        Transmitter and receiver of each pair, metres.
+
+    Returns
+    -------
+    H : (N, P, D) ndarray
+        Dimensionless; (P, D) when nothing is batched.
+
+    Raises
+    ------
+    NonFiniteError, ParameterError
+        As :func:`range_sums`.
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eqs. (1), (3), (6).
+
+    Examples
+    --------
+    >>> range_sum_jacobian([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
+    array([[0. , 1.6]])
+    """
+    x, tx, rx = _model_inputs(x, tx, rx)
+    xp = x[..., None, :]
+    return _unit(xp - rx) + _unit(xp - tx)
+
+
+def _batch_length(**shapes: tuple[int, ...]) -> int:
+    """Common N of arguments with an optional single batch axis (1 when none has one)."""
+    n, owner = None, ""
+    for name, batch in shapes.items():
+        if batch:
+            if n is not None and batch[0] != n:
+                raise ParameterError(name, f"has N = {batch[0]} problems but {owner} has {n}")
+            n, owner = batch[0], name
+    return 1 if n is None else n
+
+
+def _scale(tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """(N,) coordinate scale of each problem: largest |platform coordinate|, >= 1 m."""
+    big = np.maximum(np.abs(tx).max(axis=(-2, -1)), np.abs(rx).max(axis=(-2, -1)))
+    return np.maximum(big, 1.0)
+
+
+def validate_problem(
+    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    tx: ArrayLike,
+    rx: ArrayLike,
+    sigma: ArrayLike | None = None,
+    *,
+    baseline_tol: ArrayLike | None = None,
+) -> Problem:
+    """Check and coerce a batch of range-sum problems (shared by every solver).
+
+    Parameters
+    ----------
+    l : (N, P) or (P,) array_like
+        Measured range sums, metres, finite and >= 0.
+    tx, rx : (N, P, D) or (P, D) array_like
+        Transmitter and receiver of each pair, metres; D = 2 or 3.
+    sigma : float, (P,) or (N, P) array_like, optional
+        Noise standard deviations, metres, > 0.
+    baseline_tol : float, (P,) or (N, P) array_like, optional
+        How far (metres) a range sum may fall below its baseline |tx_p - rx_p| before
+        it is refused. Default: ``BASELINE_SIGMAS * sigma`` when sigma is given, else
+        0. A rounding allowance of ``COINCIDENT_RTOL`` times the coordinate scale is
+        always added.
+
+    Returns
+    -------
+    problem : Problem
+        ``(l, tx, rx, sigma)`` as new float arrays of shapes (N, P), (N, P, D),
+        (N, P, D) and (N, P) (sigma None when not given); N = 1 when nothing is batched.
+
+    Raises
+    ------
+    NonFiniteError
+        If an input contains NaN or infinity (index: first bad problem).
+    ParameterError
+        On a wrong shape, D not 2 or 3, N or P that differ between the arguments, fewer
+        measurements than unknowns (P < D; field ``"l"``), a negative range sum, or
+        sigma <= 0 (or baseline_tol < 0).
+    GeometryError
+        If a transmitter coincides with its receiver (field ``"rx"``), the same
+        (tx, rx) pair appears twice in a problem (``"rx"``; with one transmitter:
+        two receivers are equal), or a range sum is shorter than its baseline, which
+        no target position can produce (``"l"``).
+
+    Notes
+    -----
+    Platforms coincide when closer than ``COINCIDENT_RTOL`` times the problem's
+    coordinate scale (largest |platform coordinate|, at least 1 m). Error indices
+    are the first offending problem n (None when the argument is unbatched).
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1):
+       l >= |tx - rx| by the triangle inequality.
+
+    Examples
+    --------
+    >>> p = validate_problem([10000.0, 9000.0], [0.0, 0.0], [[6000.0, 0.0], [0.0, 6000.0]])
+    >>> p.l.shape, p.tx.shape, p.rx.shape, p.sigma
+    ((1, 2), (1, 2, 2), (1, 2, 2), None)
+    """
+    tx = _platforms("tx", _with_tx_axis(tx))
+    rx = _platforms("rx", rx)
+    if rx.shape[-1] != tx.shape[-1]:
+        raise ParameterError("rx", f"has D = {rx.shape[-1]} but tx has D = {tx.shape[-1]}")
+    d = tx.shape[-1]
+    p = rx.shape[-2]
+    if tx.shape[-2] not in (1, p):
+        raise ParameterError("tx", f"has P = {tx.shape[-2]} measurements but rx has {p}")
+    l_shape = _shape("l", l)
+    if len(l_shape) not in (1, 2):
+        raise ParameterError("l", f"must have shape (P,) or (N, P), got {l_shape}")
+    ls = as_array("l", l, (l_shape[-1],))
+    if ls.shape[-1] != p:
+        raise ParameterError("l", f"has P = {ls.shape[-1]} measurements but rx has {p}")
+    shapes = {"l": ls.shape[:-1], "tx": tx.shape[:-2], "rx": rx.shape[:-2]}
+    sig = None
+    if sigma is not None:
+        sig = as_array("sigma", sigma)
+        if sig.ndim > 2 or (sig.ndim >= 1 and sig.shape[-1] != p):
+            raise ParameterError(
+                "sigma", f"must be a scalar or have shape (P,) or (N, P) with P = {p}, "
+                f"got {sig.shape}")
+        shapes["sigma"] = sig.shape[:-1]
+    n = _batch_length(**shapes)
+    if p < d:
+        raise ParameterError(
+            "l", f"has {p} measurements but the position has {d} unknowns; "
+            f"at least {d} are needed")
+    negative = ls < 0
+    if negative.any():
+        bad = negative.any(axis=-1)
+        index = first_index(bad)
+        row = ls[index] if index is not None else ls
+        raise ParameterError("l", f"must be non-negative, got {row.tolist()}", index)
+    if sig is not None and not (sig > 0).all():
+        bad = ~(sig > 0)
+        index = first_index(bad.any(axis=-1)) if sig.ndim == 2 else None
+        row = sig[index] if index is not None else sig
+        raise ParameterError("sigma", f"must be positive, got {row.tolist()}", index)
+
+    ls = np.array(np.broadcast_to(ls, (n, p)))
+    tx = np.array(np.broadcast_to(tx, (n, p, d)))
+    rx = np.array(np.broadcast_to(rx, (n, p, d)))
+    if sig is not None:
+        sig = np.array(np.broadcast_to(sig, (n, p)))
+    tol = COINCIDENT_RTOL * _scale(tx, rx)  # (N,)
+
+    baseline = np.linalg.norm(rx - tx, axis=-1)  # (N, P)
+    coincident = baseline <= tol[:, None]
+    if coincident.any():
+        index = int(np.argmax(coincident.any(axis=-1)))
+        k = int(np.argmax(coincident[index]))
+        raise GeometryError(
+            "rx", f"receiver {k} coincides with its transmitter at "
+            f"{tx[index, k].tolist()}", index)
+    if p > 1:
+        # (N, P, P) pair distances: a pair repeated has equal tx and equal rx.
+        same_rx = np.linalg.norm(rx[:, :, None] - rx[:, None], axis=-1) <= tol[:, None, None]
+        same_tx = np.linalg.norm(tx[:, :, None] - tx[:, None], axis=-1) <= tol[:, None, None]
+        dup = np.triu(same_rx & same_tx, k=1)
+        if dup.any():
+            index = int(np.argmax(dup.any(axis=(-2, -1))))
+            i, j = np.unravel_index(int(np.argmax(dup[index])), (p, p))
+            raise GeometryError(
+                "rx", f"receivers {i} and {j} are at the same position "
+                f"{rx[index, i].tolist()} with the same transmitter", index)
+
+    if baseline_tol is None:
+        allow = BASELINE_SIGMAS * sig if sig is not None else np.zeros((n, p))
+    else:
+        allow = as_array("baseline_tol", baseline_tol)
+        if not (allow >= 0).all():
+            raise ParameterError(
+                "baseline_tol", f"must be non-negative, got {allow.tolist()}")
+        try:
+            allow = np.broadcast_to(allow, (n, p))
+        except ValueError:
+            raise ParameterError(
+                "baseline_tol", f"shape {allow.shape} does not broadcast with "
+                f"(N, P) = {(n, p)}") from None
+    short = ls < baseline - allow - tol[:, None]
+    if short.any():
+        index = int(np.argmax(short.any(axis=-1)))
+        k = int(np.argmax(short[index]))
+        raise GeometryError(
+            "l", f"range sum {k} = {ls[index, k]!r} m is shorter than its baseline "
+            f"|tx - rx| = {baseline[index, k]!r} m; no target position gives it", index)
+    return Problem(ls, tx, rx, sig)
