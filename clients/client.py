@@ -2,8 +2,10 @@
 
 Each operation of :data:`service.schemas.ENDPOINTS` is reachable through ``call(name,
 request)``; the common ones also have a typed method (``test_gate``, ``gate_probability``
-...). The gating-probability methods take their request model or the same as a dict
-(validated here, so a bad dict raises pydantic's ``ValidationError`` before any call).
+...). The gating-probability and multistatic-solve methods (``solve_position``,
+``solve_trajectory``, ``crlb``, ``estimate_noise``) take their request model or the same
+as a dict (validated here, so a bad dict raises pydantic's ``ValidationError`` before any
+call).
 Errors are the exceptions of :mod:`clients.errors`. The README shows a full example.
 """
 
@@ -16,6 +18,8 @@ from pydantic import BaseModel
 from clients.errors import TransportError, raise_for_problem
 from service.schemas import (
     ENDPOINTS,
+    CrlbRequest,
+    CrlbResult,
     Gate,
     GateAnalysisRequest,
     GateAnalysisResult,
@@ -29,7 +33,13 @@ from service.schemas import (
     GateProbabilityResult,
     GateResults,
     GateTestRequest,
+    NoiseRequest,
+    NoiseResult,
     Plot,
+    PositionSolveRequest,
+    PositionSolveResult,
+    TrajectorySolveRequest,
+    TrajectorySolveResult,
 )
 
 __all__ = ["DEFAULT_TIMEOUT", "DEFAULT_URL", "SLOW_TIMEOUT", "AsyncClient", "Client"]
@@ -144,6 +154,26 @@ class Client:
         """P_G or p reaching a wanted capture probability (operation ``gates.design``)."""
         return self.call("gates.design", _model("gates.design", request))
 
+    def solve_position(
+        self, request: PositionSolveRequest | Mapping[str, Any]
+    ) -> PositionSolveResult:
+        """Maximum-likelihood positions of a batch of range-sum problems (``solves.position``)."""
+        return self.call("solves.position", _model("solves.position", request))
+
+    def solve_trajectory(
+        self, request: TrajectorySolveRequest | Mapping[str, Any]
+    ) -> TrajectorySolveResult:
+        """Constant-velocity track from range sums over samples (``solves.trajectory``)."""
+        return self.call("solves.trajectory", _model("solves.trajectory", request))
+
+    def crlb(self, request: CrlbRequest | Mapping[str, Any]) -> CrlbResult:
+        """Cramer-Rao bound, single shot or along a track (operation ``solves.crlb``)."""
+        return self.call("solves.crlb", _model("solves.crlb", request))
+
+    def estimate_noise(self, request: NoiseRequest | Mapping[str, Any]) -> NoiseResult:
+        """Range-sum noise and smoothed coordinates (operation ``solves.noise``)."""
+        return self.call("solves.noise", _model("solves.noise", request))
+
     def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
         try:
@@ -220,6 +250,26 @@ class AsyncClient:
     ) -> GateDesignResult:
         """P_G or p reaching a wanted capture probability (operation ``gates.design``)."""
         return await self.call("gates.design", _model("gates.design", request))
+
+    async def solve_position(
+        self, request: PositionSolveRequest | Mapping[str, Any]
+    ) -> PositionSolveResult:
+        """Maximum-likelihood positions of a batch of range-sum problems (``solves.position``)."""
+        return await self.call("solves.position", _model("solves.position", request))
+
+    async def solve_trajectory(
+        self, request: TrajectorySolveRequest | Mapping[str, Any]
+    ) -> TrajectorySolveResult:
+        """Constant-velocity track from range sums over samples (``solves.trajectory``)."""
+        return await self.call("solves.trajectory", _model("solves.trajectory", request))
+
+    async def crlb(self, request: CrlbRequest | Mapping[str, Any]) -> CrlbResult:
+        """Cramer-Rao bound, single shot or along a track (operation ``solves.crlb``)."""
+        return await self.call("solves.crlb", _model("solves.crlb", request))
+
+    async def estimate_noise(self, request: NoiseRequest | Mapping[str, Any]) -> NoiseResult:
+        """Range-sum noise and smoothed coordinates (operation ``solves.noise``)."""
+        return await self.call("solves.noise", _model("solves.noise", request))
 
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""

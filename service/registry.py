@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from core import PlotgateError
-from service.operations import gates, probability
+from service.operations import gates, probability, solves
 from service.problems import ProblemError, from_core, from_validation, problem_json
 from service.schemas import ENDPOINTS, Endpoint
 
@@ -61,6 +61,10 @@ _HANDLERS: dict[str, tuple[Handler, FieldOf]] = {
     "gates.probability_curve": (probability.curve, probability.curve_field),
     "gates.analysis": (probability.analysis, probability.field_of),
     "gates.design": (probability.design, probability.field_of),
+    "solves.position": (solves.position, solves.position_field),
+    "solves.trajectory": (solves.trajectory, solves.trajectory_field),
+    "solves.crlb": (solves.crlb, solves.crlb_field),
+    "solves.noise": (solves.noise, solves.noise_field),
 }
 
 OPERATIONS: dict[str, Operation] = {

@@ -19,6 +19,16 @@ from service.schemas.probability import (
     GateProbabilityRequest,
     GateProbabilityResult,
 )
+from service.schemas.solves import (
+    CrlbRequest,
+    CrlbResult,
+    NoiseRequest,
+    NoiseResult,
+    PositionSolveRequest,
+    PositionSolveResult,
+    TrajectorySolveRequest,
+    TrajectorySolveResult,
+)
 
 __all__ = ["ENDPOINTS", "Endpoint"]
 
@@ -28,7 +38,8 @@ class Endpoint:
     """One operation as seen from the wire.
 
     ``slow`` marks an operation that may compute for seconds (unconditional
-    probabilities, curves, gate design): the server runs it off the event loop and
+    probabilities, curves, gate design) or for more than ~50 ms at its size limits
+    (the multistatic solves and bounds): the server runs it off the event loop and
     clients give it a longer timeout.
     """
 
@@ -75,6 +86,28 @@ ENDPOINTS: dict[str, Endpoint] = {
             "gates.design", "/v1/gates/design",
             "Size a combined or expanded gate for a wanted capture probability",
             GateDesignRequest, GateDesignResult, slow=True,
+        ),
+        Endpoint(
+            "solves.position", "/v1/solves/position",
+            "Maximum-likelihood positions of a batch of multistatic range-sum problems, "
+            "optionally with a closed-form solution",
+            PositionSolveRequest, PositionSolveResult, slow=True,
+        ),
+        Endpoint(
+            "solves.trajectory", "/v1/solves/trajectory",
+            "Constant-velocity track from range sums at several sample times",
+            TrajectorySolveRequest, TrajectorySolveResult, slow=True,
+        ),
+        Endpoint(
+            "solves.crlb", "/v1/solves/crlb",
+            "Cramer-Rao bound of multistatic positioning, single shot or along a track",
+            CrlbRequest, CrlbResult, slow=True,
+        ),
+        Endpoint(
+            "solves.noise", "/v1/solves/noise",
+            "Range-sum noise from quadratic fits, and sliding-window smoothing of "
+            "coordinates",
+            NoiseRequest, NoiseResult, slow=True,
         ),
     )
 }

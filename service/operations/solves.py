@@ -1,0 +1,410 @@
+"""Multistatic position solves, bounds and noise estimates (seed 001; DESIGN section 6).
+
+The wire's problems, platforms and series become core's arrays: range sums l (N, P),
+transmitters and receivers (N, P, D) and sigmas (N, P). Core solves a batch whose
+problems share P, so ``solves.position`` groups the problems by their number of pairs
+(and by whether they carry an initial guess) and makes one vectorized core call per
+group; error indices are mapped back to the request's problem numbers.
+
+Platforms given as a position plus a velocity are placed with
+:func:`core.multistatic.platform_positions` at ``t - sample_times[0]`` (the wire's
+position is the one at the first sample time); per-sample positions are used as given.
+
+Decisions:
+
+- ``solvable`` of a maximum-likelihood solution is the chi-square test of its cost
+  with max(P - D, 1) degrees of freedom at the request's alpha. With redundancy
+  (P > D) it is core's ``consistent``; with P = D, where ``consistent`` has nothing to
+  test, it still says whether the position lines meet within the noise (two ellipses
+  that do not intersect leave a large cost at their least-squares point).
+- The closed forms accept a range sum up to ``BASELINE_SIGMAS`` sigma below its
+  baseline, as the maximum-likelihood solve does, so one request never passes one
+  method and fails the other on the same data.
+- Core promises finite answers. Should a NaN or infinity ever come back, the handler
+  fails as a bug (500) rather than letting the response model's validation error pass
+  for bad input (422); JSON cannot carry it either way.
+- The chi-square quantile is scipy's (``scipy.stats.chi2``), the one direct scipy use
+  of the service; core's own threshold is private.
+
+Core errors name core arguments (``l``, ``tx``, ``rx``, ``sigma``, ``x0``, ``t``, ``x``)
+with the batch index of the first bad problem or sample; the ``*_field`` functions turn
+them into request paths such as ``problems[3].receivers`` or ``range_sums[7]``.
+"""
+
+import functools
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any, TypeVar
+
+import numpy as np
+from pydantic import BaseModel, ValidationError
+from scipy import stats
+
+import core.multistatic as ms
+from core import PlotgateError
+from core.multistatic.model import BASELINE_SIGMAS
+from service.schemas import (
+    AccumulatedBound,
+    ClosedFormResult,
+    CrlbRequest,
+    CrlbResult,
+    NoiseRequest,
+    NoiseResult,
+    Platform,
+    PositionSolution,
+    PositionSolveRequest,
+    PositionSolveResult,
+    SingleShotBound,
+    TargetState,
+    TrajectorySolveRequest,
+    TrajectorySolveResult,
+)
+
+__all__ = [
+    "crlb",
+    "crlb_field",
+    "noise",
+    "noise_field",
+    "position",
+    "position_field",
+    "trajectory",
+    "trajectory_field",
+]
+
+Req = TypeVar("Req", bound=BaseModel)
+Res = TypeVar("Res", bound=BaseModel)
+
+_CLOSED_FORMS = {"sum_range": ms.sum_range_solve,
+                 "difference_range": ms.difference_range_solve}
+
+_PER_PROBLEM = {"l", "tx", "rx", "sigma", "x0"}
+"""Core arguments that belong to one problem (or one sample) of a batch."""
+
+
+@contextmanager
+def _rows(rows: Sequence[int]) -> Iterator[None]:
+    """Re-raise a core error of a grouped batch with the request's own problem index.
+
+    A per-problem error without an index (e.g. too few pairs, which a whole group of
+    equal P shares) concerns every problem of the group: the first is named.
+    """
+    try:
+        yield
+    except PlotgateError as exc:
+        if exc.field not in _PER_PROBLEM:
+            raise
+        index = rows[0] if exc.index is None else rows[exc.index]
+        raise type(exc)(exc.field, exc.reason, index) from exc
+
+
+@contextmanager
+def _samples(t: np.ndarray | None, moving: bool) -> Iterator[None]:
+    """Say at which sample a platform error occurred when the platforms move.
+
+    The field of a platform error names the platform list, not the sample, so the
+    sample number and time go into the reason.
+    """
+    try:
+        yield
+    except PlotgateError as exc:
+        if exc.field in ("tx", "rx") and exc.index is not None and moving:
+            when = f"at sample {exc.index}"
+            if t is not None:
+                when += f" (t = {float(t[exc.index])} s)"
+            raise type(exc)(exc.field, f"{when}: {exc.reason}", exc.index) from exc
+        raise
+
+
+def _built(handler: Callable[[Req], Res]) -> Callable[[Req], Res]:
+    """Turn a response model that fails validation (a non-finite number) into a bug.
+
+    The request is validated before the handler runs, so a ``ValidationError`` inside it
+    can only come from the answer; left alone, the registry would report it as bad
+    input (422) instead of the 500 it is.
+    """
+
+    @functools.wraps(handler)
+    def run(request: Req) -> Res:
+        try:
+            return handler(request)
+        except ValidationError as exc:
+            raise RuntimeError(f"{handler.__name__} built an invalid answer: {exc}") from None
+
+    return run
+
+
+def _threshold(alpha: float, dof: int) -> float:
+    """chi2.ppf(1 - alpha, dof)."""
+    return float(stats.chi2.ppf(1.0 - alpha, dof))
+
+
+# --------------------------------------------------------------------------- solves.position
+
+
+@_built
+def position(request: PositionSolveRequest) -> PositionSolveResult:
+    """Maximum-likelihood positions (seed 001 eq. 4, 6), and a closed form on request."""
+    problems = request.problems
+    d = len(problems[0].receivers[0])
+    groups: dict[tuple[int, bool], list[int]] = {}
+    for i, p in enumerate(problems):
+        groups.setdefault((len(p.range_sums), p.initial is not None), []).append(i)
+    solutions: list[PositionSolution | None] = [None] * len(problems)
+    for (n_pairs, guessed), rows in groups.items():
+        group = [problems[i] for i in rows]
+        ls = np.array([p.range_sums for p in group], dtype=float)
+        tx = np.array([p.transmitters or [p.transmitter] * n_pairs for p in group], dtype=float)
+        rx = np.array([p.receivers for p in group], dtype=float)
+        sigma = np.array([p.sigmas or [p.sigma] * n_pairs for p in group], dtype=float)
+        x0 = np.array([p.initial for p in group], dtype=float) if guessed else None
+        with _rows(rows):
+            ml = ms.ml_solve(ls, tx, rx, sigma, x0=x0, alpha=request.alpha,
+                             max_iter=request.max_iter)
+            closed = None
+            if request.method != "ml":
+                solve = _CLOSED_FORMS[request.method]
+                closed = solve(ls, tx, rx, baseline_tol=BASELINE_SIGMAS * sigma)
+        solvable = ml.cost <= _threshold(request.alpha, max(n_pairs - d, 1))
+        _require_finite(ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost,
+                        ml.alternative)
+        out = _columns(ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost,
+                       ml.consistent, solvable, ml.iterations, ml.converged,
+                       ml.alternative, ml.has_alternative)
+        forms = _closed_forms(request.method, closed) if closed is not None else None
+        for j, i in enumerate(rows):
+            (x, cov, res, cost, norm, consistent, ok, iterations, converged, alt,
+             has_alt) = (column[j] for column in out)
+            # checked above, so built without a second validation (10^4 problems)
+            solutions[i] = PositionSolution.model_construct(
+                position=x, covariance=cov, residuals=res, cost=cost, normalized_cost=norm,
+                consistent=consistent, solvable=ok, iterations=iterations,
+                converged=converged, alternative=alt if has_alt else None,
+                closed_form=None if forms is None else forms[j],
+            )
+    done = [s for s in solutions if s is not None]
+    return PositionSolveResult.model_construct(
+        method=request.method, dimensions=d, solutions=done,
+        count_solvable=sum(s.solvable for s in done))
+
+
+def _columns(*arrays: np.ndarray) -> list[list[Any]]:
+    """Each array as a Python list (one entry per problem)."""
+    return [np.asarray(a).tolist() for a in arrays]
+
+
+def _require_finite(*arrays: np.ndarray) -> None:
+    """Core promises finite answers; a NaN or infinity here is a bug (a 500), not bad input.
+
+    (Left to the response model, it would fail validation and be mistaken for a 422.)
+    """
+    for a in arrays:
+        if not np.isfinite(a).all():
+            raise RuntimeError("core returned a non-finite solution; this is a bug")
+
+
+def _closed_forms(method: str, sol: Any) -> list[ClosedFormResult]:
+    _require_finite(sol.x, sol.alternative, sol.residual, sol.alternative_residual)
+    x, alt, has_alt, solvable, res, alt_res = _columns(
+        sol.x, sol.alternative, sol.has_alternative, sol.solvable, sol.residual,
+        sol.alternative_residual)
+    return [
+        ClosedFormResult.model_construct(
+            method=method, position=x[j], solvable=solvable[j], residual=res[j],
+            alternative=alt[j] if has_alt[j] else None,
+            alternative_residual=alt_res[j] if has_alt[j] else None,
+        )
+        for j in range(len(x))
+    ]
+
+
+def position_field(request: PositionSolveRequest, exc: PlotgateError) -> str:
+    """``problems[i].<field>`` for a problem's error, else the top-level field."""
+    if exc.field in _PER_PROBLEM and exc.index is not None:
+        p = request.problems[exc.index]
+        name = {
+            "l": "range_sums",
+            "tx": "transmitter" if p.transmitter is not None else "transmitters",
+            "rx": "receivers",
+            "sigma": "sigma" if p.sigma is not None else "sigmas",
+            "x0": "initial",
+        }[exc.field]
+        return f"problems[{exc.index}].{name}"
+    return exc.field if exc.field in ("alpha", "max_iter") else "problems"
+
+
+# --------------------------------------------------------------------------- platforms
+
+
+def _platform(platform: Platform, tau: np.ndarray | None, n: int | None) -> np.ndarray:
+    """(D,) when no platform moves (n None), else (n, D): per sample, or at offsets tau."""
+    if platform.positions is not None:
+        return np.asarray(platform.positions, dtype=float)
+    position = np.asarray(platform.position, dtype=float)
+    if n is None:
+        return position
+    if platform.velocity is None:
+        return np.array(np.broadcast_to(position, (n, position.size)))
+    assert tau is not None  # the schema requires sample times with a velocity
+    return ms.platform_positions(position, platform.velocity, tau)
+
+
+def _platforms(
+    request: TrajectorySolveRequest | CrlbRequest, tau: np.ndarray | None, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Transmitters and receivers: (P, D) when no platform moves, else (n, P, D).
+
+    ``tau`` are the sample times less the first (None without sample times).
+    """
+    p = len(request.receivers)
+    transmitters = request.transmitters or [request.transmitter] * p
+    samples = n if _moving(request) else None
+    tx = np.stack([_platform(q, tau, samples) for q in transmitters], axis=-2)
+    rx = np.stack([_platform(q, tau, samples) for q in request.receivers], axis=-2)
+    return tx, rx
+
+
+def _moving(request: TrajectorySolveRequest | CrlbRequest) -> bool:
+    """Some platform's position depends on time."""
+    return any(q.moving for q in (request.transmitter, *(request.transmitters or ()),
+                                  *request.receivers) if q is not None)
+
+
+def _sigma(request: TrajectorySolveRequest | CrlbRequest) -> float | np.ndarray:
+    return request.sigma if request.sigmas is None else np.asarray(request.sigmas, dtype=float)
+
+
+def _platform_field(request: Any, field: str) -> str | None:
+    """The request field of a platform or sigma argument (tx, rx, sigma)."""
+    if field == "tx":
+        return "transmitter" if request.transmitter is not None else "transmitters"
+    if field == "rx":
+        return "receivers"
+    if field == "sigma":
+        return "sigma" if request.sigma is not None else "sigmas"
+    return None
+
+
+# --------------------------------------------------------------------------- solves.trajectory
+
+
+@_built
+def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
+    """Constant-velocity track by maximum likelihood over all samples (seed 001)."""
+    t = np.asarray(request.sample_times, dtype=float)
+    tx, rx = _platforms(request, t - t[0], t.size)
+    x0 = None
+    if request.initial is not None:
+        x0 = np.concatenate([request.initial.position, request.initial.velocity])
+    with _samples(t, _moving(request)):
+        sol = ms.trajectory_solve(np.asarray(request.range_sums, dtype=float), t, tx, rx,
+                                  _sigma(request), x0=x0, alpha=request.alpha,
+                                  max_iter=request.max_iter)
+    times = request.sample_times if request.times is None else request.times
+    positions, covariances = sol.at(np.asarray(times, dtype=float))
+    return TrajectorySolveResult(
+        t_ref=sol.t_ref,
+        state=TargetState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
+        covariance=sol.covariance.tolist(),
+        residuals=sol.residuals.tolist(),
+        cost=sol.cost,
+        normalized_cost=sol.normalized_cost,
+        consistent=sol.consistent,
+        converged=sol.converged,
+        iterations=sol.iterations,
+        times=list(times),
+        positions=positions.tolist(),
+        covariances=covariances.tolist(),
+    )
+
+
+def trajectory_field(request: TrajectorySolveRequest, exc: PlotgateError) -> str:
+    """``range_sums[i]``, ``sample_times``, the platform lists, ``sigma(s)``, ``initial``."""
+    if exc.field == "l":
+        return "range_sums" if exc.index is None else f"range_sums[{exc.index}]"
+    if exc.field == "t":
+        return "sample_times"
+    if exc.field == "x0":
+        return "initial"
+    return _platform_field(request, exc.field) or exc.field
+
+
+# --------------------------------------------------------------------------- solves.crlb
+
+
+@_built
+def crlb(request: CrlbRequest) -> CrlbResult:
+    """Cramer-Rao bounds (seed 001 eq. 3): single shot per sample, accumulated on a track."""
+    t = None if request.sample_times is None else np.asarray(request.sample_times, dtype=float)
+    if request.track is not None:
+        assert t is not None  # the schema requires sample times with a track
+        x = np.asarray(request.track.position) + np.multiply.outer(
+            t - t[0], np.asarray(request.track.velocity, dtype=float))
+    else:
+        x = np.asarray(request.targets, dtype=float)
+    tx, rx = _platforms(request, None if t is None else t - t[0], len(x))
+    sigma = _sigma(request)
+    bound = ms.difference_crlb if request.measurements == "difference" else ms.crlb
+    with _samples(t, _moving(request)):
+        single = bound(x, tx, rx, sigma)
+        accumulated = None
+        if request.track is not None:
+            acc = ms.trajectory_crlb(request.track.position, request.track.velocity, t, tx,
+                                     rx, sigma)
+            accumulated = AccumulatedBound(
+                t_ref=acc.t_ref,
+                state_covariance=acc.covariance.tolist(),
+                state_sigma=acc.sigma.tolist(),
+                sigma=acc.position_sigma.tolist(),
+                gdop=acc.gdop.tolist(),
+                covariance=acc.position_covariance.tolist(),
+                sigma_ref=acc.sigma_ref,
+            )
+    return CrlbResult(
+        measurements=request.measurements,
+        positions=x.tolist(),
+        single_shot=SingleShotBound(
+            sigma=single.sigma.tolist(), gdop=single.gdop.tolist(),
+            covariance=single.covariance.tolist(), sigma_ref=single.sigma_ref.tolist(),
+        ),
+        accumulated=accumulated,
+    )
+
+
+def crlb_field(request: CrlbRequest, exc: PlotgateError) -> str:
+    """``targets[i]`` (or ``track``), the platform lists, ``sigma(s)``, ``sample_times``."""
+    if exc.field in ("x", "x0", "v"):
+        if request.track is not None:
+            return {"x0": "track.position", "v": "track.velocity"}.get(exc.field, "track")
+        return "targets" if exc.index is None else f"targets[{exc.index}]"
+    if exc.field == "t":
+        return "sample_times"
+    if exc.field == "l":
+        return "receivers"
+    return _platform_field(request, exc.field) or exc.field
+
+
+# --------------------------------------------------------------------------- solves.noise
+
+
+@_built
+def noise(request: NoiseRequest) -> NoiseResult:
+    """Noise of each range-sum series (seed 001 eq. 5) and smoothed coordinates."""
+    t = np.asarray(request.sample_times, dtype=float)
+    out: dict[str, Any] = {}
+    if request.range_sums is not None:
+        est = ms.range_sum_noise(t, np.asarray(request.range_sums, dtype=float), request.degree)
+        out.update(sigma=est.sigma.tolist(), variance=est.variance.tolist(), dof=est.dof,
+                   smoothed_range_sums=est.smoothed.tolist())
+    if request.positions is not None:
+        assert request.window is not None  # the schema requires it with positions
+        smoothed = ms.smooth_positions(t, np.asarray(request.positions, dtype=float),
+                                       request.window, request.smoothing_degree)
+        out["smoothed_positions"] = smoothed.tolist()
+    return NoiseResult(**out)
+
+
+def noise_field(request: NoiseRequest, exc: PlotgateError) -> str:
+    """``sample_times[i]``, ``range_sums``, ``positions``, ``window`` or a degree."""
+    if exc.field == "t":
+        return "sample_times" if exc.index is None else f"sample_times[{exc.index}]"
+    return {"l": "range_sums", "x": "positions"}.get(exc.field, exc.field)
