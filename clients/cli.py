@@ -1,9 +1,12 @@
-"""The ``plotgate`` command: serve, replay, inspect, plot.
+"""The ``plotgate`` command: serve, call, replay, inspect, plot.
 
 ``plotgate serve`` runs the service (flags override the ``PLOTGATE_*`` settings);
-``plotgate replay FILE_OR_DIR`` re-runs a recorded session and exits 1 if any answer
-changed; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and latencies;
-``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability figures.
+``plotgate call OPERATION [REQUEST.json]`` runs any operation (``solves.position``,
+``gates.probability`` ...) on a JSON request, in-process or on a server, and prints the
+answer; ``plotgate replay FILE_OR_DIR`` re-runs a recorded session and exits 1 if any
+answer changed; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and
+latencies; ``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability
+figures.
 """
 
 import argparse
@@ -36,6 +39,29 @@ def _serve(args: argparse.Namespace) -> int:
         log_level="info",
     )
     return 0
+
+
+def _call(args: argparse.Namespace) -> int:
+    """Print the answer (exit 0) or the problem (exit 1) of one request."""
+    body = (sys.stdin.buffer.read() if args.request in (None, "-")
+            else Path(args.request).read_bytes())
+    if args.server is None:
+        from service.registry import OPERATIONS, execute
+
+        outcome = execute(OPERATIONS[args.operation], body)
+        status, content = outcome.status, outcome.content
+    else:
+        import httpx
+
+        from clients.client import SLOW_TIMEOUT
+        from service.schemas import ENDPOINTS
+
+        path = ENDPOINTS[args.operation].path
+        answer = httpx.post(args.server.rstrip("/") + path, content=body, timeout=SLOW_TIMEOUT,
+                            headers={"content-type": "application/json"})
+        status, content = answer.status_code, answer.content
+    sys.stdout.write(json.dumps(json.loads(content), indent=2) + "\n")
+    return 0 if status < 400 else 1
 
 
 def _replay(args: argparse.Namespace) -> int:
@@ -102,6 +128,18 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")
     rep.set_defaults(func=_replay)
+
+    from service.schemas import ENDPOINTS
+
+    call = sub.add_parser(
+        "call", help="run one operation on a JSON request and print the answer",
+        description="Runs in-process through this build's registry (what the server would "
+        "answer), or on a live server with --server. Exit 0 on an answer, 1 on a problem.",
+    )
+    call.add_argument("operation", choices=sorted(ENDPOINTS), help="operation name")
+    call.add_argument("request", nargs="?", help="JSON request file (default: stdin)")
+    call.add_argument("--server", help="a live server URL (default in-process)")
+    call.set_defaults(func=_call)
 
     ins = sub.add_parser("inspect", help="per-operation counts, errors and latencies")
     ins.add_argument("path", type=Path, help="an MCAP file or a folder of them")

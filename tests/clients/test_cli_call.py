@@ -1,0 +1,52 @@
+"""``plotgate call``: any operation on a JSON request, in-process or on a server."""
+
+import json
+
+import numpy as np
+import pytest
+
+from clients.cli import main
+
+TX = np.array([0.0, 0.0])
+RX = np.array([[10_000.0, 0.0], [0.0, 10_000.0], [10_000.0, 10_000.0]])
+TARGET = np.array([4_000.0, 3_000.0])
+SUMS = (np.linalg.norm(TARGET - RX, axis=1) + np.linalg.norm(TARGET - TX)).tolist()
+REQUEST = {"problems": [{"range_sums": SUMS, "transmitter": TX.tolist(),
+                         "receivers": RX.tolist(), "sigma": 0.5}]}
+
+
+def test_call_solves_in_process(tmp_path, capsys):
+    path = tmp_path / "request.json"
+    path.write_text(json.dumps(REQUEST))
+    assert main(["call", "solves.position", str(path)]) == 0
+    answer = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(answer["solutions"][0]["position"], TARGET, atol=1e-6)
+
+
+def test_call_reads_stdin_and_reports_a_problem(monkeypatch, capsys):
+    bad = {**REQUEST, "problems": [{**REQUEST["problems"][0], "sigma": 0.0}]}
+    monkeypatch.setattr("sys.stdin", type("In", (), {"buffer": _Bytes(json.dumps(bad))})())
+    assert main(["call", "solves.position"]) == 1
+    problem = json.loads(capsys.readouterr().out)
+    assert problem["status"] == 422
+    assert any("sigma" in e["field"] for e in problem["errors"])
+
+
+class _Bytes:
+    def __init__(self, text: str) -> None:
+        self._data = text.encode()
+
+    def read(self) -> bytes:
+        return self._data
+
+
+@pytest.mark.slow
+def test_call_on_a_live_server(tmp_path, capsys):
+    from tests.conftest import serve
+
+    path = tmp_path / "request.json"
+    path.write_text(json.dumps(REQUEST))
+    with serve(tmp_path / "recordings") as (_, url):
+        assert main(["call", "solves.position", str(path), "--server", url]) == 0
+    answer = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(answer["solutions"][0]["position"], TARGET, atol=1e-6)
