@@ -1,0 +1,226 @@
+"""Cost of multistatic range-sum position solves, against scipy.optimize.least_squares.
+
+Run from the repository root::
+
+    python bench/bench_multistatic.py                  # 10^4 problems, 20 tracks
+    python bench/bench_multistatic.py --size 1000 --tracks 3   # a quick look
+
+Problems come from the accuracy study's scenario (``bench/study_multistatic.py``: one
+transmitter and three receivers on platforms at 10 m/s, baselines about 10 km, the target
+at 80 m/s crossing them, sigma 0.5 m): each single-shot problem is one of its 200
+samples, drawn at random, with fresh noise (seeded). A second set puts the receivers 5 km
+apart (``spread``), a well-conditioned geometry where Gauss-Newton needs fewer steps.
+
+* Single shot: ``ml_solve`` on the whole batch (validation and the closed-form start
+  included), best of ``--repeats``. The baselines, in the same run on the same problems,
+  are ``scipy.optimize.least_squares`` (``trf``, its default, and ``lm``, MINPACK) with
+  the analytic Jacobian, one call per problem (scipy has no batch), each started from
+  the sum-range closed form; the batched closed form's time is added to theirs. Their
+  answers are compared with ml_solve's (distance in metres and in sigmas of
+  ml_solve's covariance).
+* Trajectory: ``trajectory_solve`` on the study's 200 samples (600 range sums, 4
+  unknowns), end to end with its own start, and from a given start; the baselines solve
+  the same problem from that start (a straight line fitted to the per-sample closed-form
+  positions). Mean over ``--tracks`` noise draws of the best of ``--repeats``.
+
+The ratio columns are scipy's time over core's (above 1: core is faster). Prints markdown.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import scipy
+from scipy.optimize import least_squares
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import study_multistatic as study  # noqa: E402
+
+from core.multistatic.closed_form import sum_range_solve  # noqa: E402
+from core.multistatic.ml import ml_solve, trajectory_solve  # noqa: E402
+from core.multistatic.model import range_sums  # noqa: E402
+
+SEED = 20261123
+SIGMA = study.SIGMA
+SPREAD_RX0 = np.array([[150.0, -1500.0], [600.0, 1000.0], [150.0, 3500.0]])
+
+
+def best_time(run: Callable[[], object], repeats: int) -> float:
+    """Best wall time of ``repeats`` calls, in seconds."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def problems(sc: study.Scenario, size: int, rng: np.random.Generator
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``size`` single-shot problems: (l (N, P), tx, rx (N, P, D), truth (N, D))."""
+    i = rng.integers(0, sc.t.size, size)
+    tx, rx, x = sc.tx[i], sc.rx[i], sc.x[i]
+    ls = range_sums(x, tx, rx) + SIGMA * rng.standard_normal((size, tx.shape[1]))
+    return ls, tx, rx, x
+
+
+def spread_scenario() -> study.Scenario:
+    """The study's scenario with the receivers 2.5 km apart across the track."""
+    base = study.scenario()
+    shift = SPREAD_RX0 - study.RX0
+    rx = base.rx + shift[None]
+    return study.Scenario(base.t, base.tx, rx, base.x, base.x0, base.v, base.crossings,
+                          np.linalg.norm(SPREAD_RX0 - study.TX0, axis=1))
+
+
+def _direct_residuals(tx: np.ndarray, rx: np.ndarray):
+    """The same residuals without core's input checks (numpy only), for scipy."""
+
+    def fun(x: np.ndarray, l: np.ndarray) -> np.ndarray:  # noqa: E741
+        d = x - rx
+        e = x - tx
+        return (l - np.sqrt((d * d).sum(-1)) - np.sqrt((e * e).sum(-1))) / SIGMA
+
+    def jac(x: np.ndarray, l: np.ndarray) -> np.ndarray:  # noqa: E741
+        d = x - rx
+        e = x - tx
+        return -(d / np.sqrt((d * d).sum(-1))[:, None]
+                 + e / np.sqrt((e * e).sum(-1))[:, None]) / SIGMA
+
+    return fun, jac
+
+
+def scipy_batch(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, starts: np.ndarray,
+                method: str) -> np.ndarray:
+    out = np.empty_like(starts)
+    for n in range(ls.shape[0]):
+        fun, jac = _direct_residuals(tx[n], rx[n])
+        out[n] = least_squares(fun, starts[n], jac=jac, args=(ls[n],), method=method).x
+    return out
+
+
+def single_shot(name: str, sc: study.Scenario, size: int, repeats: int,
+                rng: np.random.Generator) -> list[str]:
+    ls, tx, rx, _ = problems(sc, size, rng)
+    sol = ml_solve(ls, tx, rx, SIGMA)
+    core_s = best_time(lambda: ml_solve(ls, tx, rx, SIGMA), repeats)
+    cf_s = best_time(lambda: sum_range_solve(ls, tx, rx, baseline_tol=5 * SIGMA), repeats)
+    starts = sum_range_solve(ls, tx, rx, baseline_tol=5 * SIGMA).x
+    rows = [f"| {name} | ml_solve (batch) | {core_s * 1e6 / size:.1f} | {size / core_s:,.0f} "
+            f"| 1.0x | {np.mean(sol.iterations):.1f} | — |"]
+    for method in ("trf", "lm"):
+        start = time.perf_counter()
+        x = scipy_batch(ls, tx, rx, starts, method)
+        s = time.perf_counter() - start + cf_s
+        dx = x - sol.x
+        sigmas = np.sqrt(np.einsum("ni,nij,nj->n", dx, np.linalg.inv(sol.covariance), dx))
+        metres = np.linalg.norm(dx, axis=-1)
+        rows.append(f"| {name} | least_squares {method} + closed-form start | "
+                    f"{s * 1e6 / size:.1f} | {size / s:,.0f} | {s / core_s:.2f}x | — | "
+                    f"max {metres.max():.1g} m = {sigmas.max():.1g} sigma; "
+                    f"{(sigmas > 0.1).sum()} beyond 0.1 sigma |")
+    return rows
+
+
+def line_start(sc: study.Scenario, ls: np.ndarray) -> np.ndarray:
+    """(x0, v) of a straight line through the per-sample closed-form positions."""
+    x = sum_range_solve(ls, sc.tx, sc.rx, baseline_tol=5 * SIGMA).x
+    tau = sc.t - sc.t[0]
+    slope, icpt = np.polyfit(tau, x, 1)
+    return np.concatenate([icpt, slope])
+
+
+def trajectory(sc: study.Scenario, tracks: int, repeats: int,
+               rng: np.random.Generator) -> list[str]:
+    tau = sc.t - sc.t[0]
+    n_t, p, _ = sc.tx.shape
+    clean = range_sums(sc.x, sc.tx, sc.rx)
+    times = {k: [] for k in ("core", "core_x0", "trf", "lm")}
+    diffs = {"trf": 0.0, "lm": 0.0}
+    iters = []
+    for _ in range(tracks):
+        ls = clean + SIGMA * rng.standard_normal(clean.shape)
+        x0 = line_start(sc, ls)
+        sol = trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA)
+        iters.append(sol.iterations)
+        times["core"].append(best_time(
+            lambda ls=ls: trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA), repeats))
+        times["core_x0"].append(best_time(
+            lambda ls=ls, x0=x0: trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA, x0=x0),
+            repeats))
+        flat = ls.reshape(-1)
+
+        def fun(theta: np.ndarray, flat=flat) -> np.ndarray:
+            x = theta[:2] + tau[:, None] * theta[2:]  # (T, D)
+            d = x[:, None] - sc.rx
+            e = x[:, None] - sc.tx
+            h = np.sqrt((d * d).sum(-1)) + np.sqrt((e * e).sum(-1))
+            return (flat - h.reshape(-1)) / SIGMA
+
+        def jac(theta: np.ndarray, flat=flat) -> np.ndarray:
+            x = theta[:2] + tau[:, None] * theta[2:]
+            d = x[:, None] - sc.rx
+            e = x[:, None] - sc.tx
+            H = d / np.sqrt((d * d).sum(-1))[..., None] + e / np.sqrt((e * e).sum(-1))[..., None]
+            return -np.concatenate([H, tau[:, None, None] * H], -1).reshape(n_t * p, 4) / SIGMA
+
+        for method in ("trf", "lm"):
+            out = least_squares(fun, x0, jac=jac, method=method)
+            diffs[method] = max(diffs[method], float(np.abs(out.x - sol.state).max()))
+            times[method].append(best_time(
+                lambda m=method, x0=x0: least_squares(fun, x0, jac=jac, method=m), repeats))
+    mean = {k: float(np.mean(v)) for k, v in times.items()}
+    rows = [
+        f"| trajectory_solve, own start | {mean['core'] * 1e3:.2f} | "
+        f"{mean['trf'] / mean['core']:.2f}x | {mean['lm'] / mean['core']:.2f}x | "
+        f"{np.mean(iters):.1f} |",
+        f"| trajectory_solve, given start | {mean['core_x0'] * 1e3:.2f} | "
+        f"{mean['trf'] / mean['core_x0']:.2f}x | {mean['lm'] / mean['core_x0']:.2f}x | — |",
+        f"| least_squares trf, same start | {mean['trf'] * 1e3:.2f} | — | — | "
+        f"max |state - core| {diffs['trf']:.1e} |",
+        f"| least_squares lm, same start | {mean['lm'] * 1e3:.2f} | — | — | "
+        f"max |state - core| {diffs['lm']:.1e} |",
+    ]
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=10_000,
+                        help="single-shot problems per batch (10^4)")
+    parser.add_argument("--tracks", type=int, default=20,
+                        help="200-sample trajectories to time (20)")
+    parser.add_argument("--repeats", type=int, default=3, help="best of this many (3)")
+    parser.add_argument("--seed", type=int, default=SEED)
+    args = parser.parse_args(argv)
+    if args.size < 1 or args.tracks < 1 or args.repeats < 1:
+        parser.error("--size, --tracks and --repeats must be at least 1")
+    rng = np.random.default_rng(args.seed)
+    print(f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
+          f"{scipy.__version__}, {platform.machine()}")
+    print(f"\n## Single shot, batch of {args.size:,} problems\n")
+    print("| geometry | solver | us per solve | solves / s | scipy / core time "
+          "| mean GN iterations | agreement with ml_solve |\n"
+          "|---|---|---:|---:|---:|---:|---|")
+    for name, sc in (("study (forward scatter)", study.scenario()),
+                     ("spread receivers", spread_scenario())):
+        for row in single_shot(name, sc, args.size, args.repeats, rng):
+            print(row)
+    print(f"\n## Trajectory, {study.SAMPLES} samples x 3 range sums, 4 unknowns "
+          f"(mean of {args.tracks} tracks)\n")
+    print("| solver | ms per solve | trf / core | lm / core | GN iterations / agreement |\n"
+          "|---|---:|---:|---:|---|")
+    for row in trajectory(study.scenario(), args.tracks, args.repeats, rng):
+        print(row)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
