@@ -438,6 +438,6 @@ def validate_problem(
         index = int(np.argmax(short.any(axis=-1)))
         k = int(np.argmax(short[index]))
         raise GeometryError(
-            "l", f"range sum {k} = {ls[index, k]!r} m is shorter than its baseline "
-            f"|tx - rx| = {baseline[index, k]!r} m; no target position gives it", index)
+            "l", f"range sum {k} = {float(ls[index, k])} m is shorter than its baseline "
+            f"|tx - rx| = {float(baseline[index, k])} m; no target position gives it", index)
     return Problem(ls, tx, rx, sig)
