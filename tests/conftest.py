@@ -58,6 +58,23 @@ def polar(r: float, az_deg: float, sigma_r: float = 200.0, sigma_az_deg: float =
             "sigma_az_deg": sigma_az_deg}
 
 
+def answer(r) -> dict:
+    """The JSON body of a 200 answer."""
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def invalid_input(r, field: str, status: int = 422) -> dict:
+    """The problem body of an invalid-input answer that names ``field``."""
+    assert r.status_code == status, r.text
+    assert r.headers["content-type"].startswith("application/problem+json")
+    body = r.json()
+    assert body["status"] == status and body["type"] == "urn:plotgate:problem:invalid-input"
+    assert field in [e["field"] for e in body["errors"]], body
+    assert field in body["detail"]
+    return body
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -18,6 +18,7 @@ from clients.cli import main
 from clients.recordings import read_recording
 from service.app import create_app
 from service.schemas import MAX_CURVE_POINTS, MAX_UNCONDITIONAL_POINTS
+from tests.conftest import answer, invalid_input
 
 TAU = 5.0
 RING = {"kind": "ring", "v_min": 100.0, "v_max": 500.0}
@@ -37,21 +38,6 @@ def _velocity(speed, course_deg):
     return np.multiply.outer(speed, [math.sin(c), math.cos(c)])
 
 
-def _ok(r) -> dict:
-    assert r.status_code == 200, r.text
-    return r.json()
-
-
-def _problem(r, field: str, status: int = 422) -> dict:
-    assert r.status_code == status, r.text
-    assert r.headers["content-type"].startswith("application/problem+json")
-    body = r.json()
-    assert body["status"] == status and body["type"] == "urn:plotgate:problem:invalid-input"
-    assert field in [e["field"] for e in body["errors"]], body
-    assert field in body["detail"]
-    return body
-
-
 def _probability(**changes) -> dict:
     return {"gate": RING, "mark": MARK, "tau": TAU, "velocity": {"speed": 200.0},
             **changes}
@@ -62,7 +48,7 @@ def _probability(**changes) -> dict:
 
 def test_paper_ring_gate_unconditional(client):
     # seed 000: ring gate, area prior, R = 50 km -> 0.82
-    body = _ok(client.post("/v1/gates/probability",
+    body = answer(client.post("/v1/gates/probability",
                            json={"gate": RING, "mark": MARK, "tau": TAU, "prior": AREA}))
     assert body["conditional"] is False
     assert body["probability"] == pytest.approx(0.82, abs=0.01)
@@ -74,7 +60,7 @@ def test_paper_ring_gate_unconditional(client):
 
 def test_conditional_matches_core(client):
     mark = dict(MARK, az_deg=20.0, sigma_r2=300.0, sigma_az2_deg=0.25)
-    body = _ok(client.post("/v1/gates/probability", json=_probability(
+    body = answer(client.post("/v1/gates/probability", json=_probability(
         gate=COMBINED, mark=mark, velocity={"speed": 450.0, "course_deg": 30.0})))
     assert body["conditional"] is True
     geometry = core.mark_geometry(50_000.0, np.radians(20.0), 200.0, SIGMA_AZ, TAU,
@@ -90,7 +76,7 @@ def test_course_is_clockwise_from_north(client):
     speed, course = 300.0, 60.0
     offset = [float(x) for x in _velocity(speed, course) * TAU]
     gate = {"kind": "ellipse", "P_G": 0.9, "offset": offset}
-    body = _ok(client.post("/v1/gates/probability", json=_probability(
+    body = answer(client.post("/v1/gates/probability", json=_probability(
         gate=gate, velocity={"speed": speed, "course_deg": course})))
     assert body["probability"] == pytest.approx(0.9, abs=1e-9)
 
@@ -104,7 +90,7 @@ def test_course_is_clockwise_from_north(client):
     ids=lambda g: g["kind"],
 )
 def test_every_gate_kind(client, gate):
-    body = _ok(client.post("/v1/gates/probability", json=_probability(
+    body = answer(client.post("/v1/gates/probability", json=_probability(
         gate=gate, velocity={"speed": 190.0, "course_deg": 32.0})))
     kinds = {"expanded": lambda: core.ExpandedGate(500.0, 0.9),
              "rectangular": lambda: core.RectangularGate(3.0, (500.0, 800.0)),
@@ -126,7 +112,7 @@ def _curve(**changes) -> dict:
 
 def test_speed_curve_matches_core(client):
     speeds = [50.0, 100.0, 250.0, 499.0, 600.0]
-    body = _ok(client.post("/v1/gates/probability/curve",
+    body = answer(client.post("/v1/gates/probability/curve",
                            json=_curve(values=speeds, course_deg=45.0)))
     assert body["against"] == "speed" and body["conditional"] is True
     assert body["values"] == speeds
@@ -140,7 +126,7 @@ def test_speed_curve_matches_core(client):
 
 def test_range_curve_conditional_matches_core(client):
     ranges = [5_000.0, 20_000.0, 50_000.0, 100_000.0]
-    body = _ok(client.post("/v1/gates/probability/curve", json=_curve(
+    body = answer(client.post("/v1/gates/probability/curve", json=_curve(
         gate=COMBINED, against="range", values=ranges, speed=300.0, course_deg=90.0)))
     assert body["conditional"] is True and body["values"] == ranges
     gate = core.CombinedGate(100.0, 500.0, 0.9)
@@ -151,7 +137,7 @@ def test_range_curve_conditional_matches_core(client):
 
 def test_range_curve_unconditional_paper_values(client):
     # seed 000: ring gate, area prior: 0.90 at 20 km, 0.82 at 50 km
-    body = _ok(client.post("/v1/gates/probability/curve", json=_curve(
+    body = answer(client.post("/v1/gates/probability/curve", json=_curve(
         against="range", values=[20_000.0, 50_000.0], prior=AREA)))
     assert body["conditional"] is False
     assert body["probability"] == pytest.approx([0.90, 0.82], abs=0.01)
@@ -167,7 +153,7 @@ def _analysis(**changes) -> dict:
 
 
 def test_analysis_combined_gate(client):
-    body = _ok(client.post("/v1/gates/analysis", json=_analysis(m_max=3)))
+    body = answer(client.post("/v1/gates/analysis", json=_analysis(m_max=3)))
     gate, geometry = core.CombinedGate(100.0, 500.0, 0.9), _geometry()
     area = core.gate_area(gate, geometry)
     cells = core.resolution_cells(area, 50_000.0, 500.0, math.radians(1.5))
@@ -191,7 +177,7 @@ def test_analysis_combined_gate(client):
 def test_analysis_expanded_gate_paper_cells(client):
     # seed 000: the expanded gate (p = 0.9) covers about 49 cells, P(>= 1) = 0.0049
     gate = {"kind": "expanded", "v_max": 500.0, "p": 0.9}
-    body = _ok(client.post("/v1/gates/analysis", json=_analysis(gate=gate)))
+    body = answer(client.post("/v1/gates/analysis", json=_analysis(gate=gate)))
     assert body["cells"] == pytest.approx(49.0, abs=1.0)
     assert body["false_marks"]["at_least_one"] == pytest.approx(0.0049, abs=1e-4)
     assert len(body["false_marks"]["probabilities"]) == 6
@@ -199,7 +185,7 @@ def test_analysis_expanded_gate_paper_cells(client):
 
 
 def test_analysis_with_prior_gives_capture(client):
-    body = _ok(client.post("/v1/gates/analysis", json=_analysis(
+    body = answer(client.post("/v1/gates/analysis", json=_analysis(
         gate=RING, prior=AREA, P_D1=0.9, P_D2=0.8)))
     assert body["gate_probability"] == pytest.approx(0.82, abs=0.01)
     assert body["error"] < 1e-6
@@ -216,7 +202,7 @@ def _design(**changes) -> dict:
 
 
 def test_design_combined_gate(client):
-    body = _ok(client.post("/v1/gates/design", json=_design()))
+    body = answer(client.post("/v1/gates/design", json=_design()))
     assert body["parameter"] == "P_G" and 0.5 < body["value"] < 0.99
     assert body["threshold"] == pytest.approx(core.gate_threshold(body["value"], 2), rel=1e-12)
     assert body["probability"] == pytest.approx(0.99, abs=1e-5)
@@ -237,12 +223,12 @@ def test_design_combined_gate(client):
     ids=["unreachable", "first-stage-suffices"],
 )
 def test_design_capture_out_of_reach(client, changes):
-    body = _problem(client.post("/v1/gates/design", json=_design(**changes)), "capture")
+    body = invalid_input(client.post("/v1/gates/design", json=_design(**changes)), "capture")
     assert str(changes["capture"]) in body["detail"]
 
 
 def test_design_takes_only_combined_or_expanded(client):
-    _problem(client.post("/v1/gates/design", json=_design(gate=RING)), "gate")
+    invalid_input(client.post("/v1/gates/design", json=_design(gate=RING)), "gate")
 
 
 # --- bad input -------------------------------------------------------------------------
@@ -250,11 +236,11 @@ def test_design_takes_only_combined_or_expanded(client):
 
 def test_v_min_above_v_max_in_the_gate(client):
     gate = dict(RING, v_min=600.0)
-    body = _problem(client.post("/v1/gates/probability", json=_probability(gate=gate)),
+    body = invalid_input(client.post("/v1/gates/probability", json=_probability(gate=gate)),
                     "gate.v_min")
     assert "600" in body["detail"]
     r = client.post("/v1/gates/analysis", json=_analysis(gate=dict(COMBINED, v_min=600.0)))
-    _problem(r, "gate.v_min")
+    invalid_input(r, "gate.v_min")
 
 
 @pytest.mark.parametrize(
@@ -267,18 +253,18 @@ def test_v_min_above_v_max_in_the_gate(client):
 )
 def test_v_min_above_v_max_in_the_prior(client, path, body):
     prior = dict(AREA, v_min=600.0)
-    _problem(client.post(path, json=dict(body, prior=prior)), "prior.v_min")
+    invalid_input(client.post(path, json=dict(body, prior=prior)), "prior.v_min")
     # both inconsistent: core checks the prior first
-    _problem(client.post(path, json=dict(body, prior=prior, gate=dict(COMBINED, v_min=700.0))),
-             "prior.v_min")
+    both = dict(body, prior=prior, gate=dict(COMBINED, v_min=700.0))
+    invalid_input(client.post(path, json=both), "prior.v_min")
 
 
 @pytest.mark.parametrize("P_G", [0.0, 1.0, 1.5, -0.1])
 def test_probability_outside_unit_interval(client, P_G):
     gate = dict(COMBINED, P_G=P_G)
-    _problem(client.post("/v1/gates/probability", json=_probability(gate=gate)),
-             "gate.combined.P_G")
-    _problem(client.post("/v1/gates/design", json=_design(gate=gate)), "gate.combined.P_G")
+    invalid_input(client.post("/v1/gates/probability", json=_probability(gate=gate)),
+                  "gate.combined.P_G")
+    invalid_input(client.post("/v1/gates/design", json=_design(gate=gate)), "gate.combined.P_G")
 
 
 @pytest.mark.parametrize(
@@ -287,7 +273,7 @@ def test_probability_outside_unit_interval(client, P_G):
      ("P_D2", 1.2, "P_D2"), ("false_alarm", 0.0, "false_alarm")],
 )
 def test_design_probabilities_outside_unit_interval(client, field, value, where):
-    _problem(client.post("/v1/gates/design", json=_design(**{field: value})), where)
+    invalid_input(client.post("/v1/gates/design", json=_design(**{field: value})), where)
 
 
 @pytest.mark.parametrize(
@@ -297,16 +283,16 @@ def test_design_probabilities_outside_unit_interval(client, field, value, where)
 )
 def test_zero_or_negative_sigma(client, field, value):
     mark = dict(MARK, **{field: value})
-    _problem(client.post("/v1/gates/probability", json=_probability(mark=mark)),
-             f"mark.{field}")
-    _problem(client.post("/v1/gates/analysis", json=_analysis(mark=mark)), f"mark.{field}")
+    invalid_input(client.post("/v1/gates/probability", json=_probability(mark=mark)),
+                  f"mark.{field}")
+    invalid_input(client.post("/v1/gates/analysis", json=_analysis(mark=mark)), f"mark.{field}")
 
 
 @pytest.mark.parametrize("tau", [0.0, -5.0])
 def test_tau_not_positive(client, tau):
-    _problem(client.post("/v1/gates/probability", json=_probability(tau=tau)), "tau")
-    _problem(client.post("/v1/gates/probability/curve", json=_curve(tau=tau)), "tau")
-    _problem(client.post("/v1/gates/design", json=_design(tau=tau)), "tau")
+    invalid_input(client.post("/v1/gates/probability", json=_probability(tau=tau)), "tau")
+    invalid_input(client.post("/v1/gates/probability/curve", json=_curve(tau=tau)), "tau")
+    invalid_input(client.post("/v1/gates/design", json=_design(tau=tau)), "tau")
 
 
 @pytest.mark.parametrize("token", ["NaN", "Infinity", "-Infinity"])
@@ -322,19 +308,19 @@ def test_tau_not_positive(client, tau):
 def test_non_finite_numbers(client, token, path, body, marker, field):
     text = json.dumps(body).replace(marker, token, 1)
     r = client.post(path, content=text.encode(), headers={"content-type": "application/json"})
-    _problem(r, field)
+    invalid_input(r, field)
 
 
 def test_gate_carries_no_tau(client):
-    _problem(client.post("/v1/gates/probability", json=_probability(gate=dict(RING, tau=5.0))),
-             "gate.ring.tau")
+    body = _probability(gate=dict(RING, tau=5.0))
+    invalid_input(client.post("/v1/gates/probability", json=body), "gate.ring.tau")
 
 
 @pytest.mark.parametrize("given", [{}, {"velocity": {"speed": 200.0}, "prior": AREA}],
                          ids=["neither", "both"])
 def test_exactly_one_of_velocity_and_prior(client, given):
     body = {"gate": RING, "mark": MARK, "tau": TAU, **given}
-    problem = _problem(client.post("/v1/gates/probability", json=body), "velocity")
+    problem = invalid_input(client.post("/v1/gates/probability", json=body), "velocity")
     assert "prior" in [e["field"] for e in problem["errors"]]
 
 
@@ -352,28 +338,28 @@ def test_exactly_one_of_velocity_and_prior(client, given):
          "speed-too-large", "empty", "unknown-against"],
 )
 def test_curve_rules(client, changes, field):
-    _problem(client.post("/v1/gates/probability/curve", json=_curve(**changes)), field)
+    invalid_input(client.post("/v1/gates/probability/curve", json=_curve(**changes)), field)
 
 
 def test_too_many_curve_values(client):
     speeds = [200.0] * (MAX_CURVE_POINTS + 1)
-    _problem(client.post("/v1/gates/probability/curve", json=_curve(values=speeds)), "values")
+    invalid_input(client.post("/v1/gates/probability/curve", json=_curve(values=speeds)), "values")
     ranges = [5e4] * (MAX_UNCONDITIONAL_POINTS + 1)
     body = _curve(against="range", values=ranges, prior=AREA)
-    problem = _problem(client.post("/v1/gates/probability/curve", json=body), "values")
+    problem = invalid_input(client.post("/v1/gates/probability/curve", json=body), "values")
     assert str(MAX_UNCONDITIONAL_POINTS) in problem["detail"]
     # the same number of values is fine for a conditional curve
     body = _curve(against="range", values=ranges, speed=200.0)
-    assert len(_ok(client.post("/v1/gates/probability/curve", json=body))["probability"]) == 101
+    assert len(answer(client.post("/v1/gates/probability/curve", json=body))["probability"]) == 101
 
 
 def test_numerically_singular_mark(client):
     # r sigma_az / sigma_r above 10^6: B cannot be used (core names B)
     mark = dict(MARK, sigma_r=1e-3, sigma_az_deg=1e-3, r=1e8)
-    _problem(client.post("/v1/gates/probability", json=_probability(mark=mark)), "mark")
+    invalid_input(client.post("/v1/gates/probability", json=_probability(mark=mark)), "mark")
     body = _curve(against="range", values=[5e4, 1e8], speed=200.0,
                   mark=dict(mark, r=5e4))
-    _problem(client.post("/v1/gates/probability/curve", json=body), "values[1]")
+    invalid_input(client.post("/v1/gates/probability/curve", json=body), "values[1]")
 
 
 # --- recording and replay --------------------------------------------------------------

@@ -35,6 +35,7 @@ from core.multistatic import (
 from service.app import create_app
 from service.config import Settings
 from service.schemas import ENDPOINTS, MAX_PROBLEMS
+from tests.conftest import answer, invalid_input
 
 SIGMA = 0.5
 TRUTH = 1e-6  # m: noise-free answers equal the truth within this
@@ -49,21 +50,6 @@ RX3 = [[10000.0, 0.0, 500.0], [0.0, 10000.0, -300.0], [-8000.0, -6000.0, 1000.0]
 X3 = [[3000.0, 4000.0, 2000.0], [-5000.0, 2000.0, -1500.0], [12000.0, 9000.0, 3000.0]]
 
 GEOMETRIES = {"2d": (TX2, RX2, X2), "3d": (TX3, RX3, X3)}
-
-
-def _ok(r) -> dict:
-    assert r.status_code == 200, r.text
-    return r.json()
-
-
-def _problem(r, field: str, status: int = 422) -> dict:
-    assert r.status_code == status, r.text
-    assert r.headers["content-type"].startswith("application/problem+json")
-    body = r.json()
-    assert body["status"] == status and body["type"] == "urn:plotgate:problem:invalid-input"
-    assert field in [e["field"] for e in body["errors"]], body
-    assert field in body["detail"]
-    return body
 
 
 def _sums(x, tx, rx) -> list[float]:
@@ -98,7 +84,7 @@ def _finite(value) -> None:
 @pytest.mark.parametrize("geometry", ["2d", "3d"])
 def test_position_ml_equals_truth_and_core(client, geometry):
     tx, rx, xs = GEOMETRIES[geometry]
-    body = _ok(client.post("/v1/solves/position",
+    body = answer(client.post("/v1/solves/position",
                            json=_position(*[_p(x, tx, rx) for x in xs])))
     assert body["method"] == "ml" and body["dimensions"] == len(tx)
     assert body["count_solvable"] == len(xs)
@@ -121,7 +107,7 @@ def test_position_ml_equals_truth_and_core(client, geometry):
 @pytest.mark.parametrize("method", ["sum_range", "difference_range"])
 def test_position_closed_forms(client, geometry, method):
     tx, rx, xs = GEOMETRIES[geometry]
-    body = _ok(client.post("/v1/solves/position",
+    body = answer(client.post("/v1/solves/position",
                            json=_position(*[_p(x, tx, rx) for x in xs], method=method)))
     assert body["method"] == method
     solve = sum_range_solve if method == "sum_range" else difference_range_solve
@@ -146,7 +132,7 @@ def test_position_mixed_problems_keep_their_order(client):
                "receivers": rx4, "sigmas": sigmas}
     guessed = _p(X2[2], initial=[X2[2][0] + 400.0, X2[2][1] - 300.0])
     problems = [_p(X2[0]), several, guessed, _p(X2[3], sigma=2.0)]
-    body = _ok(client.post("/v1/solves/position", json=_position(*problems)))
+    body = answer(client.post("/v1/solves/position", json=_position(*problems)))
     for sol, x in zip(body["solutions"], [X2[0], X2[1], X2[2], X2[3]], strict=True):
         np.testing.assert_allclose(sol["position"], x, rtol=0, atol=TRUTH)
         assert sol["converged"] and sol["solvable"]
@@ -162,7 +148,7 @@ def test_position_mixed_problems_keep_their_order(client):
 def test_position_3d_from_an_initial_guess_matches_core(client):
     x = X3[0]
     start = [x[0] + 500.0, x[1] - 300.0, x[2] + 200.0]
-    body = _ok(client.post("/v1/solves/position",
+    body = answer(client.post("/v1/solves/position",
                            json=_position(_p(x, TX3, RX3, initial=start))))
     expected = ml_solve(range_sums(x, TX3, RX3), TX3, RX3, SIGMA, x0=start)
     sol = body["solutions"][0]
@@ -174,7 +160,7 @@ def test_position_3d_from_an_initial_guess_matches_core(client):
 def test_two_ellipse_intersections_give_an_alternative(client):
     # one transmitter, two receivers in 2D: two exact solutions
     problems = [_p(x, TX2, RX2[:2]) for x in X2]
-    body = _ok(client.post("/v1/solves/position",
+    body = answer(client.post("/v1/solves/position",
                            json=_position(*problems, method="sum_range")))
     for sol, x in zip(body["solutions"], X2, strict=True):
         assert sol["alternative"] is not None and sol["solvable"] and sol["consistent"]
@@ -191,7 +177,7 @@ def test_no_real_solution_is_reported_not_refused(client):
     nowhere = {"range_sums": [30000.0, 10001.0], "transmitter": TX2, "receivers": RX2[:2],
                "sigma": SIGMA}
     for method in ("ml", "sum_range"):
-        body = _ok(client.post("/v1/solves/position",
+        body = answer(client.post("/v1/solves/position",
                                json=_position(_p(X2[0]), nowhere, method=method)))
         _finite(body)
         good, bad = body["solutions"]
@@ -204,13 +190,13 @@ def test_no_real_solution_is_reported_not_refused(client):
     off = _p(X2[0])
     off["range_sums"] = [s + d for s, d in zip(off["range_sums"], [0.0, 400.0, -300.0],
                                                strict=True)]
-    sol = _ok(client.post("/v1/solves/position", json=_position(off)))["solutions"][0]
+    sol = answer(client.post("/v1/solves/position", json=_position(off)))["solutions"][0]
     assert not sol["solvable"] and not sol["consistent"]
 
 
 def test_position_on_a_baseline_is_finite(client):
     # the target on the first baseline: that pair's gradient vanishes, P = D
-    body = _ok(client.post("/v1/solves/position",
+    body = answer(client.post("/v1/solves/position",
                            json=_position(_p([5000.0, 0.0], TX2, RX2[:2]))))
     _finite(body)
 
@@ -244,7 +230,7 @@ def _trajectory_body(**changes) -> dict:
 
 
 def test_trajectory_moving_platforms_2d(client):
-    body = _ok(client.post("/v1/solves/trajectory", json=_trajectory_body()))
+    body = answer(client.post("/v1/solves/trajectory", json=_trajectory_body()))
     assert body["t_ref"] == T[0]
     np.testing.assert_allclose(body["state"]["position"], TRACK[0], atol=TRUTH)
     np.testing.assert_allclose(body["state"]["velocity"], TRACK[1], atol=TRUTH)
@@ -282,7 +268,7 @@ def test_trajectory_per_sample_platforms_3d(client):
         "sigmas": [0.5, 0.5, 1.0, 1.0],
         "initial": {"position": [3300.0, 3800.0, 2100.0], "velocity": [0.0, 0.0, 0.0]},
     }
-    out = _ok(client.post("/v1/solves/trajectory", json=body))
+    out = answer(client.post("/v1/solves/trajectory", json=body))
     np.testing.assert_allclose(out["state"]["position"], x0, atol=TRUTH)
     np.testing.assert_allclose(out["state"]["velocity"], v, atol=TRUTH)
     assert out["times"] == t.tolist()  # default: the sample times
@@ -301,7 +287,7 @@ def _crlb_body(**changes) -> dict:
 
 @pytest.mark.parametrize("measurements", ["sum", "difference"])
 def test_crlb_targets_match_core(client, measurements):
-    body = _ok(client.post("/v1/solves/crlb", json=_crlb_body(
+    body = answer(client.post("/v1/solves/crlb", json=_crlb_body(
         measurements=measurements, sigma=None, sigmas=[0.5, 1.0, 0.7])))
     bound = (crlb if measurements == "sum" else difference_crlb)(X2, TX2, RX2,
                                                                  [0.5, 1.0, 0.7])
@@ -314,14 +300,14 @@ def test_crlb_targets_match_core(client, measurements):
 
 
 def test_crlb_difference_is_never_below_sum(client):
-    s = _ok(client.post("/v1/solves/crlb", json=_crlb_body()))["single_shot"]
-    d = _ok(client.post("/v1/solves/crlb",
+    s = answer(client.post("/v1/solves/crlb", json=_crlb_body()))["single_shot"]
+    d = answer(client.post("/v1/solves/crlb",
                         json=_crlb_body(measurements="difference")))["single_shot"]
     assert np.all(np.array(d["sigma"]) >= np.array(s["sigma"]) - 1e-12)
 
 
 def test_crlb_track_accumulates(client):
-    body = _ok(client.post("/v1/solves/crlb", json={
+    body = answer(client.post("/v1/solves/crlb", json={
         "track": {"position": TRACK[0], "velocity": TRACK[1]},
         "sample_times": T.tolist(),
         "transmitter": {"position": TX2, "velocity": TX_V2},
@@ -347,7 +333,7 @@ def test_crlb_track_accumulates(client):
 
 def test_crlb_targets_with_moving_platforms_3d(client):
     times = [0.0, 5.0, 10.0]
-    body = _ok(client.post("/v1/solves/crlb", json={
+    body = answer(client.post("/v1/solves/crlb", json={
         "targets": X3, "sample_times": times,
         "transmitter": {"position": TX3, "velocity": [10.0, 0.0, 0.0]},
         "receivers": [{"position": p} for p in RX3], "sigma": SIGMA,
@@ -360,7 +346,7 @@ def test_crlb_targets_with_moving_platforms_3d(client):
 
 def test_crlb_per_target_platforms_need_no_times(client):
     rx0 = [[10000.0 + 100.0 * i, 50.0 * i] for i in range(len(X2))]
-    body = _ok(client.post("/v1/solves/crlb", json=_crlb_body(
+    body = answer(client.post("/v1/solves/crlb", json=_crlb_body(
         receivers=[{"positions": rx0}, {"position": RX2[1]}, {"position": RX2[2]}])))
     rx = np.array([[r, RX2[1], RX2[2]] for r in rx0])
     bound = crlb(X2, TX2, rx, SIGMA)
@@ -380,7 +366,7 @@ def test_noise_matches_core_and_is_zero_on_quadratics(client):
     noisy = series + rng.normal(0.0, [0.5, 1.0, 2.0], series.shape)
     x = np.stack([3000.0 + 80.0 * s, 4000.0 - 20.0 * s], axis=1)
     noisy_x = x + rng.normal(0.0, 5.0, x.shape)
-    body = _ok(client.post("/v1/solves/noise", json={
+    body = answer(client.post("/v1/solves/noise", json={
         "sample_times": t.tolist(), "range_sums": noisy.tolist(),
         "positions": noisy_x.tolist(), "window": 7}))
     est = range_sum_noise(t, noisy)
@@ -394,7 +380,7 @@ def test_noise_matches_core_and_is_zero_on_quadratics(client):
     # smoothing removes most of the 5 m noise
     assert np.std(np.subtract(body["smoothed_positions"], x)) < 3.0
     # noise-free: the quadratic fits exactly and a straight track is reproduced
-    clean = _ok(client.post("/v1/solves/noise", json={
+    clean = answer(client.post("/v1/solves/noise", json={
         "sample_times": t.tolist(), "range_sums": series.tolist(),
         "positions": x.tolist(), "window": 5, "smoothing_degree": 1}))
     np.testing.assert_allclose(clean["sigma"], 0.0, atol=TRUTH)
@@ -405,7 +391,7 @@ def test_noise_matches_core_and_is_zero_on_quadratics(client):
 def test_noise_smoothing_only_matches_core(client):
     t = np.arange(15.0)
     x = np.random.default_rng(3).normal(0.0, 10.0, (15, 3)) + 1000.0
-    body = _ok(client.post("/v1/solves/noise", json={
+    body = answer(client.post("/v1/solves/noise", json={
         "sample_times": t.tolist(), "positions": x.tolist(), "window": 9}))
     assert body["sigma"] is None and body["smoothed_range_sums"] is None
     np.testing.assert_allclose(body["smoothed_positions"], smooth_positions(t, x, 9),
@@ -423,7 +409,7 @@ def test_noise_smoothing_only_matches_core(client):
 )
 def test_fewer_measurements_than_unknowns(client, problem, field):
     first = _p(X3[0], TX3, RX3) if len(problem["transmitter"]) == 3 else _p(X2[0])
-    body = _problem(client.post("/v1/solves/position", json=_position(first, problem)), field)
+    body = invalid_input(client.post("/v1/solves/position", json=_position(first, problem)), field)
     assert "unknowns" in body["detail"]
 
 
@@ -431,30 +417,30 @@ def test_fewer_measurements_than_unknowns_elsewhere(client):
     # the difference-range method needs D + 1 pairs
     r = client.post("/v1/solves/position",
                     json=_position(_p(X2[0], TX2, RX2[:2]), method="difference_range"))
-    _problem(r, "problems[0].range_sums")
+    invalid_input(r, "problems[0].range_sums")
     one = _trajectory_body()
     one.update(range_sums=[row[:1] for row in one["range_sums"]],
                receivers=one["receivers"][:1])
-    _problem(client.post("/v1/solves/trajectory", json=one), "range_sums")
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(
+    invalid_input(client.post("/v1/solves/trajectory", json=one), "range_sums")
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(
         receivers=[{"position": RX2[0]}])), "receivers")
 
 
 def test_coincident_platforms(client):
     at_tx = _p(X2[0], TX2, [TX2, RX2[1], RX2[2]])
-    body = _problem(client.post("/v1/solves/position", json=_position(_p(X2[1]), at_tx)),
+    body = invalid_input(client.post("/v1/solves/position", json=_position(_p(X2[1]), at_tx)),
                     "problems[1].receivers")
     assert "coincides" in body["detail"]
     twice = _p(X2[0], TX2, [RX2[0], RX2[0], RX2[2]])
-    _problem(client.post("/v1/solves/position", json=_position(twice)),
-             "problems[0].receivers")
+    invalid_input(client.post("/v1/solves/position", json=_position(twice)),
+                  "problems[0].receivers")
     # a moving receiver that reaches the transmitter at sample 4 (t = 1002 s)
     meet = _trajectory_body()
     meet["receivers"][0] = {"positions": [[10.0 * k * 0.5 if k != 4 else 20.0, 5.0 * (k != 4)]
                                           for k in range(T.size)]}
-    body = _problem(client.post("/v1/solves/trajectory", json=meet), "receivers")
+    body = invalid_input(client.post("/v1/solves/trajectory", json=meet), "receivers")
     assert "sample 4" in body["detail"]
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(
         receivers=[{"position": TX2}, {"position": RX2[1]}, {"position": RX2[2]}])),
         "receivers")
 
@@ -463,11 +449,11 @@ def test_coincident_platforms(client):
 def test_negative_range_sum(client, value):
     bad = _p(X2[0])
     bad["range_sums"][1] = value
-    _problem(client.post("/v1/solves/position", json=_position(bad)),
-             "problems[0].range_sums[1]")
+    invalid_input(client.post("/v1/solves/position", json=_position(bad)),
+                  "problems[0].range_sums[1]")
     track = _trajectory_body()
     track["range_sums"][3][2] = value
-    _problem(client.post("/v1/solves/trajectory", json=track), "range_sums[3][2]")
+    invalid_input(client.post("/v1/solves/trajectory", json=track), "range_sums[3][2]")
 
 
 @pytest.mark.parametrize("token", ["NaN", "Infinity", "-Infinity"])
@@ -488,7 +474,7 @@ def test_negative_range_sum(client, value):
 def test_non_finite_numbers(client, token, path, body, marker, field):
     text = json.dumps(body).replace(marker, token, 1)
     r = client.post(path, content=text.encode(), headers={"content-type": "application/json"})
-    _problem(r, field)
+    invalid_input(r, field)
 
 
 def test_non_finite_range_sum(client):
@@ -498,55 +484,55 @@ def test_non_finite_range_sum(client):
         text = json.dumps(body).replace("1234.5", token)
         r = client.post("/v1/solves/position", content=text.encode(),
                         headers={"content-type": "application/json"})
-        _problem(r, "problems[0].range_sums[2]")
+        invalid_input(r, "problems[0].range_sums[2]")
 
 
 def test_range_sum_shorter_than_its_baseline(client):
     short = _p(X2[0])
     short["range_sums"][0] = 9000.0  # baseline |tx - rx_0| = 10 km
-    body = _problem(client.post("/v1/solves/position",
+    body = invalid_input(client.post("/v1/solves/position",
                                 json=_position(_p(X2[1]), _p(X2[2]), short)),
                     "problems[2].range_sums")
     assert "baseline" in body["detail"]
     track = _trajectory_body()
     track["range_sums"][5][0] = 5000.0
-    _problem(client.post("/v1/solves/trajectory", json=track), "range_sums[5]")
+    invalid_input(client.post("/v1/solves/trajectory", json=track), "range_sums[5]")
     # within a few sigma of the baseline is noise, not an error
     near = _p(X2[0])
     near["range_sums"][0] = 10000.0 - 2 * SIGMA
-    _ok(client.post("/v1/solves/position", json=_position(near)))
+    answer(client.post("/v1/solves/position", json=_position(near)))
 
 
 def test_zero_sigma(client):
-    _problem(client.post("/v1/solves/position", json=_position(_p(X2[0], sigma=0.0))),
-             "problems[0].sigma")
-    _problem(client.post("/v1/solves/position", json=_position(
+    invalid_input(client.post("/v1/solves/position", json=_position(_p(X2[0], sigma=0.0))),
+                  "problems[0].sigma")
+    invalid_input(client.post("/v1/solves/position", json=_position(
         _p(X2[0], sigma=None, sigmas=[0.5, 0.0, 0.5]))), "problems[0].sigmas[1]")
-    _problem(client.post("/v1/solves/position", json=_position(_p(X2[0], sigma=-1.0))),
-             "problems[0].sigma")
-    _problem(client.post("/v1/solves/trajectory", json=_trajectory_body(sigma=0.0)), "sigma")
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(sigma=None, sigmas=[1, 0, 1])),
-             "sigmas[1]")
+    invalid_input(client.post("/v1/solves/position", json=_position(_p(X2[0], sigma=-1.0))),
+                  "problems[0].sigma")
+    invalid_input(client.post("/v1/solves/trajectory", json=_trajectory_body(sigma=0.0)), "sigma")
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(sigma=None, sigmas=[1, 0, 1])),
+                  "sigmas[1]")
 
 
 def test_mixed_2d_and_3d(client):
     # the request's dimension is that of most of its vectors; the odd one is named
-    body = _problem(client.post("/v1/solves/position", json=_position(
+    body = invalid_input(client.post("/v1/solves/position", json=_position(
         _p(X2[0]), _p(X3[0], TX3, RX3), _p(X2[1]))), "problems[1].transmitter")
     assert "2D" in body["detail"]
     within = _p(X2[0])
     within["receivers"][2] = [-8000.0, -6000.0, 0.0]
-    _problem(client.post("/v1/solves/position", json=_position(within)),
-             "problems[0].receivers[2]")
-    _problem(client.post("/v1/solves/position",
-                         json=_position(_p(X2[0], initial=[1.0, 2.0, 3.0]))),
+    invalid_input(client.post("/v1/solves/position", json=_position(within)),
+                  "problems[0].receivers[2]")
+    invalid_input(client.post("/v1/solves/position",
+                  json=_position(_p(X2[0], initial=[1.0, 2.0, 3.0]))),
              "problems[0].initial")
     track = _trajectory_body()
     track["receivers"][1]["velocity"] = [10.0, 0.0, 0.0]
-    _problem(client.post("/v1/solves/trajectory", json=track), "receivers[1].velocity")
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(targets=[[1.0, 2.0, 3.0]])),
-             "targets[0]")
-    _problem(client.post("/v1/solves/noise", json={
+    invalid_input(client.post("/v1/solves/trajectory", json=track), "receivers[1].velocity")
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(targets=[[1.0, 2.0, 3.0]])),
+                  "targets[0]")
+    invalid_input(client.post("/v1/solves/noise", json={
         "sample_times": [0.0, 1.0, 2.0], "positions": [[0.0, 0.0], [1.0, 1.0, 1.0],
                                                         [2.0, 2.0]], "window": 3}),
              "positions[1]")
@@ -570,91 +556,91 @@ def test_mixed_2d_and_3d(client):
          "unknown-field"],
 )
 def test_position_problem_rules(client, changes, field):
-    _problem(client.post("/v1/solves/position", json=_position(_p(X2[0], **changes))),
-             f"problems[0].{field}")
+    invalid_input(client.post("/v1/solves/position", json=_position(_p(X2[0], **changes))),
+                  f"problems[0].{field}")
 
 
 def test_position_request_rules(client):
-    _problem(client.post("/v1/solves/position", json=_position()), "problems")
-    _problem(client.post("/v1/solves/position", json=_position(_p(X2[0]), method="chan")),
-             "method")
-    _problem(client.post("/v1/solves/position", json=_position(_p(X2[0]), alpha=0.0)),
-             "alpha")
-    _problem(client.post("/v1/solves/position", json=_position(_p(X2[0]), max_iter=0)),
-             "max_iter")
+    invalid_input(client.post("/v1/solves/position", json=_position()), "problems")
+    invalid_input(client.post("/v1/solves/position", json=_position(_p(X2[0]), method="chan")),
+                  "method")
+    invalid_input(client.post("/v1/solves/position", json=_position(_p(X2[0]), alpha=0.0)),
+                  "alpha")
+    invalid_input(client.post("/v1/solves/position", json=_position(_p(X2[0]), max_iter=0)),
+                  "max_iter")
     many = [_p(X2[0])] * (MAX_PROBLEMS + 1)
-    _problem(client.post("/v1/solves/position", json=_position(*many)), "problems")
+    invalid_input(client.post("/v1/solves/position", json=_position(*many)), "problems")
     # the closed forms need one transmitter per problem
     txs = [[0.0, 0.0], [0.0, 0.0], [100.0, 0.0]]
     several = {"range_sums": range_sums(X2[0], txs, RX2).tolist(), "transmitters": txs,
                "receivers": RX2, "sigma": SIGMA}
-    body = _ok(client.post("/v1/solves/position", json=_position(several)))
+    body = answer(client.post("/v1/solves/position", json=_position(several)))
     np.testing.assert_allclose(body["solutions"][0]["position"], X2[0], atol=TRUTH)
-    _problem(client.post("/v1/solves/position", json=_position(several, method="sum_range")),
-             "problems[0].transmitters")
+    invalid_input(client.post("/v1/solves/position", json=_position(several, method="sum_range")),
+                  "problems[0].transmitters")
 
 
 def test_trajectory_rules(client):
     body = _trajectory_body()
-    _problem(client.post("/v1/solves/trajectory", json=dict(
+    invalid_input(client.post("/v1/solves/trajectory", json=dict(
         body, range_sums=body["range_sums"][:-1])), "range_sums")
     rows = [list(r) for r in body["range_sums"]]
     rows[2] = rows[2][:2]
-    _problem(client.post("/v1/solves/trajectory", json=dict(body, range_sums=rows)),
-             "range_sums[2]")
-    _problem(client.post("/v1/solves/trajectory", json=dict(
+    invalid_input(client.post("/v1/solves/trajectory", json=dict(body, range_sums=rows)),
+                  "range_sums[2]")
+    invalid_input(client.post("/v1/solves/trajectory", json=dict(
         body, sample_times=[1000.0] * T.size)), "sample_times")
     platform = {"positions": [[1.0, 2.0]] * 3}
-    _problem(client.post("/v1/solves/trajectory", json=dict(
+    invalid_input(client.post("/v1/solves/trajectory", json=dict(
         body, receivers=[platform, *body["receivers"][1:]])), "receivers[0].positions")
-    _problem(client.post("/v1/solves/trajectory", json=dict(
+    invalid_input(client.post("/v1/solves/trajectory", json=dict(
         body, transmitter={"position": TX2, "positions": [TX2] * T.size})),
         "transmitter.position")
-    _problem(client.post("/v1/solves/trajectory", json=dict(
+    invalid_input(client.post("/v1/solves/trajectory", json=dict(
         body, initial={"position": [0.0, 0.0], "velocity": [0.0, 0.0, 0.0]})),
         "initial.velocity")
-    _problem(client.post("/v1/solves/trajectory", json=dict(
+    invalid_input(client.post("/v1/solves/trajectory", json=dict(
         body, sigma=None, sigmas=[0.5, 0.5])), "sigmas")
 
 
 def test_crlb_rules(client):
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(
         track={"position": [0.0, 0.0], "velocity": [1.0, 0.0]})), "track")
     track = {"position": TRACK[0], "velocity": TRACK[1]}
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(targets=None, track=track)),
-             "sample_times")
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(targets=None, track=track)),
+                  "sample_times")
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(
         targets=None, track=track, sample_times=[0.0, 1.0], measurements="difference")),
         "measurements")
     moving = _crlb_body(receivers=[{"position": RX2[0], "velocity": [1.0, 0.0]},
                                    {"position": RX2[1]}, {"position": RX2[2]}])
-    _problem(client.post("/v1/solves/crlb", json=moving), "receivers[0].velocity")
+    invalid_input(client.post("/v1/solves/crlb", json=moving), "receivers[0].velocity")
     per_target = _crlb_body(receivers=[{"positions": [RX2[0]] * 3}, {"position": RX2[1]},
                                        {"position": RX2[2]}])
-    _problem(client.post("/v1/solves/crlb", json=per_target), "receivers[0].positions")
-    _problem(client.post("/v1/solves/crlb", json=_crlb_body(sample_times=[0.0])),
-             "sample_times")
-    body = _problem(client.post("/v1/solves/crlb", json=_crlb_body(
+    invalid_input(client.post("/v1/solves/crlb", json=per_target), "receivers[0].positions")
+    invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(sample_times=[0.0])),
+                  "sample_times")
+    body = invalid_input(client.post("/v1/solves/crlb", json=_crlb_body(
         targets=[X2[0], RX2[1]])), "targets[1]")
     assert "platform" in body["detail"]
 
 
 def test_noise_rules(client):
     base = {"sample_times": [0.0, 1.0, 2.0, 3.0, 4.0], "range_sums": [[1e4]] * 5}
-    _problem(client.post("/v1/solves/noise", json=dict(base, sample_times=[0.0, 1.0, 1.0,
-                                                                            3.0, 4.0])),
+    invalid_input(client.post("/v1/solves/noise", json=dict(base, sample_times=[0.0, 1.0, 1.0,
+                  3.0, 4.0])),
              "sample_times[2]")
-    _problem(client.post("/v1/solves/noise", json=dict(base, degree=4)), "sample_times")
-    _problem(client.post("/v1/solves/noise", json={"sample_times": [0.0]}), "range_sums")
+    invalid_input(client.post("/v1/solves/noise", json=dict(base, degree=4)), "sample_times")
+    invalid_input(client.post("/v1/solves/noise", json={"sample_times": [0.0]}), "range_sums")
     positions = [[0.0, 0.0]] * 5
-    _problem(client.post("/v1/solves/noise", json=dict(base, positions=positions)), "window")
-    _problem(client.post("/v1/solves/noise", json=dict(base, positions=positions, window=6)),
-             "window")
-    _problem(client.post("/v1/solves/noise", json=dict(base, positions=positions, window=2)),
-             "window")
-    _problem(client.post("/v1/solves/noise", json=dict(base, window=3)), "window")
-    _problem(client.post("/v1/solves/noise", json=dict(base, range_sums=[[1e4]] * 4)),
-             "range_sums")
+    invalid_input(client.post("/v1/solves/noise", json=dict(base, positions=positions)), "window")
+    invalid_input(client.post("/v1/solves/noise", json=dict(base, positions=positions, window=6)),
+                  "window")
+    invalid_input(client.post("/v1/solves/noise", json=dict(base, positions=positions, window=2)),
+                  "window")
+    invalid_input(client.post("/v1/solves/noise", json=dict(base, window=3)), "window")
+    invalid_input(client.post("/v1/solves/noise", json=dict(base, range_sums=[[1e4]] * 4)),
+                  "range_sums")
 
 
 # --- the wire contract -----------------------------------------------------------------
