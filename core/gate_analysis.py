@@ -226,9 +226,10 @@ def design_gate(
 
     wanted = capture / detection
     lo, hi = 1e-9, 1.0 - 1e-12
-    if gated(lo) >= wanted:
+    first_stage = gated(lo)
+    if first_stage >= wanted:
         raise ParameterError("capture", f"{capture} is reached with {field} -> 0: the "
-                             f"gate's first stage alone gives {gated(lo) * detection:.6f}")
+                             f"gate's first stage alone gives {first_stage * detection:.6f}")
     if gated(hi) <= wanted:
         raise ParameterError("capture", f"{capture} needs {field} above {hi}")
     x = float(optimize.brentq(lambda t: gated(t) - wanted, lo, hi, xtol=tol))
