@@ -219,14 +219,23 @@ def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
     >>> range_sums([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
     array([10000.])
     """
-    x, tx, rx = _model_inputs(x, tx, rx)
+    return _range_sums(*_model_inputs(x, tx, rx))
+
+
+def _norm(v: np.ndarray) -> np.ndarray:
+    """|v| along the last axis (no checks)."""
+    return np.sqrt(np.einsum("...i,...i->...", v, v))
+
+
+def _range_sums(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """:func:`range_sums` of checked arrays (the solvers' inner loop)."""
     xp = x[..., None, :]
-    return np.linalg.norm(xp - rx, axis=-1) + np.linalg.norm(xp - tx, axis=-1)
+    return _norm(xp - rx) + _norm(xp - tx)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
     """v / |v| along the last axis; 0 where v = 0 (the smallest subgradient of |v|)."""
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    norm = _norm(v)[..., None]
     return np.divide(v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)),
                      where=norm > 0)
 
@@ -270,7 +279,11 @@ def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray
     >>> range_sum_jacobian([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
     array([[0. , 1.6]])
     """
-    x, tx, rx = _model_inputs(x, tx, rx)
+    return _range_sum_jacobian(*_model_inputs(x, tx, rx))
+
+
+def _range_sum_jacobian(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """:func:`range_sum_jacobian` of checked arrays (the solvers' inner loop)."""
     xp = x[..., None, :]
     return _unit(xp - rx) + _unit(xp - tx)
 

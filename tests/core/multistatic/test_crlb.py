@@ -153,9 +153,10 @@ def test_difference_range_closed_form_monte_carlo_matches_difference_crlb():
         Bd = difference_crlb(x, TX, RX, SIGMA).covariance[0]
         ev = whitened_eigenvalues(np.cov(sol.x.T), Bd)
         assert np.all(np.abs(ev - 1.0) < 0.10), ev  # measured 0.978 ... 1.024
-        # and the difference bound is above the sum-range one
+        # and the difference bound is above the sum-range one (semidefinite: with
+        # P = D + 1 the differences lose nothing along one direction)
         B = crlb(x, TX, RX, SIGMA).covariance[0]
-        assert np.linalg.eigvalsh(Bd - B).min() > 0.0
+        assert np.linalg.eigvalsh(Bd - B).min() > -1e-12 * np.trace(Bd)
 
 
 def test_trajectory_crlb_accumulates_eq_3_over_the_samples():
@@ -232,3 +233,18 @@ def test_trajectory_crlb_refuses_bad_input(kwargs, field):
     with pytest.raises(ParameterError) as info:
         trajectory_crlb(**args)
     assert info.value.field == field
+
+
+def test_closed_form_2x2_eigen_decomposition_matches_lapack():
+    from core.multistatic.crlb import _symmetric_eigh
+
+    rng = np.random.default_rng(21)
+    A = rng.normal(size=(500, 2, 2))
+    A = A + np.swapaxes(A, 1, 2)
+    A[:4] = [[[1.0, 0.0], [0.0, 1.0]], [[2.0, 0.0], [0.0, 1.0]], [[1.0, 0.0], [0.0, 2.0]],
+             [[0.0, 0.0], [0.0, 0.0]]]  # repeated, ordered, reversed, zero
+    A[4] = [[1.0, 1.0 - 1e-12], [1.0 - 1e-12, 1.0]]  # nearly singular
+    w, V = _symmetric_eigh(A)
+    assert np.abs(w - np.linalg.eigvalsh(A)).max() < 1e-14 * 8
+    assert np.abs(np.einsum("nik,nk,njk->nij", V, w, V) - A).max() < 1e-14 * 8
+    assert np.abs(np.einsum("nki,nkj->nij", V, V) - np.eye(2)).max() < 1e-15 * 4
