@@ -415,11 +415,12 @@ def trajectory_crlb(
 
 
 def _position_covariance(cov: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """A cov A^T with A = [I, tau I] for each tau: (M, D, D)."""
-    d = cov.shape[0] // 2
-    P_xx, P_xv, P_vv = cov[:d, :d], cov[:d, d:], cov[d:, d:]
+    """A cov A^T with A = [I, tau I] for each tau: (..., M, D, D) from (..., 2D, 2D)."""
+    d = cov.shape[-1] // 2
+    cov = cov[..., None, :, :]
+    P_xx, P_xv, P_vv = cov[..., :d, :d], cov[..., :d, d:], cov[..., d:, d:]
     tau = tau[:, None, None]
-    out = P_xx + tau * (P_xv + P_xv.T) + tau * tau * P_vv
+    out = P_xx + tau * (P_xv + np.swapaxes(P_xv, -1, -2)) + tau * tau * P_vv
     return 0.5 * (out + np.swapaxes(out, -1, -2))
 
 

@@ -69,8 +69,8 @@ from core.multistatic.model import (
     _range_sum_jacobian,
     _range_sums,
     _scale,
-    range_sum_jacobian,
-    range_sums,
+    _shape,
+    _with_tx_axis,
     validate_problem,
 )
 
@@ -82,6 +82,10 @@ HALVINGS = 12
 SECOND_ROOT_COST = 100.0
 """A second closed-form root is not followed when its chi-square cost is above this
 many times the consistency threshold while the first root's is within it."""
+
+START_ITERATIONS = 8
+"""Gauss-Newton iterations of each per-sample solve behind a track's start (a start
+only has to lie in the right basin; the track fit then converges in full)."""
 
 _DAMPING_DECADES = 14  # Levenberg-Marquardt damping values tried per iteration
 _DAMPING_START = 1e-3  # first damping, relative to the largest eigenvalue of H^T G H
@@ -134,7 +138,10 @@ class MLSolution:
 
 @dataclass(frozen=True)
 class TrajectorySolution:
-    """Maximum-likelihood constant-velocity track from T samples of P range sums.
+    """Maximum-likelihood constant-velocity tracks from T samples of P range sums.
+
+    One track (``l`` of shape (T, P)) gives the shapes below; a batch of N tracks
+    (``l`` of shape (N, T, P)) puts N in front of every field but ``t_ref``.
 
     Attributes
     ----------
@@ -162,21 +169,21 @@ class TrajectorySolution:
     covariance: np.ndarray
     t_ref: float
     residuals: np.ndarray
-    cost: float
-    normalized_cost: float
-    consistent: bool
-    converged: bool
-    iterations: int
+    cost: float | np.ndarray
+    normalized_cost: float | np.ndarray
+    consistent: bool | np.ndarray
+    converged: bool | np.ndarray
+    iterations: int | np.ndarray
 
     @property
     def position(self) -> np.ndarray:
-        """(D,) position at t_ref, metres."""
-        return self.state[: self.state.size // 2]
+        """(D,) or (N, D) position at t_ref, metres."""
+        return self.state[..., : self.state.shape[-1] // 2]
 
     @property
     def velocity(self) -> np.ndarray:
-        """(D,) velocity, m/s."""
-        return self.state[self.state.size // 2:]
+        """(D,) or (N, D) velocity, m/s."""
+        return self.state[..., self.state.shape[-1] // 2:]
 
     def at(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Positions and their covariances at the requested times.
@@ -188,9 +195,9 @@ class TrajectorySolution:
 
         Returns
         -------
-        positions : (M, D) ndarray
+        positions : (M, D) or (N, M, D) ndarray
             x0 + v (t - t_ref), metres (M = 1 for a scalar t).
-        covariances : (M, D, D) ndarray
+        covariances : (M, D, D) or (N, M, D, D) ndarray
             A P A^T with A = [I, (t - t_ref) I], m^2.
 
         Raises
@@ -202,7 +209,7 @@ class TrajectorySolution:
         if t.ndim > 1:
             raise ParameterError("t", f"must be a scalar or have shape (M,), got {t.shape}")
         tau = np.atleast_1d(t) - self.t_ref
-        return (self.position + tau[:, None] * self.velocity,
+        return (self.position[..., None, :] + tau[:, None] * self.velocity[..., None, :],
                 _position_covariance(self.covariance, tau))
 
 
@@ -488,6 +495,7 @@ def ml_solve(
     One transmitter and three receivers about 10 km apart; the range sums of a target
     at (3, 4) km plus a few decimetres of noise:
 
+    >>> from core.multistatic.model import range_sums
     >>> rx = [[10000.0, 0.0], [0.0, 10000.0], [-8000.0, -6000.0]]
     >>> l = range_sums([3000.0, 4000.0], [0.0, 0.0], rx) + [0.3, -0.4, 0.2]
     >>> sol = ml_solve(l, [0.0, 0.0], rx, sigma=0.5)
@@ -541,26 +549,31 @@ def ml_solve(
 # ---------------------------------------------------------------- constant-velocity track
 
 
-def _line_fit(x: np.ndarray, W: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """Information-weighted straight line x_i ~ x0 + tau_i v through (T, D) points: (2D,)."""
-    d = x.shape[1]
-    tw = tau[:, None, None] * W
-    M = np.block([[W.sum(0), tw.sum(0)], [tw.sum(0), (tau[:, None, None] * tw).sum(0)]])
-    b = np.concatenate([np.einsum("tij,tj->i", W, x), np.einsum("tij,tj->i", tw, x)])
-    theta: np.ndarray = _inverse_information(M) @ b
-    return theta.reshape(2 * d)
+def _line_fit(x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray) -> np.ndarray:
+    """Information-weighted straight lines x_i ~ x0 + tau_i v, one per track: (N, 2D).
+
+    x (N, T, D) points with information W (N, T, D, D) at times tau (T,); use (N, T)
+    marks the samples each line goes through.
+    """
+    Wm = W * use[..., None, None]
+    tw = tau[:, None, None] * Wm
+    M = np.concatenate([np.concatenate([Wm, tw], axis=-1),
+                        np.concatenate([tw, tau[:, None, None] * tw], axis=-1)], axis=-2)
+    b = np.concatenate([np.einsum("ntij,ntj->ni", Wm, x), np.einsum("ntij,ntj->ni", tw, x)],
+                       axis=-1)
+    return np.einsum("nij,nj->ni", _inverse_information(M.sum(axis=1)), b)
 
 
 def _chain(cand: np.ndarray, tau: np.ndarray, first: int) -> np.ndarray:
-    """Pick one of two candidates (T, 2, D) per time-sorted sample by continuity: (T,)."""
-    n_t = cand.shape[0]
-    pick = np.zeros(n_t, dtype=int)
-    pick[0] = first
-    prev = cand[0, first]
-    pred = prev
-    for i in range(1, n_t):  # a sequential scan of one track's samples
-        pick[i] = np.argmin(np.linalg.norm(cand[i] - pred, axis=-1))
-        here = cand[i, pick[i]]
+    """Pick one of two candidates (N, T, 2, D) per time-sorted sample by continuity: (N, T)."""
+    n, n_t = cand.shape[:2]
+    tracks = np.arange(n)
+    pick = np.zeros((n, n_t), dtype=int)
+    pick[:, 0] = first
+    prev = pred = cand[:, 0, first]
+    for i in range(1, n_t):  # sequential in the samples, vectorized over the tracks
+        pick[:, i] = np.argmin(_norm(cand[:, i] - pred[:, None]), axis=1)
+        here = cand[tracks, i, pick[:, i]]
         if i + 1 < n_t:
             dt = tau[i] - tau[i - 1]
             rate = (here - prev) / dt if dt > 0.0 else np.zeros_like(here)
@@ -572,41 +585,73 @@ def _chain(cand: np.ndarray, tau: np.ndarray, first: int) -> np.ndarray:
 def _track_starts(
     ls: np.ndarray, tau: np.ndarray, tx: np.ndarray, rx: np.ndarray, sigma: np.ndarray,
     alpha: float,
-) -> np.ndarray:
-    """(x0, v) starts, (1, 2D) or (2, 2D), from per-sample positions.
+) -> tuple[np.ndarray, np.ndarray]:
+    """(x0, v) starts of N tracks: (starts (S, 2D), the track of each start (S,)).
 
-    Each sample is solved by :func:`ml_solve` from the closed form's primary root.
-    With P = D the closed form's second root is an exact second solution, and the
-    true and mirror tracks may cross. Two chains are then followed through the
-    samples, starting from either root of the first sample and taking at each sample
-    the root nearer the straight-line extrapolation of the chain; each chain seeds a
-    line fit, refined three times by keeping at each sample the root nearer the line
-    (Mahalanobis). Samples that did not converge or fit are left out of the line fits
-    when at least two distinct times remain.
+    ls, sigma (N, T, P), tx, rx (N, T, P, D). Each sample is solved by :func:`ml_solve`
+    from the closed form's primary root. With P = D the closed form's second root is
+    an exact second solution, and the true and mirror tracks may cross. Two chains are
+    then followed through the samples, starting from either root of the first sample
+    and taking at each sample the root nearer the straight-line extrapolation of the
+    chain; each chain seeds a line fit, refined three times by keeping at each sample
+    the root nearer the line (Mahalanobis). The per-sample solves stop after
+    START_ITERATIONS; samples whose fit fails the chi-square test are left out of the
+    line fits when at least two distinct times remain.
     """
-    n_t, p, d = tx.shape
-    start, alternative, has_alternative = _closed_form_starts(ls, tx, rx, sigma)
-    sol = ml_solve(ls, tx, rx, sigma, x0=start, alpha=alpha)
+    n, n_t, p, d = tx.shape
+    flat = [a.reshape((n * n_t, *a.shape[2:])) for a in (ls, tx, rx, sigma)]
+    start, alternative, has_alternative = _closed_form_starts(*flat)
+    sol = ml_solve(*flat, x0=start, alpha=alpha, max_iter=START_ITERATIONS)
     has_alternative &= p == d
     cand = np.stack([sol.x, np.where(has_alternative[:, None], alternative, sol.x)], axis=1)
-    H = range_sum_jacobian(cand, tx[:, None], rx[:, None]) / sigma[:, None, :, None]
-    W = np.einsum("tcpi,tcpj->tcij", H, H)  # (T, 2, D, D) information of each candidate
-    good = sol.converged & sol.consistent
-    if np.unique(tau[good]).size < 2:
-        good = np.ones_like(good)
-    rows = np.arange(n_t)
-    starts = []
+    cand = cand.reshape(n, n_t, 2, d)
+    has_alternative = has_alternative.reshape(n, n_t)
+    H = _range_sum_jacobian(cand, tx[:, :, None], rx[:, :, None]) / sigma[:, :, None, :, None]
+    W = np.einsum("ntcpi,ntcpj->ntcij", H, H)  # information of each candidate
+    good = sol.consistent.reshape(n, n_t)
+    spread = np.where(good, tau, -np.inf).max(axis=1) > np.where(good, tau, np.inf).min(axis=1)
+    good |= ~spread[:, None]
+    tracks, samples = np.arange(n)[:, None], np.arange(n_t)
     order = np.argsort(tau, kind="stable")
-    for first in (0, 1) if has_alternative.any() else (0,):
-        pick = np.empty(n_t, dtype=int)
-        pick[order] = _chain(cand[order], tau[order], first)
+    mirrored = np.flatnonzero(has_alternative.any(axis=1))
+    if mirrored.size == 0:  # one root per sample (P > D): a single line each
+        return _line_fit(cand[:, :, 0], W[:, :, 0], tau, good), np.arange(n)
+    starts, owners = [], []
+    for first, rows in ((0, np.arange(n)), (1, mirrored)):
+        if rows.size == 0:
+            continue
+        c, w, use, alt = cand[rows], W[rows], good[rows], has_alternative[rows]
+        pick = np.empty((rows.size, n_t), dtype=int)
+        pick[:, order] = _chain(c[:, order], tau[order], first)
         for _ in range(3):
-            theta = _line_fit(cand[rows, pick][good], W[rows, pick][good], tau[good])
-            e = cand - (theta[:d] + tau[:, None] * theta[d:])[:, None]  # (T, 2, D)
-            dist = np.einsum("tci,tcij,tcj->tc", e, W, e)
-            pick = np.where(has_alternative, np.argmin(dist, axis=1), 0)
-        starts.append(_line_fit(cand[rows, pick][good], W[rows, pick][good], tau[good]))
-    return np.stack(starts)
+            i = tracks[: rows.size]
+            theta = _line_fit(c[i, samples, pick], w[i, samples, pick], tau, use)
+            e = c - (theta[:, None, :d] + tau[:, None] * theta[:, None, d:])[:, :, None]
+            dist = np.einsum("ntci,ntcij,ntcj->ntc", e, w, e)
+            pick = np.where(alt, np.argmin(dist, axis=2), 0)
+        i = tracks[: rows.size]
+        starts.append(_line_fit(c[i, samples, pick], w[i, samples, pick], tau, use))
+        owners.append(rows)
+    return np.concatenate(starts), np.concatenate(owners)
+
+
+def _per_sample(name: str, value: ArrayLike, n: int, n_t: int, core_ndim: int) -> ArrayLike:
+    """A per-sample (T, ...) or per-track (N, T, ...) argument as (N T, ...) rows.
+
+    Arguments with at most ``core_ndim`` axes (fixed platforms, one sigma per pair)
+    pass through unchanged for :func:`validate_problem` to broadcast.
+    """
+    shape = tuple(_shape(name, value))
+    extra = len(shape) - core_ndim
+    if extra <= 0:
+        return value
+    if extra > 2 or shape[:extra] != (n, n_t)[2 - extra:]:
+        want = f"({n_t}, ...) or ({n}, {n_t}, ...)" if n > 1 else f"({n_t}, ...)"
+        raise ParameterError(
+            name, f"has shape {shape}: per-sample values need {want} for the {n_t} "
+            f"sample times")
+    core = shape[extra:]
+    return np.broadcast_to(as_array(name, value), (n, n_t, *core)).reshape(n * n_t, *core)
 
 
 def trajectory_solve(
@@ -620,27 +665,29 @@ def trajectory_solve(
     max_iter: int = 50,
     tol: float = 1e-9,
 ) -> TrajectorySolution:
-    """Maximum-likelihood constant-velocity track from T samples of range sums (seed 001).
+    """Maximum-likelihood constant-velocity tracks from T samples of range sums (seed 001).
 
     The accumulated measurement vector of eq. 2 (all T P range sums) is fitted by the
     Gauss-Newton solver of :func:`ml_solve` with parameters theta = (x0, v),
     x(t_i) = x0 + v (t_i - t_ref), t_ref = t[0]: the Jacobian of l_{p,i} is
-    [H_{p,i}, (t_i - t_ref) H_{p,i}] (eq. 6 over the whole track).
+    [H_{p,i}, (t_i - t_ref) H_{p,i}] (eq. 6 over the whole track). N independent
+    tracks sampled at the same times (e.g. Monte Carlo runs) are solved at once.
 
     Parameters
     ----------
-    l : (T, P) array_like
-        Range sums of each sample, metres.
+    l : (T, P) or (N, T, P) array_like
+        Range sums of each sample, metres; (N, T, P) for N tracks.
     t : (T,) array_like
         Sample times, seconds (any epoch); at least two distinct times.
-    tx : (D,), (P, D) or (T, P, D) array_like
+    tx : (D,), (P, D), (T, P, D) or (N, T, P, D) array_like
         Transmitter of each pair, fixed or per sample (moving platforms, e.g. from
-        :func:`core.multistatic.model.platform_positions`), metres.
-    rx : (P, D) or (T, P, D) array_like
+        :func:`core.multistatic.model.platform_positions`), metres; the same for every
+        track unless given per track.
+    rx : (P, D), (T, P, D) or (N, T, P, D) array_like
         Receiver of each pair, metres; P >= D.
-    sigma : float, (P,) or (T, P) array_like
+    sigma : float, (P,), (T, P) or (N, T, P) array_like
         Range-sum noise standard deviations, metres, > 0.
-    x0 : (2D,) array_like, optional
+    x0 : (2D,) or (N, 2D) array_like, optional
         Start state (position at t[0], velocity). Default: a straight line fitted to
         the per-sample :func:`ml_solve` positions, weighted by their information
         (two variants when samples have two solutions; the lower final cost wins).
@@ -650,14 +697,16 @@ def trajectory_solve(
     Returns
     -------
     solution : TrajectorySolution
-        The state, its covariance and the fit; ``solution.at(times)`` gives positions
-        and covariances at any times.
+        The state, its covariance and the fit (N in front of each field for N
+        tracks); ``solution.at(times)`` gives positions and covariances at any times.
 
     Raises
     ------
     NonFiniteError, ParameterError, GeometryError
-        As :func:`ml_solve` (indices are samples); ParameterError also when l is not
-        (T, P), x0 is not (2D,), or t is not (T,) with two distinct times.
+        As :func:`ml_solve`, with the index of the first bad sample (flat over tracks
+        and samples, n T + i, for N tracks); ParameterError also when l is not (T, P)
+        or (N, T, P), a per-sample argument does not have T samples, x0 is not (2D,)
+        or (N, 2D), or t is not (T,) with two distinct times.
 
     References
     ----------
@@ -668,6 +717,7 @@ def trajectory_solve(
     --------
     A target at 80 m/s north, five samples a second apart, noise-free:
 
+    >>> from core.multistatic.model import range_sums
     >>> rx = [[10000.0, 0.0], [0.0, 10000.0], [-8000.0, -6000.0]]
     >>> t = np.arange(5.0)
     >>> x = np.array([3000.0, 4000.0]) + t[:, None] * [0.0, 80.0]
@@ -677,53 +727,74 @@ def trajectory_solve(
     (array([3000., 4000.,    0.,   80.]), True)
     >>> sol.at(10.0)[0].round(6)
     array([[3000., 4800.]])
+
+    Three tracks at once (the same data with three noise draws):
+
+    >>> rng = np.random.default_rng(0)
+    >>> many = trajectory_solve(l + rng.normal(0.0, 0.5, (3, 5, 3)), t, [0.0, 0.0], rx, 0.5)
+    >>> many.state.shape, many.at([0.0, 10.0])[1].shape, many.converged.all()
+    ((3, 4), (3, 2, 2, 2), np.True_)
     """
     alpha, max_iter, tol = _options(alpha, max_iter, tol)
     t = as_array("t", t)
     if t.ndim != 1:
         raise ParameterError("t", f"must have shape (T,), got {t.shape}")
-    if np.ndim(l) != 2 or np.shape(l)[0] != t.size:
+    l_shape = tuple(_shape("l", l))
+    if len(l_shape) not in (2, 3) or l_shape[-2] != t.size:
         raise ParameterError(
-            "l", f"must have shape (T, P) with T = {t.size} samples as t, got {np.shape(l)}")
+            "l", f"must have shape (T, P) or (N, T, P) with T = {t.size} samples as t, "
+            f"got {l_shape}")
     if t.size < 2 or not (t != t[0]).any():
         raise ParameterError("t", "needs at least two distinct times to observe the velocity")
-    ls, tx, rx, sigma = validate_problem(l, tx, rx, sigma)
-    n_t, p, d = tx.shape
-    if n_t != t.size:
-        raise ParameterError("tx", f"has {n_t} samples but t has {t.size}")
+    n, n_t = (l_shape[0] if len(l_shape) == 3 else 1), t.size
+    tx = _per_sample("tx", _with_tx_axis(tx), n, n_t, 2)
+    rx = _per_sample("rx", rx, n, n_t, 2)
+    sigma = _per_sample("sigma", sigma, n, n_t, 1)
+    ls, tx, rx, sigma = validate_problem(np.reshape(l, (n * n_t, -1)), tx, rx, sigma)
+    p, d = tx.shape[1:]
+    ls, sigma = ls.reshape(n, n_t, p), sigma.reshape(n, n_t, p)
+    tx, rx = tx.reshape(n, n_t, p, d), rx.reshape(n, n_t, p, d)
     tau = t - t[0]
     if x0 is None:
-        starts = _track_starts(ls, tau, tx, rx, sigma, alpha)
+        starts, owner = _track_starts(ls, tau, tx, rx, sigma, alpha)
     else:
-        starts = as_array("x0", x0, (2 * d,))
-        if starts.ndim != 1:
-            raise ParameterError("x0", f"must have shape ({2 * d},), got {starts.shape}")
-        starts = starts[None]
+        starts, owner = _start_points(x0, n, 2 * d), np.arange(n)
 
     def predict(theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
         x = theta[:, None, :d] + tau[:, None] * theta[:, None, d:]  # (m, T, D)
-        return range_sums(x, tx, rx).reshape(theta.shape[0], n_t * p)
+        return _range_sums(x, tx[owner[idx]], rx[owner[idx]]).reshape(idx.size, n_t * p)
 
     def jacobian(theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
         x = theta[:, None, :d] + tau[:, None] * theta[:, None, d:]
-        H = range_sum_jacobian(x, tx, rx)  # (m, T, P, D)
+        H = _range_sum_jacobian(x, tx[owner[idx]], rx[owner[idx]])  # (m, T, P, D)
         H = np.concatenate([H, tau[:, None, None] * H], axis=-1)
-        return H.reshape(theta.shape[0], n_t * p, 2 * d)
+        return H.reshape(idx.size, n_t * p, 2 * d)
 
-    m = starts.shape[0]
-    fit = _gauss_newton(predict, jacobian, np.repeat(ls.reshape(1, -1), m, axis=0),
-                        np.repeat(sigma.reshape(1, -1), m, axis=0), starts, max_iter, tol)
-    best = int(np.argmin(fit.cost))
+    fit = _gauss_newton(predict, jacobian, ls.reshape(n, -1)[owner],
+                        sigma.reshape(n, -1)[owner], starts, max_iter, tol)
+    # the lowest cost of each track's starts (its primary start on a tie)
+    order = np.lexsort((np.arange(owner.size), fit.cost, owner))
+    best = order[np.r_[True, owner[order][1:] != owner[order][:-1]]]
     dof = n_t * p - 2 * d
-    cost = float(fit.cost[best])
-    return TrajectorySolution(
+    cost = fit.cost[best]
+    solution = TrajectorySolution(
         state=fit.theta[best],
         covariance=fit.covariance[best],
         t_ref=float(t[0]),
-        residuals=fit.residuals[best].reshape(n_t, p),
+        residuals=fit.residuals[best].reshape(n, n_t, p),
         cost=cost,
         normalized_cost=cost / max(dof, 1),
-        consistent=bool(cost <= _threshold(alpha, dof)),
-        converged=bool(fit.converged[best]),
-        iterations=int(fit.iterations[best]),
+        consistent=cost <= _threshold(alpha, dof),
+        converged=fit.converged[best],
+        iterations=fit.iterations[best],
     )
+    return solution if len(l_shape) == 3 else _single_track(solution)
+
+
+def _single_track(sol: TrajectorySolution) -> TrajectorySolution:
+    """The first (only) track of a batch, with plain Python scalars."""
+    return TrajectorySolution(
+        state=sol.state[0], covariance=sol.covariance[0], t_ref=sol.t_ref,
+        residuals=sol.residuals[0], cost=float(sol.cost[0]),
+        normalized_cost=float(sol.normalized_cost[0]), consistent=bool(sol.consistent[0]),
+        converged=bool(sol.converged[0]), iterations=int(sol.iterations[0]))

@@ -279,6 +279,62 @@ def test_trajectory_monte_carlo_covariance_matches_trajectory_crlb():
     assert np.all(np.abs(states.mean(axis=0) - state) < 0.1 * bound.sigma)
 
 
+def test_a_batch_of_tracks_equals_the_tracks_solved_one_by_one():
+    # 40 noisy draws of the seed-like crossing: each batch answer is the single answer
+    t, x, tx, rx = seed_geometry(n_samples=40, dt=0.5)
+    rng = np.random.default_rng(17)
+    ls = range_sums(x, tx, rx) + rng.normal(0.0, SIGMA, (40, 40, 3))
+    many = trajectory_solve(ls, t, tx, rx, SIGMA)
+    assert many.state.shape == (40, 4) and many.residuals.shape == (40, 40, 3)
+    pos, cov = many.at(t[[0, 39]])
+    assert pos.shape == (40, 2, 2) and cov.shape == (40, 2, 2, 2)
+    for k in (0, 13, 39):
+        one = trajectory_solve(ls[k], t, tx, rx, SIGMA)
+        np.testing.assert_allclose(many.state[k], one.state, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(many.covariance[k], one.covariance, rtol=1e-9)
+        assert many.cost[k] == pytest.approx(one.cost, rel=1e-9)
+        assert many.consistent[k] == one.consistent and many.converged[k] == one.converged
+        np.testing.assert_allclose(pos[k], one.at(t[[0, 39]])[0], rtol=0, atol=1e-9)
+
+
+def test_a_batch_mixes_mirrored_and_plain_tracks_with_per_track_inputs():
+    # P = D: the crossing-mirror track of the test above next to a plain one, each
+    # with its own platforms, sigmas and (for the second call) start
+    rx = np.array([[10000.0, 0.0], [0.0, 10000.0]])
+    t = np.arange(30.0)
+    states = np.array([[-1080.79, 2221.32, 78.24, 55.11], [3000.0, 4000.0, 0.0, 80.0]])
+    shift = np.array([[0.0, 0.0], [500.0, -300.0]])  # the second track's platforms moved
+    tx = np.broadcast_to(TX + shift[:, None, None], (2, 30, 2, 2))
+    rxs = np.broadcast_to(rx + shift[:, None, None], (2, 30, 2, 2))
+    x = states[:, None, :2] + t[:, None] * states[:, None, 2:]
+    ls = range_sums(x, tx, rxs)
+    sigma = np.stack([np.full((30, 2), SIGMA), np.full((30, 2), 2.0 * SIGMA)])
+    sol = trajectory_solve(ls, t, tx, rxs, sigma)
+    np.testing.assert_allclose(sol.state, states, rtol=0, atol=1e-6)
+    assert sol.converged.all()
+    given = trajectory_solve(ls, t, tx, rxs, sigma, x0=states + [30.0, -20.0, 1.0, 1.0])
+    np.testing.assert_allclose(given.state, states, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"tx": np.zeros((2, 3, 2))}, "tx"),  # 2 samples, not 3
+        ({"rx": np.broadcast_to(RX, (4, 3, 3, 2))}, "rx"),  # 4 tracks, not 2
+        ({"sigma": np.full((3, 3, 3), SIGMA)}, "sigma"),
+        ({"x0": np.zeros((3, 4))}, "x0"),
+        ({"l": np.full((2, 3, 3, 1), 2e4)}, "l"),
+    ],
+)
+def test_a_batch_of_tracks_refuses_mismatched_shapes(kwargs, field):
+    args = {"l": np.full((2, 3, 3), 2e4), "t": [0.0, 1.0, 2.0], "tx": TX, "rx": RX,
+            "sigma": SIGMA}
+    args.update(kwargs)
+    with pytest.raises(ParameterError) as info:
+        trajectory_solve(**args)
+    assert info.value.field == field
+
+
 # ---------------------------------------------------------------- bad input
 
 
