@@ -321,13 +321,17 @@ def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike
     True
     """
     x, tx, rx, sigma = _geometry(x, tx, rx, sigma, extra_pairs=1)
-    H = range_sum_jacobian(x, tx, rx)  # (N, P, D)
-    Hd = H[:, 1:] - H[:, :1]  # A H
+    J = _difference_information(range_sum_jacobian(x, tx, rx), sigma)
+    return _bound(J, _sigma_ref(sigma))
+
+
+def _difference_information(H: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """(A H)^T C^-1 (A H) of (..., P, K) Jacobians H and (..., P) sigmas: (..., K, K)."""
+    Hd = H[..., 1:, :] - H[..., :1, :]  # A H
     var = sigma * sigma
     # C = A diag(sigma^2) A^T: sigma_k^2 + sigma_1^2 on the diagonal, sigma_1^2 off it
-    C = np.eye(var.shape[1] - 1) * var[:, 1:, None] + var[:, :1, None]
-    J = np.einsum("nki,nkj->nij", Hd, np.linalg.solve(C, Hd))
-    return _bound(J, _sigma_ref(sigma))
+    C = np.eye(var.shape[-1] - 1) * var[..., 1:, None] + var[..., :1, None]
+    return np.einsum("...ki,...kj->...ij", Hd, np.linalg.solve(C, Hd))
 
 
 def _track_inputs(
@@ -346,7 +350,13 @@ def _track_inputs(
 
 
 def trajectory_crlb(
-    x0: ArrayLike, v: ArrayLike, t: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike
+    x0: ArrayLike,
+    v: ArrayLike,
+    t: ArrayLike,
+    tx: ArrayLike,
+    rx: ArrayLike,
+    sigma: ArrayLike,
+    measurements: str = "sum",
 ) -> TrajectoryCRLB:
     """Accumulated Cramer-Rao bound of a constant-velocity track (seed 001, eq. 3, curves 2).
 
@@ -358,6 +368,11 @@ def trajectory_crlb(
               \\begin{bmatrix} 1 & \\tau_i \\\\ \\tau_i & \\tau_i^2 \\end{bmatrix}
               \\otimes \\mathbf{H}_{p,i}^T \\mathbf{H}_{p,i}, \\quad
               \\tau_i = t_i - t_{ref}.
+
+    With ``measurements="difference"`` each sample contributes the information of its
+    P - 1 range-sum differences instead, (A H_i)^T C_i^-1 (A H_i) with the state
+    Jacobian H_i = [H, tau_i H] and C_i as in :func:`difference_crlb` (the samples'
+    noise is independent, so the information still adds over the samples).
 
     Parameters
     ----------
@@ -372,6 +387,8 @@ def trajectory_crlb(
         :func:`core.multistatic.model.platform_positions`), metres; P >= D.
     sigma : float, (P,) or (T, P) array_like
         Range-sum noise standard deviations, metres, > 0.
+    measurements : ``"sum"`` or ``"difference"``, optional
+        The range sums (default) or their differences against the first pair (P >= D + 1).
 
     Returns
     -------
@@ -403,13 +420,20 @@ def trajectory_crlb(
     >>> bool((b.position_sigma[0] < crlb([3000.0, 4000.0], [0.0, 0.0], rx, 0.5).sigma).all())
     True
     """
+    if measurements not in ("sum", "difference"):
+        raise ParameterError(
+            "measurements", f"must be 'sum' or 'difference', got {measurements!r}")
     x0, v, t = _track_inputs(x0, v, t)
     tau = t - t[0]
     x = x0 + tau[:, None] * v  # (T, D)
-    x, tx, rx, sigma = _geometry(x, tx, rx, sigma)
-    H = range_sum_jacobian(x, tx, rx) / sigma[..., None]  # (T, P, D), whitened
+    x, tx, rx, sigma = _geometry(x, tx, rx, sigma, extra_pairs=int(measurements != "sum"))
+    H = range_sum_jacobian(x, tx, rx)  # (T, P, D)
     Hs = np.concatenate([H, tau[:, None, None] * H], axis=-1)  # (T, P, 2D)
-    J = np.einsum("tpi,tpj->ij", Hs, Hs)
+    if measurements == "sum":
+        Hs = Hs / sigma[..., None]  # whitened
+        J = np.einsum("tpi,tpj->ij", Hs, Hs)
+    else:
+        J = _difference_information(Hs, sigma).sum(axis=0)
     cov = _inverse_information(J)
     return _track_bound(J, cov, tau, float(t[0]), float(_sigma_ref(sigma, axis=(0, 1))))
 

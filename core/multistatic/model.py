@@ -124,10 +124,12 @@ def _model_inputs(
     return x, tx, rx
 
 
-def platform_positions(initial: ArrayLike, velocity: ArrayLike, t: ArrayLike) -> np.ndarray:
+def platform_positions(
+    initial: ArrayLike, velocity: ArrayLike, t: ArrayLike, t0: float = 0.0
+) -> np.ndarray:
     """Positions of platforms moving at constant velocity (seed 001, Fig. 2).
 
-    .. math:: \\mathbf{p}(t) = \\mathbf{p}_0 + \\mathbf{v} t
+    .. math:: \\mathbf{p}(t) = \\mathbf{p}_0 + \\mathbf{v} (t - t_0)
 
     Platforms whose positions are known per sample need no model: pass those arrays
     directly as ``tx`` / ``rx``.
@@ -139,7 +141,11 @@ def platform_positions(initial: ArrayLike, velocity: ArrayLike, t: ArrayLike) ->
     velocity : (..., D) array_like
         Velocities, m/s; broadcast against ``initial``.
     t : (T,) array_like or float
-        Sample times, seconds (any epoch; positions are ``initial`` at t = 0).
+        Sample times, seconds (any epoch).
+    t0 : float, optional
+        The time at which the platforms are at ``initial``, seconds. Default 0; pass
+        ``t[0]`` for positions given at the first sample, as the trajectory solve's
+        state is.
 
     Returns
     -------
@@ -167,6 +173,9 @@ def platform_positions(initial: ArrayLike, velocity: ArrayLike, t: ArrayLike) ->
     <BLANKLINE>
            [[  20.,    0.],
             [1020.,    0.]]])
+    >>> platform_positions([0.0, 0.0], [10.0, 0.0], [1.7e9, 1.7e9 + 2.0], t0=1.7e9)
+    array([[ 0.,  0.],
+           [20.,  0.]])
     """
     initial = _positions("initial", initial)
     velocity = _positions("velocity", velocity)
@@ -182,8 +191,9 @@ def platform_positions(initial: ArrayLike, velocity: ArrayLike, t: ArrayLike) ->
     t = as_array("t", t)
     if t.ndim > 1:
         raise ParameterError("t", f"must have shape (T,), got {t.shape}")
-    t = t.reshape(t.shape + (1,) * len(batch))
-    return initial + t * velocity
+    t0 = float(as_array("t0", t0))
+    tau = (t - t0).reshape(t.shape + (1,) * len(batch))
+    return initial + tau * velocity
 
 
 def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:

@@ -7,7 +7,7 @@ problems share P, so ``solves.position`` groups the problems by their number of 
 group; error indices are mapped back to the request's problem numbers.
 
 Platforms given as a position plus a velocity are placed with
-:func:`core.multistatic.platform_positions` at ``t - sample_times[0]`` (the wire's
+:func:`core.multistatic.platform_positions` with ``t0 = sample_times[0]`` (the wire's
 position is the one at the first sample time); per-sample positions are used as given.
 
 Decisions:
@@ -235,8 +235,8 @@ def position_field(request: PositionSolveRequest, exc: PlotgateError) -> str:
 # --------------------------------------------------------------------------- platforms
 
 
-def _platform(platform: Platform, tau: np.ndarray | None, n: int | None) -> np.ndarray:
-    """(D,) when no platform moves (n None), else (n, D): per sample, or at offsets tau."""
+def _platform(platform: Platform, t: np.ndarray | None, n: int | None) -> np.ndarray:
+    """(D,) when no platform moves (n None), else (n, D): per sample, or at the times t."""
     if platform.positions is not None:
         return np.asarray(platform.positions, dtype=float)
     position = np.asarray(platform.position, dtype=float)
@@ -244,22 +244,23 @@ def _platform(platform: Platform, tau: np.ndarray | None, n: int | None) -> np.n
         return position
     if platform.velocity is None:
         return np.array(np.broadcast_to(position, (n, position.size)))
-    assert tau is not None  # the schema requires sample times with a velocity
-    return ms.platform_positions(position, platform.velocity, tau)
+    assert t is not None  # the schema requires sample times with a velocity
+    return ms.platform_positions(position, platform.velocity, t, t0=t[0])
 
 
 def _platforms(
-    request: TrajectorySolveRequest | CrlbRequest, tau: np.ndarray | None, n: int
+    request: TrajectorySolveRequest | CrlbRequest, t: np.ndarray | None, n: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """Transmitters and receivers: (P, D) when no platform moves, else (n, P, D).
 
-    ``tau`` are the sample times less the first (None without sample times).
+    ``t`` are the sample times (None without them); a moving platform's ``position``
+    is the one at t[0].
     """
     p = len(request.receivers)
     transmitters = request.transmitters or [request.transmitter] * p
     samples = n if _moving(request) else None
-    tx = np.stack([_platform(q, tau, samples) for q in transmitters], axis=-2)
-    rx = np.stack([_platform(q, tau, samples) for q in request.receivers], axis=-2)
+    tx = np.stack([_platform(q, t, samples) for q in transmitters], axis=-2)
+    rx = np.stack([_platform(q, t, samples) for q in request.receivers], axis=-2)
     return tx, rx
 
 
@@ -291,7 +292,7 @@ def _platform_field(request: Any, field: str) -> str | None:
 def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
     """Constant-velocity track by maximum likelihood over all samples (seed 001)."""
     t = np.asarray(request.sample_times, dtype=float)
-    tx, rx = _platforms(request, t - t[0], t.size)
+    tx, rx = _platforms(request, t, t.size)
     x0 = None
     if request.initial is not None:
         x0 = np.concatenate([request.initial.position, request.initial.velocity])
@@ -341,7 +342,7 @@ def crlb(request: CrlbRequest) -> CrlbResult:
             t - t[0], np.asarray(request.track.velocity, dtype=float))
     else:
         x = np.asarray(request.targets, dtype=float)
-    tx, rx = _platforms(request, None if t is None else t - t[0], len(x))
+    tx, rx = _platforms(request, t, len(x))
     sigma = _sigma(request)
     bound = ms.difference_crlb if request.measurements == "difference" else ms.crlb
     with _samples(t, _moving(request)):
@@ -349,7 +350,7 @@ def crlb(request: CrlbRequest) -> CrlbResult:
         accumulated = None
         if request.track is not None:
             acc = ms.trajectory_crlb(request.track.position, request.track.velocity, t, tx,
-                                     rx, sigma)
+                                     rx, sigma, measurements=request.measurements)
             accumulated = AccumulatedBound(
                 t_ref=acc.t_ref,
                 state_covariance=acc.covariance.tolist(),

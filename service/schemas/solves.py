@@ -564,14 +564,14 @@ class CrlbRequest(Schema):
     Single shot for given ``targets`` (sample i is target i: per-sample platform
     positions give one position per target, and moving platforms are taken at
     ``sample_times[i]``), or along a constant-velocity ``track`` observed at
-    ``sample_times``: the single-shot bound at each sample and, for the range-sum set,
-    the bound accumulated over all samples (Fig. 3 curves 1 and 2).
+    ``sample_times``: the single-shot bound at each sample and the bound accumulated
+    over all samples (Fig. 3 curves 1 and 2), for either measurement set.
     """
 
     measurements: Literal["sum", "difference"] = Field(
         default="sum",
         description="sum: the P range sums. difference: the P - 1 differences l_k - l_1 "
-        "(transmitter cancels, correlated noise); needs P >= D + 1, single shot only.",
+        "(transmitter cancels, correlated noise); needs P >= D + 1.",
     )
     targets: list[Point] | None = Field(
         default=None, min_length=1, max_length=MAX_PROBLEMS,
@@ -613,10 +613,6 @@ class CrlbRequest(Schema):
         if self.track is not None:
             if self.sample_times is None:
                 errors.append((("sample_times",), "is required with track", None))
-            if self.measurements == "difference":
-                errors.append((("measurements",), "the accumulated bound of a track is "
-                               "available for the range-sum set only; use targets for "
-                               "single-shot difference bounds", self.measurements))
             n = None if self.sample_times is None else len(self.sample_times)
         elif self.targets is not None:
             errors += _length(("sample_times",), self.sample_times, len(self.targets),

@@ -188,6 +188,38 @@ def test_trajectory_crlb_accumulates_eq_3_over_the_samples():
     assert b.position_sigma.shape == (15, 2) and b.gdop.shape == (15,)
 
 
+def test_accumulated_difference_bound_is_the_dense_model_of_all_differences():
+    # the T (P - 1) differences of the whole track as one linear-Gaussian model:
+    # G = blockdiag(A) [H_i, tau_i H_i] stacked, C = blockdiag(A diag(sigma_i^2) A^T),
+    # J = G^T C^-1 G by dense matrices, independent of the per-sample code
+    rng = np.random.default_rng(15)
+    t = np.sort(rng.uniform(0.0, 20.0, 8))
+    x0, v = np.array([3000.0, 4000.0]), np.array([-60.0, 45.0])
+    tx = np.repeat(rng.uniform(-500.0, 500.0, (8, 1, 2)), 3, axis=1)
+    rx = RX + rng.uniform(-100.0, 100.0, (8, 3, 2))
+    sigma = rng.uniform(0.4, 1.2, (8, 3))
+    b = trajectory_crlb(x0, v, t, tx, rx, sigma, measurements="difference")
+    A = np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])
+    G = np.zeros((16, 4))
+    C = np.zeros((16, 16))
+    for i in range(8):
+        tau = t[i] - t[0]
+        H = reference_jacobian(x0 + tau * v, tx[i], rx[i])
+        G[2 * i:2 * i + 2] = A @ np.hstack([H, tau * H])
+        C[2 * i:2 * i + 2, 2 * i:2 * i + 2] = A @ np.diag(sigma[i] ** 2) @ A.T
+    J = G.T @ np.linalg.solve(C, G)
+    np.testing.assert_allclose(b.information, J, rtol=1e-6)
+    # differencing drops information: the bound is never below the range-sum one
+    s = trajectory_crlb(x0, v, t, tx, rx, sigma)
+    assert np.linalg.eigvalsh(b.covariance - s.covariance).min() > -1e-12 * np.trace(b.covariance)
+    with pytest.raises(ParameterError) as info:
+        trajectory_crlb(x0, v, t, tx, rx, sigma, measurements="ratio")
+    assert info.value.field == "measurements"
+    with pytest.raises(ParameterError) as info:
+        trajectory_crlb(x0, v, t, tx[:, :2], rx[:, :2], sigma[:, :2], measurements="difference")
+    assert info.value.field == "rx"
+
+
 def test_trajectory_crlb_of_one_time_is_finite():
     b = trajectory_crlb([3000.0, 4000.0], [10.0, 0.0], [5.0], TX, RX, SIGMA)
     assert np.isfinite(b.covariance).all() and b.sigma[2:].min() > 1e5  # v unobservable
