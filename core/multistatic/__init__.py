@@ -4,8 +4,9 @@ A transmitter tx and receivers rx_k on moving platforms measure range sums
 ``l_k = |x - rx_k| + |x - tx|`` (seed 001, eq. 1). :mod:`.model` holds the measurement
 model and the shared input checks, :mod:`.closed_form` the sum-range and
 difference-range closed-form solves, :mod:`.ml` the maximum-likelihood (Gauss-Newton)
-solves, :mod:`.crlb` the Cramer-Rao bounds and :mod:`.noise` the noise estimation and
-smoothing. Positions in metres, D = 2 or 3, batched over N independent problems.
+solves, :mod:`.crlb` the Cramer-Rao bounds, :mod:`.noise` the noise estimation and
+smoothing, and :mod:`.study` the Monte Carlo accuracy study of Fig. 3. Positions in
+metres, D = 2 or 3, batched over N independent problems.
 """
 
 from core.multistatic.closed_form import (
@@ -23,15 +24,18 @@ from core.multistatic.model import (
     validate_problem,
 )
 from core.multistatic.noise import NoiseEstimate, range_sum_noise, smooth_positions
+from core.multistatic.study import AccuracyStudy, accuracy_study
 
 __all__ = [
     "CRLB",
+    "AccuracyStudy",
     "ClosedFormSolution",
     "MLSolution",
     "NoiseEstimate",
     "Problem",
     "TrajectoryCRLB",
     "TrajectorySolution",
+    "accuracy_study",
     "crlb",
     "difference_crlb",
     "difference_range_solve",

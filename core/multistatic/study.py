@@ -1,0 +1,337 @@
+"""Monte Carlo accuracy study of the multistatic solvers (seed 001, Fig. 3, curves 1-6).
+
+Seed 001 judges its solvers along a target's track by six curves of the position error
+against the target's position: 1, the single-shot CRLB; 2, the CRLB accumulated over the
+samples so far; 3, the ML trajectory (constant-velocity fit to the samples so far); 4,
+the ML single shot; 5, the sum-range closed form; 6, the difference-range closed form.
+:func:`accuracy_study` computes all six for any single-transmitter geometry with
+moving platforms, with the diagnostics that say whether a solver is efficient:
+
+* ``linearised``: the RMSE of the linearised efficient estimator J^-1 H^T G n on the
+  *same* noise n (its expected RMSE is exactly the CRLB), so RMSE / RMSE_linearised
+  cancels most of the Monte Carlo noise of RMSE / CRLB; ``linearised_track`` likewise
+  for curve 3;
+* ``max_distance``: the largest Mahalanobis distance sqrt(e^T J e) of an ML single-shot
+  error by the Fisher information J at the truth (a solution 10 CRLB away has 10);
+* false minima: an ML single-shot solution more than one standard deviation
+  (Mahalanobis) from the minimum that Gauss-Newton reaches from the truth, with a
+  higher cost; each should fail the chi-square test (``false_unflagged`` counts those
+  that do not);
+* ``full_track``: the trajectory fitted to all T samples, evaluated at every sample
+  time, against its own bound ``full_track_crlb``.
+
+Every solver runs batched over the runs; the noise is the same for every method.
+Curve 3 takes one batched :func:`core.multistatic.ml.trajectory_solve` per prefix
+0..i, started from the information-weighted line through the consistent single-shot
+positions of that prefix (what ``trajectory_solve`` starts from itself, computed here
+once for all prefixes with cumulative sums).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from core._validate import as_array, require_positive
+from core.errors import ParameterError
+from core.multistatic.closed_form import difference_range_solve, sum_range_solve
+from core.multistatic.crlb import (
+    _inverse_information,
+    _position_covariance,
+    crlb,
+    difference_crlb,
+)
+from core.multistatic.ml import ml_solve, trajectory_solve
+from core.multistatic.model import (
+    BASELINE_SIGMAS,
+    _with_tx_axis,
+    range_sum_jacobian,
+    range_sums,
+)
+from core.multistatic.noise import range_sum_noise
+
+__all__ = ["CURVES", "NOISE_WINDOW", "AccuracyStudy", "accuracy_study"]
+
+CURVES = ("ml_track", "ml_single", "sum_range", "difference_range")
+"""The solver curves of seed 001 Fig. 3: 3, 4, 5 and 6."""
+
+NOISE_WINDOW = 50
+"""Samples per window of the eq. 5 noise estimate (a quadratic fits a range-sum series
+over a few seconds, not over a whole baseline crossing)."""
+
+
+@dataclass(frozen=True)
+class AccuracyStudy:
+    """Per-sample results of :func:`accuracy_study` (T samples, D coordinates).
+
+    Attributes
+    ----------
+    t : (T,) ndarray
+        Sample times, s.
+    x : (T, D) ndarray
+        True target positions, m.
+    crlb, crlb_accumulated, crlb_difference : (T, D) ndarray
+        Per-axis bounds, m: single shot (curve 1), accumulated over samples 0..i
+        (curve 2; the single-shot bound at i = 0), and for the range differences.
+    rmse : dict of str to (T, D) ndarray
+        Per-axis RMSE over the runs, m, of each of :data:`CURVES` and of
+        ``linearised`` and ``linearised_track``; the track curves are NaN at i = 0
+        and everywhere when ``tracks`` is False.
+    rmse_se : (T,) ndarray
+        Relative Monte Carlo standard error of the ML single-shot total RMSE.
+    full_track, full_track_crlb : (T, D) ndarray
+        RMSE of the all-samples trajectory at each sample time, and its bound (NaN
+        without tracks).
+    max_distance, max_track_distance : (T,) ndarray
+        Largest Mahalanobis error of the ML single shot and of the ML track.
+    gradient : (T, P) ndarray
+        |dl_p/dx| of each pair at the truth; near 0 where the target crosses that
+        pair's baseline.
+    inconsistent, not_converged, false_minima, false_unflagged : (T,) ndarray of int
+        ML single-shot runs failing the chi-square test, not converged, at a false
+        minimum, and at a false minimum yet passing the test.
+    track_inconsistent, track_not_converged : (T,) ndarray of int
+        The same for the ML tracks (0 at i = 0 and without tracks).
+    sum_range_unsolvable, difference_range_unsolvable : (T,) ndarray of int
+        Closed-form runs with no consistent root.
+    noise_sigma : tuple of float
+        Mean and standard deviation over the runs and pairs of the seed 001 eq. 5 noise
+        estimate of each range-sum series (variances pooled over consecutive windows of
+        NOISE_WINDOW samples).
+    runs, seed : int
+        The Monte Carlo size and seed.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    crlb: np.ndarray
+    crlb_accumulated: np.ndarray
+    crlb_difference: np.ndarray
+    rmse: dict[str, np.ndarray]
+    rmse_se: np.ndarray
+    full_track: np.ndarray
+    full_track_crlb: np.ndarray
+    max_distance: np.ndarray
+    max_track_distance: np.ndarray
+    gradient: np.ndarray
+    inconsistent: np.ndarray
+    not_converged: np.ndarray
+    false_minima: np.ndarray
+    false_unflagged: np.ndarray
+    track_inconsistent: np.ndarray
+    track_not_converged: np.ndarray
+    sum_range_unsolvable: np.ndarray
+    difference_range_unsolvable: np.ndarray
+    noise_sigma: tuple[float, float]
+    runs: int
+    seed: int
+
+
+def _rmse(e: np.ndarray) -> np.ndarray:
+    """(runs, T, D) errors -> (T, D) per-axis RMSE."""
+    return np.sqrt(np.mean(e * e, axis=0))
+
+
+def _mahalanobis(e: np.ndarray, J: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.maximum(np.einsum("...i,...ij,...j->...", e, J, e), 0.0))
+
+
+def _count(mask: np.ndarray) -> np.ndarray:
+    return mask.sum(axis=0).astype(int)
+
+
+def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarray
+                  ) -> np.ndarray:
+    """(runs, T, 2D): for each prefix 0..i the information-weighted line x0 + tau v through
+    the positions x (runs, T, D) with information W (runs, T, D, D), using the ``good``
+    samples when at least two of them are in the prefix and all samples otherwise."""
+
+    def sums(use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        Wm = W * use[..., None, None]
+        tw = tau[:, None, None] * Wm
+        M = np.concatenate([np.concatenate([Wm, tw], axis=-1),
+                            np.concatenate([tw, tau[:, None, None] * tw], axis=-1)], axis=-2)
+        b = np.concatenate([np.einsum("rtij,rtj->rti", Wm, x),
+                            np.einsum("rtij,rtj->rti", tw, x)], axis=-1)
+        return np.cumsum(M, axis=1), np.cumsum(b, axis=1)
+
+    M_good, b_good = sums(good.astype(float))
+    M_all, b_all = sums(np.ones(good.shape))
+    enough = np.cumsum(good, axis=1) >= 2
+    M = np.where(enough[..., None, None], M_good, M_all)
+    b = np.where(enough[..., None], b_good, b_all)
+    return np.einsum("rtij,rtj->rti", _inverse_information(M), b)
+
+
+def accuracy_study(
+    t: ArrayLike,
+    tx: ArrayLike,
+    rx: ArrayLike,
+    x0: ArrayLike,
+    v: ArrayLike,
+    sigma: float,
+    runs: int,
+    seed: int,
+    alpha: float = 0.01,
+    tracks: bool = True,
+) -> AccuracyStudy:
+    """Seed 001 Fig. 3 (curves 1-6) by Monte Carlo for one transmitter and its receivers.
+
+    Parameters
+    ----------
+    t : (T,) array_like
+        Sample times, s, strictly increasing, T >= 2.
+    tx : (D,), (P, D) or (T, P, D) array_like
+        The transmitter (one point for every pair), fixed or per sample, m.
+    rx : (P, D) or (T, P, D) array_like
+        Receivers, fixed or per sample (e.g. from
+        :func:`core.multistatic.model.platform_positions`), m; P >= D + 1.
+    x0, v : (D,) array_like
+        Target position at t[0] (m) and constant velocity (m/s).
+    sigma : float
+        Range-sum noise standard deviation, m, > 0.
+    runs : int
+        Monte Carlo runs, >= 2.
+    seed : int
+        Seed of the noise: ``sigma * numpy.random.default_rng(seed).standard_normal((runs,
+        T, P))`` is added to the true range sums, >= 0.
+    alpha : float, optional
+        False-alarm probability of the chi-square consistency tests. Default 0.01.
+    tracks : bool, optional
+        Compute curve 3 and the full track (T batched trajectory solves, most of the
+        cost). Default True.
+
+    Returns
+    -------
+    study : AccuracyStudy
+
+    Raises
+    ------
+    NonFiniteError, ParameterError, GeometryError
+        On bad inputs, as the solvers word them (a target passing through a platform
+        is refused by the bound), and ParameterError for t not increasing, runs < 2,
+        seed < 0, or x0, v not (D,).
+
+    References
+    ----------
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, Fig. 3: curves 1-6
+       along the track of a target crossing the baselines of a multistatic system of
+       moving platforms.
+
+    Examples
+    --------
+    >>> rx = [[10000.0, 0.0], [0.0, 10000.0], [-8000.0, -6000.0]]
+    >>> s = accuracy_study(np.arange(5.0), [0.0, 0.0], rx, [3000.0, 4000.0], [0.0, 80.0],
+    ...                    sigma=0.5, runs=200, seed=1)
+    >>> bool(np.all(np.abs(s.rmse["ml_single"] / s.crlb - 1.0) < 0.25))
+    True
+    """
+    t = as_array("t", t)
+    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0.0):
+        raise ParameterError("t", f"must be (T,) strictly increasing with T >= 2, got {t}")
+    x0, v = as_array("x0", x0), as_array("v", v)
+    if x0.shape not in ((2,), (3,)) or v.shape != x0.shape:
+        raise ParameterError("v" if x0.shape in ((2,), (3,)) else "x0",
+                             f"x0 and v must both have shape (D,), got {x0.shape}, {v.shape}")
+    if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 2:
+        raise ParameterError("runs", f"must be an integer >= 2, got {runs!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ParameterError("seed", f"must be an integer >= 0, got {seed!r}")
+    sigma = float(as_array("sigma", sigma))
+    require_positive("sigma", sigma)
+    n_t, d = t.size, x0.size
+    tau = t - t[0]
+    x = x0 + tau[:, None] * v
+    b1 = crlb(x, tx, rx, sigma)  # checks the geometry
+    bd = difference_crlb(x, tx, rx, sigma)
+    clean = range_sums(x, tx, rx)
+    p = clean.shape[-1]
+    txb = np.broadcast_to(np.asarray(_with_tx_axis(tx), dtype=float), (n_t, p, d))
+    rxb = np.broadcast_to(np.asarray(rx, dtype=float), (n_t, p, d))
+    noise = sigma * np.random.default_rng(seed).standard_normal((runs, n_t, p))
+    L = clean + noise
+    flat = L.reshape(-1, p)
+    ftx = np.broadcast_to(txb, (runs, n_t, p, d)).reshape(-1, p, d)
+    frx = np.broadcast_to(rxb, (runs, n_t, p, d)).reshape(-1, p, d)
+
+    # curves 4-6 and the reference minimum (Gauss-Newton from the truth)
+    ml = ml_solve(flat, ftx, frx, sigma, alpha=alpha)
+    truth = np.broadcast_to(x, (runs, n_t, d)).reshape(-1, d)
+    ref = ml_solve(flat, ftx, frx, sigma, x0=truth, alpha=alpha)
+    single = ml.x.reshape(runs, n_t, d)
+    e = {"ml_single": single - x}
+    unsolvable = {}
+    for name, solver in (("sum_range", sum_range_solve),
+                         ("difference_range", difference_range_solve)):
+        sol = solver(flat, ftx, frx, baseline_tol=BASELINE_SIGMAS * sigma)
+        e[name] = sol.x.reshape(runs, n_t, d) - x
+        unsolvable[name] = _count(~sol.solvable.reshape(runs, n_t))
+
+    H = range_sum_jacobian(x, txb, rxb)  # (T, P, D)
+    Hw = H / sigma
+    e["linearised"] = np.einsum("tij,tpj,rtp->rti", b1.covariance, Hw, noise / sigma)
+    # accumulated bound and linearised track estimator for every prefix 0..i
+    Hs = np.concatenate([Hw, tau[:, None, None] * Hw], axis=-1)  # (T, P, 2D)
+    J = np.cumsum(np.einsum("tpi,tpj->tij", Hs, Hs), axis=0)
+    cov = _inverse_information(J)
+    P_xv, tau3 = cov[:, :d, d:], tau[:, None, None]  # position bound at t_i, prefix 0..i
+    A_cov = (cov[:, :d, :d] + tau3 * (P_xv + np.swapaxes(P_xv, 1, 2))
+             + tau3 * tau3 * cov[:, d:, d:])
+    acc = np.sqrt(np.diagonal(A_cov, axis1=-2, axis2=-1)).copy()
+    acc[0] = b1.sigma[0]
+    theta = np.einsum("tij,rtj->rti", cov,
+                      np.cumsum(np.einsum("tpi,rtp->rti", Hs, noise / sigma), axis=1))
+    e["linearised_track"] = theta[..., :d] + tau[:, None] * theta[..., d:]
+
+    # curve 3: a batched trajectory solve per prefix, and the full track
+    state = np.full((runs, n_t, 2 * d), np.nan)
+    track_ok = np.ones((2, runs, n_t), dtype=bool)  # consistent, converged
+    full_track = full_crlb = np.full((n_t, d), np.nan)
+    if tracks:
+        Hx = range_sum_jacobian(single, txb, rxb) / sigma  # at each run's position
+        W = np.einsum("rtpi,rtpj->rtij", Hx, Hx)
+        starts = _prefix_lines(single, W, tau, ml.consistent.reshape(runs, n_t))
+        for i in range(1, n_t):
+            fit = trajectory_solve(L[:, : i + 1], t[: i + 1], txb[: i + 1], rxb[: i + 1],
+                                   sigma, x0=starts[:, i], alpha=alpha)
+            state[:, i] = fit.state
+            track_ok[:, :, i] = fit.consistent, fit.converged
+        full = state[:, -1]
+        full_track = _rmse(full[:, None, :d] + tau[:, None] * full[:, None, d:] - x)
+        full_crlb = np.sqrt(np.diagonal(_position_covariance(cov[-1], tau), axis1=-2,
+                                        axis2=-1))
+    e["ml_track"] = state[..., :d] + tau[:, None] * state[..., d:] - x
+    e["linearised_track"][:, 0] = np.nan
+    if not tracks:
+        e["linearised_track"][:] = np.nan
+
+    J1 = b1.information
+    false_min = ((_mahalanobis(single - ref.x.reshape(runs, n_t, d), J1) > 1.0)
+                 & (ml.cost > ref.cost + 1e-9).reshape(runs, n_t))
+    inconsistent = ~ml.consistent.reshape(runs, n_t)
+    J_track = np.linalg.inv(A_cov[1:])
+    track_distance = np.full(n_t, np.nan)
+    if tracks:
+        track_distance[1:] = _mahalanobis(e["ml_track"][:, 1:], J_track).max(axis=0)
+    sq = np.sum(e["ml_single"] ** 2, axis=-1)
+    series = np.moveaxis(L, 0, 1).reshape(n_t, -1)  # (T, runs P)
+    w = min(NOISE_WINDOW, n_t)
+    est = np.sqrt(np.mean([range_sum_noise(t[i:i + w], series[i:i + w]).variance
+                           for i in range(0, n_t - w + 1, w)], axis=0))
+    return AccuracyStudy(
+        t=t, x=x, crlb=b1.sigma, crlb_accumulated=acc, crlb_difference=bd.sigma,
+        rmse={k: _rmse(v) for k, v in e.items()},
+        rmse_se=sq.std(axis=0, ddof=1) / (2.0 * np.sqrt(runs) * sq.mean(axis=0)),
+        full_track=full_track, full_track_crlb=full_crlb,
+        max_distance=_mahalanobis(e["ml_single"], J1).max(axis=0),
+        max_track_distance=track_distance,
+        gradient=np.linalg.norm(H, axis=-1),
+        inconsistent=_count(inconsistent),
+        not_converged=_count(~ml.converged.reshape(runs, n_t)),
+        false_minima=_count(false_min), false_unflagged=_count(false_min & ~inconsistent),
+        track_inconsistent=_count(~track_ok[0]), track_not_converged=_count(~track_ok[1]),
+        sum_range_unsolvable=unsolvable["sum_range"],
+        difference_range_unsolvable=unsolvable["difference_range"],
+        noise_sigma=(float(est.mean()), float(est.std())), runs=int(runs), seed=int(seed))
