@@ -3,13 +3,14 @@
 Run from the repository root::
 
     python bench/bench_multistatic.py                  # 10^4 problems, 20 tracks
-    python bench/bench_multistatic.py --size 1000 --tracks 3   # a quick look
+    python bench/bench_multistatic.py --size 1000 --tracks 3 --trap-runs 100   # quick
 
-Problems come from the accuracy study's scenario (``bench/study_multistatic.py``: one
-transmitter and three receivers on platforms at 10 m/s, baselines about 10 km, the target
-at 80 m/s crossing them, sigma 0.5 m): each single-shot problem is one of its 200
-samples, drawn at random, with fresh noise (seeded). A second set puts the receivers 5 km
-apart (``spread``), a well-conditioned geometry where Gauss-Newton needs fewer steps.
+Problems come from the accuracy study's scenario (``clients.study.DEFAULT_REQUEST``, run
+by ``plotgate study``: one transmitter and three receivers on platforms at 10 m/s,
+baselines about 10 km, the target at 80 m/s crossing them, sigma 0.5 m): each
+single-shot problem is one of its 200 samples, drawn at random, with fresh noise
+(seeded). A second set puts the receivers 2.5 km apart across the track (``spread``), a
+better-conditioned geometry where Gauss-Newton needs fewer steps.
 
 * Single shot: ``ml_solve`` on the whole batch (validation and the closed-form start
   included), best of ``--repeats``. The baselines, in the same run on the same problems,
@@ -19,9 +20,16 @@ apart (``spread``), a well-conditioned geometry where Gauss-Newton needs fewer s
   answers are compared with ml_solve's (distance in metres and in sigmas of
   ml_solve's covariance).
 * Trajectory: ``trajectory_solve`` on the study's 200 samples (600 range sums, 4
-  unknowns), end to end with its own start, and from a given start; the baselines solve
-  the same problem from that start (a straight line fitted to the per-sample closed-form
-  positions). Mean over ``--tracks`` noise draws of the best of ``--repeats``.
+  unknowns), end to end with its own start, from a given start, and all ``--tracks``
+  tracks in one batched call (time per track); the baselines solve the same problem from
+  the given start (a straight line fitted to the per-sample closed-form positions). Mean
+  over ``--tracks`` noise draws of the best of ``--repeats``.
+* The trap: at the instant the target crosses the central baseline (sample 112), plain
+  ``least_squares`` (trf) started 500 m from the truth in a random direction, one noise
+  draw per run; the fraction that land away from the minimum Gauss-Newton reaches from
+  the truth (more than one sigma, Mahalanobis), how many of those sit at the
+  transmitter, and how many the chi-square test flags; then ``ml_solve`` from the same
+  starts and from its own closed-form start.
 
 The ratio columns are scipy's time over core's (above 1: core is faster). Prints markdown.
 """
@@ -33,23 +41,56 @@ import platform
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy
+from scipy import stats
 from scipy.optimize import least_squares
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import study_multistatic as study  # noqa: E402
-
-from core.multistatic.closed_form import sum_range_solve  # noqa: E402
-from core.multistatic.ml import ml_solve, trajectory_solve  # noqa: E402
-from core.multistatic.model import range_sums  # noqa: E402
+from clients.study import DEFAULT_REQUEST
+from core.multistatic import (
+    crlb,
+    ml_solve,
+    platform_positions,
+    range_sum_jacobian,
+    range_sums,
+    sum_range_solve,
+    trajectory_solve,
+)
 
 SEED = 20261123
-SIGMA = study.SIGMA
+SIGMA = 0.5
+ALPHA = 0.01
+CROSS = 112  # the sample at which the target is on the central baseline
+TRAP_OFFSET = 500.0  # m
 SPREAD_RX0 = np.array([[150.0, -1500.0], [600.0, 1000.0], [150.0, 3500.0]])
+
+
+@dataclass(frozen=True)
+class Scenario:
+    t: np.ndarray  # (T,)
+    tx: np.ndarray  # (T, P, D)
+    rx: np.ndarray  # (T, P, D)
+    x: np.ndarray  # (T, D) the true target positions
+
+
+def scenario() -> Scenario:
+    """The platforms and target of ``plotgate study``'s default request."""
+    req = DEFAULT_REQUEST
+    t = np.array(req["sample_times"])
+    tx = platform_positions(req["transmitter"]["position"], req["transmitter"]["velocity"], t)
+    rx0 = np.array([r["position"] for r in req["receivers"]])
+    rx = platform_positions(rx0, req["receivers"][0]["velocity"], t)
+    x = np.array(req["target"]["position"]) + t[:, None] * np.array(req["target"]["velocity"])
+    return Scenario(t, np.repeat(tx[:, None], rx0.shape[0], axis=1), rx, x)
+
+
+def spread_scenario() -> Scenario:
+    """The same with the receivers 2.5 km apart across the track."""
+    base = scenario()
+    rx0 = np.array([r["position"] for r in DEFAULT_REQUEST["receivers"]])
+    return replace(base, rx=base.rx + (SPREAD_RX0 - rx0)[None])
 
 
 def best_time(run: Callable[[], object], repeats: int) -> float:
@@ -62,22 +103,13 @@ def best_time(run: Callable[[], object], repeats: int) -> float:
     return min(times)
 
 
-def problems(sc: study.Scenario, size: int, rng: np.random.Generator
+def problems(sc: Scenario, size: int, rng: np.random.Generator
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``size`` single-shot problems: (l (N, P), tx, rx (N, P, D), truth (N, D))."""
     i = rng.integers(0, sc.t.size, size)
     tx, rx, x = sc.tx[i], sc.rx[i], sc.x[i]
     ls = range_sums(x, tx, rx) + SIGMA * rng.standard_normal((size, tx.shape[1]))
     return ls, tx, rx, x
-
-
-def spread_scenario() -> study.Scenario:
-    """The study's scenario with the receivers 2.5 km apart across the track."""
-    base = study.scenario()
-    shift = SPREAD_RX0 - study.RX0
-    rx = base.rx + shift[None]
-    return study.Scenario(base.t, base.tx, rx, base.x, base.x0, base.v, base.crossings,
-                          np.linalg.norm(SPREAD_RX0 - study.TX0, axis=1))
 
 
 def _direct_residuals(tx: np.ndarray, rx: np.ndarray):
@@ -106,7 +138,7 @@ def scipy_batch(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, starts: np.ndarr
     return out
 
 
-def single_shot(name: str, sc: study.Scenario, size: int, repeats: int,
+def single_shot(name: str, sc: Scenario, size: int, repeats: int,
                 rng: np.random.Generator) -> list[str]:
     ls, tx, rx, _ = problems(sc, size, rng)
     sol = ml_solve(ls, tx, rx, SIGMA)
@@ -129,7 +161,7 @@ def single_shot(name: str, sc: study.Scenario, size: int, repeats: int,
     return rows
 
 
-def line_start(sc: study.Scenario, ls: np.ndarray) -> np.ndarray:
+def line_start(sc: Scenario, ls: np.ndarray) -> np.ndarray:
     """(x0, v) of a straight line through the per-sample closed-form positions."""
     x = sum_range_solve(ls, sc.tx, sc.rx, baseline_tol=5 * SIGMA).x
     tau = sc.t - sc.t[0]
@@ -137,7 +169,7 @@ def line_start(sc: study.Scenario, ls: np.ndarray) -> np.ndarray:
     return np.concatenate([icpt, slope])
 
 
-def trajectory(sc: study.Scenario, tracks: int, repeats: int,
+def trajectory(sc: Scenario, tracks: int, repeats: int,
                rng: np.random.Generator) -> list[str]:
     tau = sc.t - sc.t[0]
     n_t, p, _ = sc.tx.shape
@@ -145,8 +177,9 @@ def trajectory(sc: study.Scenario, tracks: int, repeats: int,
     times = {k: [] for k in ("core", "core_x0", "trf", "lm")}
     diffs = {"trf": 0.0, "lm": 0.0}
     iters = []
-    for _ in range(tracks):
-        ls = clean + SIGMA * rng.standard_normal(clean.shape)
+    draws = clean + SIGMA * rng.standard_normal((tracks, *clean.shape))
+    batch_s = best_time(lambda: trajectory_solve(draws, sc.t, sc.tx, sc.rx, SIGMA), repeats)
+    for ls in draws:
         x0 = line_start(sc, ls)
         sol = trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA)
         iters.append(sol.iterations)
@@ -181,6 +214,9 @@ def trajectory(sc: study.Scenario, tracks: int, repeats: int,
         f"| trajectory_solve, own start | {mean['core'] * 1e3:.2f} | "
         f"{mean['trf'] / mean['core']:.2f}x | {mean['lm'] / mean['core']:.2f}x | "
         f"{np.mean(iters):.1f} |",
+        f"| trajectory_solve, {tracks} tracks in one call (per track) | "
+        f"{batch_s / tracks * 1e3:.2f} | {mean['trf'] * tracks / batch_s:.2f}x | "
+        f"{mean['lm'] * tracks / batch_s:.2f}x | — |",
         f"| trajectory_solve, given start | {mean['core_x0'] * 1e3:.2f} | "
         f"{mean['trf'] / mean['core_x0']:.2f}x | {mean['lm'] / mean['core_x0']:.2f}x | — |",
         f"| least_squares trf, same start | {mean['trf'] * 1e3:.2f} | — | — | "
@@ -191,6 +227,45 @@ def trajectory(sc: study.Scenario, tracks: int, repeats: int,
     return rows
 
 
+def trap(sc: Scenario, runs: int, rng: np.random.Generator) -> list[str]:
+    """least_squares started TRAP_OFFSET from the truth at the crossing instant."""
+    tx, rx, truth = sc.tx[CROSS], sc.rx[CROSS], sc.x[CROSS]
+    ls = range_sums(truth, tx, rx) + SIGMA * rng.standard_normal((runs, tx.shape[0]))
+    angle = rng.uniform(0.0, 2.0 * np.pi, runs)
+    starts = truth + TRAP_OFFSET * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+    reference = ml_solve(ls, tx, rx, SIGMA, x0=np.broadcast_to(truth, starts.shape)).x
+    J = crlb(truth, tx, rx, SIGMA).information[0]
+    threshold = stats.chi2.ppf(1.0 - ALPHA, tx.shape[0] - 2)
+
+    def fun(x: np.ndarray, l: np.ndarray) -> np.ndarray:  # noqa: E741
+        return (l - range_sums(x, tx, rx)) / SIGMA
+
+    def jac(x: np.ndarray, l: np.ndarray) -> np.ndarray:  # noqa: E741
+        return -range_sum_jacobian(x, tx, rx) / SIGMA
+
+    out, cost = np.empty((runs, 2)), np.empty(runs)
+    for r in range(runs):  # scipy solves one problem per call
+        sol = least_squares(fun, starts[r], jac=jac, args=(ls[r],))
+        out[r], cost[r] = sol.x, 2.0 * sol.cost
+
+    def false(x: np.ndarray) -> np.ndarray:
+        e = x - reference
+        return np.sqrt(np.einsum("ni,ij,nj->n", e, J, e)) > 1.0
+
+    rows = []
+    for name, x, c in (
+        ("least_squares (trf), start 500 m off", out, cost),
+        *((label, sol.x, sol.cost) for label, sol in (
+            ("ml_solve, the same starts", ml_solve(ls, tx, rx, SIGMA, x0=starts, alpha=ALPHA)),
+            ("ml_solve, its closed-form start", ml_solve(ls, tx, rx, SIGMA, alpha=ALPHA)))),
+    ):
+        bad = false(x)
+        at_tx = bad & (np.linalg.norm(x - tx[0], axis=-1) < 200.0)
+        flagged = f"{(c[bad] > threshold).mean():.1%}" if bad.any() else "—"
+        rows.append(f"| {name} | {bad.mean():.1%} | {at_tx.mean():.1%} | {flagged} |")
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=10_000,
@@ -198,10 +273,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--tracks", type=int, default=20,
                         help="200-sample trajectories to time (20)")
     parser.add_argument("--repeats", type=int, default=3, help="best of this many (3)")
+    parser.add_argument("--trap-runs", type=int, default=1000,
+                        help="noise draws of the least_squares trap (1000)")
     parser.add_argument("--seed", type=int, default=SEED)
     args = parser.parse_args(argv)
-    if args.size < 1 or args.tracks < 1 or args.repeats < 1:
-        parser.error("--size, --tracks and --repeats must be at least 1")
+    if min(args.size, args.tracks, args.repeats, args.trap_runs) < 1:
+        parser.error("--size, --tracks, --repeats and --trap-runs must be at least 1")
     rng = np.random.default_rng(args.seed)
     print(f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
           f"{scipy.__version__}, {platform.machine()}")
@@ -209,15 +286,21 @@ def main(argv: list[str] | None = None) -> int:
     print("| geometry | solver | us per solve | solves / s | scipy / core time "
           "| mean GN iterations | agreement with ml_solve |\n"
           "|---|---|---:|---:|---:|---:|---|")
-    for name, sc in (("study (forward scatter)", study.scenario()),
+    for name, sc in (("study (forward scatter)", scenario()),
                      ("spread receivers", spread_scenario())):
         for row in single_shot(name, sc, args.size, args.repeats, rng):
             print(row)
-    print(f"\n## Trajectory, {study.SAMPLES} samples x 3 range sums, 4 unknowns "
+    sc = scenario()
+    print(f"\n## Trajectory, {sc.t.size} samples x 3 range sums, 4 unknowns "
           f"(mean of {args.tracks} tracks)\n")
     print("| solver | ms per solve | trf / core | lm / core | GN iterations / agreement |\n"
           "|---|---:|---:|---:|---|")
-    for row in trajectory(study.scenario(), args.tracks, args.repeats, rng):
+    for row in trajectory(sc, args.tracks, args.repeats, rng):
+        print(row)
+    print(f"\n## The trap: {args.trap_runs} runs on the central baseline (sample {CROSS})\n")
+    print("| solver | lands in a false minimum | of all runs: at the transmitter "
+          "| false ones flagged by chi-square |\n|---|---:|---:|---:|")
+    for row in trap(sc, args.trap_runs, rng):
         print(row)
     return 0
 

@@ -3,9 +3,9 @@
 Each operation of :data:`service.schemas.ENDPOINTS` is reachable through ``call(name,
 request)``; the common ones also have a typed method (``test_gate``, ``gate_probability``
 ...). The gating-probability and multistatic-solve methods (``solve_position``,
-``solve_trajectory``, ``crlb``, ``estimate_noise``) take their request model or the same
-as a dict (validated here, so a bad dict raises pydantic's ``ValidationError`` before any
-call).
+``solve_trajectory``, ``crlb``, ``estimate_noise``, ``accuracy_study``) take their request
+model or the same as a dict (validated here, so a bad dict raises pydantic's
+``ValidationError`` before any call).
 Errors are the exceptions of :mod:`clients.errors`. The README shows a full example.
 """
 
@@ -38,6 +38,8 @@ from service.schemas import (
     Plot,
     PositionSolveRequest,
     PositionSolveResult,
+    StudyRequest,
+    StudyResult,
     TrajectorySolveRequest,
     TrajectorySolveResult,
 )
@@ -174,6 +176,10 @@ class Client:
         """Range-sum noise and smoothed coordinates (operation ``solves.noise``)."""
         return self.call("solves.noise", _model("solves.noise", request))
 
+    def accuracy_study(self, request: StudyRequest | Mapping[str, Any]) -> StudyResult:
+        """Monte Carlo accuracy of the solvers along a track (operation ``solves.study``)."""
+        return self.call("solves.study", _model("solves.study", request))
+
     def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
         try:
@@ -270,6 +276,10 @@ class AsyncClient:
     async def estimate_noise(self, request: NoiseRequest | Mapping[str, Any]) -> NoiseResult:
         """Range-sum noise and smoothed coordinates (operation ``solves.noise``)."""
         return await self.call("solves.noise", _model("solves.noise", request))
+
+    async def accuracy_study(self, request: StudyRequest | Mapping[str, Any]) -> StudyResult:
+        """Monte Carlo accuracy of the solvers along a track (operation ``solves.study``)."""
+        return await self.call("solves.study", _model("solves.study", request))
 
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""

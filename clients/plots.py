@@ -11,8 +11,7 @@ P'_Sigma = 0.9967 at 50 km for the combined gate) marked.
 
 Every point comes from the operation ``gates.probability_curve``: the requests are plain
 JSON dicts (:func:`speed_curve`, :func:`range_curve`, :func:`figure_requests`), run either
-in-process through the operation registry (imported lazily, as replay does, so ``import
-clients`` never pulls in core) or against a live server through :class:`clients.Client`.
+in-process or against a live server (:mod:`clients.runners`).
 
 Choices the paper leaves open: the first mark lies due north of the radar (azimuth 0) and
 the course is 0 (north), so the target moves along the line of sight, where the range
@@ -23,11 +22,12 @@ error acts; both marks have the same sigmas; the speed axis spans the gate's own
 no pyplot state.
 """
 
-import json
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from clients.runners import Runner, http_runner, in_process_runner
 
 __all__ = [
     "FIGURES",
@@ -36,8 +36,7 @@ __all__ = [
     "Panel",
     "Setup",
     "figure_requests",
-    "http_runner",
-    "in_process_runner",
+    "matplotlib_classes",
     "plot",
     "range_curve",
     "speed_curve",
@@ -63,10 +62,6 @@ PAPER_VALUES = {  # seed 000, worked examples: (gate kind, range km, probability
     "combined": ((50.0, 0.9967),),
 }
 INSTALL_HINT = 'matplotlib is needed to draw figures: pip install "plotgate[plot]"'
-
-Runner = Callable[[dict[str, Any]], dict[str, Any]]
-"""Runs one ``gates.probability_curve`` request (a JSON dict) and returns its answer."""
-
 
 class MissingMatplotlib(ImportError):
     """matplotlib is not installed; the message says how to install it."""
@@ -213,38 +208,7 @@ def _compare_panels(setup: Setup, points: int | None) -> list[Panel]:
     return [Panel(title, "range of the first mark R, km", "range", curves, marks=marks)]
 
 
-def in_process_runner() -> Runner:
-    """Run requests through this build's operation registry, as the server would."""
-    from clients.errors import InvalidInputError, ServerError
-    from service.registry import OPERATIONS, execute
-    from service.schemas import Problem
-
-    op = OPERATIONS[OPERATION]
-
-    def run(body: dict[str, Any]) -> dict[str, Any]:
-        outcome = execute(op, json.dumps(body).encode())
-        if outcome.status >= 400:
-            problem = Problem.model_validate_json(outcome.content)
-            error = InvalidInputError if outcome.status in (400, 422) else ServerError
-            raise error(problem, f"in-process {op.path}")
-        return outcome.json()
-
-    return run
-
-
-def http_runner(client: Any) -> Runner:
-    """Run requests through a :class:`clients.Client` (validated against the wire model)."""
-    from service.schemas import ENDPOINTS
-
-    model = ENDPOINTS[OPERATION].request
-
-    def run(body: dict[str, Any]) -> dict[str, Any]:
-        return client.call(OPERATION, model.model_validate(body)).model_dump(mode="json")
-
-    return run
-
-
-def _matplotlib() -> tuple[Any, Any]:
+def matplotlib_classes() -> tuple[Any, Any]:
     """(Figure, FigureCanvasAgg), or :class:`MissingMatplotlib` with the install hint."""
     try:
         import matplotlib  # noqa: F401
@@ -265,7 +229,7 @@ _TITLES = {
 
 def draw(figure: str, panels: list[Panel], setup: Setup, out: Path) -> Path:
     """Draw answered panels into a PNG at ``out`` (matplotlib, Agg canvas)."""
-    Figure, FigureCanvasAgg = _matplotlib()
+    Figure, FigureCanvasAgg = matplotlib_classes()
     single = len(panels) == 1
     fig = Figure(figsize=(8.5, 6) if single else (12, 9), layout="constrained")
     FigureCanvasAgg(fig)
@@ -311,18 +275,18 @@ def plot(figure: str, out: Path | str | None = None, *, server: str | None = Non
     points : values per curve, to make quick (test) figures.
     runner : run the requests with this instead (overrides ``server``).
     """
-    _matplotlib()  # fail before computing anything
+    matplotlib_classes()  # fail before computing anything
     setup = setup or Setup()
     panels = figure_requests(figure, setup, points)
     out = Path(out) if out is not None else Path(DEFAULT_FILES[figure])
     if runner is not None:
         return _answer_and_draw(figure, panels, setup, out, runner)
     if server is None:
-        return _answer_and_draw(figure, panels, setup, out, in_process_runner())
+        return _answer_and_draw(figure, panels, setup, out, in_process_runner(OPERATION))
     from clients.client import Client
 
     with Client(server) as client:
-        return _answer_and_draw(figure, panels, setup, out, http_runner(client))
+        return _answer_and_draw(figure, panels, setup, out, http_runner(client, OPERATION))
 
 
 def _answer_and_draw(figure: str, panels: list[Panel], setup: Setup, out: Path,

@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from core import PlotgateError
-from service.operations import gates, probability, solves
+from service.operations import gates, probability, solves, study
 from service.problems import ProblemError, from_core, from_validation, problem_json
 from service.schemas import ENDPOINTS, Endpoint
 
@@ -65,6 +65,7 @@ _HANDLERS: dict[str, tuple[Handler, FieldOf]] = {
     "solves.trajectory": (solves.trajectory, solves.trajectory_field),
     "solves.crlb": (solves.crlb, solves.crlb_field),
     "solves.noise": (solves.noise, solves.noise_field),
+    "solves.study": (study.study, study.study_field),
 }
 
 OPERATIONS: dict[str, Operation] = {

@@ -76,6 +76,15 @@ from service.schemas.solves import (
     TrajectorySolveRequest,
     TrajectorySolveResult,
 )
+from service.schemas.study import (
+    MAX_STUDY_RANGE_SUMS,
+    MAX_STUDY_RUNS,
+    MAX_STUDY_SAMPLES,
+    MAX_STUDY_TRACK_WORK,
+    StudyRequest,
+    StudyResult,
+    StudySample,
+)
 
 __all__ = [
     "ENDPOINTS",
@@ -86,6 +95,10 @@ __all__ = [
     "MAX_PROBLEMS",
     "MAX_RANGE_SUMS",
     "MAX_SAMPLES",
+    "MAX_STUDY_RANGE_SUMS",
+    "MAX_STUDY_RUNS",
+    "MAX_STUDY_SAMPLES",
+    "MAX_STUDY_TRACK_WORK",
     "MAX_UNCONDITIONAL_POINTS",
     "MIN_RANGE",
     "AccumulatedBound",
@@ -144,6 +157,9 @@ __all__ = [
     "SectorRegion",
     "SingleShotBound",
     "SpeedPrior",
+    "StudyRequest",
+    "StudyResult",
+    "StudySample",
     "TargetState",
     "TrajectorySolveRequest",
     "TrajectorySolveResult",

@@ -29,6 +29,7 @@ from service.schemas.solves import (
     TrajectorySolveRequest,
     TrajectorySolveResult,
 )
+from service.schemas.study import StudyRequest, StudyResult
 
 __all__ = ["ENDPOINTS", "Endpoint"]
 
@@ -108,6 +109,12 @@ ENDPOINTS: dict[str, Endpoint] = {
             "Range-sum noise from quadratic fits, and sliding-window smoothing of "
             "coordinates",
             NoiseRequest, NoiseResult, slow=True,
+        ),
+        Endpoint(
+            "solves.study", "/v1/solves/study",
+            "Monte Carlo accuracy study of the multistatic solvers along a track (seed 001 "
+            "Fig. 3 curves 1-6)",
+            StudyRequest, StudyResult, slow=True,
         ),
     )
 }

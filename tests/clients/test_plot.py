@@ -11,13 +11,13 @@ from clients.cli import main
 from clients.plots import (
     FIGURES,
     INSTALL_HINT,
+    OPERATION,
     MissingMatplotlib,
     Setup,
     figure_requests,
-    http_runner,
-    in_process_runner,
     plot,
 )
+from clients.runners import http_runner, in_process_runner
 from service.schemas import ENDPOINTS
 from tests.conftest import serve
 
@@ -90,7 +90,7 @@ def test_missing_matplotlib_says_how_to_install(tmp_path, monkeypatch, capsys):
 def test_a_refused_request_is_reported(tmp_path, capsys):
     bad = figure_requests("fig2", Setup(v_min=600.0, v_max=500.0), points=3)[0].curves[0][1]
     with pytest.raises(InvalidInputError, match="gate.v_min"):
-        in_process_runner()(bad)
+        in_process_runner(OPERATION)(bad)
     out = tmp_path / "fig2.png"
     assert main(["plot", "fig2", "--v-min", "600", "--out", str(out), "--points", "3"]) == 2
     assert "gate.v_min" in capsys.readouterr().err
@@ -106,10 +106,10 @@ def test_server_answers_match_in_process(tmp_path, capsys):
         assert main(["plot", "fig5", "--server", url, "--out", str(out), "--points", "3"]) == 0
         assert capsys.readouterr().out.strip() == str(out)
         assert out.read_bytes()[:8] == PNG_SIGNATURE
-        local = in_process_runner()
+        local = in_process_runner(OPERATION)
         panels = figure_requests("fig5", points=3)
         with Client(url) as client:
-            remote = http_runner(client)
+            remote = http_runner(client, OPERATION)
             for panel in (panels[0], panels[2]):  # one curve against speed, one against range
                 body = panel.curves[1][1]
                 assert remote(body) == local(body)
