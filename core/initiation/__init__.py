@@ -1,0 +1,37 @@
+"""Track initiation from plots in clutter (DESIGN section 5; seeds 002, 003, 000).
+
+:mod:`.scan` builds a scan of Cartesian or polar plots, :mod:`.config` holds the rules,
+:mod:`.state` the versioned state between calls, :mod:`.logic` the initiation itself,
+:mod:`.simulate` the seeded scenario simulator and :mod:`.evaluate` the Monte Carlo
+evaluation (targets initiated, false tracks, time to confirmation).
+"""
+
+from core.initiation.config import InitiationConfig
+from core.initiation.logic import DROP_REASONS, ScanReport, initiate
+from core.initiation.scan import Scan, cartesian_scan, polar_scan
+from core.initiation.state import (
+    PLOT_STRIDE,
+    STATE_VERSION,
+    InitiationState,
+    Initiators,
+    Tracks,
+    empty_state,
+    state_from_json,
+)
+
+__all__ = [
+    "DROP_REASONS",
+    "PLOT_STRIDE",
+    "STATE_VERSION",
+    "InitiationConfig",
+    "InitiationState",
+    "Initiators",
+    "Scan",
+    "ScanReport",
+    "Tracks",
+    "cartesian_scan",
+    "empty_state",
+    "initiate",
+    "polar_scan",
+    "state_from_json",
+]

@@ -1,0 +1,150 @@
+"""Settings of the track-initiation logic (DESIGN section 5; seeds 002, 003, 000).
+
+One frozen :class:`InitiationConfig` holds every rule: the mode (Cartesian logic or the
+polar method of seed 002), the capture gate and its 2/N or 2/T criterion, branch or
+nearest association, the filter, the tracking gates and how they widen after misses,
+the k/m confirmation and the k/m - l drop. :meth:`InitiationConfig.digest` fingerprints
+the settings, so a state made under other settings is recognised as foreign.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+from core.errors import ParameterError
+
+__all__ = ["InitiationConfig"]
+
+_CHOICES = {
+    "mode": ("cartesian", "polar"),
+    "capture_gate": ("ring", "expanded", "combined"),
+    "association": ("branch", "nearest"),
+    "filter": ("kalman", "alpha_beta"),
+}
+
+
+@dataclass(frozen=True)
+class InitiationConfig:
+    """Rules of track initiation; SI units, angles in radians.
+
+    Attributes
+    ----------
+    mode : ``"cartesian"`` or ``"polar"``
+        Cartesian: the logic method (capture gate about the first plot, constant-velocity
+        filter, chi-square gates). Polar: seed 002's method (first-association sector
+        windows, range-only linear extrapolation, the azimuth window of the tangential
+        speed bound, the radial acceleration check before confirmation).
+    v_min, v_max : float
+        Target speed bounds, m/s (0 <= v_min <= v_max, v_max > 0).
+    capture_gate : ``"ring"``, ``"expanded"`` or ``"combined"``
+        Cartesian capture gate about an initiator (seed 000).
+    capture_P_G : float
+        Gating probability of the combined gate's ellipse stage.
+    capture_p : float
+        Probability of the expanded gate's expansion coefficient.
+    capture_scans : int
+        Criterion 2/N: an initiator may be captured by a plot of its next
+        capture_scans - 1 scans (>= 2).
+    capture_time : float or None
+        Criterion 2/T instead: by a plot at most capture_time seconds later (> 0).
+    association : ``"branch"`` or ``"nearest"``
+        Every plot in an initiator's capture gate starts its own tentative track (seed
+        003, approach 1), or only the one nearest the initiator (approach 2).
+    filter : ``"kalman"`` or ``"alpha_beta"``
+        Cartesian track filter: constant-velocity Kalman with white-acceleration noise
+        ``q`` (m^2/s^3), or seed 003's alpha-beta smoother alpha_n = 2(2n-1)/(n(n+1)),
+        beta_n = 6/(n(n+1)) (n plots so far), floored at alpha_min, beta_min.
+    gate_P_G : float
+        Gating probability of a track's chi-square gate (Cartesian) or, through
+        K_R = K_az = sqrt(chi2.ppf(P_G, 2)) when those are None, of its polar windows.
+    gate_widening : tuple of float
+        Seed 003's narrow / medium / wide gates: the gate threshold (gamma, or K^2 for
+        the polar windows) is multiplied by gate_widening[min(misses, len - 1)] after
+        that many misses in a row; each factor >= 1, non-decreasing.
+    confirm_k, confirm_m : int
+        Confirmation k/m: k plots within the track's first m scans (counted from its
+        first plot, both capture plots included; 1 <= k <= m).
+    drop_misses : int
+        l of k/m - l: a track is dropped after l misses in a row (>= 1); a tentative
+        one also when k can no longer be reached within its first m scans.
+    K_R, K_az : float or None
+        Polar window coefficients (> 0); None derives them from gate_P_G.
+    a_max, K_A : float
+        Polar mode: largest radial acceleration (m/s^2, > 0) and its factor (> 1) in
+        the check |r_3 - 2 r_2 + r_1| / tau^2 <= K_A a_max (divided differences for
+        unequal intervals).
+    history : int
+        Plot ids kept per track for the plot-reuse rules (>= confirm_m).
+    """
+
+    mode: str = "cartesian"
+    v_min: float = 0.0
+    v_max: float = 50.0
+    capture_gate: str = "ring"
+    capture_P_G: float = 0.99
+    capture_p: float = 0.95
+    capture_scans: int = 2
+    capture_time: float | None = None
+    association: str = "branch"
+    filter: str = "kalman"
+    q: float = 1.0
+    alpha_min: float = 0.2
+    beta_min: float = 0.05
+    gate_P_G: float = 0.99
+    gate_widening: tuple[float, ...] = field(default=(1.0, 2.0, 4.0))
+    confirm_k: int = 3
+    confirm_m: int = 4
+    drop_misses: int = 2
+    K_R: float | None = None
+    K_az: float | None = None
+    a_max: float = 5.0
+    K_A: float = 2.0
+    history: int = 8
+
+    def __post_init__(self) -> None:
+        for name, options in _CHOICES.items():
+            if getattr(self, name) not in options:
+                raise ParameterError(name, f"must be one of {', '.join(options)}, got "
+                                     f"{getattr(self, name)!r}")
+        object.__setattr__(self, "gate_widening", tuple(float(w) for w in self.gate_widening))
+        self._check()
+
+    def _check(self) -> None:
+        def number(name: str, ok: bool, rule: str) -> None:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                    and math.isfinite(value) and ok):
+                raise ParameterError(name, f"must be {rule}, got {value!r}")
+
+        number("v_min", self.v_min >= 0, "finite and >= 0")
+        number("v_max", self.v_max > 0 and self.v_max >= self.v_min, "> 0 and >= v_min")
+        for name in ("capture_P_G", "capture_p", "gate_P_G"):
+            number(name, 0 < getattr(self, name) < 1, "in (0, 1)")
+        for name in ("q", "a_max"):
+            number(name, getattr(self, name) > 0, "> 0")
+        for name in ("alpha_min", "beta_min"):
+            number(name, 0 < getattr(self, name) <= 1, "in (0, 1]")
+        number("K_A", self.K_A > 1, "> 1")
+        for name in ("K_R", "K_az", "capture_time"):
+            if getattr(self, name) is not None:
+                number(name, getattr(self, name) > 0, "> 0 or null")
+        for name, low in (("capture_scans", 2), ("confirm_k", 1), ("confirm_m", 1),
+                          ("drop_misses", 1), ("history", self.confirm_m)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ParameterError(name, f"must be an integer >= {low}, got {value!r}")
+        if self.confirm_k > self.confirm_m:
+            raise ParameterError("confirm_k", f"must be <= confirm_m = {self.confirm_m}, "
+                                 f"got {self.confirm_k}")
+        w = self.gate_widening
+        if not w or not all(math.isfinite(x) and x >= 1 for x in w) or list(w) != sorted(w):
+            raise ParameterError("gate_widening", f"must be non-decreasing factors >= 1, "
+                                 f"got {list(w)}")
+
+    def digest(self) -> str:
+        """A short fingerprint of these settings (stored in every state)."""
+        text = json.dumps(asdict(self), sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]

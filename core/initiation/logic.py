@@ -1,0 +1,540 @@
+"""Track initiation from plots in clutter, one scan after another (DESIGN section 5).
+
+Seeds 003 (the logic of auto-capture: ring capture zone, k/m and k/m - l criteria,
+narrow / medium / wide gates, alpha-beta smoothing, branch or single-plot association),
+002 (the polar method for slow ground targets: sector windows, range-only
+extrapolation, the tangential-speed azimuth window, the radial acceleration check, 3/4
+over a sliding window) and 000 (the ring, expanded and combined capture gates).
+
+Each scan, in this order:
+
+1. Every track is predicted to the scan time (constant velocity; Kalman with white
+   acceleration q, or the alpha-beta smoother whose covariance follows its fixed gains).
+2. Confirmed tracks take plots one to one (scipy's ``linear_sum_assignment`` on the
+   gate statistic). Their plots are not reused by anything else.
+3. Tentative tracks take the nearest plot in their gate (several may share one). The
+   gate is the chi-square ellipse rho = nu^T S^-1 nu <= gamma (Cartesian) or the polar
+   windows (range about the linear extrapolation of the last two ranges, azimuth about
+   the last azimuth within asin(v_max dt / r) + K_az sigma); gamma (or K^2) grows by
+   gate_widening[misses] after misses in a row.
+4. Initiators from earlier scans within the 2/N (or 2/T) window capture plots in their
+   capture gate (ring, expanded, combined, or polar first-association windows); each
+   plot starts a tentative track (branch), or only the nearest one does, with the
+   two-point state x = [z2, (z2 - z1) / tau] and its exact covariance.
+5. A tentative track with k plots within its first m scans is confirmed (in polar mode
+   only if every triple of its ranges passes the acceleration check; a track that
+   fails it is dropped). Newly confirmed tracks sharing two or more plots keep the one
+   with the smaller mean statistic; tentative tracks sharing two or more plots with a
+   confirmed track are pruned.
+6. Dropped: l misses in a row, or (tentative) k no longer reachable within m scans.
+7. Plots of the scan used by no track and captured by no initiator become initiators;
+   initiators past their window expire.
+
+Candidates come from a ``scipy.spatial.cKDTree`` of the scan's plots, queried with a
+radius that bounds each gate, so the work grows with the plots near each track and
+initiator, not with all plots. Every scan counts as an opportunity for every track
+(the scans are one surveillance picture); polar mode measures ranges and azimuths about
+each plot's own sensor, so a track should be fed by one sensor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import stats
+from scipy.optimize import linear_sum_assignment
+from scipy.spatial import cKDTree
+
+from core.capture_gates import combined_gate, expanded_gate, ring_gate
+from core.errors import ParameterError
+from core.frames import _wrap, polar_to_cartesian
+from core.initiation.config import InitiationConfig
+from core.initiation.scan import Scan
+from core.initiation.state import (
+    PLOT_STRIDE,
+    InitiationState,
+    Initiators,
+    Tracks,
+    empty_state,
+)
+from core.polar_gates import first_association_gate
+from core.thresholds import expansion_coefficient
+
+__all__ = ["DROP_REASONS", "ScanReport", "initiate"]
+
+DROP_REASONS = ("misses", "window", "acceleration", "pruned")
+"""Why a track was dropped: l misses in a row; k unreachable within m; the polar
+acceleration check; sharing two or more plots with a confirmed track."""
+
+
+@dataclass(frozen=True)
+class ScanReport:
+    """What one scan did.
+
+    Attributes
+    ----------
+    scan : int
+        The scan's number in the session.
+    t : float
+        Its time, s.
+    plots : int
+        Plots in the scan.
+    associated : (n,) ndarray of int
+        Per plot of the scan: the id of the track it updated or started (the confirmed
+        one when several), -1 when none.
+    initiators : int
+        Plots that became initiators.
+    started, confirmed : ndarray of int
+        Ids of the tracks started and confirmed by this scan.
+    dropped : ndarray of int
+        Ids of the tracks dropped by this scan.
+    reasons : ndarray of str
+        Why each was dropped (:data:`DROP_REASONS`).
+    """
+
+    scan: int
+    t: float
+    plots: int
+    associated: np.ndarray
+    initiators: int
+    started: np.ndarray
+    confirmed: np.ndarray
+    dropped: np.ndarray
+    reasons: np.ndarray
+
+
+# ------------------------------------------------------------------ filter
+
+
+def _predict(x: np.ndarray, P: np.ndarray, dt: np.ndarray, q: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Constant-velocity prediction over dt (m,) with white acceleration q (m^2/s^3)."""
+    d = dt[:, None]
+    xp = np.concatenate([x[:, :2] + d * x[:, 2:], x[:, 2:]], axis=1)
+    F = np.tile(np.eye(4), (dt.size, 1, 1))
+    F[:, 0, 2] = F[:, 1, 3] = dt
+    Q = np.zeros_like(F)
+    dt2, dt3 = dt * dt / 2.0, dt**3 / 3.0
+    for i in (0, 1):
+        Q[:, i, i], Q[:, i, i + 2], Q[:, i + 2, i], Q[:, i + 2, i + 2] = dt3, dt2, dt2, dt
+    return xp, F @ P @ np.swapaxes(F, 1, 2) + q * Q
+
+
+def _inv2(S: np.ndarray) -> np.ndarray:
+    """Inverse of (..., 2, 2) symmetric positive definite matrices."""
+    a, b, d = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
+    det = a * d - b * b
+    return np.stack([np.stack([d, -b], -1), np.stack([-b, a], -1)], -2) / det[..., None, None]
+
+
+def _update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, n: np.ndarray,
+            dt: np.ndarray, config: InitiationConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Kalman update, or alpha-beta with gains of the n-th plot (Joseph covariance)."""
+    nu = z - x[:, :2]
+    if config.filter == "kalman":
+        S = P[:, :2, :2] + R
+        K = P[:, :, :2] @ _inv2(S)  # (m, 4, 2)
+    else:
+        alpha = np.maximum(2.0 * (2.0 * n - 1.0) / (n * (n + 1.0)), config.alpha_min)
+        beta = np.maximum(6.0 / (n * (n + 1.0)), config.beta_min)
+        rate = np.divide(beta, dt, out=np.zeros_like(dt), where=dt > 0)
+        K = np.zeros((x.shape[0], 4, 2))
+        K[:, 0, 0] = K[:, 1, 1] = alpha
+        K[:, 2, 0] = K[:, 3, 1] = rate
+    x = x + np.einsum("mij,mj->mi", K, nu)
+    IKH = np.tile(np.eye(4), (x.shape[0], 1, 1))
+    IKH[:, :, :2] -= K
+    P = IKH @ P @ np.swapaxes(IKH, 1, 2) + K @ R @ np.swapaxes(K, 1, 2)
+    return x, 0.5 * (P + np.swapaxes(P, 1, 2))
+
+
+def _two_point(z1: np.ndarray, R1: np.ndarray, z2: np.ndarray, R2: np.ndarray,
+               tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """State [z2, (z2 - z1)/tau] and its exact covariance from two plots."""
+    t = tau[:, None, None]
+    P = np.zeros((tau.size, 4, 4))
+    P[:, :2, :2] = R2
+    P[:, :2, 2:] = P[:, 2:, :2] = R2 / t
+    P[:, 2:, 2:] = (R1 + R2) / (t * t)
+    return np.concatenate([z2, (z2 - z1) / tau[:, None]], axis=1), P
+
+
+# ------------------------------------------------------------------ candidates
+
+
+def _ball(tree: cKDTree | None, centres: np.ndarray, radius: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """All (row, plot) pairs with the plot within radius of centres[row]."""
+    if tree is None or centres.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    lists = tree.query_ball_point(centres, radius, return_sorted=False)
+    counts = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
+    rows = np.repeat(np.arange(len(lists)), counts)
+    cols = np.concatenate(lists).astype(np.int64) if counts.sum() else rows.copy()
+    return rows, cols
+
+
+def _window_coefficients(config: InitiationConfig) -> tuple[float, float]:
+    k = float(np.sqrt(stats.chi2.ppf(config.gate_P_G, 2)))
+    return (config.K_R if config.K_R is not None else k,
+            config.K_az if config.K_az is not None else k)
+
+
+def _widening(misses: np.ndarray, config: InitiationConfig) -> np.ndarray:
+    w = np.asarray(config.gate_widening)
+    return w[np.minimum(misses, w.size - 1)]
+
+
+def _sector_radius(r: np.ndarray, W_R: np.ndarray, W_az: np.ndarray) -> np.ndarray:
+    """Distance from the window centre that bounds a sector |dr| <= W_R, |daz| <= W_az."""
+    arc = W_R + (r + W_R) * W_az
+    return np.where(W_az >= np.pi / 2, 2.0 * (r + W_R), np.minimum(arc, 2.0 * (r + W_R)))
+
+
+def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
+                 scan: Scan, tree: cKDTree | None, config: InitiationConfig
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(track, plot, statistic) of the plots inside each track's gate."""
+    w = _widening(tracks.misses, config)
+    if config.mode == "cartesian":
+        gamma = stats.chi2.ppf(config.gate_P_G, 2) * w
+        r_max = np.trace(scan.R, axis1=1, axis2=2).max() if scan.size else 0.0
+        radius = np.sqrt(gamma * (np.trace(Pp[:, :2, :2], axis1=1, axis2=2) + r_max))
+        rows, cols = _ball(tree, xp[:, :2], radius)
+        nu = scan.z[cols] - xp[rows, :2]
+        Si = _inv2(Pp[rows, :2, :2] + scan.R[cols])
+        s = np.einsum("ni,nij,nj->n", nu, Si, nu)
+        keep = s <= gamma[rows]
+        return rows[keep], cols[keep], s[keep]
+    K_R, K_az = _window_coefficients(config)
+    r_last, r_prev = tracks.ranges[:, -1], tracks.ranges[:, -2]
+    span = tracks.times[:, -1] - tracks.times[:, -2]
+    a = np.divide(dt, span, out=np.zeros_like(dt), where=span > 0)
+    r_pred = r_last + a * (r_last - r_prev)
+    var_pred = (1 + a) ** 2 * tracks.sigma_r[:, -1] ** 2 + a**2 * tracks.sigma_r[:, -2] ** 2
+    tangential = np.arcsin(np.minimum(1.0, config.v_max * dt / r_last))
+    k_r, k_az = K_R * np.sqrt(w), K_az * np.sqrt(w)
+    big_r = scan.sigma_r.max() if scan.size else 0.0
+    big_az = scan.sigma_az.max() if scan.size else 0.0
+    centre = tracks.sensor + polar_to_cartesian(np.maximum(r_pred, 0.0), tracks.az).reshape(-1, 2)
+    radius = _sector_radius(np.maximum(r_pred, 0.0),
+                            k_r * np.sqrt(big_r**2 + var_pred),
+                            tangential + k_az * np.sqrt(big_az**2 + tracks.sigma_az**2))
+    rows, cols = _ball(tree, centre, radius)
+    W_R = k_r[rows] * np.sqrt(scan.sigma_r[cols] ** 2 + var_pred[rows])
+    W_az = tangential[rows] + k_az[rows] * np.sqrt(scan.sigma_az[cols] ** 2
+                                                     + tracks.sigma_az[rows] ** 2)
+    d_r = np.abs(scan.r[cols] - r_pred[rows])
+    d_az = np.abs(_wrap(scan.az[cols] - tracks.az[rows]))
+    keep = (d_r <= W_R) & (d_az <= W_az)
+    s = (d_r / W_R) ** 2 + (d_az / W_az) ** 2
+    return rows[keep], cols[keep], s[keep]
+
+
+def _capture_pairs(ini: Initiators, scan: Scan, tree: cKDTree | None,
+                   config: InitiationConfig, allowed: np.ndarray, k: int
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(initiator, plot, distance) of the plots inside each initiator's capture gate.
+
+    Only initiators within the 2/N (or 2/T) window of scan number k take part.
+    """
+    tau = scan.t - ini.t
+    if config.capture_time is None:
+        window = k - ini.scan <= config.capture_scans - 1
+    else:
+        window = tau <= config.capture_time
+    R_max = config.v_max * np.maximum(tau, 0.0)
+    if config.mode == "polar":
+        K_R, K_az = _window_coefficients(config)
+        W_R = R_max + K_R * np.sqrt(ini.sigma_r**2 + scan.sigma_r.max(initial=0.0) ** 2)
+        W_az = (np.arcsin(np.minimum(1.0, R_max / ini.r))
+                + K_az * np.sqrt(ini.sigma_az**2 + scan.sigma_az.max(initial=0.0) ** 2))
+        radius = _sector_radius(ini.r, W_R, W_az)
+    elif config.capture_gate == "ring":
+        radius = R_max
+    elif config.capture_gate == "expanded":
+        K_g = float(expansion_coefficient(config.capture_p))
+        radius = R_max + K_g * np.maximum(ini.sigma_r, ini.r * ini.sigma_az)
+    else:
+        gamma = stats.chi2.ppf(config.capture_P_G, 2)
+        big = np.trace(scan.R, axis1=1, axis2=2).max(initial=0.0)
+        radius = R_max + np.sqrt(gamma * (np.trace(ini.R, axis1=1, axis2=2) + big))
+    later = np.flatnonzero((tau > 0) & window)  # a plot from a later time, in time
+    rows, cols = _ball(tree, ini.z[later], radius[later] * (1 + 1e-9) + 1e-9)
+    rows = later[rows]
+    keep = allowed[cols]
+    rows, cols = rows[keep], cols[keep]
+    inside = np.zeros(rows.size, dtype=bool)
+    for t in np.unique(tau[rows]):  # the gates take one tau; a few initiator times
+        g = np.flatnonzero(tau[rows] == t)
+        i, c = rows[g], cols[g]
+        if config.mode == "polar":
+            res = first_association_gate(ini.r[i], ini.az[i], scan.r[c], scan.az[c], t,
+                                         config.v_max, ini.sigma_r[i], ini.sigma_az[i],
+                                         scan.sigma_r[c], scan.sigma_az[c], K_R, K_az)
+        elif config.capture_gate == "ring":
+            res = ring_gate(ini.z[i], scan.z[c], t, config.v_min, config.v_max)
+        elif config.capture_gate == "expanded":
+            res = expanded_gate(ini.z[i], scan.z[c], t, config.v_max, ini.sigma_r[i],
+                                ini.sigma_az[i], config.capture_p, sensor=ini.sensor[i])
+        else:
+            res = combined_gate(ini.z[i], ini.R[i], scan.z[c], scan.R[c], t, config.v_min,
+                                config.v_max, config.capture_P_G)
+        inside[g] = res.inside
+    rows, cols = rows[inside], cols[inside]
+    return rows, cols, np.linalg.norm(scan.z[cols] - ini.z[rows], axis=1)
+
+
+def _nearest(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pair of smallest statistic for each row (ties: the lower plot index)."""
+    order = np.lexsort((cols, s, rows))
+    first = order[np.r_[True, rows[order][1:] != rows[order][:-1]]] if rows.size else order
+    return rows[first], cols[first], s[first]
+
+
+def _one_to_one(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A minimum-cost one-to-one choice among the pairs (linear_sum_assignment)."""
+    if rows.size == 0:
+        return rows, cols, s
+    ur, ri = np.unique(rows, return_inverse=True)
+    uc, ci = np.unique(cols, return_inverse=True)
+    big = 1.0 + 2.0 * s.max() * min(ur.size, uc.size)
+    cost = np.full((ur.size, uc.size), big)
+    cost[ri, ci] = s
+    a, b = linear_sum_assignment(cost)
+    ok = cost[a, b] < big
+    return ur[a[ok]], uc[b[ok]], cost[a[ok], b[ok]]
+
+
+# ------------------------------------------------------------------ track bookkeeping
+
+
+def _shift_in(old: np.ndarray, new: np.ndarray, hit: np.ndarray) -> np.ndarray:
+    """Append new[i] to row i of a history (dropping the oldest) where hit[i]."""
+    shifted = np.concatenate([old[:, 1:], new[:, None]], axis=1)
+    return np.where(hit[:, None], shifted, old)
+
+
+def _shared(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(p, q) count of plot ids shared by the histories a (p, H) and b (q, H)."""
+    same = (a[:, None, :, None] == b[None, :, None, :]) & (a[:, None, :, None] >= 0)
+    return same.sum(axis=(2, 3))
+
+
+def _acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
+    """Seed 002: |second divided difference of range| <= K_A a_max for every plot triple."""
+    r, t = tracks.ranges, tracks.times
+    r1, r2, r3 = r[:, :-2], r[:, 1:-1], r[:, 2:]
+    t1, t2, t3 = t[:, :-2], t[:, 1:-1], t[:, 2:]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dd = 2.0 * ((r3 - r2) / (t3 - t2) - (r2 - r1) / (t2 - t1)) / (t3 - t1)
+    bad = np.isfinite(dd) & (np.abs(dd) > config.K_A * config.a_max)
+    return ~bad.any(axis=1)
+
+
+def _new_tracks(ini: Initiators, rows: np.ndarray, cols: np.ndarray, scan: Scan,
+                ids: np.ndarray, first_id: int, config: InitiationConfig) -> Tracks:
+    """Tentative tracks from (initiator, plot) pairs."""
+    m, h = rows.size, config.history
+    tau = scan.t - ini.t[rows]
+    x, P = _two_point(ini.z[rows], ini.R[rows], scan.z[cols], scan.R[cols], tau)
+
+    def history(first: np.ndarray, second: np.ndarray, fill: float) -> np.ndarray:
+        out = np.full((m, h), fill, dtype=np.asarray(first).dtype)
+        out[:, -2], out[:, -1] = first, second
+        return out
+
+    return Tracks(
+        id=first_id + np.arange(m, dtype=np.int64), confirmed=np.zeros(m, dtype=bool),
+        x=x, P=P, t=np.full(m, scan.t), n=np.full(m, 2, dtype=np.int64),
+        first_scan=ini.scan[rows], confirmed_scan=np.full(m, -1, dtype=np.int64),
+        misses=np.zeros(m, dtype=np.int64), cost=np.zeros(m),
+        plots=history(ini.plot[rows], ids[cols], -1),
+        ranges=history(ini.r[rows], scan.r[cols], np.nan),
+        times=history(ini.t[rows], np.full(m, scan.t), np.nan),
+        sigma_r=history(ini.sigma_r[rows], scan.sigma_r[cols], np.nan),
+        az=scan.az[cols], sigma_az=scan.sigma_az[cols], sensor=scan.sensor[cols])
+
+
+# ------------------------------------------------------------------ one scan
+
+
+def _step(state: InitiationState, scan: Scan, config: InitiationConfig
+          ) -> tuple[InitiationState, ScanReport]:
+    k, n = state.scans, scan.size
+    if n > PLOT_STRIDE:
+        raise ParameterError("scans", f"a scan may hold at most {PLOT_STRIDE} plots, got {n}")
+    ids = k * PLOT_STRIDE + np.arange(n, dtype=np.int64)
+    tree = cKDTree(scan.z) if n else None
+    tracks = state.tracks
+    m = tracks.size
+
+    # 1-3: predict and associate
+    dt = scan.t - tracks.t
+    xp, Pp = _predict(tracks.x, tracks.P, dt, config.q)
+    assoc = np.full(m, -1, dtype=np.int64)
+    stat = np.zeros(m)
+    used = np.zeros(n, dtype=bool)  # taken by a confirmed track
+    rows, cols, s = _track_pairs(tracks, xp, Pp, dt, scan, tree, config)
+    conf = tracks.confirmed[rows]
+    a, b, c = _one_to_one(rows[conf], cols[conf], s[conf])
+    assoc[a], stat[a], used[b] = b, c, True
+    free = ~conf & ~used[cols]
+    a, b, c = _nearest(rows[free], cols[free], s[free])
+    assoc[a], stat[a] = b, c
+    hit = assoc >= 0
+    x, P = xp, Pp
+    if hit.any():
+        j = assoc[hit]
+        x, P = xp.copy(), Pp.copy()
+        x[hit], P[hit] = _update(xp[hit], Pp[hit], scan.z[j], scan.R[j],
+                                 tracks.n[hit] + 1.0, dt[hit], config)
+    j = np.maximum(assoc, 0)
+    tracks = Tracks(
+        id=tracks.id, confirmed=tracks.confirmed, x=x, P=P, t=np.full(m, scan.t),
+        n=tracks.n + hit, first_scan=tracks.first_scan, confirmed_scan=tracks.confirmed_scan,
+        misses=np.where(hit, 0, tracks.misses + 1), cost=tracks.cost + stat,
+        plots=_shift_in(tracks.plots, ids[j] if n else assoc, hit),
+        ranges=_shift_in(tracks.ranges, scan.r[j] if n else dt, hit),
+        times=_shift_in(tracks.times, np.full(m, scan.t), hit),
+        sigma_r=_shift_in(tracks.sigma_r, scan.sigma_r[j] if n else dt, hit),
+        az=np.where(hit, scan.az[j] if n else 0.0, tracks.az),
+        sigma_az=np.where(hit, scan.sigma_az[j] if n else 0.0, tracks.sigma_az),
+        sensor=np.where(hit[:, None], scan.sensor[j] if n else 0.0, tracks.sensor))
+    by_track = np.full(n, -1, dtype=np.int64)
+    by_track[assoc[hit & ~tracks.confirmed]] = tracks.id[hit & ~tracks.confirmed]
+    by_track[assoc[hit & tracks.confirmed]] = tracks.id[hit & tracks.confirmed]
+
+    # 4: capture
+    ini = state.initiators
+    rows, cols, dist = _capture_pairs(ini, scan, tree, config, ~used, k)
+    if config.association == "nearest":
+        rows, cols, dist = _nearest(rows, cols, dist)
+    born = _new_tracks(ini, rows, cols, scan, ids, state.next_track, config)
+    captured = np.zeros(n, dtype=bool)
+    captured[cols] = True
+    unset = by_track[cols] < 0
+    by_track[cols[unset]] = born.id[unset]
+    tracks = tracks.join(born)
+
+    # 5: confirmation, conflicts, pruning
+    age = k - tracks.first_scan + 1
+    ready = ~tracks.confirmed & (tracks.n >= config.confirm_k) & (age <= config.confirm_m)
+    dropped, reasons = [], []
+    if config.mode == "polar":
+        jerky = ready & ~_acceleration_ok(tracks, config)
+        dropped.append(jerky)
+        reasons.append("acceleration")
+        ready &= ~jerky
+    order = np.flatnonzero(ready)
+    order = order[np.argsort(tracks.cost[order] / (tracks.n[order] - 1), kind="stable")]
+    clash = _shared(tracks.plots[order], tracks.plots[order]) >= 2
+    keep = np.zeros(order.size, dtype=bool)
+    for i in range(order.size):  # greedy over the few tracks confirming this scan
+        keep[i] = not (clash[i, :i] & keep[:i]).any()
+    confirmed = tracks.confirmed.copy()
+    confirmed[order[keep]] = True
+    newly = np.zeros(tracks.size, dtype=bool)
+    newly[order[keep]] = True
+    pruned = ~confirmed & (_shared(tracks.plots, tracks.plots[confirmed]) >= 2).any(axis=1)
+    dropped.append(pruned)
+    reasons.append("pruned")
+    tracks = replace(tracks, confirmed=confirmed,
+                     confirmed_scan=np.where(newly, k, tracks.confirmed_scan))
+
+    # 6: drops
+    window = ~confirmed & (tracks.n + (config.confirm_m - age) < config.confirm_k)
+    misses = tracks.misses >= config.drop_misses
+    gone = np.zeros(tracks.size, dtype=bool)
+    why = np.empty(tracks.size, dtype=object)
+    for mask, reason in zip([misses, window, *dropped], ["misses", "window", *reasons],
+                            strict=True):
+        fresh = mask & ~gone
+        why[fresh] = reason
+        gone |= fresh
+
+    # 7: initiators
+    if config.capture_time is None:
+        alive = (k - ini.scan) < config.capture_scans - 1
+    else:
+        alive = scan.t - ini.t < config.capture_time
+    alive[rows] = False  # captured initiators are consumed
+    fresh = ~used & ~captured & (by_track < 0)
+    new_ini = Initiators(plot=ids[fresh], scan=np.full(fresh.sum(), k, dtype=np.int64),
+                         t=np.full(fresh.sum(), scan.t), z=scan.z[fresh], R=scan.R[fresh],
+                         sensor=scan.sensor[fresh], r=scan.r[fresh], az=scan.az[fresh],
+                         sigma_r=scan.sigma_r[fresh], sigma_az=scan.sigma_az[fresh])
+    initiators = Initiators(*(np.concatenate([getattr(ini, f)[alive], getattr(new_ini, f)])
+                              for f in Initiators.__dataclass_fields__))
+    report = ScanReport(
+        scan=k, t=scan.t, plots=n, associated=by_track, initiators=int(fresh.sum()),
+        started=born.id, confirmed=tracks.id[newly], dropped=tracks.id[gone],
+        reasons=why[gone].astype(str))
+    return InitiationState(
+        version=state.version, config_digest=state.config_digest, scans=k + 1, t=scan.t,
+        next_track=state.next_track + born.size, initiators=initiators,
+        tracks=tracks.take(~gone)), report
+
+
+def initiate(state: InitiationState | None, scans: Sequence[Scan], config: InitiationConfig
+             ) -> tuple[InitiationState, list[ScanReport]]:
+    """Run track initiation over scans in time order, from a state (None: a new session).
+
+    Parameters
+    ----------
+    state : InitiationState or None
+        The state returned by the previous call (made under the same ``config``), or
+        None to start.
+    scans : sequence of Scan
+        The next scans, times non-decreasing and not before the state's last scan.
+    config : InitiationConfig
+
+    Returns
+    -------
+    state : InitiationState
+        Pass it to the next call. Sending scans one call at a time answers exactly as
+        sending them all at once.
+    reports : list of ScanReport
+        One per scan.
+
+    Raises
+    ------
+    ParameterError
+        ``"state"`` for a state made under other settings; ``"scans"`` (with the scan's
+        index) for a time earlier than the one before it.
+
+    References
+    ----------
+    .. [1] Seed 003: auto-capture of trajectories, k/m and k/m - l criteria, narrow /
+       medium / wide gates, alpha-beta coefficients (Fig. 3.5).
+    .. [2] Seed 002: track initiation in polar coordinates, eqs. (1)-(5), 3/4 sliding
+       window.
+
+    Examples
+    --------
+    A target at 10 m/s east, four scans a second apart, no clutter:
+
+    >>> from core.initiation.scan import cartesian_scan
+    >>> R = np.eye(2)[None] * 4.0
+    >>> scans = [cartesian_scan(t, [[1000.0 + 10.0 * t, 2000.0]], R) for t in range(4)]
+    >>> state, reports = initiate(None, scans, InitiationConfig(v_max=20.0))
+    >>> [r.confirmed.tolist() for r in reports], state.tracks.n.tolist()
+    ([[], [], [0], []], [4])
+    """
+    state = empty_state(config) if state is None else state
+    if state.config_digest != config.digest():
+        raise ParameterError("state", "was made under other settings than these")
+    reports = []
+    last = state.t
+    for i, scan in enumerate(scans):
+        if last is not None and scan.t < last:
+            raise ParameterError("scans", f"time {scan.t} s is before the previous scan's "
+                                 f"{last} s; scans must come in time order", i)
+        state, report = _step(state, scan, config)
+        reports.append(report)
+        last = scan.t
+    return state, reports

@@ -1,0 +1,342 @@
+"""Track initiation on hand-made scans: every criterion, drop rule and plot-reuse rule.
+
+Scans are built by hand so each test knows exactly which plot should do what; the
+statistical parts (simulator, evaluation) are checked against their closed forms.
+"""
+
+import numpy as np
+import pytest
+
+from core.errors import ParameterError
+from core.initiation import (
+    InitiationConfig,
+    cartesian_scan,
+    empty_state,
+    initiate,
+    polar_scan,
+    state_from_json,
+)
+from core.initiation.evaluate import evaluate
+from core.initiation.logic import _track_pairs
+from core.initiation.simulate import Scenario, seed_002_scenario, simulate
+
+R4 = np.eye(2) * 4.0  # plot covariance, m^2 (2 m sigma)
+
+
+def scan(t, *points):
+    """A Cartesian scan at time t with the given plots (2 m sigma each)."""
+    z = np.array(points, dtype=float).reshape(-1, 2)
+    return cartesian_scan(t, z, np.broadcast_to(R4, (len(z), 2, 2)))
+
+
+def target(t):
+    return (1000.0 + 10.0 * t, 2000.0)
+
+
+def run(config, *scans):
+    state, reports = initiate(None, list(scans), config)
+    return state, reports
+
+
+CONFIG = InitiationConfig(v_max=20.0)  # ring capture, 2/2, branch, Kalman, 3/4, l = 2
+
+
+# ---------------------------------------------------------------- criteria
+
+
+def test_three_of_four_confirms_on_the_third_plot_and_two_of_four_on_the_second():
+    scans = [scan(t, target(t)) for t in range(4)]
+    _, reports = run(CONFIG, *scans)
+    assert [r.confirmed.tolist() for r in reports] == [[], [], [0], []]
+    assert [r.started.tolist() for r in reports] == [[], [0], [], []]
+    _, reports = run(InitiationConfig(v_max=20.0, confirm_k=2, confirm_m=4), *scans)
+    assert reports[1].confirmed.tolist() == [0]
+
+
+def test_a_tentative_track_is_dropped_when_k_is_out_of_reach():
+    # plots in scans 0 and 1, then nothing: after scan 3 a third plot can no longer fall
+    # within the first 4 scans (l = 3 so the miss rule does not fire first)
+    config = InitiationConfig(v_max=20.0, drop_misses=3)
+    state, reports = run(config, scan(0, target(0)), scan(1, target(1)), scan(2), scan(3))
+    assert reports[2].dropped.size == 0
+    assert reports[3].dropped.tolist() == [0] and reports[3].reasons.tolist() == ["window"]
+    assert state.tracks.size == 0
+
+
+def test_l_misses_in_a_row_drop_tentative_and_confirmed_tracks():
+    state, reports = run(CONFIG, scan(0, target(0)), scan(1, target(1)), scan(2), scan(3))
+    assert reports[3].reasons.tolist() == ["misses"]  # tentative, l = 2
+    scans = [scan(t, target(t)) for t in range(4)] + [scan(4), scan(5)]
+    state, reports = run(CONFIG, *scans)
+    assert reports[2].confirmed.tolist() == [0]
+    assert reports[4].dropped.size == 0  # one miss: the wider gate waits
+    assert reports[5].dropped.tolist() == [0] and reports[5].reasons.tolist() == ["misses"]
+
+
+def test_two_of_n_capture_across_a_missed_scan():
+    scans = [scan(0, target(0)), scan(1), scan(2, target(2)), scan(3, target(3))]
+    _, reports = run(InitiationConfig(v_max=20.0, capture_scans=3), *scans)
+    assert reports[2].started.tolist() == [0]  # tau = 2 s
+    assert reports[3].confirmed.tolist() == [0]
+    _, reports = run(CONFIG, *scans)  # 2/2: the initiator expired after scan 1
+    assert reports[2].started.size == 0 and reports[2].initiators == 1
+    assert reports[3].started.size == 1 and not any(r.confirmed.size for r in reports)
+
+
+def test_two_of_t_capture_counts_seconds():
+    scans = [scan(0, target(0)), scan(1), scan(2, target(2))]
+    _, reports = run(InitiationConfig(v_max=20.0, capture_time=2.5), *scans)
+    assert reports[2].started.tolist() == [0]
+    _, reports = run(InitiationConfig(v_max=20.0, capture_time=1.5), *scans)
+    assert reports[2].started.size == 0
+
+
+def test_the_ring_refuses_plots_too_far_or_too_slow():
+    far = (target(1)[0] + 15.0, 2000.0)  # 25 m in 1 s > v_max = 20 m/s
+    _, reports = run(CONFIG, scan(0, target(0)), scan(1, far))
+    assert reports[1].started.size == 0
+    _, reports = run(InitiationConfig(v_min=15.0, v_max=20.0), scan(0, target(0)),
+                     scan(1, target(1)))  # 10 m/s < v_min
+    assert reports[1].started.size == 0
+
+
+# ---------------------------------------------------------------- association
+
+
+def test_branch_starts_a_track_per_candidate_and_nearest_only_one():
+    candidates = [target(1), (1000.0, 2015.0)]  # 10 m and 15 m from the initiator
+    _, reports = run(CONFIG, scan(0, target(0)), scan(1, *candidates))
+    assert reports[1].started.tolist() == [0, 1]
+    state, reports = run(InitiationConfig(v_max=20.0, association="nearest"),
+                         scan(0, target(0)), scan(1, *candidates))
+    assert reports[1].started.tolist() == [0]
+    np.testing.assert_allclose(state.tracks.x[0], [1010.0, 2000.0, 10.0, 0.0])
+    assert reports[1].associated.tolist() == [0, -1]  # the far candidate is an initiator
+    assert state.initiators.plot.tolist() == [(1 << 20) + 1]
+
+
+def test_a_confirmed_track_owns_its_plots_and_prunes_tentative_branches():
+    # two branches from one initiator share the initiator's plot; both take the third
+    # plot, so both could confirm: the better one does, the other shares two plots
+    scans = [scan(0, target(0)), scan(1, target(1), (1011.0, 2001.5)), scan(2, target(2)),
+             scan(3, target(3))]
+    state, reports = run(CONFIG, *scans)
+    assert reports[1].started.tolist() == [0, 1]
+    assert reports[2].confirmed.tolist() == [0]
+    assert reports[2].dropped.tolist() == [1] and reports[2].reasons.tolist() == ["pruned"]
+    # the confirmed track's plots started nothing else
+    assert reports[2].initiators == 0 and reports[3].initiators == 0
+    assert state.tracks.id.tolist() == [0] and state.tracks.n.tolist() == [4]
+
+
+def test_confirmed_tracks_take_plots_one_to_one():
+    # two parallel confirmed tracks 30 m apart and one vague plot between them, in
+    # both gates: only one track takes it
+    a = [scan(t, target(t), (1000.0 + 10.0 * t, 2030.0)) for t in range(3)]
+    state, reports = run(CONFIG, *a)
+    assert sorted(reports[2].confirmed.tolist()) == [0, 1]
+    vague = cartesian_scan(3.0, [[1030.0, 2015.0]], [np.eye(2) * 100.0])
+    state, (report,) = initiate(state, [vague], CONFIG)
+    assert report.associated.tolist() in ([0], [1])
+    assert sorted(state.tracks.misses.tolist()) == [0, 1]
+
+
+def test_candidate_search_finds_exactly_the_brute_force_gate_members():
+    rng = np.random.default_rng(5)
+    scans = [scan(t, target(t)) for t in range(3)]
+    state, _ = run(CONFIG, *scans)
+    z = np.vstack([rng.uniform(900.0, 1200.0, (4000, 1)), rng.uniform(1900.0, 2100.0,
+                                                                       (4000, 1))])
+    z = np.column_stack([rng.uniform(900.0, 1200.0, 4000), rng.uniform(1900.0, 2100.0, 4000)])
+    s = cartesian_scan(3.0, z, np.broadcast_to(R4, (4000, 2, 2)))
+    from scipy.spatial import cKDTree
+
+    from core.initiation.logic import _predict
+
+    tr = state.tracks
+    dt = s.t - tr.t
+    xp, Pp = _predict(tr.x, tr.P, dt, CONFIG.q)
+    rows, cols, stat = _track_pairs(tr, xp, Pp, dt, s, cKDTree(s.z), CONFIG)
+    nu = s.z - xp[0, :2]
+    S = Pp[0, :2, :2] + R4
+    rho = np.einsum("ni,ij,nj->n", nu, np.linalg.inv(S), nu)
+    from scipy import stats
+
+    brute = np.flatnonzero(rho <= stats.chi2.ppf(CONFIG.gate_P_G, 2))
+    assert brute.size > 5
+    np.testing.assert_array_equal(np.sort(cols), brute)
+    np.testing.assert_allclose(stat[np.argsort(cols)], rho[brute], rtol=1e-10)
+
+
+# ---------------------------------------------------------------- filters
+
+
+def test_kalman_track_is_the_textbook_filter():
+    zs = [(1000.0, 2000.0), (1011.0, 2001.0), (1019.0, 1999.0), (1031.0, 2002.0)]
+    state, _ = run(CONFIG, *[scan(t, z) for t, z in enumerate(zs)])
+    x = np.array([zs[1][0], zs[1][1], 11.0, 1.0])
+    P = np.zeros((4, 4))
+    P[:2, :2], P[:2, 2:], P[2:, :2], P[2:, 2:] = R4, R4, R4, 2 * R4
+    F = np.eye(4)
+    F[0, 2] = F[1, 3] = 1.0
+    Q = np.kron([[1 / 3, 1 / 2], [1 / 2, 1.0]], np.eye(2)) * CONFIG.q
+    H = np.hstack([np.eye(2), np.zeros((2, 2))])
+    for z in zs[2:]:
+        x, P = F @ x, F @ P @ F.T + Q
+        K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R4)
+        x, P = x + K @ (np.array(z) - H @ x), (np.eye(4) - K @ H) @ P
+    np.testing.assert_allclose(state.tracks.x[0], x, rtol=1e-12)
+    np.testing.assert_allclose(state.tracks.P[0], P, rtol=1e-9)
+
+
+def test_alpha_beta_gains_of_seed_003():
+    zs = [(1000.0, 2000.0), (1010.0, 2000.0), (1026.0, 2006.0)]
+    config = InitiationConfig(v_max=20.0, filter="alpha_beta")
+    state, _ = run(config, *[scan(t, z) for t, z in enumerate(zs)])
+    alpha, beta = 2 * (2 * 3 - 1) / (3 * 4), 6 / (3 * 4)  # n = 3: 5/6 and 1/2
+    pred = np.array([1020.0, 2000.0])
+    nu = np.array(zs[2]) - pred
+    np.testing.assert_allclose(state.tracks.x[0, :2], pred + alpha * nu)
+    np.testing.assert_allclose(state.tracks.x[0, 2:], np.array([10.0, 0.0]) + beta * nu)
+
+
+# ---------------------------------------------------------------- polar mode
+
+SR, SAZ = 5.0, np.radians(0.2)
+POLAR = InitiationConfig(mode="polar", v_max=30.0, a_max=10.0, K_A=3.0)
+
+
+def pscan(t, *ra):
+    r = np.array([p[0] for p in ra], dtype=float)
+    az = np.radians([p[1] for p in ra])
+    return polar_scan(t, r, az, np.full(r.size, SR), np.full(r.size, SAZ))
+
+
+def test_polar_first_association_windows():
+    # range window v_max tau + K_R sqrt(2) sigma_r = 30 + 3.03 * 7.07 = 51.4 m
+    _, reports = run(POLAR, pscan(0, (10000.0, 45.0)), pscan(1, (10050.0, 45.0)))
+    assert reports[1].started.size == 1
+    _, reports = run(POLAR, pscan(0, (10000.0, 45.0)), pscan(1, (10053.0, 45.0)))
+    assert reports[1].started.size == 0
+    # azimuth window asin(30 / 10000) + K_az sqrt(2) sigma_az = 0.172 + 0.857 = 1.03 deg
+    _, reports = run(POLAR, pscan(0, (10000.0, 45.0)), pscan(1, (10000.0, 46.0)))
+    assert reports[1].started.size == 1
+    _, reports = run(POLAR, pscan(0, (10000.0, 45.0)), pscan(1, (10000.0, 46.1)))
+    assert reports[1].started.size == 0
+
+
+def test_polar_tracks_extrapolate_range_only():
+    first = [pscan(0, (10000.0, 45.0)), pscan(1, (10020.0, 45.3))]
+    # predicted range 10040 m, window 3.03 sqrt(25 + 4 * 25 + 25) = 37 m; the azimuth
+    # window (1.03 deg) stays about the last azimuth, 45.3 deg, not extrapolated to 45.6
+    _, reports = run(POLAR, *first, pscan(2, (10065.0, 45.3)))  # 25 m: in
+    assert reports[2].confirmed.size == 1
+    _, reports = run(POLAR, *first, pscan(2, (10080.0, 45.3)))  # 40 m: out
+    assert reports[2].confirmed.size == 0 and reports[2].associated.tolist() == [-1]
+    _, reports = run(POLAR, *first, pscan(2, (10040.0, 44.4)))  # 1.2 deg from 45.6
+    assert reports[2].confirmed.size == 1
+
+
+def test_polar_acceleration_check_drops_jerky_tracks():
+    # second difference 30 m in 1 s: 30 m/s^2 = K_A a_max passes, 36 m/s^2 does not
+    ok = [pscan(0, (10000.0, 45.0)), pscan(1, (10000.0, 45.0)), pscan(2, (10030.0, 45.0))]
+    jerk = [pscan(0, (10000.0, 45.0)), pscan(1, (10000.0, 45.0)), pscan(2, (10036.0, 45.0))]
+    wide = InitiationConfig(mode="polar", v_max=30.0, a_max=10.0, K_A=3.0, K_R=6.0)
+    _, reports = run(wide, *ok)
+    assert reports[2].confirmed.size == 1
+    _, reports = run(wide, *jerk)
+    assert reports[2].confirmed.size == 0 and reports[2].reasons.tolist() == ["acceleration"]
+
+
+# ---------------------------------------------------------------- state
+
+
+def _clutter_session(seed=3):
+    sim = simulate(seed_002_scenario(250.0, scans=6), seed)
+    return sim.scans
+
+
+def test_scans_one_by_one_equal_scans_all_at_once():
+    scans = _clutter_session()
+    for config in (InitiationConfig(mode="cartesian", capture_gate="combined", v_max=30.0),
+                   POLAR):
+        whole, reports = initiate(None, scans, config)
+        state, pieces = None, []
+        for s in scans:
+            state, (report,) = initiate(state, [s], config)
+            state = state_from_json(state.to_json(), config)  # through JSON each time
+            pieces.append(report)
+        assert state.to_json() == whole.to_json()
+        for a, b in zip(reports, pieces, strict=True):
+            assert a.started.tolist() == b.started.tolist()
+            assert a.confirmed.tolist() == b.confirmed.tolist()
+            assert a.associated.tolist() == b.associated.tolist()
+        assert whole.tracks.size > 0
+
+
+def test_foreign_or_malformed_states_are_refused():
+    state, _ = initiate(None, _clutter_session()[:2], CONFIG)
+    data = state.to_json()
+    with pytest.raises(ParameterError, match="other settings") as info:
+        state_from_json(data, InitiationConfig(v_max=21.0))
+    assert info.value.field == "state"
+    for change in ({"version": 99}, {"scans": -1}, {"t": None},
+                   {"tracks": dict(data["tracks"], x=[[1.0]])},
+                   {"initiators": dict(data["initiators"], z="nope")},
+                   {"tracks": {"id": []}}):
+        with pytest.raises(ParameterError) as info:
+            state_from_json({**data, **change}, CONFIG)
+        assert info.value.field == "state"
+    with pytest.raises(ParameterError, match="other settings"):
+        initiate(empty_state(CONFIG), [], POLAR)
+
+
+def test_scans_must_come_in_time_order():
+    with pytest.raises(ParameterError) as info:
+        initiate(None, [scan(1.0, target(1)), scan(0.5, target(0))], CONFIG)
+    assert info.value.field == "scans" and info.value.index == 1
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    ({"mode": "spherical"}, "mode"), ({"v_max": -1.0}, "v_max"),
+    ({"v_min": 60.0}, "v_max"), ({"confirm_k": 5}, "confirm_k"),
+    ({"gate_widening": (2.0, 1.0)}, "gate_widening"), ({"K_A": 1.0}, "K_A"),
+    ({"capture_scans": 1}, "capture_scans"), ({"history": 2}, "history"),
+    ({"gate_P_G": 1.0}, "gate_P_G"), ({"capture_time": 0.0}, "capture_time"),
+])
+def test_bad_settings_are_named(change, field):
+    with pytest.raises(ParameterError) as info:
+        InitiationConfig(**change)
+    assert info.value.field == field
+
+
+# ---------------------------------------------------------------- simulator, evaluation
+
+
+def test_simulator_draws_detections_and_clutter_at_their_rates():
+    # 2000 scans: detections ~ Binomial(5 x 2000, 0.8), clutter ~ Poisson(2000 x 30);
+    # both means within 4 standard errors
+    s = Scenario(x0=np.array([[5000.0, 5000.0]] * 5), v=np.zeros((5, 2)), scans=2000,
+                 interval=1.0, P_D=0.8, clutter=30.0,
+                 region=np.array([0.0, 10000.0, 0.0, 10000.0]), sensor=np.zeros(2),
+                 sigma_r=5.0, sigma_az=np.radians(0.2))
+    sim = simulate(s, 11)
+    labels = np.concatenate(sim.labels)
+    assert abs((labels >= 0).sum() - 8000) < 4 * np.sqrt(10000 * 0.8 * 0.2)
+    assert abs((labels < 0).sum() - 60000) < 4 * np.sqrt(60000)
+    z = np.concatenate([sc.z for sc in sim.scans])[labels < 0]
+    assert z.min() >= 0.0 and z.max() <= 10000.0
+    again = simulate(s, 11)
+    np.testing.assert_array_equal(np.concatenate([sc.r for sc in again.scans]),
+                                  np.concatenate([sc.r for sc in sim.scans]))
+
+
+def test_evaluation_without_clutter_initiates_every_target():
+    s = seed_002_scenario(0.0)
+    s = Scenario(**{**s.__dict__, "P_D": 1.0})
+    ev = evaluate(s, InitiationConfig(mode="polar", v_max=30.0, a_max=10.0, K_A=3.0),
+                  runs=5, seed=1)
+    assert ev.mean_true == 5.0 and ev.mean_false == 0.0 and ev.ceiling == 5.0
+    # by distance (100 m) one track in 25 confirmed is too far: at 11 km the azimuth
+    # error alone is 38 m and a three-plot velocity extrapolates it
+    assert ev.mean_true_by_distance >= 4.6 and ev.mean_time_to_confirmation == 2.0
