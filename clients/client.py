@@ -3,8 +3,9 @@
 Each operation of :data:`service.schemas.ENDPOINTS` is reachable through ``call(name,
 request)``; the common ones also have a typed method (``test_gate``, ``gate_probability``
 ...). The gating-probability and multistatic-solve methods (``solve_position``,
-``solve_trajectory``, ``crlb``, ``estimate_noise``, ``accuracy_study``) take their request
-model or the same as a dict (validated here, so a bad dict raises pydantic's
+``solve_trajectory``, ``crlb``, ``estimate_noise``, ``accuracy_study``) and the
+initiation methods (``initiate``, ``simulate_scans``, ``evaluate_initiation``) take their
+request model or the same as a dict (validated here, so a bad dict raises pydantic's
 ``ValidationError`` before any call).
 Errors are the exceptions of :mod:`clients.errors`. The README shows a full example.
 """
@@ -20,6 +21,8 @@ from service.schemas import (
     ENDPOINTS,
     CrlbRequest,
     CrlbResult,
+    EvaluateRequest,
+    EvaluateResult,
     Gate,
     GateAnalysisRequest,
     GateAnalysisResult,
@@ -33,11 +36,15 @@ from service.schemas import (
     GateProbabilityResult,
     GateResults,
     GateTestRequest,
+    InitiateRequest,
+    InitiateResult,
     NoiseRequest,
     NoiseResult,
     Plot,
     PositionSolveRequest,
     PositionSolveResult,
+    SimulateRequest,
+    SimulateResult,
     StudyRequest,
     StudyResult,
     TrajectorySolveRequest,
@@ -180,6 +187,20 @@ class Client:
         """Monte Carlo accuracy of the solvers along a track (operation ``solves.study``)."""
         return self.call("solves.study", _model("solves.study", request))
 
+    def initiate(self, request: InitiateRequest | Mapping[str, Any]) -> InitiateResult:
+        """Scans through track initiation, continuing a state (``initiation.initiate``)."""
+        return self.call("initiation.initiate", _model("initiation.initiate", request))
+
+    def simulate_scans(self, request: SimulateRequest | Mapping[str, Any]) -> SimulateResult:
+        """Seeded scans of targets in clutter (operation ``initiation.simulate``)."""
+        return self.call("initiation.simulate", _model("initiation.simulate", request))
+
+    def evaluate_initiation(
+        self, request: EvaluateRequest | Mapping[str, Any]
+    ) -> EvaluateResult:
+        """Monte Carlo of track initiation (operation ``initiation.evaluate``)."""
+        return self.call("initiation.evaluate", _model("initiation.evaluate", request))
+
     def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
         try:
@@ -280,6 +301,22 @@ class AsyncClient:
     async def accuracy_study(self, request: StudyRequest | Mapping[str, Any]) -> StudyResult:
         """Monte Carlo accuracy of the solvers along a track (operation ``solves.study``)."""
         return await self.call("solves.study", _model("solves.study", request))
+
+    async def initiate(self, request: InitiateRequest | Mapping[str, Any]) -> InitiateResult:
+        """Scans through track initiation, continuing a state (``initiation.initiate``)."""
+        return await self.call("initiation.initiate", _model("initiation.initiate", request))
+
+    async def simulate_scans(
+        self, request: SimulateRequest | Mapping[str, Any]
+    ) -> SimulateResult:
+        """Seeded scans of targets in clutter (operation ``initiation.simulate``)."""
+        return await self.call("initiation.simulate", _model("initiation.simulate", request))
+
+    async def evaluate_initiation(
+        self, request: EvaluateRequest | Mapping[str, Any]
+    ) -> EvaluateResult:
+        """Monte Carlo of track initiation (operation ``initiation.evaluate``)."""
+        return await self.call("initiation.evaluate", _model("initiation.evaluate", request))
 
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""

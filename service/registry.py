@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from core import PlotgateError
-from service.operations import gates, probability, solves, study
+from service.operations import gates, initiation, probability, solves, study
 from service.problems import ProblemError, from_core, from_validation, problem_json
 from service.schemas import ENDPOINTS, Endpoint
 
@@ -66,6 +66,9 @@ _HANDLERS: dict[str, tuple[Handler, FieldOf]] = {
     "solves.crlb": (solves.crlb, solves.crlb_field),
     "solves.noise": (solves.noise, solves.noise_field),
     "solves.study": (study.study, study.study_field),
+    "initiation.initiate": (initiation.initiate, initiation.initiate_field),
+    "initiation.simulate": (initiation.simulate, initiation.scenario_field),
+    "initiation.evaluate": (initiation.evaluate, initiation.scenario_field),
 }
 
 OPERATIONS: dict[str, Operation] = {

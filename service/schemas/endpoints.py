@@ -9,6 +9,14 @@ from dataclasses import dataclass
 from pydantic import BaseModel
 
 from service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
+from service.schemas.initiation import (
+    EvaluateRequest,
+    EvaluateResult,
+    InitiateRequest,
+    InitiateResult,
+    SimulateRequest,
+    SimulateResult,
+)
 from service.schemas.probability import (
     GateAnalysisRequest,
     GateAnalysisResult,
@@ -115,6 +123,21 @@ ENDPOINTS: dict[str, Endpoint] = {
             "Monte Carlo accuracy study of the multistatic solvers along a track (seed 001 "
             "Fig. 3 curves 1-6)",
             StudyRequest, StudyResult, slow=True,
+        ),
+        Endpoint(
+            "initiation.initiate", "/v1/initiation/initiate",
+            "Start and confirm tracks from scans of plots in clutter, continuing a state",
+            InitiateRequest, InitiateResult, slow=True,
+        ),
+        Endpoint(
+            "initiation.simulate", "/v1/initiation/simulate",
+            "Seeded scans of targets in Poisson clutter, every plot labelled",
+            SimulateRequest, SimulateResult, slow=True,
+        ),
+        Endpoint(
+            "initiation.evaluate", "/v1/initiation/evaluate",
+            "Monte Carlo of track initiation: targets initiated, false tracks",
+            EvaluateRequest, EvaluateResult, slow=True,
         ),
     )
 }
