@@ -1,0 +1,33 @@
+"""Passive/active mark identification by Fisher's Z-test (seed 004; DESIGN section 7).
+
+:mod:`.ztest` tests one passive against one active track (bearings, optionally
+elevations; beta, the required m, the paper's conditions), :mod:`.picture` whole
+pictures (the Z matrix and a one-to-one assignment) and the sequential mode, and
+:mod:`.simulate` the paper's experiment by Monte Carlo (realized alpha and beta).
+"""
+
+from core.identification.picture import Picture, Sequence, identify_picture, sequential
+from core.identification.simulate import ExperimentRates, experiment
+from core.identification.ztest import (
+    ZTest,
+    circular_mean,
+    circular_sigma,
+    required_samples,
+    type_two_error,
+    z_test,
+)
+
+__all__ = [
+    "ExperimentRates",
+    "Picture",
+    "Sequence",
+    "ZTest",
+    "circular_mean",
+    "circular_sigma",
+    "experiment",
+    "identify_picture",
+    "required_samples",
+    "sequential",
+    "type_two_error",
+    "z_test",
+]

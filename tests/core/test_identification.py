@@ -1,0 +1,159 @@
+"""The Z-test of seed 004: numbers against scipy.stats.norm, wrap-around, beta against
+Monte Carlo, the assignment of a hand-made picture, the sequential mode, bad input."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from core.errors import NonFiniteError, ParameterError
+from core.identification import (
+    experiment,
+    identify_picture,
+    required_samples,
+    sequential,
+    type_two_error,
+    z_test,
+)
+
+DEG = np.pi / 180.0
+
+
+def test_z_p_and_critical_values_are_the_normal_distributions():
+    rng = np.random.default_rng(1)
+    passive = (30.0 + 0.5 * rng.standard_normal(60)) * DEG
+    active = (30.3 + 0.5 * rng.standard_normal(6)) * DEG
+    t = z_test(passive, active, sigma=0.5 * DEG, alpha=0.05)
+    # the circular mean differs from the arithmetic one by O(spread^3): 1e-5 here
+    z = (active.mean() - passive.mean()) / (0.5 * DEG / np.sqrt(6))
+    assert t.z[0] == pytest.approx(z, rel=1e-4)
+    assert t.p_value[0] == pytest.approx(2 * stats.norm.sf(abs(t.z[0])), rel=1e-12)
+    assert t.critical == pytest.approx(stats.norm.ppf(0.975), rel=1e-15)
+    assert t.identified == (abs(z) <= stats.norm.ppf(0.975))
+    assert (t.n, t.m, t.n_over_m, t.large_population) == (60, 6, 10.0, True)
+    t99 = z_test(passive, active, sigma=0.5 * DEG, alpha=0.01)
+    assert t99.critical == pytest.approx(2.5758293035489, rel=1e-12)
+
+
+def test_bearings_either_side_of_north_are_one_object():
+    rng = np.random.default_rng(2)
+    passive = np.mod((359.9 + 0.4 * rng.standard_normal(50)) * DEG, 2 * np.pi)
+    active = np.mod((0.05 + 0.4 * rng.standard_normal(5)) * DEG, 2 * np.pi)
+    assert (passive > np.pi).any() and (passive < 1.0).any()  # both sides of 0/360
+    t = z_test(passive, active)  # sigma estimated across the wrap
+    assert t.identified
+    assert t.difference[0] == pytest.approx(0.15 * DEG, abs=0.4 * DEG)
+    assert t.sigma[0] == pytest.approx(0.4 * DEG, rel=0.3)
+    far = z_test(passive, np.mod((3.0 + 0.4 * rng.standard_normal(5)) * DEG, 2 * np.pi))
+    assert not far.identified and far.p_value[0] < 1e-6
+
+
+def test_elevations_are_tested_at_alpha_over_two():
+    rng = np.random.default_rng(3)
+    pb, ab = 0.3 * DEG * rng.standard_normal(50), 0.3 * DEG * rng.standard_normal(5)
+    pe, ae = (2 + 0.2 * rng.standard_normal(50)) * DEG, (2 + 0.2 * rng.standard_normal(5)) * DEG
+    t = z_test(pb, ab, passive_elevation=pe, active_elevation=ae)
+    assert t.z.shape == (2,) and t.critical == pytest.approx(stats.norm.ppf(1 - 0.05 / 4))
+    assert t.identified
+    off = z_test(pb, ab, passive_elevation=pe, active_elevation=ae + 1.0 * DEG)
+    assert not off.identified and abs(off.z[1]) > off.critical
+
+
+def test_type_two_error_formula_against_monte_carlo():
+    # normal active bearings and n = 1000 >> m = 5, the formula's case (the passive
+    # mean's own error widens Z by sqrt(1 + m/n) = 1.0025, far below the tolerance of
+    # 4 standard errors of 10^4 runs)
+    sigma, m = 1.0 * DEG, 5
+    for delta in (0.5, 1.0, 1.5):
+        beta = float(type_two_error(delta * DEG, sigma, m, 0.05))
+        mc = experiment(1000, m, sigma, delta * DEG, 1.0, 10000, seed=int(delta * 10),
+                        law="normal")
+        assert abs(mc.identified - beta) < 4 * mc.standard_error, (delta, mc, beta)
+    same = experiment(1000, m, sigma, 0.0, 1.0, 10000, seed=9, law="normal")
+    assert abs(same.rejected - 0.05) < 4 * same.standard_error
+
+
+def test_required_samples_is_the_smallest_m():
+    for delta, beta_max in ((0.5, 0.05), (0.2, 0.01), (2.0, 0.2)):
+        m = required_samples(delta * DEG, 1.0 * DEG, 0.05, beta_max)
+        assert type_two_error(delta * DEG, DEG, m, 0.05) <= beta_max
+        assert m == 1 or type_two_error(delta * DEG, DEG, m - 1, 0.05) > beta_max
+    t = z_test(np.linspace(-1, 1, 50) * DEG, [0.0, 0.1 * DEG], sigma=DEG, delta=0.5 * DEG,
+               beta_max=0.05)
+    assert t.m_required == required_samples(0.5 * DEG, DEG, 0.05, 0.05)
+    assert t.beta == pytest.approx(float(type_two_error(0.5 * DEG, DEG, 2, 0.05)))
+
+
+def test_conditions_are_reported_with_numbers():
+    rng = np.random.default_rng(4)
+    normal = z_test(rng.normal(0, DEG, 200), rng.normal(0, DEG, 40), ratio=10.0)
+    assert normal.normal and normal.normality_p[0] > 0.05
+    assert normal.n_over_m == 5.0 and not normal.large_population
+    lumpy = np.concatenate([rng.normal(-3 * DEG, 0.2 * DEG, 100),
+                            rng.normal(3 * DEG, 0.2 * DEG, 100)])
+    two_peaks = z_test(lumpy, rng.normal(0, DEG, 5))
+    assert not two_peaks.normal and two_peaks.normality_p[0] < 1e-6
+
+
+def test_a_hand_made_picture_is_assigned_one_to_one():
+    rng = np.random.default_rng(5)
+    centres_p = np.array([10.0, 20.0, 30.0, 40.0])
+    centres_a = np.array([30.0, 10.0, 55.0])  # passive 1 and 3 have no partner; 55 is new
+    passive = (centres_p[:, None] + 0.2 * rng.standard_normal((4, 50))) * DEG
+    active = [(c + 0.2 * rng.standard_normal(k)) * DEG for c, k in zip(centres_a, (5, 3, 8),
+                                                                       strict=True)]
+    pic = identify_picture(passive, active, sigma=0.2 * DEG)
+    assert pic.z.shape == (4, 3)
+    assert sorted(pic.pairs.tolist()) == [[0, 1], [2, 0]]
+    assert pic.unassigned_passive.tolist() == [1, 3] and pic.unassigned_active.tolist() == [2]
+    # the matrix is each pair's own z_test
+    t = z_test(passive[2], active[0], sigma=0.2 * DEG)
+    assert pic.z[2, 0] == pytest.approx(t.z[0], rel=1e-12)
+    # two passive tracks both close to one active one: only the closer is assigned
+    twins = (np.array([[10.0], [10.1]]) + 0.1 * rng.standard_normal((2, 50))) * DEG
+    pic = identify_picture(twins, [np.full(4, 10.0 * DEG)], sigma=0.2 * DEG)
+    assert pic.passes.sum() == 2 and pic.pairs.tolist() == [[0, 0]]
+
+
+def test_sequential_decisions_are_the_prefix_tests():
+    rng = np.random.default_rng(6)
+    passive = (45.0 + 0.3 * rng.standard_normal(60)) * DEG
+    active = (45.1 + 0.3 * rng.standard_normal(12)) * DEG
+    seq = sequential(passive, active, sigma=0.3 * DEG)
+    assert seq.m.tolist() == list(range(2, 13))
+    for k in (2, 7, 12):
+        t = z_test(passive, active[:k], sigma=0.3 * DEG)
+        assert seq.z[k - 2] == pytest.approx(t.z[0], rel=1e-9)
+        assert seq.identified[k - 2] == t.identified
+
+
+@pytest.mark.parametrize(("kwargs", "error", "field"), [
+    ({"active": [0.1]}, ParameterError, "active"),
+    ({"passive": [0.1]}, ParameterError, "passive"),
+    ({"sigma": 0.0}, ParameterError, "sigma"),
+    ({"sigma": -0.01}, ParameterError, "sigma"),
+    ({"alpha": 1.0}, ParameterError, "alpha"),
+    ({"alpha": 0.0}, ParameterError, "alpha"),
+    ({"active": [0.1, np.nan]}, NonFiniteError, "active"),
+    ({"passive": [0.1, np.inf, 0.2]}, NonFiniteError, "passive"),
+    ({"passive_elevation": [0.1, 0.2, 0.3]}, ParameterError, "active_elevation"),
+    ({"beta_max": 0.05}, ParameterError, "beta_max"),
+    ({"delta": 0.0, "beta_max": 0.05}, ParameterError, "delta"),
+])
+def test_bad_input_is_named(kwargs, error, field):
+    args = {"passive": [0.1, 0.2, 0.15], "active": [0.12, 0.14]}
+    args.update(kwargs)
+    with pytest.raises(error) as info:
+        z_test(**args)
+    assert info.value.field == field
+
+
+def test_bad_pictures_are_named():
+    with pytest.raises(ParameterError) as info:
+        identify_picture([[0.1, 0.2], [0.3]], [[0.1, 0.2]])
+    assert info.value.field == "passive" and info.value.index == 1
+    with pytest.raises(ParameterError) as info:
+        identify_picture([[0.1, 0.2]], [[0.1, np.inf]])
+    assert info.value.field == "active"
+    with pytest.raises(ParameterError) as info:
+        identify_picture([[0.1, 0.1]], [[0.1, 0.2]])
+    assert info.value.field == "sigma"
