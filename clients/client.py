@@ -4,8 +4,9 @@ Each operation of :data:`service.schemas.ENDPOINTS` is reachable through ``call(
 request)``; the common ones also have a typed method (``test_gate``, ``gate_probability``
 ...). The gating-probability and multistatic-solve methods (``solve_position``,
 ``solve_trajectory``, ``crlb``, ``estimate_noise``, ``accuracy_study``) and the
-initiation methods (``initiate``, ``simulate_scans``, ``evaluate_initiation``) take their
-request model or the same as a dict (validated here, so a bad dict raises pydantic's
+initiation methods (``initiate``, ``simulate_scans``, ``evaluate_initiation``) and the
+identification methods (``identify_pair``, ``identify_picture``, ``simulate_identification``)
+take their request model or the same as a dict (validated here, so a bad dict raises pydantic's
 ``ValidationError`` before any call).
 Errors are the exceptions of :mod:`clients.errors`. The README shows a full example.
 """
@@ -36,6 +37,12 @@ from service.schemas import (
     GateProbabilityResult,
     GateResults,
     GateTestRequest,
+    IdentifyPairRequest,
+    IdentifyPairResult,
+    IdentifyPictureRequest,
+    IdentifyPictureResult,
+    IdentifySimulateRequest,
+    IdentifySimulateResult,
     InitiateRequest,
     InitiateResult,
     NoiseRequest,
@@ -201,6 +208,24 @@ class Client:
         """Monte Carlo of track initiation (operation ``initiation.evaluate``)."""
         return self.call("initiation.evaluate", _model("initiation.evaluate", request))
 
+    def identify_pair(
+        self, request: IdentifyPairRequest | Mapping[str, Any]
+    ) -> IdentifyPairResult:
+        """Z-test of one passive against one active track (``identification.pair``)."""
+        return self.call("identification.pair", _model("identification.pair", request))
+
+    def identify_picture(
+        self, request: IdentifyPictureRequest | Mapping[str, Any]
+    ) -> IdentifyPictureResult:
+        """Z matrix and identification of many tracks (``identification.picture``)."""
+        return self.call("identification.picture", _model("identification.picture", request))
+
+    def simulate_identification(
+        self, request: IdentifySimulateRequest | Mapping[str, Any]
+    ) -> IdentifySimulateResult:
+        """Seed 004's experiment by Monte Carlo (``identification.simulate``)."""
+        return self.call("identification.simulate", _model("identification.simulate", request))
+
     def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
         try:
@@ -317,6 +342,26 @@ class AsyncClient:
     ) -> EvaluateResult:
         """Monte Carlo of track initiation (operation ``initiation.evaluate``)."""
         return await self.call("initiation.evaluate", _model("initiation.evaluate", request))
+
+    async def identify_pair(
+        self, request: IdentifyPairRequest | Mapping[str, Any]
+    ) -> IdentifyPairResult:
+        """Z-test of one passive against one active track (``identification.pair``)."""
+        return await self.call("identification.pair", _model("identification.pair", request))
+
+    async def identify_picture(
+        self, request: IdentifyPictureRequest | Mapping[str, Any]
+    ) -> IdentifyPictureResult:
+        """Z matrix and identification of many tracks (``identification.picture``)."""
+        return await self.call("identification.picture",
+                               _model("identification.picture", request))
+
+    async def simulate_identification(
+        self, request: IdentifySimulateRequest | Mapping[str, Any]
+    ) -> IdentifySimulateResult:
+        """Seed 004's experiment by Monte Carlo (``identification.simulate``)."""
+        return await self.call("identification.simulate",
+                               _model("identification.simulate", request))
 
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""

@@ -17,7 +17,14 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from core import PlotgateError
-from service.operations import gates, initiation, probability, solves, study
+from service.operations import (
+    gates,
+    identification,
+    initiation,
+    probability,
+    solves,
+    study,
+)
 from service.problems import ProblemError, from_core, from_validation, problem_json
 from service.schemas import ENDPOINTS, Endpoint
 
@@ -69,6 +76,9 @@ _HANDLERS: dict[str, tuple[Handler, FieldOf]] = {
     "initiation.initiate": (initiation.initiate, initiation.initiate_field),
     "initiation.simulate": (initiation.simulate, initiation.scenario_field),
     "initiation.evaluate": (initiation.evaluate, initiation.scenario_field),
+    "identification.pair": (identification.pair, identification.pair_field),
+    "identification.picture": (identification.picture, identification.picture_field),
+    "identification.simulate": (identification.simulate, identification.simulate_field),
 }
 
 OPERATIONS: dict[str, Operation] = {

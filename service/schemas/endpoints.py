@@ -9,6 +9,14 @@ from dataclasses import dataclass
 from pydantic import BaseModel
 
 from service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
+from service.schemas.identification import (
+    IdentifyPairRequest,
+    IdentifyPairResult,
+    IdentifyPictureRequest,
+    IdentifyPictureResult,
+    IdentifySimulateRequest,
+    IdentifySimulateResult,
+)
 from service.schemas.initiation import (
     EvaluateRequest,
     EvaluateResult,
@@ -138,6 +146,22 @@ ENDPOINTS: dict[str, Endpoint] = {
             "initiation.evaluate", "/v1/initiation/evaluate",
             "Monte Carlo of track initiation: targets initiated, false tracks",
             EvaluateRequest, EvaluateResult, slow=True,
+        ),
+        Endpoint(
+            "identification.pair", "/v1/identification/pair",
+            "Is a passive (ESM) track the same object as an active radar track? Fisher's "
+            "Z-test on bearings",
+            IdentifyPairRequest, IdentifyPairResult, slow=True,
+        ),
+        Endpoint(
+            "identification.picture", "/v1/identification/picture",
+            "Z matrix and one-to-one identification of many passive and active tracks",
+            IdentifyPictureRequest, IdentifyPictureResult, slow=True,
+        ),
+        Endpoint(
+            "identification.simulate", "/v1/identification/simulate",
+            "Seed 004's experiment by Monte Carlo: realized type I or type II error",
+            IdentifySimulateRequest, IdentifySimulateResult, slow=True,
         ),
     )
 }

@@ -87,9 +87,9 @@ class InitiationSettings(Schema):
     K_az: float | None = Field(default=None, gt=0, le=100,
                                description="Polar azimuth-window coefficient; null: from "
                                "gate_P_G.")
-    a_max: float = Field(default=5.0, gt=0, le=1e4,
+    a_max: float = Field(default=10.0, gt=0, le=1e4,
                          description="Polar mode: largest radial acceleration, m/s^2.")
-    K_A: float = Field(default=2.0, gt=1, le=100,
+    K_A: float = Field(default=3.0, gt=1, le=100,
                        description="Polar mode: factor (> 1) of the acceleration check.")
     history: int = Field(default=8, ge=1, le=64, description="Plots remembered per track.")
 
