@@ -17,7 +17,9 @@ Beyond the paper:
   sample (deviations from its circular mean, wrapped, with n - 1 degrees of freedom);
 * the type II error (false identification) for a true separation delta,
   beta = Phi(z - delta sqrt(m) / sigma) - Phi(-z - delta sqrt(m) / sigma), and the
-  smallest m with beta <= beta_max;
+  smallest m with beta <= beta_max; the pair test evaluates both with the passive mean's
+  own error included (Z ~ N(delta sqrt(m) / sigma, 1 + m / n)), which the paper's n >> m
+  neglects and a Monte Carlo confirms (bench/README.md);
 * the paper's conditions as numbers: n / m against a wanted ratio, and the Shapiro-Wilk
   test of the passive deviations (``scipy.stats.shapiro``) with its p-value;
 * elevations, optionally: each coordinate is tested at alpha / k (Bonferroni, k = 1 or 2
@@ -72,12 +74,17 @@ def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     return np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
 
 
-def type_two_error(delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: float
-                   ) -> np.ndarray:
+def type_two_error(delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: float,
+                   n: ArrayLike | None = None) -> np.ndarray:
     """Probability of identifying two objects delta apart (rad): beta of the two-sided test.
 
-    .. math:: \\beta = \\Phi(z - \\delta\\sqrt{m}/\\sigma) - \\Phi(-z - \\delta\\sqrt{m}/\\sigma),
-              \\quad z = z_{1-\\alpha/2}
+    .. math:: \\beta = \\Phi\\left(\\frac{z - \\delta\\sqrt{m}/\\sigma}{c}\\right)
+              - \\Phi\\left(\\frac{-z - \\delta\\sqrt{m}/\\sigma}{c}\\right),
+              \\quad z = z_{1-\\alpha/2}, \\quad c = \\sqrt{1 + m/n}
+
+    With n None, c = 1: the passive mean is the population's (seed 004's assumption).
+    With n passive samples their mean has its own error, and Z ~ N(delta sqrt(m)/sigma,
+    1 + m/n) (the active and passive bearings normal with the same sigma).
 
     Examples
     --------
@@ -85,18 +92,22 @@ def type_two_error(delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: floa
     0.057562
     >>> round(float(type_two_error(0.0, 1.0, 10, 0.05)), 6)  # no separation: 1 - alpha
     0.95
+    >>> round(float(type_two_error(np.radians(1.0), np.radians(1.0), 20, 0.05, n=50)), 4)
+    0.0169
     """
     alpha = float(as_probability("alpha", alpha))
     z = stats.norm.ppf(1.0 - alpha / 2.0)
+    m = np.asarray(m, dtype=float)
+    c = 1.0 if n is None else np.sqrt(1.0 + m / np.asarray(n, dtype=float))
     shift = np.abs(np.asarray(delta, dtype=float)) * np.sqrt(m) / np.asarray(sigma, float)
-    return stats.norm.cdf(z - shift) - stats.norm.cdf(-z - shift)
+    return stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
 
 
 def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
-                     m_max: int = 10**9) -> int:
-    """Smallest m with type_two_error(delta, sigma, m, alpha) <= beta_max.
+                     n: int | None = None, m_max: int = 10**7) -> int:
+    """Smallest m with type_two_error(delta, sigma, m, alpha, n) <= beta_max.
 
-    Starts from the one-sided approximation m = ((z_{1-a/2} + z_{1-b}) sigma / delta)^2
+    Starts from the known-mean approximation m = ((z_{1-a/2} + z_{1-b}) sigma / delta)^2
     and steps to the exact smallest m (beta falls with m).
 
     Raises
@@ -108,6 +119,8 @@ def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
     --------
     >>> required_samples(np.radians(0.5), np.radians(1.0), 0.05, 0.05)
     52
+    >>> required_samples(np.radians(0.5), np.radians(1.0), 0.05, 0.05, n=500)
+    55
     """
     alpha = float(as_probability("alpha", alpha))
     beta_max = float(as_probability("beta_max", beta_max))
@@ -116,14 +129,14 @@ def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
                              "told apart by any number of samples")
     k = (stats.norm.ppf(1 - alpha / 2) + stats.norm.ppf(1 - beta_max)) * sigma / abs(delta)
     m = max(1, int(np.floor(k * k)) - 2)
-    trial = m + np.arange(8)
-    while True:  # a few steps: the approximation is within two of the answer
-        ok = type_two_error(delta, sigma, trial, alpha) <= beta_max
+    step = 64
+    while m <= m_max:  # bracket by doubling, then the exact smallest m in the bracket
+        trial = m + np.arange(step)
+        ok = type_two_error(delta, sigma, trial, alpha, n) <= beta_max
         if ok.any():
             return int(trial[np.argmax(ok)])
-        trial = trial + 8
-        if trial[0] > m_max:
-            raise ParameterError("beta_max", f"needs more than {m_max} samples")
+        m, step = m + step, 2 * step
+    raise ParameterError("beta_max", f"needs more than {m_max} active samples")
 
 
 @dataclass(frozen=True)
@@ -154,9 +167,10 @@ class ZTest:
     normal : bool
         Every normality_p >= normality_alpha (or NaN).
     beta : float or None
-        Type II error for the stated separation delta (bearing), at the used level.
+        Type II error for the stated separation delta (bearing), at the used level, the
+        passive mean's error of these n samples included.
     m_required : int or None
-        Smallest m keeping beta <= beta_max, when asked.
+        Smallest m keeping beta <= beta_max with these n passive samples, when asked.
     """
 
     z: np.ndarray
@@ -295,9 +309,9 @@ def z_test(
         raise ParameterError("beta_max", "needs delta, the separation to detect")
     if delta is not None:
         delta = float(as_array("delta", delta))
-        beta = float(type_two_error(delta, sig[0], m, alpha / k))
+        beta = float(type_two_error(delta, sig[0], m, alpha / k, n))
         if beta_max is not None:
-            m_req = required_samples(delta, float(sig[0]), alpha / k, beta_max)
+            m_req = required_samples(delta, float(sig[0]), alpha / k, beta_max, n)
     return ZTest(
         z=z, p_value=2.0 * stats.norm.sf(np.abs(z)), critical=z_crit,
         identified=bool(np.all(np.abs(z) <= z_crit)), difference=np.array(diff, float),

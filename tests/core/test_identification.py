@@ -59,17 +59,18 @@ def test_elevations_are_tested_at_alpha_over_two():
 
 
 def test_type_two_error_formula_against_monte_carlo():
-    # normal active bearings and n = 1000 >> m = 5, the formula's case (the passive
-    # mean's own error widens Z by sqrt(1 + m/n) = 1.0025, far below the tolerance of
-    # 4 standard errors of 10^4 runs)
-    sigma, m = 1.0 * DEG, 5
-    for delta in (0.5, 1.0, 1.5):
-        beta = float(type_two_error(delta * DEG, sigma, m, 0.05))
-        mc = experiment(1000, m, sigma, delta * DEG, 1.0, 10000, seed=int(delta * 10),
-                        law="normal")
-        assert abs(mc.identified - beta) < 4 * mc.standard_error, (delta, mc, beta)
-    same = experiment(1000, m, sigma, 0.0, 1.0, 10000, seed=9, law="normal")
-    assert abs(same.rejected - 0.05) < 4 * same.standard_error
+    # normal bearings, n = 50 passive and m active: Z ~ N(delta sqrt(m) / sigma, 1 + m/n);
+    # with n = 10^4 >> m the population-mean formula is the same to 0.3 %
+    sigma = 1.0 * DEG
+    for m, delta, seed in ((5, 0.5, 1), (5, 1.0, 2), (20, 0.75, 3), (20, 1.0, 4)):
+        beta = float(type_two_error(delta * DEG, sigma, m, 0.05, n=50))
+        mc = experiment(50, m, sigma, delta * DEG, 1.0, 20000, seed=seed, law="normal")
+        assert abs(mc.identified - beta) < 4 * mc.standard_error, (m, delta, mc, beta)
+    big = float(type_two_error(DEG, sigma, 5, 0.05))
+    assert abs(float(type_two_error(DEG, sigma, 5, 0.05, n=10**4)) - big) < 0.003 * big
+    same = experiment(50, 5, sigma, 0.0, 1.0, 20000, seed=9, law="normal")
+    expected = 2 * stats.norm.sf(stats.norm.ppf(0.975) / np.sqrt(1 + 5 / 50))
+    assert abs(same.rejected - expected) < 4 * same.standard_error
 
 
 def test_required_samples_is_the_smallest_m():
@@ -79,8 +80,13 @@ def test_required_samples_is_the_smallest_m():
         assert m == 1 or type_two_error(delta * DEG, DEG, m - 1, 0.05) > beta_max
     t = z_test(np.linspace(-1, 1, 50) * DEG, [0.0, 0.1 * DEG], sigma=DEG, delta=0.5 * DEG,
                beta_max=0.05)
-    assert t.m_required == required_samples(0.5 * DEG, DEG, 0.05, 0.05)
-    assert t.beta == pytest.approx(float(type_two_error(0.5 * DEG, DEG, 2, 0.05)))
+    assert t.m_required == required_samples(0.5 * DEG, DEG, 0.05, 0.05, n=50)
+    assert t.beta == pytest.approx(float(type_two_error(0.5 * DEG, DEG, 2, 0.05, n=50)))
+    for n in (20, 500):  # with the passive mean's error, more active samples are needed
+        m = required_samples(0.5 * DEG, DEG, 0.05, 0.05, n=n)
+        assert type_two_error(0.5 * DEG, DEG, m, 0.05, n=n) <= 0.05
+        assert type_two_error(0.5 * DEG, DEG, m - 1, 0.05, n=n) > 0.05
+        assert m > required_samples(0.5 * DEG, DEG, 0.05, 0.05)
 
 
 def test_conditions_are_reported_with_numbers():
