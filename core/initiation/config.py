@@ -75,7 +75,8 @@ class InitiationConfig:
     a_max, K_A : float
         Polar mode: largest radial acceleration (m/s^2, > 0) and its factor (> 1) in
         the check |r_3 - 2 r_2 + r_1| / tau^2 <= K_A a_max (divided differences for
-        unequal intervals).
+        unequal intervals). The default 30 m/s^2 leaves room for the range noise's own
+        second difference, sqrt(6) sigma_r / tau^2 rms (12 m/s^2 for 5 m at 1 s).
     history : int
         Plot ids kept per track for the plot-reuse rules (>= confirm_m).
     """
@@ -100,8 +101,8 @@ class InitiationConfig:
     drop_misses: int = 2
     K_R: float | None = None
     K_az: float | None = None
-    a_max: float = 5.0
-    K_A: float = 2.0
+    a_max: float = 10.0
+    K_A: float = 3.0
     history: int = 8
 
     def __post_init__(self) -> None:
