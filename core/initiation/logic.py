@@ -30,9 +30,10 @@ Each scan, in this order:
 7. Plots of the scan used by no track and captured by no initiator become initiators;
    initiators past their window expire.
 
-Candidates come from a ``scipy.spatial.cKDTree`` of the scan's plots, queried with a
-radius that bounds each gate, so the work grows with the plots near each track and
-initiator, not with all plots. Every scan counts as an opportunity for every track
+Candidates come from a ``scipy.spatial.cKDTree`` of the scan's plots ((x, y); in polar
+mode (r, S az), where a window is a Chebyshev ball), searched with a radius that bounds
+each gate, so the work grows with the plots near each track and initiator, not with all
+plots. Every scan counts as an opportunity for every track
 (the scans are one surveillance picture); polar mode measures ranges and azimuths about
 each plot's own sensor, so a track should be fed by one sensor.
 """
@@ -49,7 +50,7 @@ from scipy.spatial import cKDTree
 
 from core.capture_gates import combined_gate, expanded_gate, ring_gate
 from core.errors import ParameterError
-from core.frames import _wrap, polar_to_cartesian
+from core.frames import _wrap
 from core.initiation.config import InitiationConfig
 from core.initiation.scan import Scan
 from core.initiation.state import (
@@ -164,16 +165,71 @@ def _two_point(z1: np.ndarray, R1: np.ndarray, z2: np.ndarray, R2: np.ndarray,
 # ------------------------------------------------------------------ candidates
 
 
-def _ball(tree: cKDTree | None, centres: np.ndarray, radius: np.ndarray
+def _near(tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
           ) -> tuple[np.ndarray, np.ndarray]:
-    """All (row, plot) pairs with the plot within radius of centres[row]."""
-    if tree is None or centres.shape[0] == 0:
+    """(row, point) pairs with the tree's point within radius[row] of centres[row] (p-norm).
+
+    Queries go in bins of radii within a factor 1.5, each bin one
+    ``sparse_distance_matrix`` between a tree of its centres and the points (pairs come
+    back as arrays, not Python lists), then the exact per-query radius.
+    """
+    if centres.shape[0] == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    lists = tree.query_ball_point(centres, radius, return_sorted=False)
-    counts = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
-    rows = np.repeat(np.arange(len(lists)), counts)
-    cols = np.concatenate(lists).astype(np.int64) if counts.sum() else rows.copy()
-    return rows, cols
+    smallest = max(float(radius.min()), 1e-9)
+    bins = np.floor(np.log(np.maximum(radius, smallest) / smallest) / np.log(1.5)).astype(int)
+    rows, cols = [], []
+    for b in np.unique(bins):  # a few bins of similar radius
+        idx = np.flatnonzero(bins == b)
+        found = cKDTree(centres[idx]).sparse_distance_matrix(
+            tree, float(radius[idx].max()), p=p, output_type="ndarray")
+        i = idx[found["i"]]
+        keep = found["v"] <= radius[i]
+        rows.append(i[keep])
+        cols.append(found["j"][keep].astype(np.int64))
+    return np.concatenate(rows).astype(np.int64), np.concatenate(cols)
+
+
+class _Index:
+    """Candidate search over one scan's plots (the gates then test the candidates exactly).
+
+    Cartesian gates: a cKDTree of (x, y) queried with a radius bounding each gate. Polar
+    windows |dr| <= W_R, |d az| <= W_az are rectangles in (r, az): a cKDTree of
+    (r, S az) queried with the Chebyshev radius max(W_R, S W_az), S the typical ratio of
+    the two half-widths, so a window at 100 km does not drag in a disc of its arc
+    length. Every plot also appears 2 pi away, for windows across +-pi.
+    """
+
+    def __init__(self, scan: Scan, config: InitiationConfig) -> None:
+        self.tree = self.scale = self.owner = None
+        if scan.size == 0:
+            return
+        if config.mode == "cartesian":
+            self.tree = cKDTree(scan.z)
+            return
+        K_R, K_az = _window_coefficients(config)
+        self.scale = K_R * np.median(scan.sigma_r) / (K_az * np.median(scan.sigma_az))
+        other = scan.az - 2.0 * np.pi * np.sign(scan.az)
+        pts = np.column_stack([np.concatenate([scan.r, scan.r]),
+                               self.scale * np.concatenate([scan.az, other])])
+        self.tree = cKDTree(pts)
+        self.owner = np.tile(np.arange(scan.size), 2)
+
+    def ball(self, centres: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(row, plot) pairs with the plot within radius of centres[row] (Cartesian)."""
+        if self.tree is None:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        return _near(self.tree, centres, radius, 2.0)
+
+    def window(self, r: np.ndarray, az: np.ndarray, W_R: np.ndarray, W_az: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """(row, plot) pairs with the plot possibly in the window about (r, az)[row]."""
+        if self.tree is None:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        rows, cols = _near(self.tree, np.column_stack([r, self.scale * az]),
+                           np.maximum(W_R, self.scale * W_az) * (1 + 1e-9), np.inf)
+        cols = self.owner[cols]
+        key = np.unique(rows * self.owner.size + cols)  # a wide window may meet both copies
+        return key // self.owner.size, key % self.owner.size
 
 
 def _window_coefficients(config: InitiationConfig) -> tuple[float, float]:
@@ -187,14 +243,8 @@ def _widening(misses: np.ndarray, config: InitiationConfig) -> np.ndarray:
     return w[np.minimum(misses, w.size - 1)]
 
 
-def _sector_radius(r: np.ndarray, W_R: np.ndarray, W_az: np.ndarray) -> np.ndarray:
-    """Distance from the window centre that bounds a sector |dr| <= W_R, |daz| <= W_az."""
-    arc = W_R + (r + W_R) * W_az
-    return np.where(W_az >= np.pi / 2, 2.0 * (r + W_R), np.minimum(arc, 2.0 * (r + W_R)))
-
-
 def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
-                 scan: Scan, tree: cKDTree | None, config: InitiationConfig
+                 scan: Scan, index: _Index, config: InitiationConfig
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(track, plot, statistic) of the plots inside each track's gate."""
     w = _widening(tracks.misses, config)
@@ -202,7 +252,7 @@ def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
         gamma = stats.chi2.ppf(config.gate_P_G, 2) * w
         r_max = np.trace(scan.R, axis1=1, axis2=2).max() if scan.size else 0.0
         radius = np.sqrt(gamma * (np.trace(Pp[:, :2, :2], axis1=1, axis2=2) + r_max))
-        rows, cols = _ball(tree, xp[:, :2], radius)
+        rows, cols = index.ball(xp[:, :2], radius)
         nu = scan.z[cols] - xp[rows, :2]
         Si = _inv2(Pp[rows, :2, :2] + scan.R[cols])
         s = np.einsum("ni,nij,nj->n", nu, Si, nu)
@@ -218,11 +268,8 @@ def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
     k_r, k_az = K_R * np.sqrt(w), K_az * np.sqrt(w)
     big_r = scan.sigma_r.max() if scan.size else 0.0
     big_az = scan.sigma_az.max() if scan.size else 0.0
-    centre = tracks.sensor + polar_to_cartesian(np.maximum(r_pred, 0.0), tracks.az).reshape(-1, 2)
-    radius = _sector_radius(np.maximum(r_pred, 0.0),
-                            k_r * np.sqrt(big_r**2 + var_pred),
-                            tangential + k_az * np.sqrt(big_az**2 + tracks.sigma_az**2))
-    rows, cols = _ball(tree, centre, radius)
+    rows, cols = index.window(r_pred, tracks.az, k_r * np.sqrt(big_r**2 + var_pred),
+                              tangential + k_az * np.sqrt(big_az**2 + tracks.sigma_az**2))
     W_R = k_r[rows] * np.sqrt(scan.sigma_r[cols] ** 2 + var_pred[rows])
     W_az = tangential[rows] + k_az[rows] * np.sqrt(scan.sigma_az[cols] ** 2
                                                      + tracks.sigma_az[rows] ** 2)
@@ -233,7 +280,7 @@ def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
     return rows[keep], cols[keep], s[keep]
 
 
-def _capture_pairs(ini: Initiators, scan: Scan, tree: cKDTree | None,
+def _capture_pairs(ini: Initiators, scan: Scan, index: _Index,
                    config: InitiationConfig, allowed: np.ndarray, k: int
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(initiator, plot, distance) of the plots inside each initiator's capture gate.
@@ -246,12 +293,13 @@ def _capture_pairs(ini: Initiators, scan: Scan, tree: cKDTree | None,
     else:
         window = tau <= config.capture_time
     R_max = config.v_max * np.maximum(tau, 0.0)
+    later = np.flatnonzero((tau > 0) & window)  # a plot from a later time, in time
     if config.mode == "polar":
         K_R, K_az = _window_coefficients(config)
         W_R = R_max + K_R * np.sqrt(ini.sigma_r**2 + scan.sigma_r.max(initial=0.0) ** 2)
         W_az = (np.arcsin(np.minimum(1.0, R_max / ini.r))
                 + K_az * np.sqrt(ini.sigma_az**2 + scan.sigma_az.max(initial=0.0) ** 2))
-        radius = _sector_radius(ini.r, W_R, W_az)
+        rows, cols = index.window(ini.r[later], ini.az[later], W_R[later], W_az[later])
     elif config.capture_gate == "ring":
         radius = R_max
     elif config.capture_gate == "expanded":
@@ -261,8 +309,8 @@ def _capture_pairs(ini: Initiators, scan: Scan, tree: cKDTree | None,
         gamma = stats.chi2.ppf(config.capture_P_G, 2)
         big = np.trace(scan.R, axis1=1, axis2=2).max(initial=0.0)
         radius = R_max + np.sqrt(gamma * (np.trace(ini.R, axis1=1, axis2=2) + big))
-    later = np.flatnonzero((tau > 0) & window)  # a plot from a later time, in time
-    rows, cols = _ball(tree, ini.z[later], radius[later] * (1 + 1e-9) + 1e-9)
+    if config.mode == "cartesian":
+        rows, cols = index.ball(ini.z[later], radius[later] * (1 + 1e-9) + 1e-9)
     rows = later[rows]
     keep = allowed[cols]
     rows, cols = rows[keep], cols[keep]
@@ -395,7 +443,7 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
     if n > PLOT_STRIDE:
         raise ParameterError("scans", f"a scan may hold at most {PLOT_STRIDE} plots, got {n}")
     ids = k * PLOT_STRIDE + np.arange(n, dtype=np.int64)
-    tree = cKDTree(scan.z) if n else None
+    index = _Index(scan, config)
     tracks = state.tracks
     m = tracks.size
 
@@ -405,7 +453,7 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
     assoc = np.full(m, -1, dtype=np.int64)
     stat = np.zeros(m)
     used = np.zeros(n, dtype=bool)  # taken by a confirmed track
-    rows, cols, s = _track_pairs(tracks, xp, Pp, dt, scan, tree, config)
+    rows, cols, s = _track_pairs(tracks, xp, Pp, dt, scan, index, config)
     conf = tracks.confirmed[rows]
     a, b, c = _one_to_one(rows[conf], cols[conf], s[conf])
     assoc[a], stat[a], used[b] = b, c, True
@@ -437,7 +485,7 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
 
     # 4: capture
     ini = state.initiators
-    rows, cols, dist = _capture_pairs(ini, scan, tree, config, ~used, k)
+    rows, cols, dist = _capture_pairs(ini, scan, index, config, ~used, k)
     if config.association == "nearest":
         rows, cols, dist = _nearest(rows, cols, dist)
     born = _new_tracks(ini, rows, cols, scan, ids, state.next_track, config)

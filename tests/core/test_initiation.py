@@ -6,6 +6,7 @@ statistical parts (simulator, evaluation) are checked against their closed forms
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from core.errors import ParameterError
 from core.initiation import (
@@ -17,7 +18,7 @@ from core.initiation import (
     state_from_json,
 )
 from core.initiation.evaluate import evaluate
-from core.initiation.logic import _track_pairs
+from core.initiation.logic import _Index, _predict, _track_pairs
 from core.initiation.simulate import Scenario, seed_002_scenario, simulate
 
 R4 = np.eye(2) * 4.0  # plot covariance, m^2 (2 m sigma)
@@ -143,29 +144,43 @@ def test_confirmed_tracks_take_plots_one_to_one():
 
 def test_candidate_search_finds_exactly_the_brute_force_gate_members():
     rng = np.random.default_rng(5)
-    scans = [scan(t, target(t)) for t in range(3)]
-    state, _ = run(CONFIG, *scans)
-    z = np.vstack([rng.uniform(900.0, 1200.0, (4000, 1)), rng.uniform(1900.0, 2100.0,
-                                                                       (4000, 1))])
+    state, _ = run(CONFIG, *[scan(t, target(t)) for t in range(3)])
     z = np.column_stack([rng.uniform(900.0, 1200.0, 4000), rng.uniform(1900.0, 2100.0, 4000)])
     s = cartesian_scan(3.0, z, np.broadcast_to(R4, (4000, 2, 2)))
-    from scipy.spatial import cKDTree
-
-    from core.initiation.logic import _predict
-
     tr = state.tracks
     dt = s.t - tr.t
     xp, Pp = _predict(tr.x, tr.P, dt, CONFIG.q)
-    rows, cols, stat = _track_pairs(tr, xp, Pp, dt, s, cKDTree(s.z), CONFIG)
+    rows, cols, stat = _track_pairs(tr, xp, Pp, dt, s, _Index(s, CONFIG), CONFIG)
     nu = s.z - xp[0, :2]
-    S = Pp[0, :2, :2] + R4
-    rho = np.einsum("ni,ij,nj->n", nu, np.linalg.inv(S), nu)
-    from scipy import stats
-
+    rho = np.einsum("ni,ij,nj->n", nu, np.linalg.inv(Pp[0, :2, :2] + R4), nu)
     brute = np.flatnonzero(rho <= stats.chi2.ppf(CONFIG.gate_P_G, 2))
     assert brute.size > 5
     np.testing.assert_array_equal(np.sort(cols), brute)
     np.testing.assert_allclose(stat[np.argsort(cols)], rho[brute], rtol=1e-10)
+
+
+def test_polar_candidate_search_finds_exactly_the_window_members_across_north():
+    # a polar track heading across north (azimuth +-180 deg is due south: use a track
+    # at azimuth 179.9 deg) and 20000 plots around it, on both sides of the wrap
+    rng = np.random.default_rng(6)
+    first = [pscan(0, (10000.0, 179.9)), pscan(1, (10010.0, 179.95))]
+    state, _ = run(POLAR, *first)
+    r = rng.uniform(9900.0, 10150.0, 20000)
+    az = np.radians(rng.uniform(178.0, 182.0, 20000))
+    az = np.where(az > np.pi, az - 2 * np.pi, az)
+    s = polar_scan(2.0, r, az, np.full(r.size, SR), np.full(r.size, SAZ))
+    tr = state.tracks
+    dt = s.t - tr.t
+    xp, Pp = _predict(tr.x, tr.P, dt, POLAR.q)
+    rows, cols, _ = _track_pairs(tr, xp, Pp, dt, s, _Index(s, POLAR), POLAR)
+    k = np.sqrt(stats.chi2.ppf(POLAR.gate_P_G, 2))
+    r_pred = 10020.0
+    W_R = k * np.sqrt(SR**2 + 4 * SR**2 + SR**2)
+    W_az = np.arcsin(30.0 / 10010.0) + k * np.sqrt(2) * SAZ
+    d_az = np.abs((az - tr.az[0] + np.pi) % (2 * np.pi) - np.pi)
+    brute = np.flatnonzero((np.abs(r - r_pred) <= W_R) & (d_az <= W_az))
+    assert brute.size > 20 and (az[brute] < 0).any() and (az[brute] > 0).any()
+    np.testing.assert_array_equal(np.sort(cols), brute)
 
 
 # ---------------------------------------------------------------- filters
