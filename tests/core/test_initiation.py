@@ -101,6 +101,36 @@ def test_the_ring_refuses_plots_too_far_or_too_slow():
     assert reports[1].started.size == 0
 
 
+def test_gates_widen_after_a_miss():
+    # a plot 3.4 gate-sigmas off is outside the narrow 99% gate (3.03) but inside the
+    # medium one after a miss (gamma x 2: 4.29)
+    state, _ = run(CONFIG, *[scan(t, target(t)) for t in range(3)])
+    tr = state.tracks
+    xp, Pp = _predict(tr.x, tr.P, np.array([1.0]), CONFIG.q)
+    sd = np.sqrt(Pp[0, 1, 1] + 4.0)
+    off = (xp[0, 0], xp[0, 1] + 3.4 * sd)
+    _, (narrow,) = initiate(state, [scan(3, off)], CONFIG)
+    assert narrow.associated.tolist() == [-1]
+    missed, _ = initiate(state, [scan(3)], CONFIG)
+    xp, Pp = _predict(missed.tracks.x, missed.tracks.P, np.array([1.0]), CONFIG.q)
+    sd = np.sqrt(Pp[0, 1, 1] + 4.0)
+    _, (wide,) = initiate(missed, [scan(4, (xp[0, 0], xp[0, 1] + 3.4 * sd))], CONFIG)
+    assert wide.associated.tolist() == [0]
+
+
+def test_scans_from_two_sensors_with_their_own_times_build_one_track():
+    # radar A at the origin and radar B 20 km east, scanning half a second apart
+    def from_b(t, xy):
+        return cartesian_scan(t, [xy], [R4], sensor=(20000.0, 0.0))
+
+    scans = [scan(0.0, target(0.0)), from_b(0.5, target(0.5)), scan(1.0, target(1.0)),
+             from_b(1.5, target(1.5))]
+    state, reports = run(InitiationConfig(v_max=20.0, confirm_k=3, confirm_m=3), *scans)
+    assert reports[1].started.tolist() == [0] and reports[2].confirmed.tolist() == [0]
+    assert reports[3].associated.tolist() == [0]
+    np.testing.assert_allclose(state.tracks.x[0], [1015.0, 2000.0, 10.0, 0.0], atol=1e-6)
+
+
 # ---------------------------------------------------------------- association
 
 
