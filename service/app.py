@@ -2,8 +2,11 @@
 
 ``create_app(settings)`` builds the app: operation routes from the registry under
 ``/v1``, ``/healthz`` and ``/readyz`` at the root, RFC 9457 problem bodies for every
-error FastAPI or Starlette raise themselves (404, 405, ...), and a lifespan that opens
-the MCAP recorder on start and closes it (summary and index written) on shutdown.
+error FastAPI or Starlette raise themselves (404, 405, ...), the body-size limit and
+(when a key or token is set) authentication in front (:mod:`service.guards`; auth is the
+outer one, so an unauthenticated caller cannot make the service read a body), and a
+lifespan that opens the MCAP recorder on start and closes it (summary and index written)
+on shutdown.
 Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 """
 
@@ -18,6 +21,8 @@ from fastapi.responses import Response
 from starlette.exceptions import HTTPException
 
 from service.config import Settings, get_settings
+from service.guards import Auth, BodyLimit
+from service.metrics import Metrics
 from service.problems import ProblemError, field_errors, problem_json
 from service.provenance import VERSION, provenance
 from service.recorder import Recorder
@@ -59,11 +64,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.recorder = None
+    app.state.metrics = Metrics(lambda: app.state.recorder)
     app.include_router(operations_router())
     app.include_router(health_router())
     app.add_exception_handler(HTTPException, _http_problem)
     app.add_exception_handler(RequestValidationError, _validation_problem)
     app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]
+    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    if settings.api_key is not None or settings.bearer_token is not None:
+        app.add_middleware(
+            Auth,
+            api_key=settings.api_key.get_secret_value() if settings.api_key else None,
+            bearer_token=(settings.bearer_token.get_secret_value()
+                          if settings.bearer_token else None))
     return app
 
 

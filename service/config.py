@@ -3,7 +3,7 @@
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import Field
+from pydantic import Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 __all__ = ["Settings", "get_settings"]
@@ -22,6 +22,12 @@ class Settings(BaseSettings):
     rotate_bytes: int = Field(default=256 * 2**20, gt=0, description="Rotate files at this size.")
     rotate_age_s: float = Field(default=3600.0, gt=0, description="Rotate files at this age, s.")
     git_commit: str | None = Field(default=None, description="Build's commit, if not in git.")
+    max_body_bytes: int = Field(default=64 * 2**20, gt=0,
+                                description="Largest request body, bytes (413 above).")
+    api_key: SecretStr | None = Field(
+        default=None, description="When set, requests need this X-API-Key header.")
+    bearer_token: SecretStr | None = Field(
+        default=None, description="When set, requests need Authorization: Bearer <token>.")
 
 
 @lru_cache

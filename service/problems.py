@@ -4,7 +4,9 @@ Kinds of problem (the ``type`` member), each with its status:
 
 - ``malformed-json`` (400): the body is not JSON;
 - ``invalid-input`` (422): a field fails the schema or the mathematics (core's errors);
+- ``unauthorized`` (401): authentication is on and the credentials are missing or wrong;
 - ``not-found`` (404), ``method-not-allowed`` (405): no such route;
+- ``payload-too-large`` (413): the body is over the size limit;
 - ``recording-unavailable`` (503): the exchange could not be recorded, so it is refused;
 - ``internal`` (500): a bug; never bad input.
 """
@@ -24,6 +26,8 @@ PROBLEM_BASE = "urn:plotgate:problem:"
 TITLES = {
     "malformed-json": "Malformed JSON body",
     "invalid-input": "Invalid input",
+    "unauthorized": "Unauthorized",
+    "payload-too-large": "Payload too large",
     "not-found": "Not found",
     "method-not-allowed": "Method not allowed",
     "recording-unavailable": "Recording unavailable",

@@ -116,6 +116,11 @@ class Recorder:
                 ("response", ResponseRecord, op.response),
             )
         ]
+        self.records = 0  # records handed to the OS
+        self.pending = 0  # records added, waiting for the next flush
+        self.rotations = 0  # files closed because of size or age
+        self.flush_seconds: list[float] = []  # durations since the last read (metrics)
+        self._bytes_closed = 0  # bytes of the files already closed
         self._closed = False
         self._error: Exception | None = None
         self._stream: IO[bytes] | None = None
@@ -161,14 +166,32 @@ class Recorder:
         assert batch is not None
         await asyncio.shield(batch)
 
+    @property
+    def bytes_written(self) -> int:
+        """Bytes of every file this recorder has written, the current one included."""
+        current = 0
+        if self._stream is not None:
+            with contextlib.suppress(OSError, ValueError):
+                current = self._stream.tell()
+        return self._bytes_closed + current
+
+    def take_flush_seconds(self) -> list[float]:
+        """The flush durations since the last call (for the metrics histogram)."""
+        taken, self.flush_seconds = self.flush_seconds, []
+        return taken
+
     def flush(self) -> None:
         """Close the current chunk, hand every added record to the OS, release its waiters."""
         if self._writer is not None:
+            started = time.perf_counter()
             try:
                 self._writer.flush()
             except Exception as exc:
                 self._fail(exc)
                 return
+            self.flush_seconds.append(time.perf_counter() - started)
+            self.records += self.pending
+            self.pending = 0
         batch, self._batch = self._batch, None
         if batch is not None and not batch.done():
             batch.set_result(None)
@@ -183,6 +206,7 @@ class Recorder:
             assert self._writer is not None
             stamp = log_time or time.time_ns()
             self._writer.add_message(self._channels[topic], stamp, data, stamp)
+            self.pending += 1
         except Exception as exc:
             self._fail(exc)
             raise RecordingError(f"could not record: {exc}") from exc
@@ -204,6 +228,7 @@ class Recorder:
         age = time.monotonic() - self._opened_at
         if self._stream.tell() >= self.max_bytes or age >= self.max_age_s:
             self._finish()
+            self.rotations += 1
 
     def _open(self) -> None:
         """Open the next file. Lazily, on a record: a file without messages would lose its
@@ -233,7 +258,10 @@ class Recorder:
         if self._writer is not None and self._stream is not None:
             try:
                 self._writer.finish()
+                self._bytes_closed += self._stream.tell()
                 self._stream.close()
+                self.records += self.pending
+                self.pending = 0
             except OSError as exc:
                 self._fail(exc)
         self._writer = None
@@ -245,6 +273,7 @@ class Recorder:
         The next record opens a new file.
         """
         self._error = exc
+        self.pending = 0  # lost with the file
         batch, self._batch = self._batch, None
         if batch is not None and not batch.done():
             batch.set_exception(RecordingError(f"could not record: {exc}"))

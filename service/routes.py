@@ -24,6 +24,7 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
+from service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
 from service.problems import ProblemError, problem_json
 from service.recorder import Recorder, RecordingError, request_record, response_record
 from service.registry import OPERATIONS, Operation, Outcome, execute
@@ -79,7 +80,10 @@ def _endpoint(op: Operation):
                 )
                 await recorder.aresponse(op.name, record)
         except RecordingError as exc:
+            request.app.state.metrics.observe(op.name, 503, time.perf_counter() - started)
             return _unrecorded(op, request_id, exc)
+        request.app.state.metrics.observe(op.name, outcome.status,
+                                          time.perf_counter() - started)
         return Response(
             outcome.content,
             outcome.status,
@@ -128,7 +132,7 @@ def operations_router() -> APIRouter:
 
 
 def health_router() -> APIRouter:
-    """``/healthz`` (the process answers) and ``/readyz`` (and it can record)."""
+    """``/healthz`` (the process answers), ``/readyz`` (and it can record), ``/metrics``."""
     router = APIRouter(tags=["ops"])
 
     @router.get("/healthz", summary="Liveness: the process answers")
@@ -142,5 +146,10 @@ def health_router() -> APIRouter:
             return Response('{"status":"ready"}', 200, media_type="application/json")
         err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
         return Response(problem_json(err, "/readyz"), 503, media_type=PROBLEM_JSON)
+
+    @router.get("/metrics", summary="Prometheus metrics: requests, latencies, recorder")
+    async def metrics(request: Request) -> Response:
+        return Response(request.app.state.metrics.render(), 200,
+                        media_type=METRICS_CONTENT_TYPE)
 
     return router

@@ -1,0 +1,123 @@
+"""ASGI guards in front of the routes: the request body size limit and authentication.
+
+* :class:`BodyLimit` answers 413 problem+json (field ``body``) for a body over
+  ``Settings.max_body_bytes``: at once when ``Content-Length`` says so, or as soon as a
+  streamed body passes the limit, so an oversized body is never held in memory. Such a
+  request never reaches an operation, so it is not recorded (like a 404).
+* :class:`Auth` requires, when ``Settings.api_key`` or ``Settings.bearer_token`` is set,
+  an ``X-API-Key`` header or an ``Authorization: Bearer`` token on every path but the
+  open ones (``/healthz``, ``/readyz``, the docs and the OpenAPI schema), compared in
+  constant time (``hmac.compare_digest``); anything else answers 401 problem+json with
+  ``WWW-Authenticate``. The recorder writes request bodies only, never headers, so the
+  key is never recorded.
+"""
+
+import hmac
+from collections.abc import Awaitable, Callable, MutableMapping
+from typing import Any
+
+from service.problems import ProblemError, problem_json
+from service.schemas import FieldError
+
+__all__ = ["OPEN_PATHS", "Auth", "BodyLimit"]
+
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+
+OPEN_PATHS = frozenset({"/healthz", "/readyz", "/docs", "/docs/oauth2-redirect", "/redoc",
+                        "/openapi.json"})
+"""Paths that stay open when authentication is on."""
+
+
+def _header(scope: Scope, name: bytes) -> str | None:
+    for key, value in scope.get("headers", ()):
+        if key == name:
+            return value.decode("latin-1")
+    return None
+
+
+async def _problem(send: Send, scope: Scope, err: ProblemError,
+                   extra: list[tuple[bytes, bytes]] = ()) -> None:
+    request_id = _header(scope, b"x-request-id")
+    body = problem_json(err, scope.get("path", ""), request_id)
+    headers = [(b"content-type", b"application/problem+json"),
+               (b"content-length", str(len(body)).encode()), *extra]
+    if request_id is not None:
+        headers.append((b"x-request-id", request_id.encode("latin-1")))
+    await send({"type": "http.response.start", "status": err.status, "headers": headers})
+    await send({"type": "http.response.body", "body": body})
+
+
+class _TooLarge(Exception):
+    pass
+
+
+class BodyLimit:
+    """Refuse request bodies over ``max_bytes`` with 413 problem+json."""
+
+    def __init__(self, app: ASGIApp, max_bytes: int) -> None:
+        self.app = app
+        self.max_bytes = max_bytes
+
+    def _error(self, size: str) -> ProblemError:
+        reason = f"is {size} bytes; at most {self.max_bytes} (PLOTGATE_MAX_BODY_BYTES)"
+        return ProblemError("payload-too-large", 413, f"body: {reason}",
+                            [FieldError(field="body", reason=reason)])
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        declared = _header(scope, b"content-length")
+        if declared is not None and declared.isdigit() and int(declared) > self.max_bytes:
+            await _problem(send, scope, self._error(declared))
+            return
+        received = 0
+
+        async def counted() -> Message:
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > self.max_bytes:
+                    raise _TooLarge
+            return message
+
+        try:
+            await self.app(scope, counted, send)
+        except _TooLarge:
+            await _problem(send, scope, self._error(f"more than {received - 1}"))
+
+
+class Auth:
+    """Require an API key or a bearer token on every path but :data:`OPEN_PATHS`."""
+
+    def __init__(self, app: ASGIApp, api_key: str | None, bearer_token: str | None) -> None:
+        self.app = app
+        self.api_key = api_key.encode() if api_key else None
+        self.bearer = bearer_token.encode() if bearer_token else None
+
+    def _allowed(self, scope: Scope) -> bool:
+        given_key = _header(scope, b"x-api-key")
+        if self.api_key is not None and given_key is not None:
+            return hmac.compare_digest(given_key.encode("latin-1"), self.api_key)
+        authorization = _header(scope, b"authorization") or ""
+        scheme, _, token = authorization.partition(" ")
+        if self.bearer is not None and scheme.lower() == "bearer":
+            return hmac.compare_digest(token.strip().encode("latin-1"), self.bearer)
+        return False
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or scope.get("path") in OPEN_PATHS or self._allowed(scope):
+            await self.app(scope, receive, send)
+            return
+        ways = [w for w, on in (("an X-API-Key header", self.api_key),
+                                ("an Authorization: Bearer token", self.bearer)) if on]
+        reason = f"is missing or wrong: send {' or '.join(ways)}"
+        err = ProblemError("unauthorized", 401, f"credentials: {reason}",
+                           [FieldError(field="credentials", reason=reason)])
+        challenge = b'Bearer realm="plotgate"' if self.bearer else b'ApiKey realm="plotgate"'
+        await _problem(send, scope, err, [(b"www-authenticate", challenge)])

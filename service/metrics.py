@@ -1,0 +1,75 @@
+"""Prometheus metrics of the service (``GET /metrics``; prometheus_client, text format).
+
+Per operation: ``plotgate_requests_total{operation, status}`` and the latency histogram
+``plotgate_request_duration_seconds{operation}`` (body read, operation and recording, as
+the client waits). The recorder: ``plotgate_recorder_records_total`` (records handed to
+the OS), ``plotgate_recorder_bytes_total``, ``plotgate_recorder_files_rotated_total``,
+``plotgate_recorder_queue_depth`` (records added, waiting for their flush),
+``plotgate_recorder_ready`` and the flush-latency histogram
+``plotgate_recorder_flush_seconds``. Each app has its own registry, so several apps in
+one process (tests) never share counters.
+"""
+
+from collections.abc import Callable, Iterator
+
+from prometheus_client import CollectorRegistry, Counter, Histogram, generate_latest
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
+from prometheus_client.registry import Collector
+
+from service.recorder import Recorder
+
+__all__ = ["CONTENT_TYPE", "Metrics"]
+
+CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
+_LATENCY_BUCKETS = (0.0005, 0.001, 0.0025, 0.005, 0.01, 0.02, 0.05, 0.1, 0.25, 0.5, 1.0,
+                    2.5, 5.0, 10.0, 30.0, 60.0, 300.0)
+
+
+class _RecorderCollector(Collector):
+    """Reads the recorder's counters at scrape time."""
+
+    def __init__(self, recorder: Callable[[], Recorder | None], flush: Histogram) -> None:
+        self.recorder = recorder
+        self.flush = flush
+
+    def collect(self) -> Iterator[Metric]:
+        recorder = self.recorder()
+        if recorder is None:
+            return
+        for seconds in recorder.take_flush_seconds():
+            self.flush.observe(seconds)
+        yield CounterMetricFamily("plotgate_recorder_records", "Records handed to the OS.",
+                                  value=recorder.records)
+        yield CounterMetricFamily("plotgate_recorder_bytes", "Bytes written to MCAP files.",
+                                  value=recorder.bytes_written)
+        yield CounterMetricFamily("plotgate_recorder_files_rotated",
+                                  "Files closed for size or age.", value=recorder.rotations)
+        yield GaugeMetricFamily("plotgate_recorder_queue_depth",
+                                "Records added and waiting for their flush.",
+                                value=recorder.pending)
+        yield GaugeMetricFamily("plotgate_recorder_ready", "1 while records can be written.",
+                                value=float(recorder.ready))
+
+
+class Metrics:
+    """The registry of one app and the request counters the routes update."""
+
+    def __init__(self, recorder: Callable[[], Recorder | None]) -> None:
+        self.registry = CollectorRegistry()
+        self.requests = Counter("plotgate_requests", "Requests answered, by operation and "
+                                "status.", ["operation", "status"], registry=self.registry)
+        self.latency = Histogram("plotgate_request_duration_seconds", "Time to answer, by "
+                                 "operation, s.", ["operation"], buckets=_LATENCY_BUCKETS,
+                                 registry=self.registry)
+        flush = Histogram("plotgate_recorder_flush_seconds", "Duration of a recorder flush, s.",
+                          buckets=_LATENCY_BUCKETS, registry=self.registry)
+        self.registry.register(_RecorderCollector(recorder, flush))
+
+    def observe(self, operation: str, status: int, seconds: float) -> None:
+        """Count one answered request."""
+        self.requests.labels(operation, str(status)).inc()
+        self.latency.labels(operation).observe(seconds)
+
+    def render(self) -> bytes:
+        """The text exposition of every metric."""
+        return generate_latest(self.registry)

@@ -1,0 +1,84 @@
+"""The guards in front of the routes: the body-size limit (413) and authentication (401)."""
+
+import pytest
+from fastapi.testclient import TestClient
+
+from service.app import create_app
+from service.config import Settings
+from service.registry import OPERATIONS
+
+KEY, TOKEN = "k3y-0f-the-day", "t0ken-0f-the-day"
+
+
+def _problem(r, status: int, kind: str, field: str) -> dict:
+    assert r.status_code == status, r.text
+    assert r.headers["content-type"].startswith("application/problem+json")
+    body = r.json()
+    assert body["status"] == status and body["type"] == f"urn:plotgate:problem:{kind}"
+    assert [e["field"] for e in body["errors"]] == [field] and field in body["detail"]
+    return body
+
+
+def _client(tmp_path, **settings) -> TestClient:
+    return TestClient(create_app(Settings(log_dir=tmp_path / "rec", git_commit="test",
+                                          **settings)))
+
+
+def test_a_body_over_the_limit_is_refused_before_it_is_read(tmp_path):
+    with _client(tmp_path, max_body_bytes=1000) as c:
+        r = c.post("/v1/gates/test", content=b"x" * 2000,
+                   headers={"content-type": "application/json", "x-request-id": "big-1"})
+        body = _problem(r, 413, "payload-too-large", "body")
+        assert "at most 1000" in body["errors"][0]["reason"]
+        assert r.headers["x-request-id"] == "big-1"
+        # streamed without a Content-Length: refused as soon as it passes the limit
+        chunks = (b"x" * 300 for _ in range(10))
+        r = c.post("/v1/gates/test", content=chunks,
+                   headers={"content-type": "application/json"})
+        _problem(r, 413, "payload-too-large", "body")
+        # under the limit the operation answers as usual (here: 422, not JSON)
+        assert c.post("/v1/gates/test", content=b"{}").status_code == 422
+
+
+@pytest.mark.parametrize("op", sorted(OPERATIONS))
+def test_every_operation_refuses_missing_or_wrong_credentials(tmp_path, op):
+    path = OPERATIONS[op].path
+    with _client(tmp_path, api_key=KEY, bearer_token=TOKEN) as c:
+        for headers in ({}, {"x-api-key": "wrong"}, {"authorization": "Bearer wrong"},
+                        {"authorization": f"Basic {TOKEN}"}):
+            r = c.post(path, json={}, headers=headers)
+            _problem(r, 401, "unauthorized", "credentials")
+            assert r.headers["www-authenticate"].startswith("Bearer")
+        # the right key or token reaches the operation (which refuses the field: 422)
+        odd = {"no_such_field": 1}
+        assert c.post(path, json=odd, headers={"x-api-key": KEY}).status_code == 422
+        assert c.post(path, json=odd,
+                      headers={"authorization": f"Bearer {TOKEN}"}).status_code == 422
+
+
+def test_health_stays_open_and_the_key_is_never_recorded(tmp_path):
+    with _client(tmp_path, api_key=KEY) as c:
+        assert c.get("/healthz").status_code == 200
+        assert c.get("/readyz").status_code == 200
+        assert c.get("/openapi.json").status_code == 200
+        assert c.get("/metrics").status_code == 401
+        r = c.post("/v1/gates/test", json={}, headers={"x-api-key": KEY})
+        assert r.status_code == 422
+    written = b"".join(p.read_bytes() for p in (tmp_path / "rec").glob("*.mcap"))
+    assert b"gates.test" in written and KEY.encode() not in written
+
+
+def test_metrics_count_requests_latencies_and_the_recorder(tmp_path):
+    with _client(tmp_path) as c:
+        for _ in range(3):
+            c.post("/v1/gates/test", json={}, headers={"x-request-id": "m"})
+        text = c.get("/metrics").text
+    assert 'plotgate_requests_total{operation="gates.test",status="422"} 3.0' in text
+    assert 'plotgate_request_duration_seconds_count{operation="gates.test"} 3.0' in text
+    assert "plotgate_recorder_records_total 6.0" in text  # a request and a response each
+    assert "plotgate_recorder_queue_depth 0.0" in text
+    assert "plotgate_recorder_ready 1.0" in text
+    assert "plotgate_recorder_flush_seconds_count" in text
+    written = [line for line in text.splitlines()
+               if line.startswith("plotgate_recorder_bytes_total")]
+    assert float(written[0].split()[-1]) > 0
