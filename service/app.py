@@ -2,9 +2,10 @@
 
 ``create_app(settings)`` builds the app: operation routes from the registry under
 ``/v1``, ``/healthz`` and ``/readyz`` at the root, RFC 9457 problem bodies for every
-error FastAPI or Starlette raise themselves (404, 405, ...), the body-size limit and
-(when a key or token is set) authentication in front (:mod:`service.guards`; auth is the
-outer one, so an unauthenticated caller cannot make the service read a body), and a
+error FastAPI or Starlette raise themselves (404, 405, ...), the guards in front
+(:mod:`service.guards`, outermost first: request ids on every response, authentication
+when a key or token is set, so an unauthenticated caller cannot make the service read a
+body, then the body-size limit), and a
 lifespan that opens the MCAP recorder on start and closes it (summary and index written)
 on shutdown.
 Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
@@ -21,7 +22,7 @@ from fastapi.responses import Response
 from starlette.exceptions import HTTPException
 
 from service.config import Settings, get_settings
-from service.guards import Auth, BodyLimit
+from service.guards import Auth, BodyLimit, RequestId
 from service.metrics import Metrics
 from service.problems import ProblemError, field_errors, problem_json
 from service.provenance import VERSION, provenance
@@ -77,6 +78,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             api_key=settings.api_key.get_secret_value() if settings.api_key else None,
             bearer_token=(settings.bearer_token.get_secret_value()
                           if settings.bearer_token else None))
+    app.add_middleware(RequestId)
     return app
 
 

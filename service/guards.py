@@ -1,4 +1,9 @@
-"""ASGI guards in front of the routes: the request body size limit and authentication.
+"""ASGI guards in front of the routes: request ids, the body size limit, authentication.
+
+* :class:`RequestId` (outermost) gives every request an id, the caller's
+  ``X-Request-ID`` when it is sane (1-128 of [A-Za-z0-9._:-]) or a new one, keeps it in
+  the request state for the routes and the recorder, and puts it on every response,
+  health checks and refusals included.
 
 * :class:`BodyLimit` answers 413 problem+json (field ``body``) for a body over
   ``Settings.max_body_bytes``: at once when ``Content-Length`` says so, or as soon as a
@@ -13,13 +18,15 @@
 """
 
 import hmac
+import re
+import uuid
 from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Any
 
 from service.problems import ProblemError, problem_json
 from service.schemas import FieldError
 
-__all__ = ["OPEN_PATHS", "Auth", "BodyLimit"]
+__all__ = ["OPEN_PATHS", "Auth", "BodyLimit", "RequestId", "request_id"]
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -32,6 +39,9 @@ OPEN_PATHS = frozenset({"/healthz", "/readyz", "/docs", "/docs/oauth2-redirect",
 """Paths that stay open when authentication is on."""
 
 
+_SANE_ID = re.compile(r"^[A-Za-z0-9._:-]{1,128}$")
+
+
 def _header(scope: Scope, name: bytes) -> str | None:
     for key, value in scope.get("headers", ()):
         if key == name:
@@ -39,14 +49,42 @@ def _header(scope: Scope, name: bytes) -> str | None:
     return None
 
 
+def request_id(scope: Scope) -> str:
+    """The request's id: set by :class:`RequestId`, else the sane header or a new one."""
+    state = scope.get("state") or {}
+    if "request_id" in state:
+        return str(state["request_id"])
+    given = _header(scope, b"x-request-id") or ""
+    return given if _SANE_ID.match(given) else uuid.uuid4().hex
+
+
+class RequestId:
+    """Give every request an id and every response its X-Request-ID header."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        rid = request_id(scope)
+        scope.setdefault("state", {})["request_id"] = rid
+
+        async def tagged(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                headers = [h for h in message.get("headers", ()) if h[0] != b"x-request-id"]
+                message["headers"] = [*headers, (b"x-request-id", rid.encode())]
+            await send(message)
+
+        await self.app(scope, receive, tagged)
+
+
 async def _problem(send: Send, scope: Scope, err: ProblemError,
                    extra: list[tuple[bytes, bytes]] = ()) -> None:
-    request_id = _header(scope, b"x-request-id")
-    body = problem_json(err, scope.get("path", ""), request_id)
+    body = problem_json(err, scope.get("path", ""), request_id(scope))
     headers = [(b"content-type", b"application/problem+json"),
                (b"content-length", str(len(body)).encode()), *extra]
-    if request_id is not None:
-        headers.append((b"x-request-id", request_id.encode("latin-1")))
     await send({"type": "http.response.start", "status": err.status, "headers": headers})
     await send({"type": "http.response.body", "body": body})
 

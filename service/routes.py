@@ -16,14 +16,13 @@ unrecorded.
 """
 
 import logging
-import re
 import time
-import uuid
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
+from service.guards import request_id
 from service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
 from service.problems import ProblemError, problem_json
 from service.recorder import Recorder, RecordingError, request_record, response_record
@@ -36,13 +35,11 @@ log = logging.getLogger("plotgate")
 PROBLEM_JSON = "application/problem+json"
 INLINE_BODY_BYTES = 64 * 1024
 """Bodies up to this size are executed on the event loop, larger ones in a worker thread."""
-_REQUEST_ID = re.compile(r"^[A-Za-z0-9._:-]{1,128}$")
 
 
 def request_id_of(request: Request) -> str:
-    """The caller's X-Request-ID when it is sane (1-128 of [A-Za-z0-9._:-]), else a new id."""
-    given = request.headers.get("x-request-id", "")
-    return given if _REQUEST_ID.match(given) else uuid.uuid4().hex
+    """The request's id (:func:`service.guards.request_id`: the sane X-Request-ID or new)."""
+    return request_id(request.scope)
 
 
 def _run(op: Operation, body: bytes, request_id: str) -> Outcome:

@@ -82,3 +82,21 @@ def test_metrics_count_requests_latencies_and_the_recorder(tmp_path):
     written = [line for line in text.splitlines()
                if line.startswith("plotgate_recorder_bytes_total")]
     assert float(written[0].split()[-1]) > 0
+
+
+def test_every_response_carries_a_request_id(tmp_path):
+    with _client(tmp_path, api_key=KEY, max_body_bytes=100) as c:
+        for method, path, kwargs in (("get", "/healthz", {}), ("get", "/metrics", {}),
+                                     ("get", "/nowhere", {}),
+                                     ("post", "/v1/gates/test", {"json": {}}),
+                                     ("post", "/v1/gates/test",
+                                      {"content": b"x" * 200, "headers": {"x-api-key": KEY}})):
+            r = getattr(c, method)(path, **kwargs)
+            assert len(r.headers["x-request-id"]) == 32  # a new id: none was sent
+            r = getattr(c, method)(path, **{**kwargs, "headers": {
+                **kwargs.get("headers", {}), "x-request-id": "given-1"}})
+            assert r.headers["x-request-id"] == "given-1"
+            if r.status_code >= 400 and path != "/nowhere":
+                assert r.json()["request_id"] == "given-1"
+        r = c.get("/healthz", headers={"x-request-id": "bad id with spaces"})
+        assert r.headers["x-request-id"] != "bad id with spaces"
