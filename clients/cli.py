@@ -1,10 +1,11 @@
-"""The ``plotgate`` command: serve, call, replay, inspect, plot, study, scenario.
+"""The ``plotgate`` command: serve, call, replay, recover, inspect, plot, study, scenario.
 
 ``plotgate serve`` runs the service (flags override the ``PLOTGATE_*`` settings);
 ``plotgate call OPERATION [REQUEST.json]`` runs any operation (``solves.position``,
 ``gates.probability`` ...) on a JSON request, in-process or on a server, and prints the
 answer; ``plotgate replay FILE_OR_DIR`` re-runs a recorded session and exits 1 if any
-answer changed; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and
+answer changed; ``plotgate recover FILE`` writes a complete, indexed copy of a file a
+killed server left; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and
 latencies; ``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability
 figures; ``plotgate study`` runs seed 001's multistatic accuracy study (Fig. 3) and
 writes its table and figure; ``plotgate scenario`` draws a simulated scenario and the
@@ -77,6 +78,15 @@ def _replay(args: argparse.Namespace) -> int:
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
     return 0 if report.ok else 1
+
+
+def _recover(args: argparse.Namespace) -> int:
+    from clients.recover import recover
+
+    done = recover(args.path, args.out, keep=args.keep)
+    state = "complete" if done.was_complete else f"truncated ({done.stopped_by})"
+    print(f"{done.source}: {state}; {done.messages} messages copied to {done.output}")
+    return 0
 
 
 def _inspect(args: argparse.Namespace) -> int:
@@ -179,6 +189,16 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")
     rep.set_defaults(func=_replay)
+
+    rec = sub.add_parser("recover", help="a complete, indexed copy of a killed server's file",
+                         description="Copies every complete record of an MCAP file (one a "
+                         "killed server left without summary and index) into a new file with "
+                         "summary and index, and renames the damaged original to "
+                         "<name>.partial so replaying the folder reads each exchange once.")
+    rec.add_argument("path", type=Path, help="the MCAP file")
+    rec.add_argument("--out", type=Path, help="the copy (default <stem>.recovered.mcap)")
+    rec.add_argument("--keep", action="store_true", help="do not rename the original")
+    rec.set_defaults(func=_recover)
 
     from service.schemas import ENDPOINTS
 

@@ -57,6 +57,21 @@ def test_sigkill_keeps_every_answered_exchange(tmp_path, mcap_check):
     assert code == 1 and report["truncated"]
     assert report["recovered_messages"] >= 2 * len(answered)
 
+    # plotgate recover: a complete, indexed copy the independent checker accepts, holding
+    # every answered exchange; the original is set aside, so replay reads each once
+    from clients.cli import main
+
+    assert main(["recover", str(path)]) == 0
+    copy = path.with_name(f"{path.stem}.recovered.mcap")
+    assert not path.exists() and path.with_name(path.name + ".partial").exists()
+    code, report = mcap_check(copy)
+    assert code == 0 and report["ok"] and not report["truncated"], report["errors"]
+    fixed = read_recording(copy)
+    assert fixed.complete and not set(answered) - {
+        ex.request_id for ex in fixed.exchanges if ex.response is not None}
+    assert fixed.metadata["plotgate"] == rec.metadata["plotgate"]
+    assert sorted(p.name for p in tmp_path.glob("*.mcap")) == [copy.name]
+
 
 def test_sync_client_against_a_live_server(tmp_path):
     request = GateTestRequest.model_validate(GOOD)
@@ -113,3 +128,30 @@ def test_replay_against_a_live_server(tmp_path, capsys):
         capsys.readouterr()
         assert main(["replay", str(recorded), "--server", url]) == 0
     assert "3 compared: 3 unchanged" in capsys.readouterr().out
+
+
+def test_sigterm_finishes_in_flight_requests_and_finalizes_the_file(tmp_path):
+    import signal
+
+    result: dict[str, int] = {}
+    slow = {"scenario": {"clutter": 50}, "runs": 150, "seed": 1}  # about a second
+
+    def call(url: str) -> None:
+        r = httpx.post(url + "/v1/initiation/evaluate", json=slow, timeout=60,
+                       headers={"x-request-id": "in-flight"})
+        result["status"] = r.status_code
+
+    with serve(tmp_path) as (proc, url):
+        thread = threading.Thread(target=call, args=(url,))
+        thread.start()
+        time.sleep(0.3)  # the request is being computed
+        proc.send_signal(signal.SIGTERM)
+        thread.join(timeout=60)
+        # uvicorn shuts down gracefully, then re-raises the signal: exit by SIGTERM
+        assert proc.wait(timeout=30) in (0, -signal.SIGTERM)
+    assert result == {"status": 200}
+    [path] = sorted(tmp_path.glob("*.mcap"))
+    rec = read_recording(path)
+    assert rec.complete  # summary, index and footer written on the way out
+    [exchange] = rec.exchanges
+    assert exchange.request_id == "in-flight" and exchange.response["status"] == 200
