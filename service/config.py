@@ -18,6 +18,9 @@ class Settings(BaseSettings):
     port: int = Field(default=8000, ge=1, le=65535)
     workers: int = Field(default=1, ge=1, description="uvicorn worker processes.")
     record: bool = Field(default=True, description="Record every exchange to MCAP.")
+    record_best_effort: bool = Field(
+        default=False, description="Answer even when a record cannot be written (counted in "
+        "the metrics) instead of refusing with 503.")
     log_dir: Path = Field(default=Path("recordings"), description="Folder of the MCAP files.")
     rotate_bytes: int = Field(default=256 * 2**20, gt=0, description="Rotate files at this size.")
     rotate_age_s: float = Field(default=3600.0, gt=0, description="Rotate files at this age, s.")

@@ -6,7 +6,8 @@ the client waits). The recorder: ``plotgate_recorder_records_total`` (records ha
 the OS), ``plotgate_recorder_bytes_total``, ``plotgate_recorder_files_rotated_total``,
 ``plotgate_recorder_queue_depth`` (records added, waiting for their flush),
 ``plotgate_recorder_ready`` and the flush-latency histogram
-``plotgate_recorder_flush_seconds``. Each app has its own registry, so several apps in
+``plotgate_recorder_flush_seconds``; with best-effort recording,
+``plotgate_unrecorded_total{operation}``. Each app has its own registry, so several apps in
 one process (tests) never share counters.
 """
 
@@ -61,6 +62,9 @@ class Metrics:
         self.latency = Histogram("plotgate_request_duration_seconds", "Time to answer, by "
                                  "operation, s.", ["operation"], buckets=_LATENCY_BUCKETS,
                                  registry=self.registry)
+        self.unrecorded_total = Counter(
+            "plotgate_unrecorded", "Exchanges answered without a complete record "
+            "(best-effort recording only).", ["operation"], registry=self.registry)
         flush = Histogram("plotgate_recorder_flush_seconds", "Duration of a recorder flush, s.",
                           buckets=_LATENCY_BUCKETS, registry=self.registry)
         self.registry.register(_RecorderCollector(recorder, flush))
@@ -69,6 +73,10 @@ class Metrics:
         """Count one answered request."""
         self.requests.labels(operation, str(status)).inc()
         self.latency.labels(operation).observe(seconds)
+
+    def unrecorded(self, operation: str) -> None:
+        """Count an exchange answered although its record could not be written."""
+        self.unrecorded_total.labels(operation).inc()
 
     def render(self) -> bytes:
         """The text exposition of every metric."""

@@ -12,7 +12,8 @@ Every operation route does the same five steps, in this order:
 5. answer, echoing ``X-Request-ID``.
 
 If the record cannot be written the answer is a 503 problem: nothing is acknowledged
-unrecorded.
+unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is answered anyway and
+counted in ``plotgate_unrecorded_total``.
 """
 
 import logging
@@ -61,11 +62,19 @@ def _endpoint(op: Operation):
     async def endpoint(request: Request) -> Response:
         request_id = request_id_of(request)
         recorder: Recorder | None = request.app.state.recorder
+        best_effort: bool = request.app.state.settings.record_best_effort
+        metrics = request.app.state.metrics
         started = time.perf_counter()
         body = await request.body()
         try:
             if recorder is not None:
-                recorder.request(op.name, request_record(request_id, op.name, body))
+                try:
+                    recorder.request(op.name, request_record(request_id, op.name, body))
+                except RecordingError:
+                    if not best_effort:
+                        raise
+                    recorder = None  # best effort: answer this exchange unrecorded
+                    metrics.unrecorded(op.name)
             if len(body) <= INLINE_BODY_BYTES and not op.endpoint.slow:
                 outcome = _run(op, body, request_id)
             else:
@@ -75,12 +84,16 @@ def _endpoint(op: Operation):
                     request_id, op.name, outcome.status, time.perf_counter() - started,
                     outcome.content,
                 )
-                await recorder.aresponse(op.name, record)
+                try:
+                    await recorder.aresponse(op.name, record)
+                except RecordingError:
+                    if not best_effort:
+                        raise
+                    metrics.unrecorded(op.name)
         except RecordingError as exc:
-            request.app.state.metrics.observe(op.name, 503, time.perf_counter() - started)
+            metrics.observe(op.name, 503, time.perf_counter() - started)
             return _unrecorded(op, request_id, exc)
-        request.app.state.metrics.observe(op.name, outcome.status,
-                                          time.perf_counter() - started)
+        metrics.observe(op.name, outcome.status, time.perf_counter() - started)
         return Response(
             outcome.content,
             outcome.status,

@@ -56,3 +56,18 @@ def test_a_bug_answers_500_and_is_recorded(settings, monkeypatch):
     [ex] = read_recording(f).exchanges
     assert ex.response["status"] == 500 and ex.response["error"]["request_id"] == "bug"
     assert json.loads(ex.body) == GOOD
+
+
+def test_best_effort_recording_answers_and_counts_the_unrecorded(settings, monkeypatch):
+    monkeypatch.setattr(Writer, "flush", _failing_flush)
+    best = settings.model_copy(update={"record_best_effort": True})
+    with TestClient(create_app(best)) as c:
+        r = c.post("/v1/gates/test", json=GOOD)
+        assert r.status_code == 200 and r.json()["inside"] == [True, True]
+        assert c.get("/readyz").status_code == 503  # readiness still tells the truth
+        metrics = c.get("/metrics").text
+    assert 'plotgate_unrecorded_total{operation="gates.test"} 1.0' in metrics
+
+
+def _failing_flush(self):
+    raise OSError(28, "No space left on device")
