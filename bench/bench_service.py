@@ -3,11 +3,11 @@
 Starts ``plotgate serve`` (one worker) on a loopback port, once recording and once not,
 and loads each with ``wrk`` (Debian package ``wrk``: a C load generator, so the client is
 not the bottleneck on a two-core machine) posting the same gate test: combined gate, 10
-candidates. Rounds alternate off/on so drift hits both alike; the best round of each is
-kept. Besides wrk's requests per second it reports the server's CPU time per request
-(from /proc, writer thread included), the load-independent cost of recording.
+candidates, at 1, 10 and 50 concurrent connections. Rounds alternate off/on so drift hits
+both alike; the best round of each is kept. Besides wrk's requests per second it reports
+the server's CPU time per request (from /proc), the load-independent cost of recording.
 
-    python bench/bench_service.py [--seconds 10 --connections 16 --rounds 3]
+    python bench/bench_service.py [--seconds 10 --connections 1,10,50 --rounds 3]
 """
 
 import argparse
@@ -76,13 +76,15 @@ def _wrk(url: str, script: Path, seconds: int, connections: int) -> dict[str, fl
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=int, default=10)
-    parser.add_argument("--connections", type=int, default=16)
+    parser.add_argument("--connections", default="1,10,50",
+                        help="comma-separated concurrent clients (1,10,50)")
     parser.add_argument("--candidates", type=int, default=10)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
     if not shutil.which("wrk"):
         sys.exit("wrk not found: apt-get install wrk")
-    best: dict[str, dict[str, float]] = {}
+    levels = [int(c) for c in args.connections.split(",")]
+    best: dict[tuple[int, str], dict[str, float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         payload = Path(tmp) / "body.json"
         payload.write_bytes(body(args.candidates))
@@ -91,25 +93,27 @@ def main() -> None:
         for _ in range(args.rounds):
             for mode, flags in (("off", ["--no-record"]), ("on", [])):
                 with serve(Path(tmp) / mode, *flags) as (proc, url):
-                    _wrk(url, script, 2, args.connections)  # warm-up
-                    cpu = _cpu_seconds(proc.pid)
-                    run = _wrk(url, script, args.seconds, args.connections)
-                    run["cpu_ms"] = (_cpu_seconds(proc.pid) - cpu) / run["requests"] * 1e3
-                if mode not in best or run["rate"] > best[mode]["rate"]:
-                    best[mode] = run
+                    _wrk(url, script, 2, max(levels))  # warm-up
+                    for c in levels:
+                        cpu = _cpu_seconds(proc.pid)
+                        run = _wrk(url, script, args.seconds, c)
+                        run["cpu_ms"] = (_cpu_seconds(proc.pid) - cpu) / run["requests"] * 1e3
+                        if (c, mode) not in best or run["rate"] > best[c, mode]["rate"]:
+                            best[c, mode] = run
         size = sum(f.stat().st_size for f in (Path(tmp) / "on").glob("*.mcap"))
-        print(f"wrk -t1 -c{args.connections} -d{args.seconds}s, best of {args.rounds} rounds, "
+        print(f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, "
               f"{args.candidates} candidates per request ({payload.stat().st_size} bytes)")
-    print("| recording | requests/s | p50 ms | p99 ms | server CPU ms/request |")
-    print("|---|---:|---:|---:|---:|")
-    for mode in ("off", "on"):
-        r = best[mode]
-        print(f"| {mode} | {r['rate']:,.0f} | {r['p50']:.2f} | {r['p99']:.2f} | "
-              f"{r['cpu_ms']:.3f} |")
-    ratio = best["on"]["rate"] / best["off"]["rate"]
-    cpu_ratio = best["off"]["cpu_ms"] / best["on"]["cpu_ms"]
-    print(f"throughput on/off: {ratio:.3f} (recording costs {1 - ratio:.1%}); "
-          f"CPU capacity on/off: {cpu_ratio:.3f}; recordings written: {size / 1e6:.1f} MB")
+    print("| clients | recording | requests/s | p50 ms | p99 ms | server CPU ms/request |")
+    print("|---:|---|---:|---:|---:|---:|")
+    for c in levels:
+        for mode in ("off", "on"):
+            r = best[c, mode]
+            print(f"| {c} | {mode} | {r['rate']:,.0f} | {r['p50']:.2f} | {r['p99']:.2f} | "
+                  f"{r['cpu_ms']:.3f} |")
+    for c in levels:
+        ratio = best[c, "on"]["rate"] / best[c, "off"]["rate"]
+        print(f"{c} clients: throughput on/off {ratio:.3f} (recording costs {1 - ratio:.1%})")
+    print(f"recordings written: {size / 1e6:.1f} MB")
 
 
 if __name__ == "__main__":

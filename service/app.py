@@ -82,18 +82,20 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     return app
 
 
-def _render(err: ProblemError, request: Request) -> Response:
+def _render(err: ProblemError, request: Request,
+            headers: dict[str, str] | None = None) -> Response:
     request_id = request_id_of(request)
     return Response(
         problem_json(err, request.url.path, request_id), err.status,
-        {"X-Request-ID": request_id}, media_type=PROBLEM_JSON,
+        {**(headers or {}), "X-Request-ID": request_id}, media_type=PROBLEM_JSON,
     )
 
 
 async def _http_problem(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, HTTPException)
     kind = _KINDS.get(exc.status_code, "invalid-input")
-    return _render(ProblemError(kind, exc.status_code, str(exc.detail)), request)
+    # Starlette's own headers (405: Allow, as RFC 9110 requires) go out with the problem
+    return _render(ProblemError(kind, exc.status_code, str(exc.detail)), request, exc.headers)
 
 
 async def _validation_problem(request: Request, exc: Exception) -> Response:

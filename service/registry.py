@@ -108,9 +108,11 @@ def execute(op: Operation, body: bytes, request_id: str | None = None) -> Outcom
 
     Bad input becomes an :class:`Outcome` whose content is an RFC 9457 problem naming the
     field (``instance`` is the operation's path). Anything else that escapes is a bug.
+    Bodies are validated strictly: a JSON ``true`` is not the number 1 and ``"5"`` is not
+    5, so what the OpenAPI schema refuses, the service refuses.
     """
     try:
-        request = op.request.model_validate_json(body)
+        request = op.request.model_validate_json(body, strict=True)
         try:
             response = op.handler(request)
         except PlotgateError as exc:

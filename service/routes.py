@@ -157,7 +157,10 @@ def health_router() -> APIRouter:
         err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
         return Response(problem_json(err, "/readyz"), 503, media_type=PROBLEM_JSON)
 
-    @router.get("/metrics", summary="Prometheus metrics: requests, latencies, recorder")
+    @router.get("/metrics", summary="Prometheus metrics: requests, latencies, recorder",
+                response_class=Response,
+                responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}},
+                                 "description": "Prometheus text exposition format."}})
     async def metrics(request: Request) -> Response:
         return Response(request.app.state.metrics.render(), 200,
                         media_type=METRICS_CONTENT_TYPE)

@@ -70,7 +70,7 @@ def picture(request: IdentifyPictureRequest) -> IdentifyPictureResult:
                            _rad(request.sigma_deg), request.alpha)
     return IdentifyPictureResult(
         z=pic.z.tolist(), p_value=pic.p_value.tolist(), critical=pic.critical,
-        passes=pic.passes.tolist(), pairs=[tuple(p) for p in pic.pairs.tolist()],
+        passes=pic.passes.tolist(), pairs=pic.pairs.tolist(),
         unassigned_passive=pic.unassigned_passive.tolist(),
         unassigned_active=pic.unassigned_active.tolist(),
         sigma_deg=np.degrees(pic.sigma).tolist())

@@ -88,7 +88,7 @@ def _tracks(state: InitiationState) -> list[TrackOut]:
             id=int(tr.id[i]), status="confirmed" if tr.confirmed[i] else "tentative",
             position=tr.x[i, :2].tolist(), velocity=tr.x[i, 2:].tolist(),
             covariance=tr.P[i].tolist(),
-            plots=[(int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)) for p in plots],
+            plots=[[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in plots],
             n_plots=int(tr.n[i]), misses=int(tr.misses[i]), first_scan=int(tr.first_scan[i]),
             confirmed_scan=int(tr.confirmed_scan[i]) if tr.confirmed[i] else None))
     return out
@@ -135,7 +135,7 @@ def simulate(request: SimulateRequest) -> SimulateResult:
         for r, az, sr, sa, c in zip(s.r, s.az, s.sigma_r, s.sigma_az, s.sensor.tolist(),
                                     strict=True)]) for s in sim.scans]
     return SimulateResult(scans=scans, labels=[lab.tolist() for lab in sim.labels],
-                          truth=[[tuple(p) for p in step] for step in sim.truth.tolist()])
+                          truth=sim.truth.tolist())
 
 
 def evaluate(request: EvaluateRequest) -> EvaluateResult:

@@ -146,7 +146,7 @@ class IdentifyPictureResult(Schema):
     p_value: list[list[float]] = Field(description="Two-sided p-values.")
     critical: float = Field(description="z_{1 - alpha/2}.")
     passes: list[list[bool]] = Field(description="|Z| <= critical.")
-    pairs: list[tuple[int, int]] = Field(
+    pairs: list[Annotated[list[int], Field(min_length=2, max_length=2)]] = Field(
         description="One-to-one identification [passive, active], by minimum total |Z|.")
     unassigned_passive: list[int] = Field(description="Passive tracks without a partner.")
     unassigned_active: list[int] = Field(description="Active tracks without a partner.")

@@ -14,7 +14,7 @@ Operations:
 Angles on the wire are degrees (``*_deg``); everything else SI.
 """
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
@@ -145,7 +145,7 @@ class TrackOut(Schema):
     position: list[float] = Field(description="[x, y] at the last scan, m.")
     velocity: list[float] = Field(description="[vx, vy], m/s.")
     covariance: list[list[float]] = Field(description="4 x 4 covariance of [x, y, vx, vy].")
-    plots: list[tuple[int, int]] = Field(
+    plots: list[Annotated[list[int], Field(min_length=2, max_length=2)]] = Field(
         description="Its most recent plots (up to config.history), oldest first, as "
         "[scan number, plot index in that scan].")
     n_plots: int = Field(description="Plots taken so far.")
@@ -214,7 +214,7 @@ class SimulateResult(Schema):
 
     scans: list[ScanIn] = Field(description="The scans, plots in random order.")
     labels: list[list[int]] = Field(description="Per scan and plot: target index or -1.")
-    truth: list[list[tuple[float, float]]] = Field(
+    truth: list[list[Annotated[list[float], Field(min_length=2, max_length=2)]]] = Field(
         description="Per scan, every target's true position, m.")
 
 

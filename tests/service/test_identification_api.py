@@ -104,7 +104,7 @@ async def _client_calls(app) -> None:
         assert t.identified
         pic = await client.identify_picture({"passive_deg": [PASSIVE.tolist()],
                                              "active_deg": [ACTIVE.tolist()]})
-        assert pic.pairs == [(0, 0)]
+        assert pic.pairs == [[0, 0]]
         sim = await client.simulate_identification({"runs": 50})
         assert sim.runs == 50
 
