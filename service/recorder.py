@@ -150,6 +150,28 @@ class Recorder:
         """True while records can be written: open, no failed write, directory writable."""
         return not self._closed and self._error is None and os.access(self.directory, os.W_OK)
 
+    def probe(self) -> bool:
+        """After a failed write, try the folder again (a small file written and removed,
+        synced); clear the failure when that works. Then :attr:`ready`.
+
+        ``/readyz`` calls it, so readiness comes back when the disk does, without waiting
+        for a request to try.
+        """
+        if self._error is not None and not self._closed:
+            probe = self.directory / f".plotgate-probe-{os.getpid()}"
+            try:
+                with open(probe, "wb") as f:
+                    f.write(b"\0" * 4096)
+                    f.flush()
+                    os.fsync(f.fileno())
+                probe.unlink()
+            except OSError:
+                with contextlib.suppress(OSError):
+                    probe.unlink()
+                return False
+            self._error = None
+        return self.ready
+
     def request(self, operation: str, data: bytes, log_time: int | None = None) -> None:
         """Add a request record; on a running loop it is flushed this turn."""
         self._add(f"{operation}/request", data, log_time)

@@ -152,7 +152,7 @@ def health_router() -> APIRouter:
     @router.get("/readyz", summary="Readiness: requests can be answered and recorded")
     async def readyz(request: Request) -> Response:
         recorder: Recorder | None = request.app.state.recorder
-        if recorder is None or recorder.ready:
+        if recorder is None or recorder.probe():
             return Response('{"status":"ready"}', 200, media_type="application/json")
         err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
         return Response(problem_json(err, "/readyz"), 503, media_type=PROBLEM_JSON)

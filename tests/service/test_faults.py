@@ -12,25 +12,38 @@ from service.app import create_app
 from tests.service.test_recording import GOOD
 
 
+class _Disk:
+    """A simulated disk that can fill up: MCAP flushes and the readiness probe fail."""
+
+    def __init__(self, monkeypatch) -> None:
+        self.full = False
+        real_flush, real_open = Writer.flush, open
+
+        def flush(writer):
+            if self.full:
+                raise OSError(28, "No space left on device")
+            return real_flush(writer)
+
+        def probe_open(path, *args, **kwargs):
+            if self.full and ".plotgate-probe-" in str(path):
+                raise OSError(28, "No space left on device")
+            return real_open(path, *args, **kwargs)
+
+        monkeypatch.setattr(Writer, "flush", flush)
+        monkeypatch.setattr("builtins.open", probe_open)
+
+
 def test_unrecordable_exchange_is_refused_then_recovers(settings, monkeypatch):
-    real_flush = Writer.flush
-    failing = {"on": False}
-
-    def flush(self):
-        if failing["on"]:
-            raise OSError(28, "No space left on device")
-        return real_flush(self)
-
-    monkeypatch.setattr(Writer, "flush", flush)
+    disk = _Disk(monkeypatch)
     with TestClient(create_app(settings)) as c:
         assert c.post("/v1/gates/test", json=GOOD).status_code == 200
-        failing["on"] = True
+        disk.full = True
         r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "lost"})
         assert r.status_code == 503
         assert r.headers["content-type"].startswith("application/problem+json")
         assert "No space left" in r.json()["detail"]
         assert c.get("/readyz").status_code == 503
-        failing["on"] = False
+        disk.full = False
         r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "back"})
         assert r.status_code == 200
         assert c.get("/readyz").status_code == 200
@@ -59,7 +72,7 @@ def test_a_bug_answers_500_and_is_recorded(settings, monkeypatch):
 
 
 def test_best_effort_recording_answers_and_counts_the_unrecorded(settings, monkeypatch):
-    monkeypatch.setattr(Writer, "flush", _failing_flush)
+    _Disk(monkeypatch).full = True
     best = settings.model_copy(update={"record_best_effort": True})
     with TestClient(create_app(best)) as c:
         r = c.post("/v1/gates/test", json=GOOD)
@@ -69,5 +82,12 @@ def test_best_effort_recording_answers_and_counts_the_unrecorded(settings, monke
     assert 'plotgate_unrecorded_total{operation="gates.test"} 1.0' in metrics
 
 
-def _failing_flush(self):
-    raise OSError(28, "No space left on device")
+def test_readiness_comes_back_with_the_disk_without_a_request(settings, monkeypatch):
+    disk = _Disk(monkeypatch)
+    with TestClient(create_app(settings)) as c:
+        disk.full = True
+        assert c.post("/v1/gates/test", json=GOOD).status_code == 503
+        assert c.get("/readyz").status_code == 503
+        disk.full = False
+        assert c.get("/readyz").status_code == 200  # probed: no request needed
+        assert c.post("/v1/gates/test", json=GOOD).status_code == 200
