@@ -7,7 +7,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import httpx
@@ -82,14 +82,18 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def serve(log_dir: Path, *args: str) -> Iterator[tuple[subprocess.Popen, str]]:
-    """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready."""
+def serve(log_dir: Path, *args: str, preexec_fn: Callable[[], None] | None = None
+          ) -> Iterator[tuple[subprocess.Popen, str]]:
+    """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready.
+
+    ``preexec_fn`` runs in the child before the server starts (e.g. to set rlimits).
+    """
     port = free_port()
     proc = subprocess.Popen(
         [sys.executable, "-m", "clients.cli", "serve", "--port", str(port),
          "--log-dir", str(log_dir), *args],
         cwd=Path(__file__).resolve().parents[1],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, preexec_fn=preexec_fn,
     )
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 30
