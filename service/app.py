@@ -27,7 +27,7 @@ from service.metrics import Metrics
 from service.problems import ProblemError, field_errors, problem_json
 from service.provenance import VERSION, provenance
 from service.recorder import Recorder
-from service.registry import OPERATIONS
+from service.registry import OPERATIONS, check_limits
 from service.routes import PROBLEM_JSON, health_router, operations_router, request_id_of
 
 __all__ = ["create_app"]
@@ -38,6 +38,7 @@ _KINDS = {404: "not-found", 405: "method-not-allowed"}
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the plotgate app; ``settings`` default to the ``PLOTGATE_*`` environment."""
     settings = settings or get_settings()
+    check_limits(settings.limits)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -106,7 +107,9 @@ async def _validation_problem(request: Request, exc: Exception) -> Response:
 
 
 def _openapi(app: FastAPI) -> dict[str, Any]:
-    """FastAPI's schema plus the request models (routes read raw bodies) and problem+json."""
+    """FastAPI's schema plus the request models (routes read raw bodies), problem+json, and
+    per operation ``x-plotgate-limits``: the sizes a server may cap and this server's caps
+    (null: only the schema's own bounds)."""
     if app.openapi_schema:
         return app.openapi_schema
     schema = get_openapi(title=app.title, version=app.version, summary=app.summary,
@@ -116,7 +119,11 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
         model = op.request.model_json_schema(ref_template="#/components/schemas/{model}")
         components.update(model.pop("$defs", {}))
         components[op.request.__name__] = model
-        for status, answer in schema["paths"][op.path]["post"]["responses"].items():
+        post = schema["paths"][op.path]["post"]
+        if op.endpoint.work:
+            caps = app.state.settings.limits.get(op.name, {})
+            post["x-plotgate-limits"] = {size: caps.get(size) for size in op.endpoint.work}
+        for status, answer in post["responses"].items():
             if status.startswith(("4", "5")) and "content" in answer:
                 answer["content"] = {PROBLEM_JSON: answer["content"]["application/json"]}
     app.openapi_schema = schema

@@ -27,6 +27,11 @@ class Settings(BaseSettings):
     git_commit: str | None = Field(default=None, description="Build's commit, if not in git.")
     max_body_bytes: int = Field(default=64 * 2**20, gt=0,
                                 description="Largest request body, bytes (413 above).")
+    limits: dict[str, dict[str, int]] = Field(
+        default_factory=dict,
+        description="Per-operation caps below the schema's bounds, JSON: {operation: "
+        "{size: max}}, e.g. {\"initiation.evaluate\": {\"runs\": 1000}}; the sizes each "
+        "operation offers are in the OpenAPI schema (x-plotgate-limits).")
     api_key: SecretStr | None = Field(
         default=None, description="When set, requests need this X-API-Key header.")
     bearer_token: SecretStr | None = Field(

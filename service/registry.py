@@ -10,7 +10,7 @@ so an in-process replay answers byte for byte what the server would.
 """
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,9 +26,9 @@ from service.operations import (
     study,
 )
 from service.problems import ProblemError, from_core, from_validation, problem_json
-from service.schemas import ENDPOINTS, Endpoint
+from service.schemas import ENDPOINTS, Endpoint, FieldError
 
-__all__ = ["OPERATIONS", "Operation", "Outcome", "execute"]
+__all__ = ["OPERATIONS", "Operation", "Outcome", "check_limits", "execute"]
 
 Handler = Callable[[Any], BaseModel]
 """A pure function from a validated request model to a response model."""
@@ -103,16 +103,44 @@ class Outcome:
         return json.loads(self.content)
 
 
-def execute(op: Operation, body: bytes, request_id: str | None = None) -> Outcome:
+def check_limits(limits: Mapping[str, Mapping[str, int]]) -> None:
+    """Refuse (ValueError) caps for unknown operations or sizes, or below 1."""
+    for name, caps in limits.items():
+        if name not in OPERATIONS:
+            raise ValueError(f"PLOTGATE_LIMITS: no operation {name!r}")
+        for size, cap in caps.items():
+            if size not in OPERATIONS[name].endpoint.work:
+                sizes = ", ".join(OPERATIONS[name].endpoint.work) or "none"
+                raise ValueError(f"PLOTGATE_LIMITS: {name} has no size {size!r} (it has: "
+                                 f"{sizes})")
+            if cap < 1:
+                raise ValueError(f"PLOTGATE_LIMITS: {name}.{size} must be >= 1, got {cap}")
+
+
+def _over_limit(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> None:
+    for size, cap in caps.items():
+        value = op.endpoint.work[size](request)
+        if value > cap:
+            reason = f"is {value}; this server allows at most {cap} (PLOTGATE_LIMITS)"
+            raise ProblemError("invalid-input", 422, f"{size}: {reason}",
+                               [FieldError(field=size, reason=reason)])
+
+
+def execute(op: Operation, body: bytes, request_id: str | None = None,
+            limits: Mapping[str, int] | None = None) -> Outcome:
     """Validate ``body`` against the operation's request model, run it, serialize the answer.
 
     Bad input becomes an :class:`Outcome` whose content is an RFC 9457 problem naming the
     field (``instance`` is the operation's path). Anything else that escapes is a bug.
     Bodies are validated strictly: a JSON ``true`` is not the number 1 and ``"5"`` is not
-    5, so what the OpenAPI schema refuses, the service refuses.
+    5, so what the OpenAPI schema refuses, the service refuses. ``limits`` are the
+    server's caps on the operation's work sizes (``PLOTGATE_LIMITS``); replay runs
+    without them.
     """
     try:
         request = op.request.model_validate_json(body, strict=True)
+        if limits:
+            _over_limit(op, request, limits)
         try:
             response = op.handler(request)
         except PlotgateError as exc:

@@ -43,9 +43,9 @@ def request_id_of(request: Request) -> str:
     return request_id(request.scope)
 
 
-def _run(op: Operation, body: bytes, request_id: str) -> Outcome:
+def _run(op: Operation, body: bytes, request_id: str, limits: dict[str, int] | None) -> Outcome:
     try:
-        return execute(op, body, request_id)
+        return execute(op, body, request_id, limits)
     except Exception:
         log.exception("operation %s failed on request %s", op.name, request_id)
         err = ProblemError("internal", 500, f"{op.name} failed unexpectedly; this is a bug")
@@ -75,10 +75,11 @@ def _endpoint(op: Operation):
                         raise
                     recorder = None  # best effort: answer this exchange unrecorded
                     metrics.unrecorded(op.name)
+            limits = request.app.state.settings.limits.get(op.name)
             if len(body) <= INLINE_BODY_BYTES and not op.endpoint.slow:
-                outcome = _run(op, body, request_id)
+                outcome = _run(op, body, request_id, limits)
             else:
-                outcome = await run_in_threadpool(_run, op, body, request_id)
+                outcome = await run_in_threadpool(_run, op, body, request_id, limits)
             if recorder is not None:
                 record = response_record(
                     request_id, op.name, outcome.status, time.perf_counter() - started,

@@ -4,7 +4,9 @@ Clients read this table to call the service without importing it; the registry
 (:mod:`service.registry`) binds each endpoint to its handler.
 """
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
 
 from pydantic import BaseModel
 
@@ -54,7 +56,9 @@ __all__ = ["ENDPOINTS", "Endpoint"]
 class Endpoint:
     """One operation as seen from the wire.
 
-    ``slow`` marks an operation that may compute for seconds (unconditional
+    ``work`` names the sizes of a request an operator may cap per operation (plots per
+    scan, problems per batch, Monte Carlo runs, curve points...). ``slow`` marks an
+    operation that may compute for seconds (unconditional
     probabilities, curves, gate design) or for more than ~50 ms at its size limits
     (the multistatic solves and bounds): the server runs it off the event loop and
     clients give it a longer timeout.
@@ -66,6 +70,9 @@ class Endpoint:
     request: type[BaseModel]
     response: type[BaseModel]
     slow: bool = False
+    work: dict[str, Callable[[Any], int]] = field(default_factory=dict)
+    """The sizes a server may limit below the schema's own bounds (``PLOTGATE_LIMITS``):
+    name (the request field it counts) -> its value for a validated request."""
 
     @property
     def tag(self) -> str:
@@ -77,11 +84,11 @@ ENDPOINTS: dict[str, Endpoint] = {
     for e in (
         Endpoint(
             "gates.test", "/v1/gates/test", "Test one first plot against many candidate plots",
-            GateTestRequest, GateResults,
+            GateTestRequest, GateResults, work={"candidates": lambda r: len(r.candidates)},
         ),
         Endpoint(
             "gates.pairs", "/v1/gates/pairs", "Test many independent (first, second) plot pairs",
-            GatePairsRequest, GateResults,
+            GatePairsRequest, GateResults, work={"pairs": lambda r: len(r.pairs)},
         ),
         Endpoint(
             "gates.probability", "/v1/gates/probability",
@@ -93,6 +100,7 @@ ENDPOINTS: dict[str, Endpoint] = {
             "gates.probability_curve", "/v1/gates/probability/curve",
             "Gating probability against target speed or the first mark's range",
             GateProbabilityCurveRequest, GateProbabilityCurve, slow=True,
+            work={"values": lambda r: len(r.values)},
         ),
         Endpoint(
             "gates.analysis", "/v1/gates/analysis",
@@ -109,59 +117,74 @@ ENDPOINTS: dict[str, Endpoint] = {
             "Maximum-likelihood positions of a batch of multistatic range-sum problems, "
             "optionally with a closed-form solution",
             PositionSolveRequest, PositionSolveResult, slow=True,
+            work={"problems": lambda r: len(r.problems)},
         ),
         Endpoint(
             "solves.trajectory", "/v1/solves/trajectory",
             "Constant-velocity track from range sums at several sample times",
             TrajectorySolveRequest, TrajectorySolveResult, slow=True,
+            work={"sample_times": lambda r: len(r.sample_times)},
         ),
         Endpoint(
             "solves.crlb", "/v1/solves/crlb",
             "Cramer-Rao bound of multistatic positioning, single shot or along a track",
             CrlbRequest, CrlbResult, slow=True,
+            work={"targets": lambda r: len(r.targets or ()),
+                  "sample_times": lambda r: len(r.sample_times or ())},
         ),
         Endpoint(
             "solves.noise", "/v1/solves/noise",
             "Range-sum noise from quadratic fits, and sliding-window smoothing of "
             "coordinates",
             NoiseRequest, NoiseResult, slow=True,
+            work={"sample_times": lambda r: len(r.sample_times)},
         ),
         Endpoint(
             "solves.study", "/v1/solves/study",
             "Monte Carlo accuracy study of the multistatic solvers along a track (seed 001 "
             "Fig. 3 curves 1-6)",
             StudyRequest, StudyResult, slow=True,
+            work={"runs": lambda r: r.runs, "sample_times": lambda r: len(r.sample_times)},
         ),
         Endpoint(
             "initiation.initiate", "/v1/initiation/initiate",
             "Start and confirm tracks from scans of plots in clutter, continuing a state",
             InitiateRequest, InitiateResult, slow=True,
+            work={"scans": lambda r: len(r.scans),
+                  "scans.plots": lambda r: max((len(s.plots) for s in r.scans), default=0)},
         ),
         Endpoint(
             "initiation.simulate", "/v1/initiation/simulate",
             "Seeded scans of targets in Poisson clutter, every plot labelled",
             SimulateRequest, SimulateResult, slow=True,
+            work={"scenario.scans": lambda r: r.scenario.scans},
         ),
         Endpoint(
             "initiation.evaluate", "/v1/initiation/evaluate",
             "Monte Carlo of track initiation: targets initiated, false tracks",
             EvaluateRequest, EvaluateResult, slow=True,
+            work={"runs": lambda r: r.runs},
         ),
         Endpoint(
             "identification.pair", "/v1/identification/pair",
             "Is a passive (ESM) track the same object as an active radar track? Fisher's "
             "Z-test on bearings",
             IdentifyPairRequest, IdentifyPairResult, slow=True,
+            work={"passive_bearings_deg": lambda r: len(r.passive_bearings_deg),
+                  "active_bearings_deg": lambda r: len(r.active_bearings_deg)},
         ),
         Endpoint(
             "identification.picture", "/v1/identification/picture",
             "Z matrix and one-to-one identification of many passive and active tracks",
             IdentifyPictureRequest, IdentifyPictureResult, slow=True,
+            work={"passive_deg": lambda r: len(r.passive_deg),
+                  "active_deg": lambda r: len(r.active_deg)},
         ),
         Endpoint(
             "identification.simulate", "/v1/identification/simulate",
             "Seed 004's experiment by Monte Carlo: realized type I or type II error",
             IdentifySimulateRequest, IdentifySimulateResult, slow=True,
+            work={"runs": lambda r: r.runs},
         ),
     )
 }

@@ -100,3 +100,36 @@ def test_every_response_carries_a_request_id(tmp_path):
                 assert r.json()["request_id"] == "given-1"
         r = c.get("/healthz", headers={"x-request-id": "bad id with spaces"})
         assert r.headers["x-request-id"] != "bad id with spaces"
+
+
+def test_operators_cap_work_per_operation(tmp_path):
+    limits = {"initiation.evaluate": {"runs": 10}, "gates.test": {"candidates": 1}}
+    with _client(tmp_path, limits=limits) as c:
+        r = c.post("/v1/initiation/evaluate", json={"runs": 20})
+        body = _problem(r, 422, "invalid-input", "runs")
+        assert "at most 10" in body["errors"][0]["reason"]
+        one = {"gate": {"kind": "ring", "tau": 5.0, "v_min": 0.0, "v_max": 100.0},
+               "first": {"frame": "cartesian", "x": 0.0, "y": 1000.0,
+                         "covariance": [[1.0, 0.0], [0.0, 1.0]]}}
+        two = dict(one, candidates=[one["first"], one["first"]])
+        _problem(c.post("/v1/gates/test", json=two), 422, "invalid-input", "candidates")
+        single = c.post("/v1/gates/test", json=dict(one, candidates=[one["first"]]))
+        assert single.status_code == 200
+        spec = c.get("/openapi.json").json()["paths"]
+        assert spec["/v1/initiation/evaluate"]["post"]["x-plotgate-limits"] == {"runs": 10}
+        assert spec["/v1/gates/pairs"]["post"]["x-plotgate-limits"] == {"pairs": None}
+    for bad in ({"no.such": {"runs": 1}}, {"initiation.evaluate": {"plots": 1}},
+                {"initiation.evaluate": {"runs": 0}}):
+        with pytest.raises(ValueError, match="PLOTGATE_LIMITS"):
+            create_app(Settings(log_dir=tmp_path, limits=bad))
+
+
+def test_work_sizes_are_request_fields():
+    for op in OPERATIONS.values():
+        for size in op.endpoint.work:
+            assert size.split(".")[0] in op.request.model_fields, (op.name, size)
+
+
+def test_limits_come_from_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv("PLOTGATE_LIMITS", '{"solves.position": {"problems": 5}}')
+    assert Settings(log_dir=tmp_path).limits == {"solves.position": {"problems": 5}}
