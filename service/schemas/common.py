@@ -10,11 +10,13 @@ gates compute finite in double precision: coordinates and ranges within 10^9 m
 10^-6 to 180 degrees, ranges of polar plots at least 1 m (:data:`MIN_RANGE`).
 """
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic_core import InitErrorDetails, PydanticCustomError
 
 __all__ = [
+    "Loc",
     "MAX_DISTANCE",
     "MAX_PLOTS",
     "MIN_RANGE",
@@ -25,6 +27,7 @@ __all__ = [
     "Position",
     "Problem",
     "Schema",
+    "invalid",
 ]
 
 MAX_PLOTS = 100_000
@@ -33,6 +36,23 @@ MAX_DISTANCE = 1e9
 """Largest coordinate or range, m (beyond geostationary orbit)."""
 MIN_RANGE = 1.0
 """Smallest range of a plot from the radar it is measured about, m."""
+
+
+Loc = tuple[str | int, ...]
+"""A location inside a request, as pydantic reports it: ("problems", 3, "receivers")."""
+
+
+def invalid(model: str, errors: list[tuple[Loc, str, Any]]) -> ValidationError:
+    """A validation error at the given (location, reason, input) triples.
+
+    Raised from a model validator, its locations are kept (prefixed by the enclosing
+    model's own), so a rule over several fields still names the field it concerns.
+    """
+    return ValidationError.from_exception_data(model, [
+        InitErrorDetails(type=PydanticCustomError("invalid_combination", reason), loc=loc,
+                         input=value)
+        for loc, reason, value in errors
+    ])
 
 
 class Schema(BaseModel):

@@ -20,8 +20,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import Schema
-from service.schemas.solves import _invalid
+from service.schemas.common import Loc, Schema, invalid
 
 __all__ = [
     "MAX_PICTURE_SAMPLES",
@@ -125,7 +124,7 @@ class IdentifyPictureRequest(Schema):
 
     @model_validator(mode="after")
     def _size(self) -> "IdentifyPictureRequest":
-        errors: list[tuple[tuple[Any, ...], str, Any]] = []
+        errors: list[tuple[Loc, str, Any]] = []
         total = sum(map(len, self.passive_deg)) + sum(map(len, self.active_deg))
         if total > MAX_PICTURE_SAMPLES:
             errors.append((("passive_deg",), f"the picture carries {total} samples; at most "
@@ -135,7 +134,7 @@ class IdentifyPictureRequest(Schema):
                            f"per passive track; got {len(self.sigma_deg)}",
                            len(self.sigma_deg)))
         if errors:
-            raise _invalid("IdentifyPictureRequest", errors)
+            raise invalid("IdentifyPictureRequest", errors)
         return self
 
 
@@ -177,7 +176,7 @@ class IdentifySimulateRequest(Schema):
     def _work(self) -> "IdentifySimulateRequest":
         work = self.runs * (self.n + self.m)
         if work > MAX_SIMULATED_SAMPLES:
-            raise _invalid("IdentifySimulateRequest", [(
+            raise invalid("IdentifySimulateRequest", [(
                 ("runs",), f"runs x (n + m) is {work}; at most {MAX_SIMULATED_SAMPLES}",
                 self.runs)])
         return self

@@ -18,8 +18,15 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, MAX_PLOTS, Plot, Position, Schema
-from service.schemas.solves import Time, _invalid
+from service.schemas.common import (
+    MAX_DISTANCE,
+    MAX_PLOTS,
+    Plot,
+    Position,
+    Schema,
+    invalid,
+)
+from service.schemas.solves import Time
 
 __all__ = [
     "MAX_EVALUATION_PLOTS",
@@ -116,7 +123,7 @@ class InitiateRequest(Schema):
     def _total(self) -> "InitiateRequest":
         total = sum(len(s.plots) for s in self.scans)
         if total > MAX_PLOTS:
-            raise _invalid("InitiateRequest", [(("scans",), f"carry {total} plots in all; "
+            raise invalid("InitiateRequest", [(("scans",), f"carry {total} plots in all; "
                                                 f"at most {MAX_PLOTS} per request", total)])
         return self
 
@@ -203,7 +210,7 @@ class SimulateRequest(Schema):
     @model_validator(mode="after")
     def _size(self) -> "SimulateRequest":
         if self.scenario.plots() > MAX_PLOTS:
-            raise _invalid("SimulateRequest", [(
+            raise invalid("SimulateRequest", [(
                 ("scenario",), f"expects {self.scenario.plots():.0f} plots; at most "
                 f"{MAX_PLOTS} per request", self.scenario.plots())])
         return self
@@ -233,7 +240,7 @@ class EvaluateRequest(Schema):
     def _work(self) -> "EvaluateRequest":
         work = self.runs * self.scenario.plots()
         if work > MAX_EVALUATION_PLOTS:
-            raise _invalid("EvaluateRequest", [(
+            raise invalid("EvaluateRequest", [(
                 ("runs",), f"runs x expected plots per run is {work:.0f}; at most "
                 f"{MAX_EVALUATION_PLOTS}", self.runs)])
         return self

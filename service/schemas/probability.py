@@ -20,10 +20,9 @@ naming the offending field.
 
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationError, model_validator
-from pydantic_core import InitErrorDetails, PydanticCustomError
+from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, MIN_RANGE, Position, Schema
+from service.schemas.common import MAX_DISTANCE, MIN_RANGE, Loc, Position, Schema, invalid
 from service.schemas.gates import Coefficient, Probability, Seconds, Speed
 
 __all__ = [
@@ -69,19 +68,6 @@ Offset = Annotated[
     Field(description="Predicted displacement z_pred - z1 (x east, y north), m."),
 ]
 CurveValue = Annotated[float, Field(ge=0, le=MAX_DISTANCE)]
-
-
-def _invalid(model: str, errors: list[tuple[tuple[str | int, ...], str, Any]]) -> ValidationError:
-    """A validation error at the given (location, reason, input) triples.
-
-    Raised from a model validator, its locations are kept (prefixed by the model's own),
-    so a rule over several fields still names the field it concerns.
-    """
-    return ValidationError.from_exception_data(model, [
-        InitErrorDetails(type=PydanticCustomError("invalid_combination", reason), loc=loc,
-                         input=value)
-        for loc, reason, value in errors
-    ])
 
 
 class RingRegion(Schema):
@@ -226,7 +212,7 @@ class GateProbabilityRequest(Schema):
     def _one_of(self) -> "GateProbabilityRequest":
         if (self.velocity is None) == (self.prior is None):
             reason = "give exactly one of velocity and prior"
-            raise _invalid(type(self).__name__, [
+            raise invalid(type(self).__name__, [
                 (("velocity",), reason, self.velocity), (("prior",), reason, self.prior)
             ])
         return self
@@ -272,7 +258,7 @@ class GateProbabilityCurveRequest(Schema):
 
     @model_validator(mode="after")
     def _rules(self) -> "GateProbabilityCurveRequest":
-        errors: list[tuple[tuple[str | int, ...], str, Any]] = []
+        errors: list[tuple[Loc, str, Any]] = []
         if self.against == "speed":
             for name in ("speed", "prior"):
                 if getattr(self, name) is not None:
@@ -291,7 +277,7 @@ class GateProbabilityCurveRequest(Schema):
                                f"{MAX_UNCONDITIONAL_POINTS} values, got {len(self.values)}",
                                len(self.values)))
         if errors:
-            raise _invalid(type(self).__name__, errors)
+            raise invalid(type(self).__name__, errors)
         return self
 
 

@@ -35,10 +35,9 @@ field by :mod:`service.operations.solves`.
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationError, model_validator
-from pydantic_core import InitErrorDetails, PydanticCustomError
+from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, Schema
+from service.schemas.common import MAX_DISTANCE, Loc, Schema, invalid
 
 __all__ = [
     "MAX_MEASUREMENTS",
@@ -120,22 +119,6 @@ Alpha = Annotated[
 MaxIter = Annotated[
     int, Field(ge=1, le=1000, description="Largest number of Gauss-Newton iterations.")
 ]
-Loc = tuple[str | int, ...]
-
-
-def _invalid(model: str, errors: list[tuple[Loc, str, Any]]) -> ValidationError:
-    """A validation error at the given (location, reason, input) triples.
-
-    Raised from a model validator, its locations are kept (prefixed by the enclosing
-    model's own), so a rule over several fields still names the field it concerns.
-    """
-    return ValidationError.from_exception_data(model, [
-        InitErrorDetails(type=PydanticCustomError("invalid_combination", reason), loc=loc,
-                         input=value)
-        for loc, reason, value in errors
-    ])
-
-
 def _one_of(obj: Any, a: str, b: str, what: str) -> list[tuple[Loc, str, Any]]:
     """Errors unless exactly one of the fields ``a`` and ``b`` is given."""
     if (getattr(obj, a) is None) == (getattr(obj, b) is None):
@@ -182,7 +165,7 @@ def _dotted(loc: Loc) -> str:
 
 def _raise(model: Any, errors: list[tuple[Loc, str, Any]]) -> None:
     if errors:
-        raise _invalid(type(model).__name__, errors)
+        raise invalid(type(model).__name__, errors)
 
 
 # --------------------------------------------------------------------------- platforms

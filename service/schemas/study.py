@@ -16,11 +16,10 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import Schema
+from service.schemas.common import Loc, Schema
 from service.schemas.solves import (
     MAX_MEASUREMENTS,
     Alpha,
-    Loc,
     Platform,
     Sigma,
     TargetState,
