@@ -50,6 +50,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 max_bytes=settings.rotate_bytes,
                 max_age_s=settings.rotate_age_s,
                 metadata=provenance(settings),
+                on_flush=app.state.metrics.flush.observe,
             ).start()
         app.state.recorder = recorder
         try:

@@ -29,16 +29,13 @@ _LATENCY_BUCKETS = (0.0005, 0.001, 0.0025, 0.005, 0.01, 0.02, 0.05, 0.1, 0.25, 0
 class _RecorderCollector(Collector):
     """Reads the recorder's counters at scrape time."""
 
-    def __init__(self, recorder: Callable[[], Recorder | None], flush: Histogram) -> None:
+    def __init__(self, recorder: Callable[[], Recorder | None]) -> None:
         self.recorder = recorder
-        self.flush = flush
 
     def collect(self) -> Iterator[Metric]:
         recorder = self.recorder()
         if recorder is None:
             return
-        for seconds in recorder.take_flush_seconds():
-            self.flush.observe(seconds)
         yield CounterMetricFamily("plotgate_recorder_records", "Records handed to the OS.",
                                   value=recorder.records)
         yield CounterMetricFamily("plotgate_recorder_bytes", "Bytes written to MCAP files.",
@@ -53,7 +50,8 @@ class _RecorderCollector(Collector):
 
 
 class Metrics:
-    """The registry of one app and the request counters the routes update."""
+    """The registry of one app, the request counters the routes update and the flush
+    histogram the recorder observes (``Recorder(on_flush=metrics.flush.observe)``)."""
 
     def __init__(self, recorder: Callable[[], Recorder | None]) -> None:
         self.registry = CollectorRegistry()
@@ -65,9 +63,10 @@ class Metrics:
         self.unrecorded_total = Counter(
             "plotgate_unrecorded", "Exchanges answered without a complete record "
             "(best-effort recording only).", ["operation"], registry=self.registry)
-        flush = Histogram("plotgate_recorder_flush_seconds", "Duration of a recorder flush, s.",
-                          buckets=_LATENCY_BUCKETS, registry=self.registry)
-        self.registry.register(_RecorderCollector(recorder, flush))
+        self.flush = Histogram("plotgate_recorder_flush_seconds",
+                               "Duration of a recorder flush, s.", buckets=_LATENCY_BUCKETS,
+                               registry=self.registry)
+        self.registry.register(_RecorderCollector(recorder))
 
     def observe(self, operation: str, status: int, seconds: float) -> None:
         """Count one answered request."""

@@ -23,7 +23,7 @@ import contextlib
 import json
 import os
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO
@@ -89,6 +89,7 @@ class Recorder:
     metadata : string key/values written into every file's ``plotgate`` metadata record.
     file_name : write exactly this one file in ``directory`` and never rotate (replay's
         ``--out``); by default files are named by time and pid and rotate.
+    on_flush : called with the duration (s) of every flush that wrote records (metrics).
     """
 
     def __init__(
@@ -100,12 +101,14 @@ class Recorder:
         max_age_s: float = 3600.0,
         metadata: Mapping[str, str] | None = None,
         file_name: str | None = None,
+        on_flush: Callable[[float], None] | None = None,
     ) -> None:
         self.directory = Path(directory)
         self.max_bytes = max_bytes
         self.max_age_s = max_age_s
         self.metadata = dict(metadata or {})
         self.file_name = file_name
+        self.on_flush = on_flush
         self.files: list[Path] = []
         self._schemas = [
             (f"{op.name}/{kind}", f"plotgate.{op.name}.{kind}",
@@ -119,7 +122,6 @@ class Recorder:
         self.records = 0  # records handed to the OS
         self.pending = 0  # records added, waiting for the next flush
         self.rotations = 0  # files closed because of size or age
-        self.flush_seconds: list[float] = []  # durations since the last read (metrics)
         self._bytes_closed = 0  # bytes of the files already closed
         self._closed = False
         self._error: Exception | None = None
@@ -197,11 +199,6 @@ class Recorder:
                 current = self._stream.tell()
         return self._bytes_closed + current
 
-    def take_flush_seconds(self) -> list[float]:
-        """The flush durations since the last call (for the metrics histogram)."""
-        taken, self.flush_seconds = self.flush_seconds, []
-        return taken
-
     def flush(self) -> None:
         """Close the current chunk, hand every added record to the OS, release its waiters."""
         if self._writer is not None:
@@ -211,7 +208,8 @@ class Recorder:
             except Exception as exc:
                 self._fail(exc)
                 return
-            self.flush_seconds.append(time.perf_counter() - started)
+            if self.on_flush is not None:
+                self.on_flush(time.perf_counter() - started)
             self.records += self.pending
             self.pending = 0
         batch, self._batch = self._batch, None
