@@ -24,6 +24,7 @@ from scipy.optimize import linear_sum_assignment
 from core._validate import as_array, as_probability
 from core.errors import ParameterError
 from core.frames import _wrap
+from core.identification.ztest import _sigma
 
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
 
@@ -187,15 +188,7 @@ def sequential(passive: ArrayLike, active: ArrayLike, sigma: float | None = None
     pa, pv = _tracks("passive", [passive])
     aa, _ = _tracks("active", [active])
     mean_p = _means(pa, pv)[0]
-    if sigma is None:
-        dev = _wrap(pa[0] - mean_p)
-        s = float(np.sqrt((dev * dev).sum() / (pa.shape[1] - 1)))
-        if not s > 0:
-            raise ParameterError("sigma", "cannot be estimated: the passive angles are all equal")
-    else:
-        s = float(as_array("sigma", sigma))
-        if not s > 0:
-            raise ParameterError("sigma", f"must be a positive angle, got {sigma!r}")
+    s = float(_sigma("sigma", sigma, pa[0]))
     m = np.arange(1, aa.shape[1] + 1)
     mean_a = np.arctan2(np.cumsum(np.sin(aa[0])), np.cumsum(np.cos(aa[0])))
     z = (_wrap(mean_a - mean_p) * np.sqrt(m) / s)[1:]

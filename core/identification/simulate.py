@@ -23,6 +23,7 @@ from scipy import stats
 from core._validate import as_probability
 from core.errors import ParameterError
 from core.frames import _wrap
+from core.identification.ztest import circular_mean, circular_sigma
 
 __all__ = ["ExperimentRates", "experiment"]
 
@@ -101,14 +102,7 @@ def experiment(n: int, m: int, sigma: float, separation: float, width: float, ru
     else:
         active = centre + sigma * rng.standard_normal((runs, m))
 
-    def mean(a: np.ndarray) -> np.ndarray:
-        return np.arctan2(np.sin(a).mean(1), np.cos(a).mean(1))
-
-    mp = mean(passive)
-    s = sigma
-    if estimate_sigma:
-        dev = _wrap(passive - mp[:, None])
-        s = np.sqrt((dev * dev).sum(1) / (n - 1))
-    z = _wrap(mean(active) - mp) * np.sqrt(m) / s
+    s = circular_sigma(passive, axis=1) if estimate_sigma else sigma
+    z = _wrap(circular_mean(active, axis=1) - circular_mean(passive, axis=1)) * np.sqrt(m) / s
     ident = float(np.mean(np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)))
     return ExperimentRates(runs, ident, 1.0 - ident, float(np.sqrt(ident * (1 - ident) / runs)))
