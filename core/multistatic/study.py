@@ -40,6 +40,7 @@ from core.multistatic.closed_form import difference_range_solve, sum_range_solve
 from core.multistatic.crlb import (
     _inverse_information,
     _position_covariance,
+    _track_inputs,
     crlb,
     difference_crlb,
 )
@@ -228,13 +229,9 @@ def accuracy_study(
     >>> bool(np.all(np.abs(s.rmse["ml_single"] / s.crlb - 1.0) < 0.25))
     True
     """
-    t = as_array("t", t)
-    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0.0):
-        raise ParameterError("t", f"must be (T,) strictly increasing with T >= 2, got {t}")
-    x0, v = as_array("x0", x0), as_array("v", v)
-    if x0.shape not in ((2,), (3,)) or v.shape != x0.shape:
-        raise ParameterError("v" if x0.shape in ((2,), (3,)) else "x0",
-                             f"x0 and v must both have shape (D,), got {x0.shape}, {v.shape}")
+    x0, v, t = _track_inputs(x0, v, t)
+    if t.size < 2 or not np.all(np.diff(t) > 0.0):
+        raise ParameterError("t", f"must be strictly increasing with T >= 2, got {t}")
     if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 2:
         raise ParameterError("runs", f"must be an integer >= 2, got {runs!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
