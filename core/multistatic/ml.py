@@ -549,19 +549,27 @@ def ml_solve(
 # ---------------------------------------------------------------- constant-velocity track
 
 
-def _line_fit(x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray) -> np.ndarray:
-    """Information-weighted straight lines x_i ~ x0 + tau_i v, one per track: (N, 2D).
+def _line_terms(x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's share of the normal equations of a line x_i ~ x0 + tau_i v.
 
     x (N, T, D) points with information W (N, T, D, D) at times tau (T,); use (N, T)
-    marks the samples each line goes through.
+    marks the samples the line goes through. Returns M (N, T, 2D, 2D) and b (N, T, 2D):
+    the line through samples S solves (sum_S M) theta = sum_S b.
     """
     Wm = W * use[..., None, None]
     tw = tau[:, None, None] * Wm
     M = np.concatenate([np.concatenate([Wm, tw], axis=-1),
                         np.concatenate([tw, tau[:, None, None] * tw], axis=-1)], axis=-2)
-    b = np.concatenate([np.einsum("ntij,ntj->ni", Wm, x), np.einsum("ntij,ntj->ni", tw, x)],
+    b = np.concatenate([np.einsum("ntij,ntj->nti", Wm, x), np.einsum("ntij,ntj->nti", tw, x)],
                        axis=-1)
-    return np.einsum("nij,nj->ni", _inverse_information(M.sum(axis=1)), b)
+    return M, b
+
+
+def _line_fit(x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray) -> np.ndarray:
+    """Information-weighted straight lines x_i ~ x0 + tau_i v, one per track: (N, 2D)."""
+    M, b = _line_terms(x, W, tau, use)
+    return np.einsum("nij,nj->ni", _inverse_information(M.sum(axis=1)), b.sum(axis=1))
 
 
 def _chain(cand: np.ndarray, tau: np.ndarray, first: int) -> np.ndarray:

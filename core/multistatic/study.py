@@ -44,7 +44,7 @@ from core.multistatic.crlb import (
     crlb,
     difference_crlb,
 )
-from core.multistatic.ml import ml_solve, trajectory_solve
+from core.multistatic.ml import _line_terms, ml_solve, trajectory_solve
 from core.multistatic.model import (
     BASELINE_SIGMAS,
     _with_tx_axis,
@@ -150,12 +150,7 @@ def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarra
     samples when at least two of them are in the prefix and all samples otherwise."""
 
     def sums(use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        Wm = W * use[..., None, None]
-        tw = tau[:, None, None] * Wm
-        M = np.concatenate([np.concatenate([Wm, tw], axis=-1),
-                            np.concatenate([tw, tau[:, None, None] * tw], axis=-1)], axis=-2)
-        b = np.concatenate([np.einsum("rtij,rtj->rti", Wm, x),
-                            np.einsum("rtij,rtj->rti", tw, x)], axis=-1)
+        M, b = _line_terms(x, W, tau, use)
         return np.cumsum(M, axis=1), np.cumsum(b, axis=1)
 
     M_good, b_good = sums(good.astype(float))
