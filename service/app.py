@@ -86,11 +86,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
 def _render(err: ProblemError, request: Request,
             headers: dict[str, str] | None = None) -> Response:
-    request_id = request_id_of(request)
-    return Response(
-        problem_json(err, request.url.path, request_id), err.status,
-        {**(headers or {}), "X-Request-ID": request_id}, media_type=PROBLEM_JSON,
-    )
+    return Response(problem_json(err, request.url.path, request_id_of(request)), err.status,
+                    headers, media_type=PROBLEM_JSON)
 
 
 async def _http_problem(request: Request, exc: Exception) -> Response:

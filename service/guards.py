@@ -23,6 +23,8 @@ import uuid
 from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Any
 
+from starlette.datastructures import Headers
+
 from service.problems import ProblemError, problem_json
 from service.schemas import FieldError
 
@@ -42,19 +44,12 @@ OPEN_PATHS = frozenset({"/healthz", "/readyz", "/docs", "/docs/oauth2-redirect",
 _SANE_ID = re.compile(r"^[A-Za-z0-9._:-]{1,128}$")
 
 
-def _header(scope: Scope, name: bytes) -> str | None:
-    for key, value in scope.get("headers", ()):
-        if key == name:
-            return value.decode("latin-1")
-    return None
-
-
 def request_id(scope: Scope) -> str:
     """The request's id: set by :class:`RequestId`, else the sane header or a new one."""
     state = scope.get("state") or {}
     if "request_id" in state:
         return str(state["request_id"])
-    given = _header(scope, b"x-request-id") or ""
+    given = Headers(scope=scope).get("x-request-id") or ""
     return given if _SANE_ID.match(given) else uuid.uuid4().hex
 
 
@@ -109,7 +104,7 @@ class BodyLimit:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        declared = _header(scope, b"content-length")
+        declared = Headers(scope=scope).get("content-length")
         if declared is not None and declared.isdigit() and int(declared) > self.max_bytes:
             await _problem(send, scope, self._error(declared))
             return
@@ -139,10 +134,10 @@ class Auth:
         self.bearer = bearer_token.encode() if bearer_token else None
 
     def _allowed(self, scope: Scope) -> bool:
-        given_key = _header(scope, b"x-api-key")
+        given_key = Headers(scope=scope).get("x-api-key")
         if self.api_key is not None and given_key is not None:
             return hmac.compare_digest(given_key.encode("latin-1"), self.api_key)
-        authorization = _header(scope, b"authorization") or ""
+        authorization = Headers(scope=scope).get("authorization") or ""
         scheme, _, token = authorization.partition(" ")
         if self.bearer is not None and scheme.lower() == "bearer":
             return hmac.compare_digest(token.strip().encode("latin-1"), self.bearer)

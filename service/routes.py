@@ -9,7 +9,7 @@ Every operation route does the same five steps, in this order:
    body over ``INLINE_BODY_BYTES`` or an operation whose endpoint is marked ``slow``
    (quadratures that take tenths of a second or more), so it does not stall the others;
 4. add the response record and wait for the flush that hands it to the operating system;
-5. answer, echoing ``X-Request-ID``.
+5. answer (:class:`service.guards.RequestId` puts ``X-Request-ID`` on every response).
 
 If the record cannot be written the answer is a 503 problem: nothing is acknowledged
 unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is answered anyway and
@@ -55,7 +55,7 @@ def _run(op: Operation, body: bytes, request_id: str, limits: dict[str, int] | N
 def _unrecorded(op: Operation, request_id: str, exc: RecordingError) -> Response:
     err = ProblemError("recording-unavailable", 503, f"the exchange was not recorded: {exc}")
     content = problem_json(err, op.path, request_id)
-    return Response(content, 503, {"X-Request-ID": request_id}, media_type=PROBLEM_JSON)
+    return Response(content, 503, media_type=PROBLEM_JSON)
 
 
 def _endpoint(op: Operation):
@@ -95,12 +95,8 @@ def _endpoint(op: Operation):
             metrics.observe(op.name, 503, time.perf_counter() - started)
             return _unrecorded(op, request_id, exc)
         metrics.observe(op.name, outcome.status, time.perf_counter() - started)
-        return Response(
-            outcome.content,
-            outcome.status,
-            {"X-Request-ID": request_id},
-            media_type="application/json" if outcome.ok else PROBLEM_JSON,
-        )
+        return Response(outcome.content, outcome.status,
+                        media_type="application/json" if outcome.ok else PROBLEM_JSON)
 
     endpoint.__name__ = op.name.replace(".", "_")
     return endpoint
