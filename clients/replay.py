@@ -229,9 +229,9 @@ class _SessionWriter:
         from service.recorder import request_record, response_record
 
         op, rid = exchange.operation, exchange.request_id
-        self._recorder.request(op, request_record(rid, op, exchange.body))
+        written = self._recorder.request(op, request_record(rid, op, exchange.body))
         content = json.dumps(answer).encode()
-        self._recorder.response(op, response_record(rid, op, status, duration_s, content))
+        self._recorder.response(written, response_record(rid, op, status, duration_s, content))
         self._recorder.flush()
 
     def __enter__(self) -> "_SessionWriter":

@@ -11,6 +11,8 @@ on shutdown.
 Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 """
 
+import asyncio
+import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
@@ -23,6 +25,7 @@ from starlette.exceptions import HTTPException
 
 from service.config import Settings, get_settings
 from service.guards import Auth, BodyLimit, RequestId
+from service.logs import REDACT_QUERY
 from service.metrics import Metrics
 from service.problems import ProblemError, field_errors, problem_json
 from service.provenance import VERSION, provenance
@@ -32,6 +35,8 @@ from service.routes import PROBLEM_JSON, health_router, operations_router, reque
 
 __all__ = ["create_app"]
 
+log = logging.getLogger("plotgate")
+
 _KINDS = {404: "not-found", 405: "method-not-allowed"}
 
 
@@ -39,6 +44,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the plotgate app; ``settings`` default to the ``PLOTGATE_*`` environment."""
     settings = settings or get_settings()
     check_limits(settings.limits)
+    logging.getLogger("uvicorn.access").addFilter(REDACT_QUERY)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -53,9 +59,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 on_flush=app.state.metrics.flush.observe,
             ).start()
         app.state.recorder = recorder
+        watch = None
+        if recorder is not None:
+            watch = asyncio.create_task(_watch(recorder, settings.probe_interval_s))
         try:
             yield
         finally:
+            if watch is not None:
+                watch.cancel()
             if recorder is not None:
                 recorder.close()
 
@@ -82,6 +93,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                           if settings.bearer_token else None))
     app.add_middleware(RequestId)
     return app
+
+
+async def _watch(recorder: Recorder, interval_s: float) -> None:
+    """Probe the recorder's folder every ``interval_s``: a deleted folder is created again
+    and readiness comes back by itself, with no traffic (DESIGN section 10)."""
+    while True:
+        await asyncio.sleep(interval_s)
+        try:
+            recorder.probe()
+        except Exception:
+            log.exception("the recorder's probe failed")
 
 
 def _render(err: ProblemError, request: Request,

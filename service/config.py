@@ -27,6 +27,13 @@ class Settings(BaseSettings):
     git_commit: str | None = Field(default=None, description="Build's commit, if not in git.")
     max_body_bytes: int = Field(default=64 * 2**20, gt=0,
                                 description="Largest request body, bytes (413 above).")
+    body_timeout_s: float = Field(
+        default=30.0, gt=0, description="Deadline for receiving a request's whole body, s "
+        "(408 after it, and the connection closed).")
+    probe_interval_s: float = Field(
+        default=1.0, gt=0, le=60, description="How often the recorder checks its folder "
+        "(re-created when missing; readiness comes back by itself), s; also the "
+        "Retry-After of a 503.")
     limits: dict[str, dict[str, int]] = Field(
         default_factory=dict,
         description="Per-operation caps below the schema's bounds, JSON: {operation: "

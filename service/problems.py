@@ -7,6 +7,7 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``unauthorized`` (401): authentication is on and the credentials are missing or wrong;
 - ``not-found`` (404), ``method-not-allowed`` (405): no such route;
 - ``payload-too-large`` (413): the body is over the size limit;
+- ``request-timeout`` (408): the body did not arrive within the deadline;
 - ``recording-unavailable`` (503): the exchange could not be recorded, so it is refused;
 - ``internal`` (500): a bug; never bad input.
 """
@@ -23,11 +24,14 @@ from service.schemas import FieldError, Problem
 __all__ = ["ProblemError", "field_errors", "from_core", "from_validation", "problem_json"]
 
 PROBLEM_BASE = "urn:plotgate:problem:"
+MAX_FIELD_ERRORS = 100
+"""Most field errors one problem lists; ``detail`` counts the rest."""
 TITLES = {
     "malformed-json": "Malformed JSON body",
     "invalid-input": "Invalid input",
     "unauthorized": "Unauthorized",
     "payload-too-large": "Payload too large",
+    "request-timeout": "Request timeout",
     "not-found": "Not found",
     "method-not-allowed": "Method not allowed",
     "recording-unavailable": "Recording unavailable",
@@ -85,8 +89,10 @@ def from_validation(exc: ValidationError) -> ProblemError:
             "malformed-json", 400, f"body is not valid JSON: {reason}",
             [FieldError(field="body", reason=reason)],
         )
-    fields = field_errors(errors)
+    fields = field_errors(errors[:MAX_FIELD_ERRORS])
     detail = "; ".join(f"{f.field}: {f.reason}" for f in fields)
+    if len(errors) > MAX_FIELD_ERRORS:
+        detail += f"; and {len(errors) - MAX_FIELD_ERRORS} more errors"
     return ProblemError("invalid-input", 422, detail, fields)
 
 

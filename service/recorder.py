@@ -15,39 +15,39 @@ Design (DESIGN section 8):
   added during that turn of the loop (chunk closed, bytes handed to the OS) before the
   answers waiting on it are released. A killed process therefore leaves a file holding
   every exchange a client saw answered. There is no writer thread: measured here, thread
-  hand-offs and GIL contention cost several times more than the writing itself.
+  hand-offs and GIL contention cost several times more than the writing itself. Only a
+  record over a megabyte is written from a worker thread, with the writer to itself.
+- Every flush checks that the file is still in its folder; records lost with a deleted
+  file are written again to a new one before anything is answered (:class:`Recorder`).
 """
 
 import asyncio
 import contextlib
 import json
 import os
+import re
 import time
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO
 
 from mcap.writer import CompressionType, Writer
-from pydantic_core import from_json
 
+from service.bodies import is_strict_json, slices
 from service.registry import Operation
 from service.schemas import RequestRecord, ResponseRecord
 
-__all__ = ["Recorder", "RecordingError", "request_record", "response_record"]
+__all__ = ["Exchange", "Recorder", "RecordingError", "request_record", "response_record"]
+
+
+LARGE_RECORD_BYTES = 2**20
+"""Records over this size are written from a worker thread, not on the event loop."""
 
 
 class RecordingError(RuntimeError):
     """The recorder could not write a record (disk full, directory gone, closed)."""
-
-
-def _is_strict_json(body: bytes) -> bool:
-    """True for a body that is one JSON value without NaN or Infinity tokens."""
-    try:
-        from_json(body, allow_inf_nan=False)
-    except ValueError:
-        return False
-    return True
 
 
 def _head(request_id: str, operation: str) -> bytes:
@@ -56,12 +56,31 @@ def _head(request_id: str, operation: str) -> bytes:
     )
 
 
-def request_record(request_id: str, operation: str, body: bytes) -> bytes:
-    """The request message: strict-JSON bodies are embedded as they came, others as text."""
-    if _is_strict_json(body):
+def request_record(request_id: str, operation: str, body: bytes,
+                   strict_json: bool | None = None) -> bytes:
+    """The request message: strict-JSON bodies are embedded as they came, others as text.
+
+    ``strict_json`` says which the body is when the caller knows (the service parsed it);
+    by default the body is parsed here to find out.
+    """
+    if strict_json is None:
+        strict_json = is_strict_json(body)
+    if strict_json:
         return b'%s, "body": %s}' % (_head(request_id, operation), body)
-    raw = json.dumps(body.decode("utf-8", "backslashreplace"))
-    return b'%s, "raw": %s}' % (_head(request_id, operation), raw.encode())
+    return b'%s, "raw": %s}' % (_head(request_id, operation), _json_string(body))
+
+
+_CONTROL = re.compile(rb"[\x00-\x1f]")
+
+
+def _json_string(body: bytes) -> bytes:
+    """``body`` as a JSON string (bytes that are not UTF-8 escaped as ``\\xNN``). Printable
+    ASCII, as large bodies mostly are, is escaped slice by slice with byte replacements,
+    without a round trip through Python text and without holding the interpreter long."""
+    if all(piece.isascii() and _CONTROL.search(piece) is None for piece in slices(body)):
+        escaped = (p.replace(b"\\", b"\\\\").replace(b'"', b'\\"') for p in slices(body))
+        return b"".join([b'"', *escaped, b'"'])
+    return json.dumps(body.decode("utf-8", "backslashreplace")).encode()
 
 
 def response_record(
@@ -74,15 +93,45 @@ def response_record(
     )
 
 
+@dataclass(eq=False)
+class Exchange:
+    """One exchange in flight: its records, kept until both are flushed to a file that is
+    still in its folder, so that a file lost before then can be written again.
+
+    ``file`` is the number of the file holding the request record (0: not written, or lost
+    with its file); ``answered`` is set once the response record has been added.
+    """
+
+    operation: str
+    request: bytes
+    request_time: int
+    response: bytes | None = None
+    response_time: int = 0
+    file: int = 0
+    flushed: bool = False
+    answered: bool = False
+
+
 class Recorder:
     """Writes request and response records of the given operations to rotating MCAP files.
 
-    Use it from one thread: the event loop of a server process (``request`` then
-    ``await aresponse``), or plain code (``request``, ``response``, ``close``).
+    Use it from one thread: the event loop of a server process (``ex = await arequest(...)``
+    then ``await aresponse(ex, ...)``; records over :data:`LARGE_RECORD_BYTES` are handed to
+    a worker thread, with the writer to itself meanwhile), or plain code (``request``,
+    ``response``, ``close``).
+
+    Nothing is answered unrecorded (DESIGN section 10). Every flush checks that the file is
+    still where it was written: a file whose folder was deleted (an operator's ``rm -rf``, a
+    volume unmounted) takes every record written to it since it was opened, so the folder
+    is created again, a new file opened, and the records of every exchange still in flight
+    written to it once more before any of them is answered. A failed write (disk full, read
+    only) is tried once more in a new file the same way; if that fails too, the exchanges
+    waiting on the flush get :class:`RecordingError` (the service answers 503) and the
+    recorder is not :attr:`ready` until :meth:`probe` can write to the folder again.
 
     Parameters
     ----------
-    directory : folder for the files; created if missing.
+    directory : folder for the files; created if missing, and again if it disappears.
     operations : the registry's operations; each gets a request and a response channel.
     max_bytes : rotate when the current file reaches this size.
     max_age_s : rotate when the current file is this old.
@@ -122,6 +171,7 @@ class Recorder:
         self.records = 0  # records handed to the OS
         self.pending = 0  # records added, waiting for the next flush
         self.rotations = 0  # files closed because of size or age
+        self.rewritten = 0  # records written again after their file was lost
         self._bytes_closed = 0  # bytes of the files already closed
         self._closed = False
         self._error: Exception | None = None
@@ -131,6 +181,12 @@ class Recorder:
         self._opened_at = 0.0
         self._seq = 0
         self._batch: asyncio.Future[None] | None = None
+        self._lock: asyncio.Lock | None = None  # held while a worker thread writes
+        self._flush_waiting = False
+        self._inflight: set[Exchange] = set()
+        self._unflushed: list[Exchange] = []  # request records added since the last flush
+        self._answered: list[Exchange] = []  # response records added since the last flush
+        self._lost = False  # some in-flight record must be written again
 
     def start(self) -> "Recorder":
         """Check the folder can be written; the first file is opened by the first record."""
@@ -153,42 +209,105 @@ class Recorder:
         return not self._closed and self._error is None and os.access(self.directory, os.W_OK)
 
     def probe(self) -> bool:
-        """After a failed write, try the folder again (a small file written and removed,
-        synced); clear the failure when that works. Then :attr:`ready`.
+        """Look after the folder without waiting for traffic; then :attr:`ready`.
 
-        ``/readyz`` calls it, so readiness comes back when the disk does, without waiting
-        for a request to try.
+        A current file that left its folder is dropped (and its in-flight records written
+        again to a new file); a missing folder is created again; after a failed write a
+        small file is written, synced and removed, and the failure cleared when that works.
+        The service calls it every ``probe_interval_s`` and on ``/readyz``, so readiness
+        comes back with the disk by itself.
         """
-        if self._error is not None and not self._closed:
+        if self._closed:
+            return False
+        if self._lock is not None and self._lock.locked():
+            return self.ready  # a worker thread is writing: look next time
+        if self._stream is not None:
+            try:
+                self._check_file()
+            except _FileMoved:
+                self._finish()
+            except _FileLost as exc:
+                self._drop(exc, whole_file=True)
+        if self._error is not None or not os.access(self.directory, os.W_OK):
             probe = self.directory / f".plotgate-probe-{os.getpid()}"
             try:
+                self.directory.mkdir(parents=True, exist_ok=True)
                 with open(probe, "wb") as f:
                     f.write(b"\0" * 4096)
                     f.flush()
                     os.fsync(f.fileno())
                 probe.unlink()
-            except OSError:
+            except OSError as exc:
                 with contextlib.suppress(OSError):
                     probe.unlink()
+                self._error = self._error or exc
                 return False
             self._error = None
+        if self._lost:
+            self.flush()
         return self.ready
 
-    def request(self, operation: str, data: bytes, log_time: int | None = None) -> None:
-        """Add a request record; on a running loop it is flushed this turn."""
-        self._add(f"{operation}/request", data, log_time)
-        self._schedule()
+    def request(self, operation: str, data: bytes, log_time: int | None = None) -> Exchange:
+        """Add a request record (plain code: it is written by the next ``flush``).
 
-    def response(self, operation: str, data: bytes, log_time: int | None = None) -> None:
+        Returns the exchange to answer with :meth:`response`.
+        """
+        exchange = Exchange(operation, data, log_time or time.time_ns())
+        self._write_request(exchange)
+        self._inflight.add(exchange)
+        return exchange
+
+    def response(self, exchange: Exchange, data: bytes, log_time: int | None = None) -> None:
         """Add a response record; it is written by the next ``flush`` or ``close``."""
-        self._add(f"{operation}/response", data, log_time)
+        exchange.response, exchange.response_time = data, log_time or time.time_ns()
+        self._write_response(exchange)
 
-    async def aresponse(self, operation: str, data: bytes, log_time: int | None = None) -> None:
-        """Add a response record and wait until the flush holding it has reached the OS."""
-        self._add(f"{operation}/response", data, log_time)
-        batch = self._schedule()
-        assert batch is not None
-        await asyncio.shield(batch)
+    async def arequest(self, operation: str, data: bytes) -> Exchange:
+        """Add a request record on the event loop; it is flushed this turn.
+
+        Returns the exchange to answer with :meth:`aresponse`, or to :meth:`forget` when no
+        answer will be recorded.
+        """
+        exchange = Exchange(operation, data, time.time_ns())
+        await self._exclusive(self._write_request, exchange, len(data))
+        self._inflight.add(exchange)
+        self._schedule()
+        return exchange
+
+    async def aresponse(self, exchange: Exchange, data: bytes) -> None:
+        """Add a response record and wait until the flush holding both records of the
+        exchange has reached the OS (:class:`RecordingError` if it cannot)."""
+        try:
+            exchange.response, exchange.response_time = data, time.time_ns()
+            await self._exclusive(self._write_response, exchange, len(data))
+            batch = self._schedule()
+            assert batch is not None
+            await asyncio.shield(batch)
+        finally:
+            self.forget(exchange)
+
+    async def _exclusive(self, write: Callable[[Exchange], None], exchange: Exchange,
+                         size: int) -> None:
+        """Run ``write`` with the writer to itself: on the loop for a small record, in a
+        worker thread for one over :data:`LARGE_RECORD_BYTES` (copying, checksumming and
+        compressing tens of megabytes would stall every other request); the flush that
+        falls due meanwhile waits for it (:meth:`_flush_due`)."""
+        if self._lock is None:
+            self._lock = asyncio.Lock()
+        async with self._lock:
+            if size <= LARGE_RECORD_BYTES:
+                write(exchange)
+                return
+            try:
+                await asyncio.to_thread(write, exchange)
+            finally:
+                if self._flush_waiting:
+                    self._flush_waiting = False
+                    asyncio.get_running_loop().call_soon(self._flush_due)
+
+    def forget(self, exchange: Exchange) -> None:
+        """Stop keeping an exchange's records (answered, or refused unrecorded)."""
+        self._inflight.discard(exchange)
 
     @property
     def bytes_written(self) -> int:
@@ -200,23 +319,71 @@ class Recorder:
         return self._bytes_closed + current
 
     def flush(self) -> None:
-        """Close the current chunk, hand every added record to the OS, release its waiters."""
-        if self._writer is not None:
-            started = time.perf_counter()
-            try:
-                self._writer.flush()
-            except Exception as exc:
-                self._fail(exc)
-                return
-            if self.on_flush is not None:
-                self.on_flush(time.perf_counter() - started)
-            self.records += self.pending
-            self.pending = 0
+        """Hand every added record to the OS and release the answers waiting on them.
+
+        The chunk is closed and flushed, then the file checked: still linked in its folder.
+        A lost or failed file is replaced once (:meth:`_commit`); if that fails too, the
+        waiting answers get :class:`RecordingError`.
+        """
         batch, self._batch = self._batch, None
+        started = time.perf_counter()
+        try:
+            wrote = self._commit()
+        except RecordingError as exc:
+            if batch is not None and not batch.done():
+                batch.set_exception(exc)
+            return
+        if wrote and self.on_flush is not None:
+            self.on_flush(time.perf_counter() - started)
         if batch is not None and not batch.done():
             batch.set_result(None)
 
-    def _add(self, topic: str, data: bytes, log_time: int | None) -> None:
+    def _commit(self) -> bool:
+        """Flush the current file; on loss or failure, write the in-flight records to a new
+        file and flush that. True when records were written."""
+        for attempt in (1, 2):
+            try:
+                if self._lost:
+                    self._open()
+                if self._writer is None:
+                    return False
+                self._writer.flush()
+                self._check_file()
+            except _FileMoved:
+                self._finish()  # its records are safe where it went; the next file is here
+                return True
+            except Exception as exc:
+                self._drop(exc, whole_file=isinstance(exc, _FileLost))
+                if attempt == 2:
+                    raise RecordingError(f"could not record: {exc}") from exc
+                continue
+            self._flushed()
+            return True
+        raise AssertionError("unreachable")
+
+    def _flushed(self) -> None:
+        """Every record added so far is with the OS: count them, finish answered exchanges."""
+        for exchange in self._unflushed:
+            exchange.flushed = True
+        for exchange in self._answered:
+            self._inflight.discard(exchange)
+        self._unflushed.clear()
+        self._answered.clear()
+        self.records += self.pending
+        self.pending = 0
+
+    def _write_request(self, exchange: Exchange) -> None:
+        self._add(f"{exchange.operation}/request", exchange.request, exchange.request_time)
+        exchange.file, exchange.flushed = self._seq, False
+        self._unflushed.append(exchange)
+
+    def _write_response(self, exchange: Exchange) -> None:
+        assert exchange.response is not None
+        self._add(f"{exchange.operation}/response", exchange.response, exchange.response_time)
+        exchange.answered = True
+        self._answered.append(exchange)
+
+    def _add(self, topic: str, data: bytes, log_time: int) -> None:
         if self._closed:
             raise RecordingError("the recorder is closed")
         try:
@@ -224,11 +391,10 @@ class Recorder:
             if self._writer is None:
                 self._open()
             assert self._writer is not None
-            stamp = log_time or time.time_ns()
-            self._writer.add_message(self._channels[topic], stamp, data, stamp)
+            self._writer.add_message(self._channels[topic], log_time, data, log_time)
             self.pending += 1
         except Exception as exc:
-            self._fail(exc)
+            self._drop(exc, whole_file=False)
             raise RecordingError(f"could not record: {exc}") from exc
 
     def _schedule(self) -> asyncio.Future[None] | None:
@@ -239,8 +405,15 @@ class Recorder:
             return None
         if self._batch is None:
             self._batch = loop.create_future()
-            loop.call_soon(self.flush)
+            loop.call_soon(self._flush_due)
         return self._batch
+
+    def _flush_due(self) -> None:
+        """This turn's flush, unless a worker thread is writing: then right after it."""
+        if self._lock is not None and self._lock.locked():
+            self._flush_waiting = True
+        else:
+            self.flush()
 
     def _maybe_rotate(self) -> None:
         if self._stream is None or self.file_name is not None:
@@ -251,8 +424,14 @@ class Recorder:
             self.rotations += 1
 
     def _open(self) -> None:
-        """Open the next file. Lazily, on a record: a file without messages would lose its
-        schemas and channels, which mcap's writer keeps in the chunk being built."""
+        """Open the next file (creating the folder if it is gone), and write into it every
+        in-flight record whose file was lost.
+
+        Lazily, on a record: a file without messages would lose its schemas and channels,
+        which mcap's writer keeps in the chunk being built.
+        """
+        self._finish()
+        self.directory.mkdir(parents=True, exist_ok=True)
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
         self._seq += 1
         name = self.file_name or f"plotgate-{stamp}-pid{os.getpid()}-{self._seq:04d}.mcap"
@@ -272,6 +451,29 @@ class Recorder:
         self._writer = writer
         self._opened_at = time.monotonic()
         self._error = None
+        if self._lost:
+            self._lost = False
+            for exchange in sorted(self._inflight, key=lambda ex: ex.request_time):
+                if exchange.file == 0:
+                    self._write_request(exchange)
+                    self.rewritten += 1
+                if exchange.answered:
+                    self._write_response(exchange)
+                    self.rewritten += 1
+
+    def _check_file(self) -> None:
+        """Raise :class:`_FileLost` when the current file has no name left (its folder or
+        itself deleted), :class:`_FileMoved` when its name now leads elsewhere."""
+        assert self._stream is not None
+        opened = os.fstat(self._stream.fileno())
+        if opened.st_nlink == 0:
+            raise _FileLost(f"{self.files[-1]} was deleted (its folder removed?)")
+        try:
+            named = os.stat(self.files[-1])
+        except FileNotFoundError:
+            raise _FileMoved from None
+        if (named.st_dev, named.st_ino) != (opened.st_dev, opened.st_ino):
+            raise _FileMoved
 
     def _finish(self) -> None:
         """Write the summary and index and close the file."""
@@ -280,25 +482,36 @@ class Recorder:
                 self._writer.finish()
                 self._bytes_closed += self._stream.tell()
                 self._stream.close()
-                self.records += self.pending
-                self.pending = 0
+                self._flushed()
             except OSError as exc:
-                self._fail(exc)
+                self._drop(exc, whole_file=False)
         self._writer = None
         self._stream = None
 
-    def _fail(self, exc: Exception) -> None:
-        """Drop a file that failed mid-write, and fail every answer waiting on its records.
-
-        The next record opens a new file.
-        """
+    def _drop(self, exc: Exception, *, whole_file: bool) -> None:
+        """Abandon the current file after ``exc``: mark for writing again every in-flight
+        record it took (all of them when the file itself is gone, else those not yet
+        flushed; every response, since an exchange leaves once its response is flushed)."""
         self._error = exc
-        self.pending = 0  # lost with the file
-        batch, self._batch = self._batch, None
-        if batch is not None and not batch.done():
-            batch.set_exception(RecordingError(f"could not record: {exc}"))
+        for exchange in self._inflight:
+            if exchange.file == self._seq and (whole_file or not exchange.flushed):
+                exchange.file, exchange.flushed = 0, False
+                self._lost = True
+            if exchange.answered:
+                self._lost = True
+        self._unflushed.clear()
+        self._answered.clear()
+        self.pending = 0
         if self._stream is not None:
             with contextlib.suppress(OSError):
                 self._stream.close()
         self._writer = None
         self._stream = None
+
+
+class _FileLost(OSError):
+    """The current file has no name left: everything written to it is gone."""
+
+
+class _FileMoved(Exception):
+    """The current file is no longer at its path, but still exists elsewhere."""

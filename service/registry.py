@@ -17,6 +17,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from core import PlotgateError
+from service.bodies import is_strict_json, shape_problem, value_ceiling
 from service.operations import (
     gates,
     identification,
@@ -28,7 +29,8 @@ from service.operations import (
 from service.problems import ProblemError, from_core, from_validation, problem_json
 from service.schemas import ENDPOINTS, Endpoint, FieldError
 
-__all__ = ["OPERATIONS", "Operation", "Outcome", "check_limits", "execute"]
+__all__ = ["OPERATIONS", "Operation", "Outcome", "Parsed", "check_limits", "execute", "failed",
+           "parse", "run"]
 
 Handler = Callable[[Any], BaseModel]
 """A pure function from a validated request model to a response model."""
@@ -126,31 +128,77 @@ def _over_limit(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> N
                                [FieldError(field=size, reason=reason)])
 
 
-def execute(op: Operation, body: bytes, request_id: str | None = None,
-            limits: Mapping[str, int] | None = None) -> Outcome:
-    """Validate ``body`` against the operation's request model, run it, serialize the answer.
+@dataclass(frozen=True)
+class Parsed:
+    """A request body parsed once: the validated request, or the problem refusing it, and
+    whether the body is strict JSON (recorded as ``body``; anything else as ``raw`` text)."""
 
-    Bad input becomes an :class:`Outcome` whose content is an RFC 9457 problem naming the
-    field (``instance`` is the operation's path). Anything else that escapes is a bug.
-    Bodies are validated strictly: a JSON ``true`` is not the number 1 and ``"5"`` is not
-    5, so what the OpenAPI schema refuses, the service refuses. ``limits`` are the
-    server's caps on the operation's work sizes (``PLOTGATE_LIMITS``); replay runs
-    without them.
+    request: BaseModel | None
+    problem: ProblemError | None
+    json: bool
+
+
+def parse(op: Operation, body: bytes) -> Parsed:
+    """Size up ``body`` (:func:`service.bodies.shape_problem`) and validate it, once.
+
+    A body holding more JSON values than any valid request of the operation could, or a
+    megabyte without JSON structure, is refused (422 on ``body``) before anything is built
+    from it. Bodies are validated strictly: a JSON
+    ``true`` is not the number 1 and ``"5"`` is not 5, so what the OpenAPI schema refuses,
+    the service refuses. Validation parses the JSON itself; pydantic's parser also takes
+    ``NaN`` and ``Infinity`` tokens, so a body holding those letters is checked once more
+    before it is called strict JSON.
     """
+    reason = shape_problem(body, value_ceiling(op.request))
+    if reason is not None:
+        problem = ProblemError("invalid-input", 422, f"body: {reason}",
+                               [FieldError(field="body", reason=reason)])
+        return Parsed(None, problem, json=False)
     try:
         request = op.request.model_validate_json(body, strict=True)
+    except ValidationError as exc:
+        problem = from_validation(exc)
+        return Parsed(None, problem, problem.kind != "malformed-json" and _strict_json(body))
+    return Parsed(request, None, _strict_json(body))
+
+
+def _strict_json(body: bytes) -> bool:
+    """For a body pydantic parsed: True unless it holds a NaN or Infinity token."""
+    return (b"NaN" not in body and b"Infinity" not in body) or is_strict_json(body)
+
+
+def run(op: Operation, request: BaseModel, request_id: str | None = None,
+        limits: Mapping[str, int] | None = None) -> Outcome:
+    """Run a validated request and serialize the answer.
+
+    Bad input (a server cap passed, core's errors) becomes an :class:`Outcome` whose content
+    is an RFC 9457 problem naming the field (``instance`` is the operation's path). Anything
+    else that escapes is a bug. ``limits`` are the server's caps on the operation's work
+    sizes (``PLOTGATE_LIMITS``); replay runs without them.
+    """
+    try:
         if limits:
             _over_limit(op, request, limits)
         try:
             response = op.handler(request)
         except PlotgateError as exc:
             raise from_core(exc, op.field_of(request, exc)) from exc
-    except ValidationError as exc:
-        return _failed(op, from_validation(exc), request_id)
     except ProblemError as exc:
-        return _failed(op, exc, request_id)
+        return failed(op, exc, request_id)
     return Outcome(status=200, content=response.model_dump_json().encode())
 
 
-def _failed(op: Operation, err: ProblemError, request_id: str | None) -> Outcome:
+def execute(op: Operation, body: bytes, request_id: str | None = None,
+            limits: Mapping[str, int] | None = None) -> Outcome:
+    """:func:`parse` then :func:`run`: what the HTTP route answers for ``body``, so an
+    in-process replay answers byte for byte what the server would."""
+    parsed = parse(op, body)
+    if parsed.request is None:
+        assert parsed.problem is not None
+        return failed(op, parsed.problem, request_id)
+    return run(op, parsed.request, request_id, limits)
+
+
+def failed(op: Operation, err: ProblemError, request_id: str | None) -> Outcome:
+    """The outcome of a refused request: ``err`` as a problem body."""
     return Outcome(err.status, problem_json(err, op.path, request_id), err)

@@ -1,41 +1,50 @@
 """HTTP routes: one POST route per registry operation, plus the unversioned ops routes.
 
-Every operation route does the same five steps, in this order:
+Every operation route does the same steps, in this order:
 
 1. take the request id (``X-Request-ID`` if the caller sent a sane one, else a new one);
-2. add the request record, raw body included, before anything can fail;
-3. run :func:`service.registry.execute`: on the event loop for a small body (a thread
-   hand-off costs more than a gate test of a few hundred plots), in a worker thread for a
-   body over ``INLINE_BODY_BYTES`` or an operation whose endpoint is marked ``slow``
-   (quadratures that take tenths of a second or more), so it does not stall the others;
-4. add the response record and wait for the flush that hands it to the operating system;
-5. answer (:class:`service.guards.RequestId` puts ``X-Request-ID`` on every response).
+2. receive the body within ``PLOTGATE_BODY_TIMEOUT_S`` (408 after it, recorded);
+3. parse it once (:func:`service.registry.parse`: sized up against the operation's value
+   ceiling, then validated), on the event loop for a small body, in a worker thread for a
+   body over ``INLINE_BODY_BYTES`` so a large body never stalls the loop;
+4. add the request record (the body as it came: embedded when it is strict JSON, as text
+   otherwise);
+5. run the operation (:func:`service.registry.run`): on the event loop for a small body (a
+   thread hand-off costs more than a gate test of a few hundred plots), in a worker thread
+   for a large body or an operation whose endpoint is marked ``slow`` (quadratures that take
+   tenths of a second or more);
+6. add the response record and wait for the flush that hands both records to the operating
+   system;
+7. answer (:class:`service.guards.RequestId` puts ``X-Request-ID`` on every response).
 
-If the record cannot be written the answer is a 503 problem: nothing is acknowledged
-unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is answered anyway and
-counted in ``plotgate_unrecorded_total``.
+If the records cannot be written the answer is a 503 problem with ``Retry-After``: nothing
+is acknowledged unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is answered
+anyway and counted in ``plotgate_unrecorded_total``.
 """
 
 import logging
+import math
 import time
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
+from service.bodies import BodyTimeout, ClientGone, read_body
 from service.guards import request_id
 from service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
 from service.problems import ProblemError, problem_json
-from service.recorder import Recorder, RecordingError, request_record, response_record
-from service.registry import OPERATIONS, Operation, Outcome, execute
-from service.schemas import Problem
+from service.recorder import Exchange, Recorder, RecordingError, request_record, response_record
+from service.registry import OPERATIONS, Operation, Outcome, Parsed, failed, parse, run
+from service.schemas import FieldError, Problem
 
 __all__ = ["PROBLEM_JSON", "health_router", "operations_router", "request_id_of"]
 
 log = logging.getLogger("plotgate")
 PROBLEM_JSON = "application/problem+json"
 INLINE_BODY_BYTES = 64 * 1024
-"""Bodies up to this size are executed on the event loop, larger ones in a worker thread."""
+"""Bodies up to this size are parsed and executed on the event loop, larger ones in a
+worker thread."""
 
 
 def request_id_of(request: Request) -> str:
@@ -43,59 +52,100 @@ def request_id_of(request: Request) -> str:
     return request_id(request.scope)
 
 
-def _run(op: Operation, body: bytes, request_id: str, limits: dict[str, int] | None) -> Outcome:
+def retry_after(request: Request) -> dict[str, str]:
+    """``Retry-After`` for a 503: the recorder's probe interval, whole seconds."""
+    return {"retry-after": str(math.ceil(request.app.state.settings.probe_interval_s))}
+
+
+def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] | None
+         ) -> Outcome:
+    if parsed.request is None:
+        assert parsed.problem is not None
+        return failed(op, parsed.problem, request_id)
     try:
-        return execute(op, body, request_id, limits)
+        return run(op, parsed.request, request_id, limits)
     except Exception:
         log.exception("operation %s failed on request %s", op.name, request_id)
         err = ProblemError("internal", 500, f"{op.name} failed unexpectedly; this is a bug")
         return Outcome(500, problem_json(err, op.path, request_id), err)
 
 
-def _unrecorded(op: Operation, request_id: str, exc: RecordingError) -> Response:
-    err = ProblemError("recording-unavailable", 503, f"the exchange was not recorded: {exc}")
-    content = problem_json(err, op.path, request_id)
-    return Response(content, 503, media_type=PROBLEM_JSON)
+def _intake(op: Operation, body: bytes, request_id: str) -> tuple[Parsed, bytes]:
+    """Parse a body once and build its request record: the two passes over every byte."""
+    parsed = parse(op, body)
+    return parsed, request_record(request_id, op.name, body, parsed.json)
+
+
+def _timed_out(op: Operation, request_id: str, exc: BodyTimeout) -> Outcome:
+    reason = (f"did not arrive within {exc.deadline_s:g} s ({len(exc.received)} bytes "
+              "received; PLOTGATE_BODY_TIMEOUT_S)")
+    err = ProblemError("request-timeout", 408, f"body: {reason}",
+                       [FieldError(field="body", reason=reason)])
+    return failed(op, err, request_id)
 
 
 def _endpoint(op: Operation):
     async def endpoint(request: Request) -> Response:
-        request_id = request_id_of(request)
+        rid = request_id_of(request)
         recorder: Recorder | None = request.app.state.recorder
-        best_effort: bool = request.app.state.settings.record_best_effort
+        settings = request.app.state.settings
         metrics = request.app.state.metrics
         started = time.perf_counter()
-        body = await request.body()
+        exchange: Exchange | None = None
+        try:
+            body = await read_body(request.receive, settings.body_timeout_s)
+        except ClientGone:
+            return Response(status_code=499)  # nobody to answer, nothing acknowledged
+        except BodyTimeout as exc:
+            large, parsed = False, None
+            record = request_record(rid, op.name, exc.received, strict_json=False)
+            outcome = _timed_out(op, rid, exc)
+        else:
+            outcome = None
+            large = len(body) > INLINE_BODY_BYTES
+            if large:
+                parsed, record = await run_in_threadpool(_intake, op, body, rid)
+            else:
+                parsed, record = _intake(op, body, rid)
         try:
             if recorder is not None:
                 try:
-                    recorder.request(op.name, request_record(request_id, op.name, body))
+                    exchange = await recorder.arequest(op.name, record)
                 except RecordingError:
-                    if not best_effort:
+                    if not settings.record_best_effort:
                         raise
                     recorder = None  # best effort: answer this exchange unrecorded
                     metrics.unrecorded(op.name)
-            limits = request.app.state.settings.limits.get(op.name)
-            if len(body) <= INLINE_BODY_BYTES and not op.endpoint.slow:
-                outcome = _run(op, body, request_id, limits)
-            else:
-                outcome = await run_in_threadpool(_run, op, body, request_id, limits)
-            if recorder is not None:
+            if outcome is None:
+                assert parsed is not None
+                limits = settings.limits.get(op.name)
+                if large or op.endpoint.slow:
+                    outcome = await run_in_threadpool(_run, op, parsed, rid, limits)
+                else:
+                    outcome = _run(op, parsed, rid, limits)
+            if recorder is not None and exchange is not None:
                 record = response_record(
-                    request_id, op.name, outcome.status, time.perf_counter() - started,
+                    rid, op.name, outcome.status, time.perf_counter() - started,
                     outcome.content,
                 )
                 try:
-                    await recorder.aresponse(op.name, record)
+                    await recorder.aresponse(exchange, record)
                 except RecordingError:
-                    if not best_effort:
+                    if not settings.record_best_effort:
                         raise
                     metrics.unrecorded(op.name)
         except RecordingError as exc:
             metrics.observe(op.name, 503, time.perf_counter() - started)
-            return _unrecorded(op, request_id, exc)
+            err = ProblemError("recording-unavailable", 503,
+                               f"the exchange was not recorded: {exc}")
+            return Response(problem_json(err, op.path, rid), 503, retry_after(request),
+                            media_type=PROBLEM_JSON)
+        finally:
+            if recorder is not None and exchange is not None:
+                recorder.forget(exchange)
         metrics.observe(op.name, outcome.status, time.perf_counter() - started)
-        return Response(outcome.content, outcome.status,
+        headers = {"connection": "close"} if outcome.status == 408 else None
+        return Response(outcome.content, outcome.status, headers,
                         media_type="application/json" if outcome.ok else PROBLEM_JSON)
 
     endpoint.__name__ = op.name.replace(".", "_")
@@ -109,8 +159,10 @@ def operations_router() -> APIRouter:
         status: {"model": Problem, "description": text}
         for status, text in (
             (400, "The body is not JSON."),
+            (408, "The body did not arrive within the server's deadline."),
             (422, "A field is invalid; `errors` names each one."),
-            (503, "The exchange could not be recorded, so it was refused."),
+            (503, "The exchange could not be recorded, so it was refused; retry after "
+                  "`Retry-After` seconds."),
         )
     }
     for op in OPERATIONS.values():
@@ -152,7 +204,8 @@ def health_router() -> APIRouter:
         if recorder is None or recorder.probe():
             return Response('{"status":"ready"}', 200, media_type="application/json")
         err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
-        return Response(problem_json(err, "/readyz"), 503, media_type=PROBLEM_JSON)
+        return Response(problem_json(err, "/readyz"), 503, retry_after(request),
+                        media_type=PROBLEM_JSON)
 
     @router.get("/metrics", summary="Prometheus metrics: requests, latencies, recorder",
                 response_class=Response,

@@ -1,7 +1,8 @@
 """A real disk fault under load: the server may write at most FILE_LIMIT bytes per file
 (RLIMIT_FSIZE, so writes past it fail with EFBIG as on a full disk). Nothing it
-acknowledges may be missing from the files; it answers 503 while it cannot record and
-recovers by itself (a fresh file) afterwards."""
+acknowledges may be missing from the files. A failed write is tried again in a fresh file
+at once (which succeeds here, as a full file is the fault); an exchange that cannot be
+recorded there either is answered 503."""
 
 import json
 import resource
@@ -54,9 +55,9 @@ def test_no_acknowledged_exchange_is_lost_when_the_disk_fills(tmp_path):
                            headers={"content-type": "application/json", "x-request-id": "after"})
         assert after.status_code == 200
         answered.append("after")
-    assert statuses[503] > 0 and statuses[200] > 0  # the fault happened, and passed
+    assert statuses[200] > 0 and set(statuses) <= {200, 503}
     recorded = {ex.request_id for f in sorted(tmp_path.glob("*.mcap"))
                 for ex in read_recording(f).exchanges if ex.response is not None}
     missing = set(answered) - recorded
     assert not missing, f"{len(missing)} acknowledged exchanges missing: {sorted(missing)[:5]}"
-    assert len(list(tmp_path.glob("*.mcap"))) > 1  # new files after each fault
+    assert len(list(tmp_path.glob("*.mcap"))) > 1  # the fault happened: a new file each time

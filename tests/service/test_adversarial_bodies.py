@@ -1,0 +1,83 @@
+"""Structurally absurd bodies just under the size limit: refused before they are parsed,
+with the server's peak memory under 10 times the body size (VmHWM from /proc, not a
+timing) and ``/healthz`` answering within 0.1 s while each is processed."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import httpx
+
+from clients.recordings import read_recording
+from tests.conftest import serve
+
+SIZE = 60 * 2**20  # just under the 64 MiB default limit
+HEALTH_WITHIN_S = 0.1
+
+
+def _repeat(head: bytes, item: bytes, tail: bytes, size: int = SIZE) -> bytes:
+    n = (size - len(head) - len(tail)) // (len(item) + 1)
+    return head + b",".join([item] * n) + tail
+
+
+SHAPES = {  # name: (body, the field its refusal names)
+    "empty objects": (_repeat(b'{"gate": [', b"{}", b"]}"), "body"),
+    "empty arrays": (_repeat(b'{"candidates": [', b"[]", b"]}"), "body"),
+    "zeros": (_repeat(b'{"candidates": [', b"0", b"]}"), "body"),
+    "nested": (b"[" * (SIZE // 2) + b"]" * (SIZE // 2), "body"),
+    "many keys": (_repeat(b"{", b'"k":0', b"}"), "body"),
+    "one string": (b'{"gate": "' + b"a" * (SIZE - 12) + b'"}', "body"),
+}
+
+
+def _status(pid: int, key: str) -> int:
+    """A /proc/<pid>/status memory figure (VmHWM, VmRSS), bytes."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith(key + ":"):
+            return int(line.split()[1]) * 1024
+    raise KeyError(key)
+
+
+_WATCH = """
+import sys, time, httpx
+url, stop_file = sys.argv[1], sys.argv[2]
+worst = 0.0
+with httpx.Client(base_url=url, timeout=10) as http:
+    while True:
+        started = time.perf_counter()
+        assert http.get("/healthz").status_code == 200
+        worst = max(worst, time.perf_counter() - started)
+        try:
+            open(stop_file).close()
+            break
+        except FileNotFoundError:
+            time.sleep(0.01)
+print(worst)
+"""
+
+
+def test_absurd_bodies_are_refused_with_bounded_memory_and_a_live_health_check(tmp_path):
+    stop = tmp_path / "stop"
+    with serve(tmp_path / "recordings") as (proc, url), \
+            httpx.Client(base_url=url, timeout=120) as http:
+        # /healthz is timed from another process, so this one's sending does not delay it
+        watcher = subprocess.Popen([sys.executable, "-c", _WATCH, url, str(stop)],
+                                   stdout=subprocess.PIPE, text=True)
+        try:
+            for name, (body, field) in SHAPES.items():
+                r = http.post("/v1/gates/test", content=body, headers={
+                    "content-type": "application/json", "x-request-id": name.replace(" ", "-")})
+                assert r.status_code == 422, (name, r.status_code, r.text[:300])
+                assert r.json()["errors"][0]["field"] == field, (name, r.text[:300])
+        finally:
+            stop.touch()
+            worst = float(watcher.communicate(timeout=30)[0])
+        peak = _status(proc.pid, "VmHWM")
+    print(f"peak RSS {peak / 2**20:.0f} MiB, /healthz at most {worst * 1e3:.0f} ms")
+    assert peak < 10 * SIZE, f"peak RSS {peak / 2**20:.0f} MiB for {SIZE / 2**20:.0f} MiB bodies"
+    assert worst < HEALTH_WITHIN_S, f"/healthz took {worst:.3f} s"
+    recorded = {ex.request_id: ex for f in (tmp_path / "recordings").glob("*.mcap")
+                for ex in read_recording(f).exchanges}
+    assert len(recorded) == len(SHAPES)  # refusals of requests that reached an operation
+    assert all(ex.response is not None for ex in recorded.values())
+    assert recorded["empty-objects"].request["raw"].encode() == SHAPES["empty objects"][0]

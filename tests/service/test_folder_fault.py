@@ -1,0 +1,132 @@
+"""The recordings folder deleted or replaced while serving (an operator's ``rm -rf``, a
+volume unmounted): the server never answers an exchange whose records are not on disk, it
+creates the folder again, and readiness comes back by itself, with no traffic."""
+
+import contextlib
+import json
+import shutil
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+
+import httpx
+from fastapi.testclient import TestClient
+
+from clients.recordings import read_recording
+from service.app import create_app
+from service.recorder import Recorder
+from service.registry import OPERATIONS
+from tests.conftest import serve
+from tests.service.test_recording import GOOD
+
+CLIENTS, EACH = 10, 60
+RECOVERY_S = 2.5
+"""Stated recovery time: the probe interval (1 s) plus slack for a loaded 2-core machine."""
+
+
+def _answered(folder: Path) -> dict[str, dict]:
+    """Request id -> request record, for every exchange with both records on disk."""
+    return {ex.request_id: ex.request for f in sorted(folder.glob("*.mcap"))
+            for ex in read_recording(f).exchanges if ex.response is not None}
+
+
+def _remove(folder: Path) -> None:
+    """``rm -rf`` that wins the race against a server creating files in the folder."""
+    while folder.exists():
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def test_folder_deleted_under_load_loses_no_answered_exchange(tmp_path):
+    folder = tmp_path / "recordings"
+    body = json.dumps(GOOD).encode()
+    sent_after: set[str] = set()  # sent once the deletion had finished
+    answered: set[str] = set()
+    statuses: Counter[int] = Counter()
+    lock = threading.Lock()
+    deleted = threading.Event()
+
+    def client(k: int, url: str) -> None:
+        with httpx.Client(base_url=url, timeout=60) as http:
+            for i in range(EACH):
+                rid = f"c{k}-{i}"
+                after = deleted.is_set()
+                r = http.post("/v1/gates/test", content=body, headers={
+                    "content-type": "application/json", "x-request-id": rid})
+                with lock:
+                    statuses[r.status_code] += 1
+                    if r.status_code == 200:
+                        answered.add(rid)
+                        if after:
+                            sent_after.add(rid)
+                    else:
+                        assert r.status_code == 503, r.text
+                        assert r.headers["retry-after"] == "1"
+
+    with serve(folder) as (_, url):
+        threads = [threading.Thread(target=client, args=(k, url)) for k in range(CLIENTS)]
+        for t in threads:
+            t.start()
+        while len(answered) < CLIENTS * EACH // 4:
+            time.sleep(0.01)
+        _remove(folder)
+        deleted.set()
+        for t in threads:
+            t.join(timeout=300)
+        on_disk = _answered(folder)  # the open file included: every flush reached the OS
+        # idle now: delete it again and let nothing but the server's own probe bring it back
+        _remove(folder)
+        gone_at = time.monotonic()
+        while not folder.is_dir():
+            assert time.monotonic() - gone_at < RECOVERY_S, "the folder was not re-created"
+            time.sleep(0.02)
+        assert httpx.get(url + "/readyz").status_code == 200
+        last = httpx.post(url + "/v1/gates/test", content=body, headers={
+            "content-type": "application/json", "x-request-id": "last"})
+        assert last.status_code == 200
+    assert statuses[200] >= CLIENTS * EACH * 0.9, statuses  # refusals are rare races at most
+    assert len(sent_after) > CLIENTS  # the fault happened mid-load
+    missing = sent_after - set(on_disk)
+    assert not missing, f"{len(missing)} answered exchanges not on disk: {sorted(missing)[:5]}"
+    assert _answered(folder)["last"]["body"] == GOOD
+
+
+def test_in_flight_exchange_is_written_again_after_its_file_is_deleted(tmp_path):
+    folder = tmp_path / "recordings"
+    recorder = Recorder(folder, OPERATIONS.values()).start()
+    early = recorder.request("gates.test", b'{"request_id": "early", "operation": "gates.test"}')
+    recorder.flush()
+    shutil.rmtree(folder)
+    recorder.response(early, b'{"request_id": "early", "operation": "gates.test", '
+                             b'"status": 200, "duration_s": 0.1, "result": {}}')
+    recorder.flush()
+    recorder.close()
+    [path] = folder.glob("*.mcap")
+    [exchange] = read_recording(path).exchanges
+    assert exchange.request_id == "early" and exchange.response["status"] == 200
+    assert recorder.rewritten == 2
+
+
+def test_unwritable_folder_answers_503_with_retry_after_then_recovers(settings):
+    folder = settings.log_dir
+    with TestClient(create_app(settings)) as c:
+        assert c.post("/v1/gates/test", json=GOOD).status_code == 200
+        while not folder.is_file():  # the mount point is gone, a file in its place
+            _remove(folder)
+            with contextlib.suppress(IsADirectoryError):  # the server's probe was quicker
+                folder.write_text("not a folder")
+        r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "refused"})
+        assert r.status_code == 503 and r.headers["retry-after"] == "1"
+        assert r.json()["type"] == "urn:plotgate:problem:recording-unavailable"
+        ready = c.get("/readyz")
+        assert ready.status_code == 503 and ready.headers["retry-after"] == "1"
+        folder.unlink()
+        gone_at = time.monotonic()
+        while not folder.is_dir():  # the server's own probe, no request
+            assert time.monotonic() - gone_at < RECOVERY_S
+            time.sleep(0.02)
+        assert c.get("/readyz").status_code == 200
+        r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "back"})
+        assert r.status_code == 200
+    on_disk = _answered(folder)
+    assert "back" in on_disk and "refused" not in on_disk
