@@ -444,7 +444,7 @@ def _best_and_alternative(
         best = np.where(lower, j, best)
     chosen = runs[rows, best]
     dx = fit.theta[runs] - fit.theta[chosen][:, None, :]  # (N, K, D)
-    distinct = np.einsum("nki,nij,nkj->nk", dx, fit.information[chosen], dx) > 1.0
+    distinct = np.einsum("nkj,nkj->nk", dx @ fit.information[chosen], dx) > 1.0
     eligible = distinct & fit.converged[runs] & (cost <= threshold)
     pick = np.argmin(np.where(eligible, cost, np.inf), axis=1)
     return chosen, runs[rows, pick], eligible.any(axis=1)
