@@ -35,8 +35,9 @@ better-conditioned geometry where Gauss-Newton needs fewer steps.
   did with ``initial``). After: ``ml_solve`` with ``x0`` (the start plus the closed
   form's roots), and without; then the operation ``solves.position`` itself
   (in-process, the validated request, one request of all the problems) with and
-  without ``initial``. Times are per solve, best of ``--repeats``, in the same run
-  (scipy's: one pass).
+  without ``initial``. Times are CPU seconds per solve (``time.process_time``: a busy
+  machine's waits are not counted), the least of ``--repeats`` round-robin rounds of
+  the five calls in the same run (scipy's: one pass).
   The script exits 1 when anything after is trapped.
 
 The ratio columns are scipy's time over core's (above 1: core is faster). Prints markdown.
@@ -67,7 +68,7 @@ from core.multistatic import (
     trajectory_solve,
 )
 from service.operations.solves import position
-from service.schemas import PositionSolveRequest
+from service.schemas import PositionSolveRequest, PositionSolveResult
 
 SEED = 20261123
 SIGMA = 0.5
@@ -247,18 +248,30 @@ class TrapRow:
     seconds: float  # per solve
 
 
-def _ml_row(name: str, run: Callable[[], MLSolution], n: int, repeats: int) -> TrapRow:
-    sol = run()
-    return TrapRow(name, sol.x, sol.consistent, sol.has_alternative,
-                   best_time(run, repeats) / n)
+def cpu_times(runs: list[Callable[[], object]], repeats: int) -> list[float]:
+    """Least CPU time (process_time) of each call over ``repeats`` round-robin rounds.
+
+    Round-robin, so load from other processes hits every call alike; CPU time, so
+    waiting for a core is not counted (numpy runs these on one thread).
+    """
+    best = [np.inf] * len(runs)
+    for _ in range(repeats):
+        for i, run in enumerate(runs):
+            start = time.process_time()
+            run()
+            best[i] = min(best[i], time.process_time() - start)
+    return best
 
 
-def _operation_row(name: str, request: PositionSolveRequest, n: int, repeats: int) -> TrapRow:
-    out = position(request).solutions
+def _ml_row(name: str, sol: MLSolution, seconds: float) -> TrapRow:
+    return TrapRow(name, sol.x, sol.consistent, sol.has_alternative, seconds)
+
+
+def _operation_row(name: str, answer: PositionSolveResult, seconds: float) -> TrapRow:
+    out = answer.solutions
     return TrapRow(name, np.array([s.position for s in out]),
                    np.array([s.consistent for s in out]),
-                   np.array([s.alternative is not None for s in out]),
-                   best_time(lambda: position(request), repeats) / n)
+                   np.array([s.alternative is not None for s in out]), seconds)
 
 
 def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator
@@ -271,33 +284,39 @@ def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator
     J = crlb(truth, tx, rx, SIGMA).information[0]
     fun, jac = _direct_residuals(tx, rx)
 
-    began = time.perf_counter()  # scipy solves one problem per call; timed once (slow)
+    began = time.process_time()  # scipy solves one problem per call; timed once (slow)
     x_scipy = np.array([least_squares(fun, starts[r], jac=jac, args=(ls[r],)).x
                         for r in range(runs)])
-    scipy_s = time.perf_counter() - began
+    scipy_s = time.process_time() - began
     res = (ls - range_sums(x_scipy, tx, rx)) / SIGMA
     cost_scipy = np.einsum("np,np->n", res, res)
     threshold = stats.chi2.ppf(1.0 - ALPHA, tx.shape[0] - 2)
-    before = [
-        TrapRow("least_squares (trf), the start alone", x_scipy, cost_scipy <= threshold,
-                np.zeros(runs, dtype=bool), scipy_s / runs),
-        _ml_row("ml_solve, the start alone (closed_form_starts=False)",
-                lambda: ml_solve(ls, tx, rx, SIGMA, x0=starts, alpha=ALPHA,
-                                 closed_form_starts=False), runs, repeats),
-    ]
     wire = [{"range_sums": ls[r].tolist(), "transmitter": tx[0].tolist(),
              "receivers": rx.tolist(), "sigma": SIGMA} for r in range(runs)]
     guessed = PositionSolveRequest.model_validate(
         {"problems": [dict(w, initial=s.tolist()) for w, s in zip(wire, starts, strict=True)],
          "alpha": ALPHA})
     plain = PositionSolveRequest.model_validate({"problems": wire, "alpha": ALPHA})
+    calls: list[Callable[[], object]] = [
+        lambda: ml_solve(ls, tx, rx, SIGMA, x0=starts, alpha=ALPHA, closed_form_starts=False),
+        lambda: ml_solve(ls, tx, rx, SIGMA, x0=starts, alpha=ALPHA),
+        lambda: ml_solve(ls, tx, rx, SIGMA, alpha=ALPHA),
+        lambda: position(guessed),
+        lambda: position(plain),
+    ]
+    alone, with_x0, without_x0, op_guessed, op_plain = (call() for call in calls)
+    per_solve = [t / runs for t in cpu_times(calls, repeats)]
+    before = [
+        TrapRow("least_squares (trf), the start alone", x_scipy, cost_scipy <= threshold,
+                np.zeros(runs, dtype=bool), scipy_s / runs),
+        _ml_row("ml_solve, the start alone (closed_form_starts=False)", alone, per_solve[0]),
+    ]
     after = [
-        _ml_row("ml_solve with x0 (the start + the closed form's roots)",
-                lambda: ml_solve(ls, tx, rx, SIGMA, x0=starts, alpha=ALPHA), runs, repeats),
-        _ml_row("ml_solve without x0 (the closed form's roots)",
-                lambda: ml_solve(ls, tx, rx, SIGMA, alpha=ALPHA), runs, repeats),
-        _operation_row("solves.position with initial", guessed, runs, repeats),
-        _operation_row("solves.position without initial", plain, runs, repeats),
+        _ml_row("ml_solve with x0 (the start + the closed form's roots)", with_x0,
+                per_solve[1]),
+        _ml_row("ml_solve without x0 (the closed form's roots)", without_x0, per_solve[2]),
+        _operation_row("solves.position with initial", op_guessed, per_solve[3]),
+        _operation_row("solves.position without initial", op_plain, per_solve[4]),
     ]
     rows, trapped_after = [], 0
     for when, group in (("before", before), ("after", after)):
