@@ -497,9 +497,10 @@ def ml_solve(
     x0 : (D,) or (N, D) array_like, optional
         A start position, tried besides the closed form's roots: the lowest cost wins,
         x0's minimum on a tie (a start near one of two exact solutions picks it). The
-        minimum of the start that lost becomes ``alternative`` when it is consistent
-        (a start trapped in a false minimum is not reported). Default: the closed
-        form's roots only.
+        best other minimum (x0's when a root fit better, or a root's) becomes
+        ``alternative`` when it converged, is consistent and is distinct; a start
+        trapped in a false minimum is never reported. Default: the closed form's roots
+        only.
     alpha : float, optional
         False-alarm probability of the chi-square consistency test, in (0, 1).
         Default 0.01.
@@ -571,21 +572,21 @@ def ml_solve(
     ls, tx, rx, sigma = validate_problem(l, tx, rx, sigma)
     n, p, d = tx.shape
     threshold = _threshold(alpha, p - d)
-    # the starts of every problem, in order of preference on a tie: x0, the closed
-    # form's primary root; then the second roots worth following, for some problems
+    # the starts every problem has, in order of preference on a tie (x0, the closed
+    # form's primary root), then the second roots worth following
     starts = [] if x0 is None else [_start_points(x0, n, d)]
-    second = np.zeros(0, dtype=int)
+    second, seconds = np.zeros(0, dtype=int), np.zeros((0, d))
     if closed_form_starts:
         start, alt_start, has_alt_start = _closed_form_starts(ls, tx, rx, sigma)
         starts.append(start)
         second = np.flatnonzero(has_alt_start & _worth_following(
             ls, tx, rx, sigma, start, alt_start, threshold))
-        starts.append(alt_start[second])
-    k = len(starts) - (1 if closed_form_starts else 0)  # starts every problem has
+        seconds = alt_start[second]
+    k = len(starts)
     problem = np.concatenate([np.tile(np.arange(n), k), second])
     predict, jacobian = _position_model(tx[problem], rx[problem])
     fit = _gauss_newton(predict, jacobian, ls[problem], sigma[problem],
-                        np.concatenate(starts), max_iter, tol)
+                        np.concatenate([*starts, seconds]), max_iter, tol)
 
     # runs (N, k + 1): run r = j n + i is problem i's start j; the last column is the
     # second root's run, or the problem's first run where there is none
