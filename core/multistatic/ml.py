@@ -40,6 +40,17 @@ root, Gauss-Newton runs from both; the lower cost wins, and the other becomes th
 ``alternative`` when it converged, passes the chi-square test and lies more than one
 standard deviation (Mahalanobis, by the winner's covariance) from the winner.
 
+A user start ``x0`` is a third start, not a replacement: Gauss-Newton runs from x0 and
+from the closed-form roots above, and the lowest cost wins (x0's minimum on a tie, so
+with P = D, where both roots fit exactly, x0 picks the root). A start alone is a trap:
+at a baseline crossing, a start 500 m off lands at the transmitter's cone point (a false
+minimum that fails the chi-square test) more often than not, while the closed form's
+roots reach the truth. The ``alternative`` is then the lowest-cost other minimum
+(x0's or a root's) that converged, passes the chi-square test and lies more than one
+standard deviation from the winner; an inconsistent one (the trapped start) is never
+reported. ``closed_form_starts=False`` runs from x0 alone (a local refinement, e.g.
+of a point that already is a closed-form root) and searches no alternative.
+
 Consistency
 -----------
 The cost at the minimum is chi-square with P - D degrees of freedom when the model
@@ -119,9 +130,12 @@ class MLSolution:
         The reported run met the convergence test within max_iter.
     alternative : (N, D) ndarray
         Another consistent local minimum where ``has_alternative``; a copy of x elsewhere.
+        Without x0 it comes from the closed form's other root; with x0 it is the
+        lowest-cost of the other starts' minima (x0's, when a closed-form root found a
+        lower cost; or a root's) that converged and passes the chi-square test.
     has_alternative : (N,) ndarray of bool
-        A second, distinct, consistent solution exists (e.g. the second ellipse
-        intersection with P = D).
+        A second, distinct (more than one standard deviation from x), converged and
+        consistent solution exists (e.g. the second ellipse intersection with P = D).
     """
 
     x: np.ndarray
@@ -409,6 +423,33 @@ def _worth_following(
     return (cost(start) > threshold) | (cost(alt_start) <= SECOND_ROOT_COST * threshold)
 
 
+def _best_and_alternative(
+    fit: _Fit, runs: np.ndarray, threshold: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reported run, the alternative's run and whether there is one, per problem.
+
+    ``runs`` (N, K) are each problem's runs in order of preference on a tie (a problem
+    with fewer starts repeats its first run). The lowest cost wins: a later run only
+    when its cost is lower by more than the tie tolerance. The alternative is the
+    lowest-cost run that converged, passes the chi-square test (cost <= threshold) and
+    lies more than one standard deviation (Mahalanobis, by the winner's information)
+    from the winner. Loops over the K (at most 3) columns only.
+    """
+    n, k = runs.shape
+    rows = np.arange(n)
+    cost = fit.cost[runs]  # (N, K)
+    best = np.zeros(n, dtype=int)
+    for j in range(1, k):
+        lower = cost[:, j] + _TIE * (1.0 + cost[rows, best]) < cost[rows, best]
+        best = np.where(lower, j, best)
+    chosen = runs[rows, best]
+    dx = fit.theta[runs] - fit.theta[chosen][:, None, :]  # (N, K, D)
+    distinct = np.einsum("nkj,nkj->nk", dx @ fit.information[chosen], dx) > 1.0
+    eligible = distinct & fit.converged[runs] & (cost <= threshold)
+    pick = np.argmin(np.where(eligible, cost, np.inf), axis=1)
+    return chosen, runs[rows, pick], eligible.any(axis=1)
+
+
 def _position_model(tx: np.ndarray, rx: np.ndarray) -> tuple[Predict, Predict]:
     """predict / jacobian of the single-shot problems (theta = x)."""
 
@@ -433,12 +474,15 @@ def ml_solve(
     alpha: float = 0.01,
     max_iter: int = 50,
     tol: float = 1e-9,
+    *,
+    closed_form_starts: bool = True,
 ) -> MLSolution:
     """Maximum-likelihood position from P range sums, N problems at once (seed 001, eq. 6).
 
     Minimises L(x) = sum_p (l_p - h_p(x))^2 / sigma_p^2 (eq. 4) by weighted Gauss-Newton
     with step halving and a Levenberg-Marquardt fallback (see the module notes), from
-    the sum-range closed form (both of its roots when it has two) or from ``x0``.
+    the sum-range closed form (both of its roots when it has two) and from ``x0`` when
+    given; the lowest cost wins.
 
     Parameters
     ----------
@@ -451,8 +495,12 @@ def ml_solve(
     sigma : float, (P,) or (N, P) array_like
         Range-sum noise standard deviations, metres, > 0.
     x0 : (D,) or (N, D) array_like, optional
-        Start position. Default: the sum-range closed form, both roots.
-        With a given start no alternative is searched for.
+        A start position, tried besides the closed form's roots: the lowest cost wins,
+        x0's minimum on a tie (a start near one of two exact solutions picks it). The
+        best other minimum (x0's when a root fit better, or a root's) becomes
+        ``alternative`` when it converged, is consistent and is distinct; a start
+        trapped in a false minimum is never reported. Default: the closed form's roots
+        only.
     alpha : float, optional
         False-alarm probability of the chi-square consistency test, in (0, 1).
         Default 0.01.
@@ -461,6 +509,10 @@ def ml_solve(
     tol : float, optional
         Convergence when the Gauss-Newton step is below tol (1 + |x|) metres, > 0.
         Default 1e-9.
+    closed_form_starts : bool, optional
+        With x0: also start from the closed form's roots (default True). False runs
+        from x0 alone and searches no alternative: a local refinement that can stay
+        in a false minimum (flagged by ``consistent`` when P > D). Needs x0 when False.
 
     Returns
     -------
@@ -473,7 +525,7 @@ def ml_solve(
         If an input contains NaN or infinity.
     ParameterError
         On wrong shapes, P < D, a negative range sum, sigma <= 0, alpha outside (0, 1),
-        max_iter < 1 or tol <= 0.
+        max_iter < 1, tol <= 0, or closed_form_starts not a bool or False without x0.
     GeometryError
         On coincident platforms, a repeated pair, or a range sum more than
         BASELINE_SIGMAS sigma shorter than its baseline.
@@ -501,36 +553,48 @@ def ml_solve(
     >>> sol = ml_solve(l, [0.0, 0.0], rx, sigma=0.5)
     >>> sol.x.round(2), sol.consistent, sol.converged
     (array([[2999.78, 4000.27]]), array([ True]), array([ True]))
+
+    With two receivers (P = D) the ellipses meet twice and both points fit exactly; a
+    start near one picks it, and the other is the alternative:
+
+    >>> l2 = range_sums([3000.0, 4000.0], [0.0, 0.0], rx[:2])
+    >>> sol = ml_solve(l2, [0.0, 0.0], rx[:2], sigma=0.5, x0=[2900.0, 4100.0])
+    >>> sol.x.round(3) + 0.0, sol.alternative.round(1), sol.has_alternative
+    (array([[3000., 4000.]]), array([[-1530.4,   -60.8]]), array([ True]))
     """
     alpha, max_iter, tol = _options(alpha, max_iter, tol)
+    if not isinstance(closed_form_starts, (bool, np.bool_)):
+        raise ParameterError("closed_form_starts",
+                             f"must be True or False, got {closed_form_starts!r}")
+    if x0 is None and not closed_form_starts:
+        raise ParameterError("closed_form_starts",
+                             "False needs x0: without a start the closed form is the only one")
     ls, tx, rx, sigma = validate_problem(l, tx, rx, sigma)
     n, p, d = tx.shape
-    if x0 is None:
-        start, alt_start, has_alt_start = _closed_form_starts(ls, tx, rx, sigma)
-    else:
-        start = _start_points(x0, n, d)
-        alt_start, has_alt_start = start, np.zeros(n, dtype=bool)
-
-    # one run per start: the N primaries, then the second roots worth following
     threshold = _threshold(alpha, p - d)
-    second = np.flatnonzero(has_alt_start & _worth_following(
-        ls, tx, rx, sigma, start, alt_start, threshold))
-    problem = np.concatenate([np.arange(n), second])
+    # the starts every problem has, in order of preference on a tie (x0, the closed
+    # form's primary root), then the second roots worth following
+    starts = [] if x0 is None else [_start_points(x0, n, d)]
+    second, seconds = np.zeros(0, dtype=int), np.zeros((0, d))
+    if closed_form_starts:
+        start, alt_start, has_alt_start = _closed_form_starts(ls, tx, rx, sigma)
+        starts.append(start)
+        second = np.flatnonzero(has_alt_start & _worth_following(
+            ls, tx, rx, sigma, start, alt_start, threshold))
+        seconds = alt_start[second]
+    k = len(starts)
+    problem = np.concatenate([np.tile(np.arange(n), k), second])
     predict, jacobian = _position_model(tx[problem], rx[problem])
     fit = _gauss_newton(predict, jacobian, ls[problem], sigma[problem],
-                        np.concatenate([start, alt_start[second]]), max_iter, tol)
+                        np.concatenate([*starts, seconds]), max_iter, tol)
 
-    chosen = np.arange(n)  # run index reported for each problem
-    other = np.arange(n)
-    other[second] = n + np.arange(second.size)
-    swap = fit.cost[other] + _TIE * (1.0 + fit.cost[chosen]) < fit.cost[chosen]
-    chosen, other = np.where(swap, other, chosen), np.where(swap, chosen, other)
-
+    # runs (N, k + 1): run r = j n + i is problem i's start j; the last column is the
+    # second root's run, or the problem's first run where there is none
+    runs = np.arange(n)[:, None] + n * np.arange(k + 1)
+    runs[:, k] = np.arange(n)
+    runs[second, k] = k * n + np.arange(second.size)
+    chosen, other, has_alternative = _best_and_alternative(fit, runs, threshold)
     x = fit.theta[chosen]
-    dx = fit.theta[other] - x
-    distinct = np.einsum("ni,nij,nj->n", dx, fit.information[chosen], dx) > 1.0
-    has_alternative = (has_alt_start & distinct & fit.converged[other]
-                       & (fit.cost[other] <= threshold))
     cost = fit.cost[chosen]
     return MLSolution(
         x=x,
@@ -609,7 +673,8 @@ def _track_starts(
     n, n_t, p, d = tx.shape
     flat = [a.reshape((n * n_t, *a.shape[2:])) for a in (ls, tx, rx, sigma)]
     start, alternative, has_alternative = _closed_form_starts(*flat)
-    sol = ml_solve(*flat, x0=start, alpha=alpha, max_iter=START_ITERATIONS)
+    sol = ml_solve(*flat, x0=start, alpha=alpha, max_iter=START_ITERATIONS,
+                   closed_form_starts=False)
     has_alternative &= p == d
     cand = np.stack([sol.x, np.where(has_alternative[:, None], alternative, sol.x)], axis=1)
     cand = cand.reshape(n, n_t, 2, d)

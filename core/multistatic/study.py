@@ -251,7 +251,8 @@ def accuracy_study(
     # curves 4-6 and the reference minimum (Gauss-Newton from the truth)
     ml = ml_solve(flat, ftx, frx, sigma, alpha=alpha)
     truth = np.broadcast_to(x, (runs, n_t, d)).reshape(-1, d)
-    ref = ml_solve(flat, ftx, frx, sigma, x0=truth, alpha=alpha)
+    ref = ml_solve(flat, ftx, frx, sigma, x0=truth, alpha=alpha,
+                   closed_form_starts=False)
     single = ml.x.reshape(runs, n_t, d)
     e = {"ml_single": single - x}
     unsolvable = {}

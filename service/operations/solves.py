@@ -23,6 +23,9 @@ Decisions:
 - Core promises finite answers. Should a NaN or infinity ever come back, the handler
   fails as a bug (500) rather than letting the response model's validation error pass
   for bad input (422); JSON cannot carry it either way.
+- A problem's ``initial`` goes to core as ``x0`` with the closed form's roots as further
+  starts (core's default): with a guess the answer never ends at a higher cost than
+  without one, and ``alternative`` reports the best other minimum (see the schema).
 - The chi-square quantile is scipy's (``scipy.stats.chi2``), the one direct scipy use
   of the service; core's own threshold is private.
 

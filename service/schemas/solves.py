@@ -305,8 +305,11 @@ class PositionProblem(Schema):
     )
     initial: Point | None = Field(
         default=None,
-        description="Initial guess of the position, m. Null: start from the sum-range "
-        "closed form (both of its roots when it has two).",
+        description="Initial guess of the position, m: a start besides the sum-range "
+        "closed form's roots (not instead of them); the lowest cost wins, this guess's "
+        "minimum on a tie (so with two exact solutions it picks one). A guess that "
+        "ends in a false minimum (e.g. at the transmitter near a baseline crossing) "
+        "loses to the closed form's answer. Null: the closed form's roots only.",
     )
 
     @model_validator(mode="after")
@@ -420,8 +423,13 @@ class PositionSolution(Schema):
     converged: bool = Field(description="The iteration met its convergence test.")
     alternative: list[float] | None = Field(
         default=None,
-        description="Another distinct local minimum that also converged and passes the "
-        "residual test (e.g. the second ellipse intersection), m; null when none.",
+        description="Another distinct local minimum (more than one standard deviation "
+        "from position) that also converged and passes the residual test, m; null when "
+        "none. Without initial: from the closed form's second root (e.g. the second "
+        "ellipse intersection). With initial: the lowest-cost other start's minimum, "
+        "the guess's own when a closed-form root fit better, or a root's (e.g. the "
+        "other intersection when the guess picked one); a guess trapped in a minimum "
+        "that fails the residual test is never offered.",
     )
     closed_form: ClosedFormResult | None = Field(
         default=None, description="The closed-form solution, when method asks for it."

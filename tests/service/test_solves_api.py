@@ -19,12 +19,14 @@ from fastapi.testclient import TestClient
 from clients import AsyncClient, InvalidInputError
 from clients.cli import main
 from clients.recordings import read_recording
+from clients.study import DEFAULT_REQUEST
 from core.multistatic import (
     crlb,
     difference_crlb,
     difference_range_solve,
     ml_solve,
     platform_positions,
+    range_sum_jacobian,
     range_sum_noise,
     range_sums,
     smooth_positions,
@@ -199,6 +201,77 @@ def test_position_on_a_baseline_is_finite(client):
     body = answer(client.post("/v1/solves/position",
                            json=_position(_p([5000.0, 0.0], TX2, RX2[:2]))))
     _finite(body)
+
+
+# --- solves.position from an initial guess at a baseline crossing ---------------------
+
+TRAPPED = 10.0  # CRLB sigmas (Mahalanobis) from the truth: a false minimum (the study's bound)
+
+
+def _study_crossing():
+    """``plotgate study``'s default scenario at sample 112, the target on the central
+    baseline: tx (2,), rx (3, 2), the target x (2,)."""
+    req = DEFAULT_REQUEST
+    t = req["sample_times"][112]
+    tx = platform_positions(req["transmitter"]["position"], req["transmitter"]["velocity"], t)
+    rx = np.array([platform_positions(r["position"], r["velocity"], t)
+                   for r in req["receivers"]])
+    x = np.asarray(req["target"]["position"]) + t * np.asarray(req["target"]["velocity"])
+    return tx, rx, x
+
+
+def _problem(ls, tx, rx, **changes) -> dict:
+    return {"range_sums": np.asarray(ls).tolist(), "transmitter": tx.tolist(),
+            "receivers": rx.tolist(), "sigma": SIGMA, **changes}
+
+
+def test_initial_guesses_500_m_off_at_a_crossing_are_not_trapped(client):
+    tx, rx, x = _study_crossing()
+    assert np.linalg.norm(range_sum_jacobian(x, tx, rx)[1]) < 1e-12  # on baseline 2
+    J = crlb(x, tx, rx, SIGMA).information[0]
+    rng = np.random.default_rng(21)
+    n = 500
+    ls = range_sums(x, tx, rx) + SIGMA * rng.standard_normal((n, 3))
+    angle = rng.uniform(0.0, 2.0 * np.pi, n)
+    starts = x + 500.0 * np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    body = answer(client.post("/v1/solves/position", json=_position(
+        *[_problem(l_, tx, rx, initial=s.tolist()) for l_, s in zip(ls, starts, strict=True)])))
+
+    def sigmas(e):
+        return np.sqrt(np.einsum("ni,ij,nj->n", e, J, e))
+
+    got = np.array([s["position"] for s in body["solutions"]])
+    assert (sigmas(got - x) <= TRAPPED).all()  # 0 of 500 trapped (measured: at most 3.4)
+    assert all(s["converged"] and s["alternative"] is None for s in body["solutions"])
+    # from the guess alone, as before, most would have ended at the transmitter
+    alone = ml_solve(ls, tx, rx, SIGMA, x0=starts, closed_form_starts=False)
+    assert (sigmas(alone.x - x) > TRAPPED).sum() > 250  # measured: 300
+    # the operation is core's ml_solve with x0
+    expected = ml_solve(ls, tx, rx, SIGMA, x0=starts)
+    np.testing.assert_allclose(got, expected.x, rtol=0, atol=1e-9)
+    assert [s["consistent"] for s in body["solutions"]] == expected.consistent.tolist()
+
+
+def test_an_initial_guess_picks_one_of_two_exact_solutions(client):
+    # P = D: the outer pairs at the crossing; their ellipses meet at the target and near
+    # the transmitter, the root the closed form ranks first
+    tx, rx, x = _study_crossing()
+    outer = rx[[0, 2]]
+    problem = _problem(range_sums(x, tx, outer), tx, outer)
+    body = answer(client.post("/v1/solves/position", json=_position(
+        problem, dict(problem, initial=x.tolist()), method="sum_range")))
+    plain, guessed = body["solutions"]
+    closed = guessed["closed_form"]
+    far = closed["position"]
+    assert np.linalg.norm(np.subtract(far, x)) > 4000.0  # measured: 4851 m
+    np.testing.assert_allclose(closed["alternative"], x, rtol=0, atol=TRUTH)
+    # the guess at the target: the target, and the other root as the alternative
+    np.testing.assert_allclose(guessed["position"], x, rtol=0, atol=TRUTH)
+    np.testing.assert_allclose(guessed["alternative"], far, rtol=0, atol=TRUTH)
+    assert guessed["consistent"] and guessed["solvable"] and guessed["converged"]
+    # no guess: the closed form's ranking, the target second
+    np.testing.assert_allclose(plain["position"], far, rtol=0, atol=TRUTH)
+    np.testing.assert_allclose(plain["alternative"], x, rtol=0, atol=TRUTH)
 
 
 # --- solves.trajectory -----------------------------------------------------------------
@@ -665,6 +738,14 @@ async def _client_calls(app) -> None:
     async with AsyncClient("http://plotgate", transport=transport) as client:
         result = await client.solve_position(_position(_p(X2[0]), method="sum_range"))
         assert result.solutions[0].position == pytest.approx(X2[0], abs=TRUTH)
+        # P = D from a guess near the target: the target, the mirror root as alternative
+        two = _p(X2[0], TX2, RX2[:2], initial=[X2[0][0] + 50.0, X2[0][1] - 50.0])
+        guessed = (await client.solve_position(_position(two))).solutions[0]
+        assert guessed.position == pytest.approx(X2[0], abs=TRUTH)
+        assert guessed.alternative is not None
+        assert np.linalg.norm(np.subtract(guessed.alternative, X2[0])) > 1000.0
+        assert range_sums(guessed.alternative, TX2, RX2[:2]) == pytest.approx(
+            two["range_sums"], abs=TRUTH)
         track = await client.solve_trajectory(_trajectory_body())
         assert track.state.velocity == pytest.approx(TRACK[1], abs=TRUTH)
         bound = await client.crlb(_crlb_body())
