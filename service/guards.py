@@ -26,9 +26,9 @@ from typing import Any
 from starlette.datastructures import Headers
 
 from service.problems import ProblemError, problem_json
-from service.schemas import FieldError
+from service.schemas import REQUEST_ID_PATTERN, FieldError
 
-__all__ = ["OPEN_PATHS", "Auth", "BodyLimit", "RequestId", "request_id"]
+__all__ = ["OPEN_PATHS", "Auth", "BodyLimit", "RequestId", "replay_of", "request_id"]
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -41,7 +41,7 @@ OPEN_PATHS = frozenset({"/healthz", "/readyz", "/docs", "/docs/oauth2-redirect",
 """Paths that stay open when authentication is on."""
 
 
-_SANE_ID = re.compile(r"^[A-Za-z0-9._:-]{1,128}$")
+_SANE_ID = re.compile(REQUEST_ID_PATTERN)
 
 
 def request_id(scope: Scope) -> str:
@@ -51,6 +51,13 @@ def request_id(scope: Scope) -> str:
         return str(state["request_id"])
     given = Headers(scope=scope).get("x-request-id") or ""
     return given if _SANE_ID.match(given) else uuid.uuid4().hex
+
+
+def replay_of(scope: Scope) -> str | None:
+    """For a request sent by ``plotgate replay``: the id of the exchange it replays (the
+    ``X-Plotgate-Replay-Of`` header, when it is a sane id); None otherwise."""
+    given = Headers(scope=scope).get("x-plotgate-replay-of") or ""
+    return given if _SANE_ID.match(given) else None
 
 
 class RequestId:

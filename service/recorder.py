@@ -5,10 +5,12 @@ Design (DESIGN section 8):
 - One file per process at a time, named ``plotgate-<UTC time>-pid<pid>-<seq>.mcap`` so
   names sort by time and workers of one server never share a file. A file is closed with
   its summary and index and a new one opened when it passes ``max_bytes`` or ``max_age_s``.
-- Two channels per operation, ``<op>/request`` and ``<op>/response``, with the JSON schemas
-  of :class:`~service.schemas.RequestRecord` and :class:`~service.schemas.ResponseRecord`
-  (``jsonschema`` schema encoding, ``json`` messages), and a ``plotgate`` metadata record
-  (versions, git commit, settings) at the start of every file.
+- Two channels per operation, ``<op>/request`` and ``<op>/response``, whose JSON schemas
+  are :class:`~service.schemas.RequestRecord` and :class:`~service.schemas.ResponseRecord`
+  with the operation's request, result and problem models embedded
+  (:func:`~service.schemas.request_schema`; ``jsonschema`` schema encoding, ``json``
+  messages), and a ``plotgate`` metadata record (versions, git commit, settings) at the
+  start of every file.
 - mcap's ``Writer`` is not thread-safe and its ``flush()`` closes the current chunk, so
   the event loop owns it and group-commits: records are added as requests arrive and
   answers are ready, and one flush, scheduled with ``call_soon``, writes every record
@@ -37,7 +39,7 @@ from mcap.writer import CompressionType, Writer
 
 from service.bodies import is_strict_json, slices
 from service.registry import Operation
-from service.schemas import RequestRecord, ResponseRecord
+from service.schemas import request_schema, response_schema
 
 __all__ = ["Exchange", "Recorder", "RecordingError", "request_record", "response_record"]
 
@@ -50,24 +52,29 @@ class RecordingError(RuntimeError):
     """The recorder could not write a record (disk full, directory gone, closed)."""
 
 
-def _head(request_id: str, operation: str) -> bytes:
-    return b'{"request_id": %s, "operation": "%s"' % (
+def _head(request_id: str, operation: str, replay_of: str | None = None) -> bytes:
+    head = b'{"request_id": %s, "operation": "%s"' % (
         json.dumps(request_id).encode(), operation.encode()
     )
+    if replay_of is not None:
+        head += b', "replay_of": %s' % json.dumps(replay_of).encode()
+    return head
 
 
 def request_record(request_id: str, operation: str, body: bytes,
-                   strict_json: bool | None = None) -> bytes:
+                   strict_json: bool | None = None, replay_of: str | None = None) -> bytes:
     """The request message: strict-JSON bodies are embedded as they came, others as text.
 
     ``strict_json`` says which the body is when the caller knows (the service parsed it);
-    by default the body is parsed here to find out.
+    by default the body is parsed here to find out. ``replay_of`` is, for a request sent by
+    ``plotgate replay``, the request id of the exchange it replays.
     """
     if strict_json is None:
         strict_json = is_strict_json(body)
+    head = _head(request_id, operation, replay_of)
     if strict_json:
-        return b'%s, "body": %s}' % (_head(request_id, operation), body)
-    return b'%s, "raw": %s}' % (_head(request_id, operation), _json_string(body))
+        return b'%s, "body": %s}' % (head, body)
+    return b'%s, "raw": %s}' % (head, _json_string(body))
 
 
 _CONTROL = re.compile(rb"[\x00-\x1f]")
@@ -160,12 +167,11 @@ class Recorder:
         self.on_flush = on_flush
         self.files: list[Path] = []
         self._schemas = [
-            (f"{op.name}/{kind}", f"plotgate.{op.name}.{kind}",
-             json.dumps(envelope[model].model_json_schema()).encode())
+            (f"{op.name}/{kind}", f"plotgate.{op.name}.{kind}", json.dumps(schema).encode())
             for op in operations
-            for kind, envelope, model in (
-                ("request", RequestRecord, op.request),
-                ("response", ResponseRecord, op.response),
+            for kind, schema in (
+                ("request", request_schema(op.request)),
+                ("response", response_schema(op.response)),
             )
         ]
         self.records = 0  # records handed to the OS

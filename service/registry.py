@@ -30,7 +30,7 @@ from service.problems import ProblemError, from_core, from_validation, problem_j
 from service.schemas import ENDPOINTS, Endpoint, FieldError
 
 __all__ = ["OPERATIONS", "Operation", "Outcome", "Parsed", "check_limits", "execute", "failed",
-           "parse", "run"]
+           "internal_error", "parse", "run"]
 
 Handler = Callable[[Any], BaseModel]
 """A pure function from a validated request model to a response model."""
@@ -202,3 +202,10 @@ def execute(op: Operation, body: bytes, request_id: str | None = None,
 def failed(op: Operation, err: ProblemError, request_id: str | None) -> Outcome:
     """The outcome of a refused request: ``err`` as a problem body."""
     return Outcome(err.status, problem_json(err, op.path, request_id), err)
+
+
+def internal_error(op: Operation, request_id: str | None) -> Outcome:
+    """The 500 answered when an operation raised something unexpected: a bug, never input
+    (the route and in-process replay answer it alike)."""
+    err = ProblemError("internal", 500, f"{op.name} failed unexpectedly; this is a bug")
+    return failed(op, err, request_id)

@@ -31,11 +31,20 @@ from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
 from service.bodies import BodyTimeout, ClientGone, read_body
-from service.guards import request_id
+from service.guards import replay_of, request_id
 from service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
 from service.problems import ProblemError, problem_json
 from service.recorder import Exchange, Recorder, RecordingError, request_record, response_record
-from service.registry import OPERATIONS, Operation, Outcome, Parsed, failed, parse, run
+from service.registry import (
+    OPERATIONS,
+    Operation,
+    Outcome,
+    Parsed,
+    failed,
+    internal_error,
+    parse,
+    run,
+)
 from service.schemas import FieldError, Problem
 
 __all__ = ["PROBLEM_JSON", "health_router", "operations_router", "request_id_of"]
@@ -66,14 +75,14 @@ def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] 
         return run(op, parsed.request, request_id, limits)
     except Exception:
         log.exception("operation %s failed on request %s", op.name, request_id)
-        err = ProblemError("internal", 500, f"{op.name} failed unexpectedly; this is a bug")
-        return Outcome(500, problem_json(err, op.path, request_id), err)
+        return internal_error(op, request_id)
 
 
-def _intake(op: Operation, body: bytes, request_id: str) -> tuple[Parsed, bytes]:
+def _intake(op: Operation, body: bytes, request_id: str, replay: str | None
+            ) -> tuple[Parsed, bytes]:
     """Parse a body once and build its request record: the two passes over every byte."""
     parsed = parse(op, body)
-    return parsed, request_record(request_id, op.name, body, parsed.json)
+    return parsed, request_record(request_id, op.name, body, parsed.json, replay)
 
 
 def _timed_out(op: Operation, request_id: str, exc: BodyTimeout) -> Outcome:
@@ -87,6 +96,7 @@ def _timed_out(op: Operation, request_id: str, exc: BodyTimeout) -> Outcome:
 def _endpoint(op: Operation):
     async def endpoint(request: Request) -> Response:
         rid = request_id_of(request)
+        replay = replay_of(request.scope)
         recorder: Recorder | None = request.app.state.recorder
         settings = request.app.state.settings
         metrics = request.app.state.metrics
@@ -98,15 +108,16 @@ def _endpoint(op: Operation):
             return Response(status_code=499)  # nobody to answer, nothing acknowledged
         except BodyTimeout as exc:
             large, parsed = False, None
-            record = request_record(rid, op.name, exc.received, strict_json=False)
+            record = request_record(rid, op.name, exc.received, strict_json=False,
+                                    replay_of=replay)
             outcome = _timed_out(op, rid, exc)
         else:
             outcome = None
             large = len(body) > INLINE_BODY_BYTES
             if large:
-                parsed, record = await run_in_threadpool(_intake, op, body, rid)
+                parsed, record = await run_in_threadpool(_intake, op, body, rid, replay)
             else:
-                parsed, record = _intake(op, body, rid)
+                parsed, record = _intake(op, body, rid, replay)
         try:
             if recorder is not None:
                 try:

@@ -82,7 +82,13 @@ from service.schemas.probability import (
     SpeedPrior,
     Velocity,
 )
-from service.schemas.records import RequestRecord, ResponseRecord
+from service.schemas.records import (
+    REQUEST_ID_PATTERN,
+    RequestRecord,
+    ResponseRecord,
+    request_schema,
+    response_schema,
+)
 from service.schemas.solves import (
     MAX_MEASUREMENTS,
     MAX_PROBLEMS,
@@ -190,6 +196,7 @@ __all__ = [
     "PositionSolveResult",
     "Problem",
     "RectangularGate",
+    "REQUEST_ID_PATTERN",
     "RectangularRegion",
     "RequestRecord",
     "Resolution",
@@ -216,4 +223,6 @@ __all__ = [
     "TrajectorySolveRequest",
     "TrajectorySolveResult",
     "Velocity",
+    "request_schema",
+    "response_schema",
 ]
