@@ -1,24 +1,65 @@
-"""The ``plotgate`` command: serve, call, replay, recover, inspect, plot, study, scenario.
+"""The ``plotgate`` command: serve, call, replay, recover, inspect, cat, plot, study, scenario.
 
 ``plotgate serve`` runs the service (flags override the ``PLOTGATE_*`` settings);
 ``plotgate call OPERATION [REQUEST.json]`` runs any operation (``solves.position``,
 ``gates.probability`` ...) on a JSON request, in-process or on a server, and prints the
-answer; ``plotgate replay FILE_OR_DIR`` re-runs a recorded session and exits 1 if any
-answer changed; ``plotgate recover FILE`` writes a complete, indexed copy of a file a
-killed server left; ``plotgate inspect FILE_OR_DIR`` prints per-operation counts and
-latencies; ``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability
-figures; ``plotgate study`` runs seed 001's multistatic accuracy study (Fig. 3) and
-writes its table and figure; ``plotgate scenario`` draws a simulated scenario and the
-tracks initiated in it (seed 002's figures).
+answer; ``plotgate replay PATH...`` re-runs recorded sessions and exits 0 (unchanged), 1
+(changed) or 2 (nothing comparable, unreadable input, usage or connection error);
+``plotgate recover FILE`` writes a complete, indexed copy of every intact record of a
+damaged file; ``plotgate inspect PATH...`` prints each file's state and time range and
+per-operation counts and latencies; ``plotgate cat PATH...`` prints the exchanges as JSON
+lines; ``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability figures;
+``plotgate study`` runs seed 001's multistatic accuracy study (Fig. 3) and writes its table
+and figure; ``plotgate scenario`` draws a simulated scenario and the tracks initiated in it
+(seed 002's figures).
+
+No command ends in a traceback: a missing file, a usage or connection error is one line on
+stderr and exit 2; a closed pipe (``| head``) ends the command quietly.
 """
 
 import argparse
 import json
 import os
 import sys
+from datetime import UTC, datetime
 from pathlib import Path
 
 __all__ = ["main"]
+
+REPLAY_EXIT_CODES = """exit status:
+  0  every exchange compared and unchanged
+  1  something changed: an answer, a recorded failure that now succeeds or fails
+     differently, or an exchange that did not answer within --timeout
+  2  nothing comparable (--allow-empty makes that 0), a file that is not a
+     recording at all, a usage or connection error (2 wins over 1)
+
+not compared, counted apart with the reason: requests never answered, answers
+whose request record is lost, bodies that timed out (408), replays whose original
+was read before them, in-process requests over PLOTGATE_LIMITS (--no-limits)."""
+
+
+def _write(text: str | bytes) -> bool:
+    """Write a line to stdout; False (and stdout silenced) once the reader has gone (a
+    closed pipe, as with ``| head``)."""
+    try:
+        if isinstance(text, bytes):
+            sys.stdout.flush()
+            sys.stdout.buffer.write(text + b"\n")
+        else:
+            sys.stdout.write(text + "\n")
+        return True
+    except BrokenPipeError:
+        _silence_stdout()
+        return False
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null, so the interpreter's last flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass  # not a real file (a test's capture): nothing left to flush
 
 
 def _serve(args: argparse.Namespace) -> int:
@@ -67,34 +108,88 @@ def _call(args: argparse.Namespace) -> int:
     return 0 if status < 400 else 1
 
 
+def _filters(args: argparse.Namespace):
+    from clients.recordings import Filters
+
+    operations = frozenset(op.strip() for ops in args.operation or () for op in ops.split(",")
+                           if op.strip())
+    return Filters(operations, args.since, args.until)
+
+
 def _replay(args: argparse.Namespace) -> int:
     from clients.replay import replay
 
+    limits = None
+    if not args.no_limits and args.server is None:
+        from service.config import Settings
+        from service.registry import check_limits
+
+        try:
+            limits = Settings().limits
+            check_limits(limits)
+        except ValueError as exc:
+            print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
+            return 2
     report = replay(
-        args.path, server=args.server, rtol=args.rtol, atol=args.atol, out=args.out,
-        progress=None,
+        args.paths, server=args.server, rtol=args.rtol, atol=args.atol, out=args.out,
+        progress=None, filters=_filters(args), timeout=args.timeout or None, limits=limits,
     )
-    print(report.text())
+    code = report.exit_code(args.allow_empty)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
-    return 0 if report.ok else 1
+    text = report.text()
+    if code == 2 and not report.unreadable:
+        text += ("\nnothing was compared (exit 2): wrong path or filters? --allow-empty "
+                 "passes a run with nothing to compare")
+    _write(text)
+    return code
 
 
 def _recover(args: argparse.Namespace) -> int:
-    from clients.recover import recover
+    from clients.recover import Refused, recover
 
-    done = recover(args.path, args.out, keep=args.keep)
-    state = "complete" if done.was_complete else f"truncated ({done.stopped_by})"
-    print(f"{done.source}: {state}; {done.messages} messages copied to {done.output}")
+    try:
+        done = recover(args.path, args.out, keep=args.keep)
+    except Refused as exc:
+        print(f"plotgate recover: {exc}", file=sys.stderr)
+        return 2
+    _write(done.text())
     return 0
+
+
+def _unreadable(command: str, unreadable: list[str], files: int) -> int:
+    """2, after saying why, when a file could not be read at all or there was none."""
+    for error in unreadable:
+        print(f"plotgate {command}: {error}", file=sys.stderr)
+    if not files:
+        print(f"plotgate {command}: no MCAP files there", file=sys.stderr)
+    return 2 if unreadable or not files else 0
 
 
 def _inspect(args: argparse.Namespace) -> int:
     from clients.inspect import format_inspection, inspect
 
-    summary = inspect(args.path)
-    print(json.dumps(summary, indent=2) if args.json else format_inspection(summary))
+    summary = inspect(args.paths, _filters(args))
+    if _write(json.dumps(summary, indent=2) if args.json else format_inspection(summary)):
+        return _unreadable("inspect", summary["unreadable"], len(summary["files"]))
     return 0
+
+
+def _cat(args: argparse.Namespace) -> int:
+    from clients.cat import lines
+    from clients.recordings import Reader
+
+    reader = Reader(args.paths, _filters(args))
+    for line in lines(reader):
+        if not _write(line):
+            return 0
+    for rec in reader.files:
+        for damage in rec.damage:
+            print(f"plotgate cat: {rec.path}: {damage}", file=sys.stderr)
+        if rec.damage_count > len(rec.damage):
+            print(f"plotgate cat: {rec.path}: ... and {rec.damage_count - len(rec.damage)} "
+                  "more damaged records", file=sys.stderr)
+    return _unreadable("cat", reader.unreadable, len(reader.files))
 
 
 def _plot(args: argparse.Namespace) -> int:
@@ -161,6 +256,23 @@ def _scenario(args: argparse.Namespace) -> int:
     return 0
 
 
+def _time(text: str) -> int:
+    """A time on the command line (ISO 8601, UTC unless it says; or Unix seconds) as ns."""
+    try:
+        return round(float(text) * 1e9)
+    except ValueError:
+        pass
+    try:
+        when = datetime.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"not a time: {text!r} (ISO 8601 such as 2024-05-01T12:00:00Z, or Unix seconds)"
+        ) from None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=UTC)
+    return round(when.timestamp() * 1e9)
+
+
 def _at_least_two(text: str) -> int:
     value = int(text)
     if value < 2:
@@ -181,20 +293,46 @@ def _parser() -> argparse.ArgumentParser:
                        help="do not record (PLOTGATE_RECORD=false)")
     serve.set_defaults(func=_serve)
 
-    rep = sub.add_parser("replay", help="re-run recorded requests and compare the answers")
-    rep.add_argument("path", type=Path, help="an MCAP file or a folder of them")
+    filters = argparse.ArgumentParser(add_help=False)
+    filters.add_argument("paths", nargs="+", type=Path, metavar="PATH",
+                         help="MCAP files or folders of them (requests and responses are "
+                         "paired across all of them)")
+    filters.add_argument("--operation", action="append", metavar="OP",
+                         help="only this operation (repeat, or comma-separate, for several)")
+    filters.add_argument("--since", type=_time, metavar="TIME",
+                         help="only requests from this time on (ISO 8601, UTC unless it says; "
+                         "or Unix seconds)")
+    filters.add_argument("--until", type=_time, metavar="TIME",
+                         help="only requests before this time (as --since)")
+
+    rep = sub.add_parser(
+        "replay", parents=[filters], help="re-run recorded requests and compare the answers",
+        description="Re-runs every recorded exchange (in-process through this build, or on "
+        "a live server with --server, each request under a new id marked as a replay of its "
+        "original) and compares the answers field by field.",
+        epilog=REPLAY_EXIT_CODES, formatter_class=argparse.RawDescriptionHelpFormatter)
     rep.add_argument("--server", help="replay against this live server URL (default in-process)")
     rep.add_argument("--rtol", type=float, default=1e-9, help="relative float tolerance")
     rep.add_argument("--atol", type=float, default=1e-12, help="absolute float tolerance")
+    rep.add_argument("--timeout", type=float, default=60.0, metavar="S",
+                     help="seconds each exchange may take (default 60; 0: no limit)")
+    rep.add_argument("--no-limits", action="store_true",
+                     help="in-process: run requests over the service's work caps "
+                     "(PLOTGATE_LIMITS) too")
+    rep.add_argument("--allow-empty", action="store_true",
+                     help="exit 0, not 2, when there is nothing to compare")
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")
     rep.set_defaults(func=_replay)
 
-    rec = sub.add_parser("recover", help="a complete, indexed copy of a killed server's file",
-                         description="Copies every complete record of an MCAP file (one a "
-                         "killed server left without summary and index) into a new file with "
-                         "summary and index, and renames the damaged original to "
-                         "<name>.partial so replaying the folder reads each exchange once.")
+    rec = sub.add_parser("recover", help="a complete, indexed copy of a damaged file",
+                         description="Copies every intact record of an MCAP file (one a "
+                         "killed server left without summary and index, or one with damaged "
+                         "chunks: reading resumes at the next intact chunk) into a new file "
+                         "with summary and index, says what it dropped, and renames the "
+                         "original to <name>.partial so replaying the folder reads each "
+                         "exchange once. A file without the MCAP magic is refused (exit 2) "
+                         "and left as it is.")
     rec.add_argument("path", type=Path, help="the MCAP file")
     rec.add_argument("--out", type=Path, help="the copy (default <stem>.recovered.mcap)")
     rec.add_argument("--keep", action="store_true", help="do not rename the original")
@@ -212,10 +350,21 @@ def _parser() -> argparse.ArgumentParser:
     call.add_argument("--server", help="a live server URL (default in-process)")
     call.set_defaults(func=_call)
 
-    ins = sub.add_parser("inspect", help="per-operation counts, errors and latencies")
-    ins.add_argument("path", type=Path, help="an MCAP file or a folder of them")
+    ins = sub.add_parser(
+        "inspect", parents=[filters],
+        help="each file's state and time range; per-operation counts, errors, latencies",
+        description="Exit 0, or 2 when a file is not a recording at all (damage inside a "
+        "file is listed with its offset, not an error).")
     ins.add_argument("--json", action="store_true", help="print JSON instead of a table")
     ins.set_defaults(func=_inspect)
+
+    cat = sub.add_parser(
+        "cat", parents=[filters], help="print the exchanges as JSON lines",
+        description="One JSON line per exchange: file, time, log_time, operation, "
+        "request_id, replay_of, and the request and response records as recorded (response "
+        "null when never answered). Damage goes to stderr with its offset. Exit 0, or 2 when "
+        "a file is not a recording at all.")
+    cat.set_defaults(func=_cat)
 
     from clients.plots import DEFAULT_FILES, FIGURES
 
@@ -290,9 +439,35 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         return args.func(args)
-    except FileNotFoundError as exc:
-        print(f"plotgate: {exc}", file=sys.stderr)
+    except BrokenPipeError:
+        _silence_stdout()
+        return 0
+    except KeyboardInterrupt:
+        print("plotgate: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the last word: one line, never a traceback
+        print(f"plotgate {args.command}: {_one_line(exc)}", file=sys.stderr)
         return 2
+
+
+def _one_line(exc: Exception) -> str:
+    """What went wrong, in one line: a missing file, an unreachable server, or a bug."""
+    import httpx
+
+    from clients.errors import TransportError
+
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"{exc.filename}: {exc.strerror}"
+    if isinstance(exc, FileNotFoundError | TransportError):
+        return str(exc)
+    if isinstance(exc, httpx.TransportError):
+        try:
+            url = exc.request.url
+        except RuntimeError:
+            url = "the server"
+        return f"cannot reach {url}: {exc}"
+    return (f"internal error (a bug in plotgate, please report it): {type(exc).__name__}: "
+            f"{exc}")
 
 
 if __name__ == "__main__":

@@ -1,15 +1,18 @@
-"""Summaries of recordings: exchanges, errors and latency per operation."""
+"""Summaries of recordings: each file's state and time range, and per operation the
+exchanges, errors and latencies (every exchange once, paired across the files)."""
 
+from array import array
 from collections import defaultdict
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from clients.recordings import read_recording, recording_files
+from clients.recordings import Filters, Reader
 
-__all__ = ["OperationStats", "inspect"]
+__all__ = ["OperationStats", "format_inspection", "inspect"]
 
 
 @dataclass
@@ -18,54 +21,81 @@ class OperationStats:
 
     requests: int = 0
     responses: int = 0
+    unanswered: int = 0
+    """Requests never answered (the server stopped first)."""
+    answers_without_request: int = 0
+    """Answers whose request record was lost to damage."""
+    replays: int = 0
+    """Requests sent by ``plotgate replay`` (``replay_of`` set)."""
     errors: dict[int, int] = field(default_factory=dict)
     latency_ms: dict[str, float] = field(default_factory=dict)
 
 
-def inspect(path: Path) -> dict[str, Any]:
-    """Per-operation counts, error counts by status and latency p50/p90/p99/max, per path."""
-    files = []
-    durations: dict[str, list[float]] = defaultdict(list)
+def inspect(paths: Path | str | Iterable[Path | str], filters: Filters | None = None
+            ) -> dict[str, Any]:
+    """Per file: state, time range, metadata and damage; per operation (the exchanges the
+    filters take): counts, error counts by status, latency p50/p90/p99/max."""
+    reader = Reader(paths, filters)
+    durations: dict[str, array] = defaultdict(lambda: array("d"))
     stats: dict[str, OperationStats] = defaultdict(OperationStats)
-    for file in recording_files(path):
-        rec = read_recording(file)
-        files.append({
-            "path": str(file), "complete": rec.complete, "messages": rec.messages,
-            "stopped_by": rec.stopped_by, "metadata": rec.metadata,
-        })
-        for ex in rec.exchanges:
-            s = stats[ex.operation]
+    for ex in reader:
+        s = stats[ex.operation]
+        if ex.request is None:
+            s.answers_without_request += 1
+        else:
             s.requests += 1
-            if ex.response is None:
-                continue
-            s.responses += 1
-            status = ex.response["status"]
-            if status >= 400:
-                s.errors[status] = s.errors.get(status, 0) + 1
-            durations[ex.operation].append(ex.response["duration_s"] * 1e3)
+            s.replays += ex.replay_of is not None
+        if ex.response is None:
+            s.unanswered += 1
+            continue
+        s.responses += 1
+        status = ex.response["status"]
+        if status >= 400:
+            s.errors[status] = s.errors.get(status, 0) + 1
+        durations[ex.operation].append(ex.response["duration_s"] * 1e3)
     for op, values in durations.items():
         q = np.percentile(values, [50, 90, 99, 100])
         stats[op].latency_ms = dict(zip(("p50", "p90", "p99", "max"), map(float, q), strict=True))
-    return {"files": files, "operations": {op: vars(s) for op, s in sorted(stats.items())}}
+    return {"files": [rec.summary() for rec in reader.files],
+            "unreadable": reader.unreadable, "written_twice": reader.written_twice,
+            "operations": {op: vars(s) for op, s in sorted(stats.items())}}
 
 
 def format_inspection(summary: dict[str, Any]) -> str:
-    """The summary as a plain-text table."""
+    """The summary as plain text: a line per file (and per damage listed), then a table."""
     lines = []
     for f in summary["files"]:
-        state = "complete" if f["complete"] else f"truncated ({f['stopped_by']})"
-        lines.append(f"{f['path']}: {f['messages']} messages, {state}")
+        if f["error"]:
+            lines.append(f"{f['path']}: {f['error']}")
+            continue
+        state = "complete" if f["complete"] else "no footer (its writer did not finish)"
+        span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
+        version = f["metadata"].get("plotgate", {}).get("plotgate_version")
+        lines.append(f"{f['path']}: {f['messages']} messages, {span}, {state}"
+                     + (f", plotgate {version}" if version else ""))
+        if f["damage_count"]:
+            lines.append(f"  {f['damage_count']} damaged records skipped:")
+            lines += [f"    {d}" for d in f["damage"]]
+            if f["damage_count"] > len(f["damage"]):
+                lines.append(f"    ... and {f['damage_count'] - len(f['damage'])} more")
+    if summary["written_twice"]:
+        lines.append(f"{summary['written_twice']} records written twice by the recorder, "
+                     "counted once")
     lines.append(
-        f"{'operation':<20}{'requests':>9}{'answered':>9}{'errors':>8}"
+        f"{'operation':<24}{'requests':>9}{'answered':>9}{'errors':>8}{'replays':>8}"
         f"{'p50 ms':>9}{'p90 ms':>9}{'p99 ms':>9}{'max ms':>9}"
     )
     for op, s in summary["operations"].items():
         lat = s["latency_ms"]
         cols = "".join(f"{lat[k]:>9.2f}" if k in lat else f"{'-':>9}"
                        for k in ("p50", "p90", "p99", "max"))
-        lines.append(
-            f"{op:<20}{s['requests']:>9}{s['responses']:>9}{sum(s['errors'].values()):>8}{cols}"
-        )
+        lines.append(f"{op:<24}{s['requests']:>9}{s['responses']:>9}"
+                     f"{sum(s['errors'].values()):>8}{s['replays']:>8}{cols}")
         for status, count in sorted(s["errors"].items()):
-            lines.append(f"{'':<20}  status {status}: {count}")
+            lines.append(f"{'':<24}  status {status}: {count}")
+        if s["unanswered"]:
+            lines.append(f"{'':<24}  never answered: {s['unanswered']}")
+        if s["answers_without_request"]:
+            lines.append(f"{'':<24}  answers whose request is lost: "
+                         f"{s['answers_without_request']}")
     return "\n".join(lines)

@@ -1,102 +1,403 @@
-"""Reading plotgate MCAP recordings, including files a killed server left without a footer.
+"""plotgate recordings read back: every exchange of any number of MCAP files, each once.
 
-Files are read with mcap's stream reader, not ``make_reader``: a file with no footer
-cannot be indexed, so records are taken in order until the data ends (``EndOfFile``,
-``struct.error``) or a chunk fails its CRC, and what was complete up to there is kept.
+Files are read with :class:`clients.scan.Scan`, which reports damage (with its file offset)
+and goes on after it, so a truncated or corrupt file gives every intact record it holds.
+Each message is then checked for the shape the recorder writes (:func:`parse_record`): a
+JSON object of at most :data:`MAX_DEPTH` levels, a request id the service could have
+given, ``raw`` as text for a request (without ``body`` or ``raw``, its body was
+empty), a status and a result or problem for a response.
+A message that is not is damage too, reported with its offset and skipped.
+
+Requests and responses are paired across every file read (:class:`Reader`), by operation,
+request id and time, so an exchange whose response went to the next file after a rotation
+is one exchange. Records the recorder wrote twice (a request written again into a new file
+after its file was lost: the same id, the same time) count once.
 """
 
 import json
-import struct
-from collections.abc import Iterator
+import re
+from collections import OrderedDict, deque
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from mcap.exceptions import McapError
-from mcap.records import Channel, Footer, Message, Metadata
-from mcap.stream_reader import CRCValidationError, StreamReader
-from zstandard import ZstdError
+from mcap.records import Channel, Message, Metadata
 
-__all__ = ["Exchange", "Recording", "read_recording", "recording_files"]
+from clients.scan import MAX_RECORD_BYTES, Damage, Located, NotMcap, Scan
+from service.schemas import REQUEST_ID_PATTERN, Problem
+
+__all__ = ["MAX_DEPTH", "Exchange", "Filters", "Reader", "Recording", "iso_time",
+           "parse_record", "read_recording", "recording_files"]
+
+MAX_DEPTH = 256
+"""Deepest JSON a record may hold. The service records a body as ``body`` only when its
+JSON parser (nesting limit 200) takes it, inside a one-level envelope."""
+REQUEST_ID = re.compile(REQUEST_ID_PATTERN)
+MAX_LISTED = 100
+"""Damage listed per file; the rest is counted."""
+_RECENT = 200_000
+"""Records of answered exchanges remembered to recognise one written twice."""
 
 
 @dataclass
 class Exchange:
-    """One request and, if it was recorded, its response."""
+    """One request and its response, either of which may be missing: ``response`` is None
+    for a request never answered, ``request`` None for an answer whose request record was
+    lost to damage."""
 
     operation: str
     request_id: str
-    request: dict[str, Any]
+    request: dict[str, Any] | None
     response: dict[str, Any] | None = None
     log_time: int = 0
+    """When the request arrived (ns since the epoch); the response's time without one."""
+    file: str = ""
+    """The file holding the request record (the response's, without one)."""
+    original_read: bool = False
+    """For a replay (``replay_of`` set): its original was read before it."""
+    request_bytes: bytes | None = field(default=None, repr=False)
+    response_bytes: bytes | None = field(default=None, repr=False)
+    """The two records as they are in the file (valid JSON)."""
+
+    @property
+    def replay_of(self) -> str | None:
+        """The request id of the exchange this one replays, if it is a replay."""
+        return (self.request or {}).get("replay_of")
 
     @property
     def body(self) -> bytes:
         """The request body as it was sent."""
-        if "body" in self.request:
-            return json.dumps(self.request["body"]).encode()
-        return str(self.request.get("raw", "")).encode()
+        request = self.request or {}
+        if "body" in request:
+            return json.dumps(request["body"]).encode()
+        return str(request.get("raw", "")).encode()
 
 
 @dataclass
 class Recording:
-    """What one file holds."""
+    """What one file holds, and what was wrong with it."""
 
     path: Path
     exchanges: list[Exchange] = field(default_factory=list)
+    """Filled by :func:`read_recording` only (a :class:`Reader` streams them instead)."""
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     messages: int = 0
     complete: bool = False
-    stopped_by: str | None = None
-    """Why reading stopped early (truncated or corrupt file), None for a complete file."""
+    """The file ends with its footer and magic (its writer finished it)."""
+    first_time: int | None = None
+    last_time: int | None = None
+    size: int = 0
+    chunks: int = 0
+    chunks_damaged: int = 0
+    damage: list[str] = field(default_factory=list)
+    """The first :data:`MAX_LISTED` pieces of damage, each with its offset."""
+    damage_count: int = 0
+    error: str | None = None
+    """Why the file could not be read at all (not MCAP, unreadable); None otherwise."""
+
+    @property
+    def stopped_by(self) -> str | None:
+        """What went wrong first: the first damage, or the missing footer; None when
+        nothing did."""
+        if self.damage:
+            return self.damage[0]
+        return None if self.complete else "no footer (the writer did not finish the file)"
+
+    def add_damage(self, damage: Damage) -> None:
+        self.damage_count += 1
+        if len(self.damage) < MAX_LISTED:
+            self.damage.append(str(damage))
+
+    def summary(self) -> dict[str, Any]:
+        """The file as JSON: path, state, time range, damage."""
+        return {
+            "path": str(self.path), "size": self.size, "complete": self.complete,
+            "error": self.error, "messages": self.messages, "chunks": self.chunks,
+            "chunks_damaged": self.chunks_damaged, "first_time": iso_time(self.first_time),
+            "last_time": iso_time(self.last_time), "damage_count": self.damage_count,
+            "damage": self.damage, "metadata": self.metadata,
+        }
 
 
-def recording_files(path: Path) -> list[Path]:
-    """The MCAP files at ``path``: the file itself, or a folder's ``*.mcap`` in name order."""
-    path = Path(path)
-    if path.is_dir():
-        return sorted(path.glob("*.mcap"))
-    if not path.exists():
-        raise FileNotFoundError(f"no such file or folder: {path}")
-    return [path]
+def iso_time(ns: int | None) -> str | None:
+    """Nanoseconds since the epoch as an ISO 8601 UTC time (microseconds)."""
+    if ns is None:
+        return None
+    return datetime.fromtimestamp(ns / 1e9, UTC).isoformat(timespec="microseconds").replace(
+        "+00:00", "Z")
 
 
-_DAMAGE = (McapError, struct.error, CRCValidationError, EOFError, ValueError, RuntimeError,
-           ZstdError)
-"""What reading a truncated or damaged file raises: an incomplete record, a chunk that
-fails its CRC or does not decompress (lz4 raises RuntimeError, zstandard ZstdError)."""
+@dataclass(frozen=True)
+class Filters:
+    """Which exchanges to take: by operation and by request time (``since`` inclusive,
+    ``until`` exclusive, ns since the epoch); empty or None takes all."""
+
+    operations: frozenset[str] = frozenset()
+    since: int | None = None
+    until: int | None = None
+
+    def admit(self, operation: str, log_time: int) -> bool:
+        return ((not self.operations or operation in self.operations)
+                and (self.since is None or log_time >= self.since)
+                and (self.until is None or log_time < self.until))
 
 
-def _records(path: Path, rec: Recording) -> Iterator[object]:
-    with open(path, "rb") as stream:
-        reader = StreamReader(stream, validate_crcs=True)
+def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
+    """The MCAP files at ``paths`` (files, or folders whose ``*.mcap`` are taken), each once,
+    in name order (names start with their UTC time, so this is time order).
+
+    Raises ``FileNotFoundError`` for a path that does not exist.
+    """
+    if isinstance(paths, str | Path):
+        paths = [paths]
+    found: dict[Path, Path] = {}
+    for path in map(Path, paths):
+        if path.is_dir():
+            files = list(path.glob("*.mcap"))
+        elif path.exists():
+            files = [path]
+        else:
+            raise FileNotFoundError(f"no such file or folder: {path}")
+        for f in files:
+            found.setdefault(f.resolve(), f)
+    return sorted(found.values(), key=lambda f: (f.name, str(f)))
+
+
+def _depth(value: Any) -> int:
+    """Nesting depth of a JSON value (a scalar is 0), iteratively."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        node, level = stack.pop()
+        children = node.values() if isinstance(node, dict) else node
+        if isinstance(node, dict | list):
+            deepest = max(deepest, level)
+            if level > MAX_DEPTH:
+                break
+            stack.extend((child, level + 1) for child in children
+                         if isinstance(child, dict | list))
+    return deepest
+
+
+def _no_constant(token: str) -> Any:
+    raise ValueError(f"{token} is not JSON")
+
+
+def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
+    """A message of channel ``<operation>/<kind>`` as the recorder writes it, or ValueError
+    saying why it is not one."""
+    try:
+        record = json.loads(data.decode("utf-8"), parse_constant=_no_constant)
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not UTF-8 ({exc.reason} at byte {exc.start})") from None
+    except RecursionError:
+        raise ValueError(f"JSON nested deeper than {MAX_DEPTH} levels") from None
+    except ValueError as exc:  # json.JSONDecodeError, an integer over 4300 digits
+        raise ValueError(f"not JSON: {str(exc)[:200]}") from None
+    if not isinstance(record, dict):
+        raise ValueError(f"a JSON {type(record).__name__}, not an object")
+    if _depth(record) > MAX_DEPTH:
+        raise ValueError(f"JSON nested deeper than {MAX_DEPTH} levels")
+    rid = record.get("request_id")
+    if not isinstance(rid, str) or not REQUEST_ID.match(rid):
+        raise ValueError("no request_id the service could have given")
+    if record.get("operation") != operation:
+        raise ValueError(f"operation {str(record.get('operation'))[:100]!r} on the channel of "
+                         f"{operation}")
+    if kind == "request":
+        replay_of = record.get("replay_of")
+        if replay_of is not None and not (isinstance(replay_of, str)
+                                          and REQUEST_ID.match(replay_of)):
+            raise ValueError("replay_of is not a request id")
+        if "raw" in record and not isinstance(record["raw"], str):
+            raise ValueError("a request record whose raw body is not text")
+        return record
+    status, duration = record.get("status"), record.get("duration_s")
+    if not (type(status) is int and 100 <= status <= 599):
+        raise ValueError("a response record without an HTTP status")
+    if type(duration) not in (int, float) or not 0 <= duration < float("inf"):
+        raise ValueError("a response record without a duration")
+    if status < 400 and "result" not in record:
+        raise ValueError(f"a {status} response record without a result")
+    if status >= 400:
         try:
-            yield from reader.records
-        except _DAMAGE as exc:
-            rec.stopped_by = f"{type(exc).__name__}: {exc}".strip(": ")
+            Problem.model_validate(record.get("error"))
+        except ValueError:
+            raise ValueError(f"a {status} response record without a problem") from None
+    return record
 
 
-def read_recording(path: Path) -> Recording:
-    """Read every complete exchange in one file, in the order the requests arrived."""
-    rec = Recording(Path(path))
-    channels: dict[int, str] = {}
-    waiting: dict[tuple[str, str], list[Exchange]] = {}
-    for record in _records(rec.path, rec):
-        if isinstance(record, Channel):
-            channels[record.id] = record.topic
-        elif isinstance(record, Metadata):
-            rec.metadata[record.name] = dict(record.metadata)
-        elif isinstance(record, Footer):
-            rec.complete = True
-        elif isinstance(record, Message):
-            rec.messages += 1
-            operation, _, kind = channels[record.channel_id].rpartition("/")
-            data = json.loads(record.data)
-            key = (operation, data["request_id"])
-            if kind == "request":
-                exchange = Exchange(operation, data["request_id"], data, log_time=record.log_time)
-                waiting.setdefault(key, []).append(exchange)
-                rec.exchanges.append(exchange)
-            elif waiting.get(key):
-                waiting[key].pop(0).response = data
+def _topic(channel: Channel) -> tuple[str, str] | str:
+    """(operation, kind) of a plotgate channel, or why the channel is not one."""
+    operation, _, kind = channel.topic.rpartition("/")
+    if not operation or kind not in ("request", "response"):
+        return f"channel {channel.id} ({channel.topic[:100]!r}) is not a plotgate channel"
+    if channel.message_encoding != "json":
+        return (f"channel {channel.id} ({channel.topic[:100]}) carries "
+                f"{channel.message_encoding[:40]!r} messages, not json")
+    return operation, kind
+
+
+@dataclass
+class _Waiting:
+    operation: str
+    request_id: str
+    log_time: int
+    file: str
+    data: bytes | None
+    """The raw record, parsed again when paired; None for a request the filters leave out."""
+    record: dict[str, Any] | None = None
+    """The parsed record while it is the message being read (dropped once it waits)."""
+
+    def parsed(self) -> dict[str, Any]:
+        return self.record if self.record is not None else json.loads(self.data or b"{}")
+
+
+class Reader:
+    """Read recordings and give each exchange once (iterate), requests and responses paired
+    across every file by (operation, request id) in time order.
+
+    A response pairs with the earliest waiting request of its key; one that comes first
+    waits for its request. A request record the same as one already read (same key, same
+    time: the recorder wrote it again after losing its file) is not a new exchange, nor is
+    a response written twice. Exchanges come as they are completed; requests never answered
+    and answers whose request is lost come last. The filters take an exchange by its
+    request (an answer without one by itself).
+
+    ``files`` holds a :class:`Recording` for each file as it is read; ``unreadable`` the
+    files that could not be read at all; ``written_twice`` the records seen a second time.
+    Memory holds the requests waiting for an answer (raw), the keys of the last 100,000
+    answered exchanges and the (operation, id) of every original request read (to know a
+    replay whose original was read).
+    """
+
+    def __init__(self, paths: Path | str | Iterable[Path | str], filters: Filters | None = None,
+                 *, max_record_bytes: int = MAX_RECORD_BYTES) -> None:
+        self.paths = recording_files(paths)
+        self.filters = filters or Filters()
+        self.max_record_bytes = max_record_bytes
+        self.files: list[Recording] = []
+        self.unreadable: list[str] = []
+        self.written_twice = 0
+        self._requests: dict[tuple[str, str], deque[_Waiting]] = {}
+        self._responses: dict[tuple[str, str], deque[_Waiting]] = {}
+        self._seen: set[tuple[str, str, str, int]] = set()  # (kind, op, id, time) waiting
+        self._recent: OrderedDict[tuple[str, str, str, int], None] = OrderedDict()
+        self._originals: set[tuple[str, str]] = set()
+
+    def __iter__(self) -> Iterator[Exchange]:
+        for path in self.paths:
+            rec = Recording(path)
+            self.files.append(rec)
+            yield from self._file(rec)
+        yield from self._leftovers()
+
+    def _file(self, rec: Recording) -> Iterator[Exchange]:
+        scan = Scan(rec.path, max_record_bytes=self.max_record_bytes)
+        channels: dict[int, tuple[str, str] | str] = {}
+        try:
+            for item in scan:
+                if isinstance(item, Damage):
+                    rec.add_damage(item)
+                elif isinstance(item.record, Channel):
+                    channels[item.record.id] = _topic(item.record)
+                elif isinstance(item.record, Metadata):
+                    rec.metadata[item.record.name] = dict(item.record.metadata)
+                elif isinstance(item.record, Message):
+                    yield from self._message(rec, channels, item)
+        except NotMcap as exc:
+            rec.error = str(exc)
+        except OSError as exc:
+            rec.error = f"{rec.path}: cannot be read ({exc.strerror or exc})"
+        if rec.error is not None:
+            self.unreadable.append(rec.error)
+        rec.size, rec.complete = scan.size, scan.complete
+        rec.chunks, rec.chunks_damaged = scan.chunks, scan.chunks_damaged
+
+    def _message(self, rec: Recording, channels: dict[int, tuple[str, str] | str],
+                 item: Located) -> Iterator[Exchange]:
+        message = item.record
+        assert isinstance(message, Message)
+        rec.messages += 1
+        t = message.log_time
+        rec.first_time = t if rec.first_time is None else min(rec.first_time, t)
+        rec.last_time = t if rec.last_time is None else max(rec.last_time, t)
+        channel = channels.get(message.channel_id)
+        if channel is None:
+            channel = f"channel {message.channel_id}, which no Channel record declared"
+        try:
+            if isinstance(channel, str):
+                raise ValueError(f"a message on {channel}")
+            operation, kind = channel
+            record = parse_record(kind, operation, message.data)
+        except ValueError as exc:
+            rec.add_damage(Damage(item.offset, str(exc), item.inner))
+            return
+        rid = record["request_id"]
+        key = (operation, rid)
+        mark = (kind, operation, rid, t)
+        if mark in self._seen or mark in self._recent:
+            self.written_twice += 1
+            return
+        keep = kind == "response" or self.filters.admit(operation, t)
+        current = _Waiting(operation, rid, t, str(rec.path), message.data if keep else None,
+                           record if keep else None)
+        if kind == "request":
+            if record.get("replay_of") is None:
+                self._originals.add(key)
+            mine, other = self._requests, self._responses
+        else:
+            mine, other = self._responses, self._requests
+        counterparts = other.get(key)
+        if not counterparts:
+            current.record = None
+            mine.setdefault(key, deque()).append(current)
+            self._seen.add(mark)
+            return
+        waiting = counterparts.popleft()
+        if not counterparts:
+            del other[key]
+        self._seen.discard((("response" if kind == "request" else "request"), *key,
+                            waiting.log_time))
+        request, response = (current, waiting) if kind == "request" else (waiting, current)
+        for done in (("request", *key, request.log_time), ("response", *key, response.log_time)):
+            self._recent[done] = None
+        while len(self._recent) > _RECENT:
+            self._recent.popitem(last=False)
+        if request.data is not None:
+            exchange = self._exchange(request)
+            exchange.response, exchange.response_bytes = response.parsed(), response.data
+            yield exchange
+
+    def _exchange(self, request: _Waiting) -> Exchange:
+        record = request.parsed()
+        replay_of = record.get("replay_of")
+        return Exchange(request.operation, request.request_id, record, None, request.log_time,
+                        request.file, replay_of is not None
+                        and (request.operation, replay_of) in self._originals, request.data)
+
+    def _leftovers(self) -> Iterator[Exchange]:
+        for queue in self._requests.values():
+            for request in queue:
+                if request.data is not None:
+                    yield self._exchange(request)
+        for queue in self._responses.values():
+            for response in queue:
+                if self.filters.admit(response.operation, response.log_time):
+                    yield Exchange(response.operation, response.request_id, None,
+                                   response.parsed(), response.log_time, response.file,
+                                   response_bytes=response.data)
+        self._requests.clear()
+        self._responses.clear()
+        self._seen.clear()
+
+
+def read_recording(path: Path | str) -> Recording:
+    """Every exchange of one file, in the order the requests arrived (answers whose request
+    is lost left out), with what was wrong with the file."""
+    reader = Reader([path])
+    exchanges = [ex for ex in reader if ex.request is not None]
+    [rec] = reader.files
+    rec.exchanges = sorted(exchanges, key=lambda ex: ex.log_time)
     return rec

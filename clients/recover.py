@@ -1,81 +1,167 @@
-"""``plotgate recover FILE``: a complete, indexed copy of a file a killed server left.
+"""``plotgate recover FILE``: a complete, indexed copy of every intact record of a damaged file.
 
-A server killed mid-write leaves an MCAP file without its summary, index and footer (every
-exchange a client saw answered is in it: the recorder flushes before it answers).
-:func:`recover` reads every complete record in order (:mod:`clients.recordings`' reader,
-which stops at the first truncated or damaged record), writes them into a new file with
-its own summary and index (LZ4 chunks, like the recorder), and renames the damaged
-original to ``<name>.partial`` so a replay of the folder reads each exchange once.
+A server killed mid-write leaves an MCAP file without its summary, index and footer; a disk
+or a copy can damage bytes anywhere. :func:`recover` reads the file with
+:class:`clients.scan.Scan`, which skips each damaged chunk or record and goes on at the next
+intact one, writes every intact Schema, Channel, Metadata and Message record into a new
+file with its own summary and index (LZ4 chunks, like the recorder), and reports what it
+dropped. The original is renamed to ``<name>.partial`` when anything in it was damaged or
+missing, so a replay of the folder reads each exchange once.
+
+A file that does not start with the MCAP magic is refused (:class:`Refused`) and left as
+it is: it is not a recording, and an empty copy would pass for one.
 """
 
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from mcap.records import Channel, Footer, Header, Message, Metadata, Schema
+from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
-from clients.recordings import Recording, _records
+from clients.recordings import MAX_LISTED
+from clients.scan import MAGIC, Damage, NotMcap, Scan
 
-__all__ = ["Recovery", "recover"]
+__all__ = ["Recovery", "Refused", "recover"]
 
 
-@dataclass(frozen=True)
+class Refused(Exception):
+    """recover will not touch this file (not MCAP, or the copy would overwrite it)."""
+
+
+@dataclass
 class Recovery:
-    """What :func:`recover` did."""
+    """What :func:`recover` kept and dropped."""
 
     source: Path
     output: Path
-    messages: int
-    was_complete: bool
-    stopped_by: str | None
+    was_complete: bool = False
+    messages: int = 0
+    chunks: int = 0
+    """Intact chunks whose records were copied."""
+    chunks_damaged: int = 0
+    dropped_messages: int = 0
+    """Messages of the damaged chunks, as their message indexes count them."""
+    skipped_bytes: int = 0
+    damage: list[str] = field(default_factory=list)
+    damage_count: int = 0
+    renamed: Path | None = None
+
+    def text(self) -> str:
+        state = "complete" if self.was_complete else "no footer (its writer did not finish)"
+        lines = [f"{self.source}: {state}; {self.messages} messages from {self.chunks} intact "
+                 f"chunks copied to {self.output}"]
+        if self.damage_count:
+            lines.append(f"dropped: {self.chunks_damaged} damaged chunks (holding "
+                         f"{self.dropped_messages} messages by their indexes), "
+                         f"{self.skipped_bytes} bytes skipped, {self.damage_count} damaged "
+                         "records in all:")
+            lines += [f"  {d}" for d in self.damage]
+            if self.damage_count > len(self.damage):
+                lines.append(f"  ... and {self.damage_count - len(self.damage)} more")
+        if self.renamed is not None:
+            lines.append(f"{self.source} renamed to {self.renamed}")
+        return "\n".join(lines)
+
+
+class _Copy:
+    """Writes the intact records into the new file, renumbering schemas and channels."""
+
+    def __init__(self, writer: Writer, recovery: Recovery) -> None:
+        self.writer = writer
+        self.recovery = recovery
+        self.started = False
+        self.waiting: list[McapRecord] = []
+        self.schemas: dict[int, int] = {}
+        self.channels: dict[int, int] = {}
+
+    def __call__(self, record: McapRecord, offset: int) -> None:
+        if not self.started:
+            if isinstance(record, Header):
+                self.start(record.profile, record.library)
+                return
+            if isinstance(record, Schema | Channel):
+                self.waiting.append(record)
+                return
+            self.start("", "plotgate recover")
+        if isinstance(record, Schema) and record.id not in self.schemas:
+            self.schemas[record.id] = self.writer.register_schema(
+                record.name, record.encoding, record.data)
+        elif isinstance(record, Channel) and record.id not in self.channels:
+            self.channels[record.id] = self.writer.register_channel(
+                record.topic, record.message_encoding, self.schemas.get(record.schema_id, 0),
+                dict(record.metadata))
+        elif isinstance(record, Metadata):
+            self.writer.add_metadata(record.name, dict(record.metadata))
+        elif isinstance(record, Message):
+            if record.channel_id not in self.channels:
+                self.dropped(Damage(offset, f"a message on channel {record.channel_id}, which "
+                                    "no Channel record declared"))
+                return
+            self.writer.add_message(self.channels[record.channel_id], record.log_time,
+                                    record.data, record.publish_time, record.sequence)
+            self.recovery.messages += 1
+
+    def start(self, profile: str, library: str) -> None:
+        self.writer.start(profile=profile, library=library)
+        self.started = True
+        waiting, self.waiting = self.waiting, []
+        for record in waiting:
+            self(record, 0)
+
+    def dropped(self, damage: Damage) -> None:
+        self.recovery.damage_count += 1
+        if len(self.recovery.damage) < MAX_LISTED:
+            self.recovery.damage.append(str(damage))
 
 
 def recover(path: Path | str, out: Path | str | None = None, keep: bool = False) -> Recovery:
-    """Copy every complete record of ``path`` into a complete, indexed MCAP file.
+    """Copy every intact record of ``path`` into a complete, indexed MCAP file.
 
     Parameters
     ----------
     path : the damaged (or any) MCAP file.
     out : the copy to write; default ``<stem>.recovered.mcap`` next to it.
-    keep : leave the original as it is (default: rename it to ``<name>.partial``).
+    keep : leave the original as it is (default: rename it to ``<name>.partial`` when
+        anything in it was damaged or missing).
+
+    Raises :class:`Refused` for a file without the MCAP magic (left untouched),
+    ``FileNotFoundError`` for a missing one.
     """
     path = Path(path)
     out = Path(out) if out is not None else path.with_name(f"{path.stem}.recovered.mcap")
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
-    rec = Recording(path)
-    schemas: dict[int, int] = {}
-    channels: dict[int, int] = {}
-    messages = 0
-    complete = False
-    with open(out, "wb") as stream:
-        writer = Writer(stream, compression=CompressionType.LZ4)
-        started = False
-        for record in _records(path, rec):
-            if isinstance(record, Header):
-                writer.start(profile=record.profile, library=record.library)
-                started = True
-            elif not started:
-                writer.start(profile="", library="plotgate recover")
-                started = True
-            if isinstance(record, Schema) and record.id not in schemas:
-                schemas[record.id] = writer.register_schema(record.name, record.encoding,
-                                                            record.data)
-            elif isinstance(record, Channel) and record.id not in channels:
-                channels[record.id] = writer.register_channel(
-                    record.topic, record.message_encoding, schemas.get(record.schema_id, 0),
-                    dict(record.metadata))
-            elif isinstance(record, Metadata):
-                writer.add_metadata(record.name, dict(record.metadata))
-            elif isinstance(record, Message):
-                writer.add_message(channels[record.channel_id], record.log_time, record.data,
-                                   record.publish_time, record.sequence)
-                messages += 1
-            elif isinstance(record, Footer):
-                complete = True
-        if not started:
-            writer.start(profile="", library="plotgate recover")
-        writer.finish()
-    if not keep and not complete:
-        path.rename(path.with_name(path.name + ".partial"))
-    return Recovery(path, out, messages, complete, rec.stopped_by)
+    with open(path, "rb") as f:
+        if f.read(len(MAGIC)) != MAGIC:
+            raise Refused(f"{path} is not an MCAP file (it does not start with the MCAP "
+                          "magic); left as it is")
+    if out.exists() and out.resolve() == path.resolve():
+        raise Refused(f"the copy would overwrite {path}; name another with --out")
+    recovery = Recovery(path, out)
+    scan = Scan(path)
+    partial = out.with_name(out.name + ".writing")
+    try:
+        with open(partial, "wb") as stream:
+            writer = Writer(stream, compression=CompressionType.LZ4)
+            copy = _Copy(writer, recovery)
+            for item in scan:
+                if isinstance(item, Damage):
+                    copy.dropped(item)
+                else:
+                    copy(item.record, item.offset)
+            if not copy.started:
+                copy.start("", "plotgate recover")
+            writer.finish()
+        os.replace(partial, out)
+    except NotMcap as exc:  # the file changed since its magic was read
+        raise Refused(str(exc)) from None
+    finally:
+        partial.unlink(missing_ok=True)
+    recovery.was_complete = scan.complete
+    recovery.chunks, recovery.chunks_damaged = scan.chunks, scan.chunks_damaged
+    recovery.dropped_messages, recovery.skipped_bytes = scan.dropped_messages, scan.skipped_bytes
+    if not keep and (recovery.damage_count or not scan.complete):
+        recovery.renamed = path.with_name(path.name + ".partial")
+        path.rename(recovery.renamed)
+    return recovery

@@ -1,17 +1,43 @@
 """Replay recorded sessions against this build (or a live server) and report what changed.
 
-Every recorded request with a recorded response is run again: in-process through the
-operation registry by default, or over HTTP against ``server``. Results are compared
-field by field, floats with ``numpy.isclose(rtol, atol)``; a recorded error must fail
-the same way again (same status, problem type and offending fields). Requests a killed
-server never answered are counted, not compared.
+Every recorded exchange is read once (:class:`clients.recordings.Reader`: requests and
+responses paired across all the files given, damage reported and skipped) and its request
+run again: in-process through the operation registry by default, or over HTTP against a
+live server. Answers are compared field by field, floats with ``numpy.isclose(rtol,
+atol)``; a recorded failure must fail the same way again (same status, problem type and
+offending fields).
+
+The exit code is a contract (DESIGN section 10, :meth:`ReplayReport.exit_code`):
+
+- 0: every exchange compared was unchanged (and at least one was compared);
+- 1: something changed, a recorded failure that now succeeds or fails differently
+  included, or an exchange did not answer within ``timeout``;
+- 2: the run could not do what was asked: nothing comparable (unless ``allow_empty``), a
+  file that is not a recording at all, a usage or connection error. 2 wins over 1.
+
+Not every exchange can be compared; these are counted apart, each with its reason, and do
+not change the exit code by themselves: a request never answered (the server stopped
+first), an answer whose request record was lost to damage, a body that timed out (408:
+the body never arrived whole, so it cannot be sent again), a replay whose original was read
+before it (a folder replayed into itself would otherwise grow and compare twice), and, in
+process, a request over this replay's work caps (``PLOTGATE_LIMITS``; ``no_limits`` runs
+it). The tally adds up: exchanges = compared + not compared, compared = unchanged +
+changed, each exchange counted once.
+
+A replay over HTTP sends each request under a new request id with header
+``X-Plotgate-Replay-Of: <original id>``, so a server recording into the same folder records
+it as a replay of its original, never under the original's id.
 """
 
 import contextlib
 import json
+import signal
+import threading
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass, field
+import uuid
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -19,18 +45,44 @@ import httpx
 import numpy as np
 from tqdm import tqdm
 
-from clients.recordings import Exchange, read_recording, recording_files
+from clients.errors import TransportError
+from clients.recordings import MAX_LISTED, Exchange, Filters, Reader
 from service.schemas import ENDPOINTS
 
-__all__ = ["Change", "ReplayReport", "diff", "replay"]
+__all__ = ["Answer", "Change", "ReplayReport", "diff", "in_process", "over_http", "replay"]
 
-Runner = Callable[[Exchange], tuple[int, Any]]
 _MISSING = "<missing>"
+MAX_CHANGES = 1000
+"""Changes kept for the report (every changed exchange is counted)."""
+FIELDS_PER_EXCHANGE = 10
+"""Differing fields reported per changed exchange."""
+DEFAULT_TIMEOUT_S = 60.0
+
+NEVER_ANSWERED = "never answered (the server stopped first)"
+REQUEST_LOST = "answer whose request record was lost to damage"
+BODY_TIMEOUT = "body timed out (408): it never arrived whole, so it cannot be sent again"
+REPLAYED_ORIGINAL = "replay of an exchange read before it"
+OVER_CAPS = "over this replay's work caps (PLOTGATE_LIMITS; --no-limits runs it)"
+
+
+@dataclass(frozen=True)
+class Answer:
+    """What a replayed request got: a status and its JSON, or (``status`` None) no answer,
+    ``note`` saying why; ``skip`` says why it was not run at all."""
+
+    status: int | None
+    content: Any = None
+    note: str | None = None
+    skip: str | None = None
+
+
+Runner = Callable[[Exchange, str], Answer]
+"""Runs an exchange's request again under a new request id."""
 
 
 @dataclass
 class Change:
-    """One exchange whose new answer differs from the recorded one."""
+    """One field of one exchange whose new answer differs from the recorded one."""
 
     file: str
     operation: str
@@ -42,50 +94,92 @@ class Change:
 
 @dataclass
 class ReplayReport:
-    """Counts per file and every change found."""
+    """The tally, every change found (the first :data:`MAX_CHANGES`) and each file read."""
 
     files: list[dict[str, Any]] = field(default_factory=list)
+    exchanges: int = 0
     compared: int = 0
     unchanged: int = 0
-    unanswered: int = 0
+    changed: int = 0
+    not_compared: dict[str, int] = field(default_factory=dict)
+    written_twice: int = 0
+    """Records the recorder wrote twice (after losing a file), read once."""
+    unreadable: list[str] = field(default_factory=list)
     changes: list[Change] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    """Exceptions raised in process (each answered as the server's 500)."""
 
     @property
     def ok(self) -> bool:
-        return not self.changes
+        return self.changed == 0
+
+    def exit_code(self, allow_empty: bool = False) -> int:
+        """0, 1 or 2 as the module's contract says."""
+        if self.unreadable:
+            return 2
+        if self.changed:
+            return 1
+        return 0 if self.compared or allow_empty else 2
 
     def to_json(self) -> dict[str, Any]:
-        return {**asdict(self), "ok": self.ok}
+        return {
+            "exchanges": self.exchanges, "compared": self.compared,
+            "unchanged": self.unchanged, "changed": self.changed,
+            "not_compared": self.not_compared, "written_twice": self.written_twice,
+            "ok": self.ok, "unreadable": self.unreadable, "files": self.files,
+            "changes": [vars(c) for c in self.changes], "notes": self.notes,
+        }
 
     def text(self) -> str:
-        lines = []
-        for f in self.files:
-            state = "complete" if f["complete"] else (
-                f"truncated ({f['stopped_by']}), recovered {f['messages']} messages"
-            )
-            lines.append(f"{f['path']}: {f['exchanges']} exchanges, {state}")
-        for c in self.changes[:50]:
-            lines.append(
-                f"CHANGED {c.operation} {c.request_id} {c.field}: "
-                f"recorded {_short(c.recorded)}, replayed {_short(c.replayed)}"
-            )
-        if len(self.changes) > 50:
-            lines.append(f"... and {len(self.changes) - 50} more changes")
-        changed = len({(c.file, c.request_id) for c in self.changes})
-        lines.append(
-            f"{self.compared} compared: {self.unchanged} unchanged, {changed} changed, "
-            f"{self.unanswered} never answered"
-        )
+        lines = [_file_line(f) for f in self.files]
+        lines += [f"unreadable: {u}" for u in self.unreadable]
+        for c in self.changes:
+            lines.append(f"CHANGED {c.operation} {c.request_id} {c.field}: "
+                         f"recorded {_short(c.recorded)}, replayed {_short(c.replayed)}")
+        if self.changed > len({(c.file, c.request_id) for c in self.changes}):
+            lines.append(f"... more changes than the {MAX_CHANGES} listed")
+        lines += [f"note: {n}" for n in self.notes]
+        skipped = sum(self.not_compared.values())
+        lines.append(f"{self.exchanges} exchanges: {self.compared} compared, {skipped} not "
+                     "compared")
+        lines += [f"  not compared: {n} {why}" for why, n in sorted(self.not_compared.items())]
+        if self.written_twice:
+            lines.append(f"  {self.written_twice} records written twice by the recorder, "
+                         "read once")
+        lines.append(f"{self.compared} compared: {self.unchanged} unchanged, {self.changed} "
+                     "changed")
         return "\n".join(lines)
 
 
+def _file_line(f: dict[str, Any]) -> str:
+    if f["error"]:
+        return f"{f['path']}: {f['error']}"
+    span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
+    state = "complete" if f["complete"] else f"truncated, recovered {f['messages']} messages"
+    text = f"{f['path']}: {state}, {span}"
+    if f["damage_count"]:
+        text += f"; {f['damage_count']} damaged records skipped, the first at " + f["damage"][0]
+    return text
+
+
 def _short(value: Any) -> str:
-    text = json.dumps(value)
+    try:
+        text = json.dumps(value)
+    except ValueError:
+        text = repr(value)
     return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _is_number(x: Any) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def _floats(values: list[Any]) -> np.ndarray | None:
+    """A list of JSON numbers as floats, or None when one does not fit a double."""
+    try:
+        return np.asarray(values, float)
+    except (OverflowError, ValueError, TypeError):
+        return None
 
 
 def diff(
@@ -100,138 +194,257 @@ def diff(
             else:
                 yield from diff(a[key], b[key], rtol, atol, sub)
     elif isinstance(a, list) and isinstance(b, list):
+        numbers = a and all(map(_is_number, a)) and all(map(_is_number, b))
+        x = _floats(a) if numbers else None
+        y = _floats(b) if numbers else None
         if len(a) != len(b):
             yield f"{path}.length", len(a), len(b)
-        elif a and all(map(_is_number, a)) and all(map(_is_number, b)):
-            close = np.isclose(np.asarray(a, float), np.asarray(b, float), rtol, atol)
-            for i in np.flatnonzero(~close)[:10]:
+        elif x is not None and y is not None:
+            for i in np.flatnonzero(~np.isclose(x, y, rtol, atol))[:FIELDS_PER_EXCHANGE]:
                 yield f"{path}[{i}]", a[i], b[i]
         else:
-            for i, (x, y) in enumerate(zip(a, b, strict=True)):
-                yield from diff(x, y, rtol, atol, f"{path}[{i}]")
+            for i, (u, v) in enumerate(zip(a, b, strict=True)):
+                yield from diff(u, v, rtol, atol, f"{path}[{i}]")
     elif _is_number(a) and _is_number(b):
-        if not np.isclose(a, b, rtol, atol):
-            yield path, a, b
+        x, y = _floats([a]), _floats([b])
+        if x is None or y is None or not np.isclose(x[0], y[0], rtol, atol):
+            if a != b:
+                yield path, a, b
     elif a != b:
         yield path, a, b
 
 
-def _failure(status: int, problem: dict[str, Any]) -> dict[str, Any]:
+def _failure(status: int, problem: Any) -> dict[str, Any]:
     """What must stay the same when a request fails again."""
-    return {
-        "status": status,
-        "type": problem.get("type"),
-        "fields": sorted(e.get("field") for e in problem.get("errors", [])),
-    }
+    problem = problem if isinstance(problem, dict) else {}
+    errors = problem.get("errors")
+    fields = [e.get("field") for e in errors if isinstance(e, dict)] if isinstance(
+        errors, list) else []
+    return {"status": status, "type": problem.get("type"), "fields": sorted(map(str, fields))}
 
 
-def in_process() -> Runner:
-    """Run exchanges through this build's registry, as the server would."""
-    from service.registry import OPERATIONS, execute
+class _Overtime(BaseException):
+    """Raised in the main thread when an in-process exchange passes its deadline (a
+    BaseException, so no ``except Exception`` in an operation swallows it)."""
 
-    def run(exchange: Exchange) -> tuple[int, Any]:
-        outcome = execute(OPERATIONS[exchange.operation], exchange.body, exchange.request_id)
-        return outcome.status, outcome.json()
 
-    return run
+@contextlib.contextmanager
+def _deadline(seconds: float | None) -> Iterator[None]:
+    """Raise :class:`_Overtime` after ``seconds`` (a real-time alarm; only in the main
+    thread, where signals are delivered: elsewhere there is no deadline)."""
+    if not seconds or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def ring(signum: int, frame: object) -> None:
+        raise _Overtime
+
+    previous = signal.signal(signal.SIGALRM, ring)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def in_process(timeout: float | None = DEFAULT_TIMEOUT_S,
+               limits: Mapping[str, Mapping[str, int]] | None = None) -> Runner:
+    """Run exchanges through this build's registry, as the server would: an exception in an
+    operation becomes the server's 500 problem (its text kept as a note), an exchange over
+    ``timeout`` seconds is stopped, one over ``limits`` (the server's ``PLOTGATE_LIMITS``
+    caps) is not run."""
+    from service.registry import OPERATIONS, failed, internal_error, parse, run
+
+    def answer(exchange: Exchange, rid: str) -> Answer:
+        op = OPERATIONS[exchange.operation]
+        note = None
+        try:
+            with _deadline(timeout):
+                parsed = parse(op, exchange.body)
+                if parsed.request is None:
+                    assert parsed.problem is not None
+                    outcome = failed(op, parsed.problem, rid)
+                else:
+                    caps = (limits or {}).get(op.name, {})
+                    over = [f"{size} {value} > {cap}" for size, cap in caps.items()
+                            if (value := op.endpoint.work[size](parsed.request)) > cap]
+                    if over:
+                        return Answer(None, skip=OVER_CAPS)
+                    outcome = run(op, parsed.request, rid)
+        except _Overtime:
+            return Answer(None, note=f"no answer within {timeout:g} s (--timeout)")
+        except Exception as exc:  # noqa: BLE001 - a bug in an operation: the server's 500
+            outcome = internal_error(op, rid)
+            note = f"{exchange.operation} {exchange.request_id}: {type(exc).__name__}: {exc}"
+        return Answer(outcome.status, outcome.json(), note)
+
+    return answer
 
 
 def over_http(http: httpx.Client) -> Runner:
-    """Send exchanges to a live server through ``http`` (its base URL is the server)."""
+    """Send exchanges to a live server through ``http`` (its base URL is the server; its
+    read timeout the time an exchange may take), each under its new id and marked as a
+    replay of its original."""
 
-    def run(exchange: Exchange) -> tuple[int, Any]:
-        response = http.post(
-            ENDPOINTS[exchange.operation].path,
-            content=exchange.body,
-            headers={"content-type": "application/json", "x-request-id": exchange.request_id},
-        )
-        return response.status_code, response.json()
+    def answer(exchange: Exchange, rid: str) -> Answer:
+        url = f"{http.base_url}".rstrip("/") + ENDPOINTS[exchange.operation].path
+        try:
+            response = http.post(ENDPOINTS[exchange.operation].path, content=exchange.body,
+                                 headers={"content-type": "application/json",
+                                          "x-request-id": rid,
+                                          "x-plotgate-replay-of": exchange.request_id})
+        except httpx.TimeoutException:
+            return Answer(None, note=f"no answer within {http.timeout.read} s (--timeout)")
+        except httpx.TransportError as exc:
+            raise TransportError(f"cannot reach {url}: {exc}") from None
+        try:
+            content = response.json()
+        except ValueError:
+            return Answer(response.status_code, None, "the answer is not JSON")
+        return Answer(response.status_code, content)
 
-    return run
+    return answer
 
 
 def replay(
-    path: Path,
+    paths: Path | str | Iterable[Path | str],
     *,
     server: str | None = None,
     rtol: float = 1e-9,
     atol: float = 1e-12,
     out: Path | None = None,
     progress: bool | None = None,
+    filters: Filters | None = None,
+    timeout: float | None = DEFAULT_TIMEOUT_S,
+    limits: Mapping[str, Mapping[str, int]] | None = None,
 ) -> ReplayReport:
-    """Replay every file at ``path`` (a file or a folder) and compare.
+    """Replay every exchange in the files at ``paths`` (files or folders) and compare.
 
     Parameters
     ----------
     server : base URL of a live server; None runs in-process.
     rtol, atol : float tolerances of the comparison.
-    out : write the replayed session (recorded requests, new responses) to this MCAP file.
+    out : write the replayed session (each request under its new id, marked as a replay
+        of its original, with its new answer) to this MCAP file.
     progress : show a progress bar; None shows it only on a terminal.
+    filters : replay only these operations and request times.
+    timeout : seconds each exchange may take (None: no limit).
+    limits : in-process work caps, ``{operation: {size: cap}}`` (``PLOTGATE_LIMITS``);
+        exchanges over them are not run.
+
+    Raises :class:`clients.TransportError` when the server cannot be reached, and
+    ``FileNotFoundError`` for a path that does not exist.
     """
     report = ReplayReport()
-    quiet = None if progress is None else not progress
+    reader = Reader(paths, filters)
+    not_compared: Counter[str] = Counter()
     with contextlib.ExitStack() as resources:
         if server:
-            run = over_http(resources.enter_context(httpx.Client(base_url=server, timeout=60)))
+            http = resources.enter_context(httpx.Client(
+                base_url=server, timeout=httpx.Timeout(timeout, connect=10.0)))
+            run = over_http(http)
         else:
-            run = in_process()
-        writer = resources.enter_context(_SessionWriter(out, path)) if out else None
-        for file in recording_files(path):
-            rec = read_recording(file)
-            report.files.append({
-                "path": str(file), "exchanges": len(rec.exchanges), "complete": rec.complete,
-                "stopped_by": rec.stopped_by, "messages": rec.messages,
-            })
-            for exchange in tqdm(rec.exchanges, desc=file.name, unit="req", disable=quiet):
-                if exchange.response is None:
-                    report.unanswered += 1
-                    continue
+            run = in_process(timeout, limits)
+        writer = resources.enter_context(_SessionWriter(out, reader.paths)) if out else None
+        quiet = None if progress is None else not progress
+        for exchange in tqdm(reader, desc="replay", unit="exchange", disable=quiet):
+            report.exchanges += 1
+            reason = _not_comparable(exchange)
+            if reason is None and exchange.operation not in ENDPOINTS:
+                _count(report, exchange, [(
+                    "operation", exchange.operation, "not an operation of this build")])
+                continue
+            if reason is None:
+                rid = uuid.uuid4().hex
                 started = time.perf_counter()
-                status, answer = run(exchange)
-                if writer is not None:
-                    writer(exchange, status, answer, time.perf_counter() - started)
-                _compare(report, str(file), exchange, status, answer, rtol, atol)
+                answer = run(exchange, rid)
+                reason = answer.skip
+            if reason is not None:
+                not_compared[reason] += 1
+                continue
+            if answer.note and len(report.notes) < MAX_LISTED:
+                report.notes.append(answer.note)
+            if writer is not None and answer.status is not None:
+                writer(exchange, rid, answer, time.perf_counter() - started)
+            _count(report, exchange, _differences(exchange, answer, rtol, atol))
+    report.not_compared = dict(not_compared)
+    report.files = [rec.summary() for rec in reader.files]
+    report.unreadable = list(reader.unreadable)
+    report.written_twice = reader.written_twice
     return report
 
 
-def _compare(report: ReplayReport, file: str, exchange: Exchange, status: int, answer: Any,
-             rtol: float, atol: float) -> None:
+def _not_comparable(exchange: Exchange) -> str | None:
+    if exchange.request is None:
+        return REQUEST_LOST
+    if exchange.response is None:
+        return NEVER_ANSWERED
+    if exchange.response.get("status") == 408:
+        return BODY_TIMEOUT
+    if exchange.original_read:
+        return REPLAYED_ORIGINAL
+    return None
+
+
+def _differences(exchange: Exchange, answer: Answer, rtol: float, atol: float
+                 ) -> list[tuple[str, Any, Any]]:
     recorded = exchange.response or {}
-    if recorded.get("status", 0) < 400 and status < 400:
-        old, new = recorded.get("result"), answer
+    status = recorded.get("status", 0)
+    if answer.status is None:
+        return [("answer", f"status {status}", answer.note)]
+    if status < 400 and answer.status < 400:
+        old, new = recorded.get("result"), answer.content
     else:
-        old = _failure(recorded.get("status", 0), recorded.get("error") or {})
-        new = _failure(status, answer if status >= 400 else {})
-    changes = [
-        Change(file, exchange.operation, exchange.request_id, where or "result", a, b)
-        for where, a, b in diff(old, new, rtol, atol)
-    ]
+        old = _failure(status, recorded.get("error"))
+        new = _failure(answer.status, answer.content if answer.status >= 400 else {})
+    found = []
+    for where, a, b in diff(old, new, rtol, atol):
+        found.append((where or "result", a, b))
+        if len(found) == FIELDS_PER_EXCHANGE:
+            break
+    return found
+
+
+def _count(report: ReplayReport, exchange: Exchange, differences: list[tuple[str, Any, Any]]
+           ) -> None:
     report.compared += 1
-    report.changes.extend(changes)
-    report.unchanged += not changes
+    if not differences:
+        report.unchanged += 1
+        return
+    report.changed += 1
+    for where, a, b in differences:
+        if len(report.changes) < MAX_CHANGES:
+            report.changes.append(Change(exchange.file, exchange.operation,
+                                         exchange.request_id, where, a, b))
 
 
 class _SessionWriter:
-    """Writes the replayed session (recorded requests, new answers) to one MCAP file."""
+    """Writes the replayed session (each request under its new id, marked as a replay of
+    its original, with its new answer) to one MCAP file."""
 
-    def __init__(self, out: Path, source: Path) -> None:
+    def __init__(self, out: Path, sources: list[Path]) -> None:
         from service.provenance import VERSION
         from service.recorder import Recorder
         from service.registry import OPERATIONS
 
         out = Path(out)
-        metadata = {"plotgate_version": VERSION, "replayed_from": str(source)}
+        metadata = {"plotgate_version": VERSION,
+                    "replayed_from": ", ".join(map(str, sources))[:10_000]}
         self._recorder = Recorder(
             out.parent, OPERATIONS.values(), file_name=out.name, metadata=metadata
         ).start()
 
-    def __call__(self, exchange: Exchange, status: int, answer: Any, duration_s: float) -> None:
+    def __call__(self, exchange: Exchange, rid: str, answer: Answer, duration_s: float
+                 ) -> None:
         from service.recorder import request_record, response_record
 
-        op, rid = exchange.operation, exchange.request_id
-        written = self._recorder.request(op, request_record(rid, op, exchange.body))
-        content = json.dumps(answer).encode()
-        self._recorder.response(written, response_record(rid, op, status, duration_s, content))
+        op = exchange.operation
+        written = self._recorder.request(op, request_record(
+            rid, op, exchange.body, replay_of=exchange.request_id))
+        content = json.dumps(answer.content).encode()
+        self._recorder.response(written, response_record(rid, op, answer.status or 0,
+                                                         duration_s, content))
         self._recorder.flush()
 
     def __enter__(self) -> "_SessionWriter":
