@@ -1,4 +1,4 @@
-"""Shared fixtures: service settings on a temporary folder, the app, plots, the MCAP checker."""
+"""Shared fixtures: service settings on a temporary folder, the app, plots, the MCAP reader."""
 
 import contextlib
 import json
@@ -18,7 +18,8 @@ from fastapi.testclient import TestClient
 from service.app import create_app
 from service.config import Settings
 
-CHECKER = Path(__file__).resolve().parents[2] / "shared" / "tools" / "mcap-check"
+READER = Path(__file__).resolve().parent / "interop"
+"""The project's independent MCAP reader (Node, @mcap/core), pinned by its lockfile."""
 
 
 @pytest.fixture
@@ -32,21 +33,34 @@ def client(settings: Settings):
         yield c
 
 
+class McapReader:
+    """Runs ``tests/interop/read.mjs`` (TypeScript MCAP library) on recordings."""
+
+    def __init__(self, node: str) -> None:
+        self.node = node
+
+    def many(self, paths: list[Path], schemas: bool = False) -> tuple[int, list[dict]]:
+        """Its exit status and one report per file."""
+        run = subprocess.run([self.node, str(READER / "read.mjs"),
+                              *(["--schemas"] if schemas else []), *map(str, paths)],
+                             capture_output=True, text=True, timeout=600)
+        assert run.returncode in (0, 1), run.stderr
+        return run.returncode, [json.loads(line) for line in run.stdout.splitlines()]
+
+    def __call__(self, path: Path, schemas: bool = False) -> tuple[int, dict]:
+        code, [report] = self.many([path], schemas)
+        return code, report
+
+
 @pytest.fixture(scope="session")
-def mcap_check():
-    """Run the independent TypeScript MCAP checker on a file; returns its JSON report."""
-    node = shutil.which("node")
-    assert node, "node is needed for ../shared/tools/mcap-check"
-    if not (CHECKER / "node_modules").exists():
-        subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=CHECKER, check=True,
-                       capture_output=True)
-
-    def check(path: Path) -> tuple[int, dict]:
-        run = subprocess.run([node, str(CHECKER / "check.mjs"), str(path)],
-                             capture_output=True, text=True, timeout=120)
-        return run.returncode, json.loads(run.stdout)
-
-    return check
+def mcap_check() -> McapReader:
+    """The independent MCAP reader: ``mcap_check(path)`` is (0 if sound else 1, report)."""
+    node, npm = shutil.which("node"), shutil.which("npm")
+    assert node and npm, "Node >= 18 (node and npm) is needed for tests/interop"
+    if not (READER / "node_modules").exists():
+        subprocess.run([npm, "ci", "--no-audit", "--no-fund"], cwd=READER, check=True,
+                       capture_output=True, timeout=600)
+    return McapReader(node)
 
 
 def cartesian(x: float, y: float, sxx: float = 100.0**2, syy: float = 100.0**2,
