@@ -135,6 +135,8 @@ def _replay(args: argparse.Namespace) -> int:
         progress=None, filters=_filters(args), timeout=args.timeout or None, limits=limits,
     )
     code = report.exit_code(args.allow_empty)
+    for error in report.unreadable:
+        print(f"plotgate replay: {error}", file=sys.stderr)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
     text = report.text()

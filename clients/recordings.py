@@ -23,13 +23,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from mcap.records import Channel, Message, Metadata
+from mcap.records import Channel, Message, Metadata, Schema
 
 from clients.scan import MAX_RECORD_BYTES, Damage, Located, NotMcap, Scan
 from service.schemas import REQUEST_ID_PATTERN, Problem
 
 __all__ = ["MAX_DEPTH", "Exchange", "Filters", "Reader", "Recording", "iso_time",
-           "parse_record", "read_recording", "recording_files"]
+           "parse_record", "plotgate_channel", "read_recording", "recording_files"]
 
 MAX_DEPTH = 256
 """Deepest JSON a record may hold. The service records a body as ``body`` only when its
@@ -228,14 +228,17 @@ def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
     return record
 
 
-def _topic(channel: Channel) -> tuple[str, str] | str:
-    """(operation, kind) of a plotgate channel, or why the channel is not one."""
+def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | str:
+    """(operation, kind) of a plotgate channel (``schemas``: the schema ids declared so
+    far), or why the channel is not one."""
     operation, _, kind = channel.topic.rpartition("/")
+    name = f"channel {channel.id} ({channel.topic[:100]!r})"
     if not operation or kind not in ("request", "response"):
-        return f"channel {channel.id} ({channel.topic[:100]!r}) is not a plotgate channel"
+        return f"{name}, which is not a plotgate channel"
     if channel.message_encoding != "json":
-        return (f"channel {channel.id} ({channel.topic[:100]}) carries "
-                f"{channel.message_encoding[:40]!r} messages, not json")
+        return f"{name}, which carries {channel.message_encoding[:40]!r} messages, not json"
+    if channel.schema_id != 0 and channel.schema_id not in schemas:
+        return f"{name}, whose schema {channel.schema_id} no Schema record declared"
     return operation, kind
 
 
@@ -296,12 +299,15 @@ class Reader:
     def _file(self, rec: Recording) -> Iterator[Exchange]:
         scan = Scan(rec.path, max_record_bytes=self.max_record_bytes)
         channels: dict[int, tuple[str, str] | str] = {}
+        schemas: set[int] = set()
         try:
             for item in scan:
                 if isinstance(item, Damage):
                     rec.add_damage(item)
+                elif isinstance(item.record, Schema):
+                    schemas.add(item.record.id)
                 elif isinstance(item.record, Channel):
-                    channels[item.record.id] = _topic(item.record)
+                    channels[item.record.id] = plotgate_channel(item.record, schemas)
                 elif isinstance(item.record, Metadata):
                     rec.metadata[item.record.name] = dict(item.record.metadata)
                 elif isinstance(item.record, Message):

@@ -3,10 +3,12 @@
 A server killed mid-write leaves an MCAP file without its summary, index and footer; a disk
 or a copy can damage bytes anywhere. :func:`recover` reads the file with
 :class:`clients.scan.Scan`, which skips each damaged chunk or record and goes on at the next
-intact one, writes every intact Schema, Channel, Metadata and Message record into a new
-file with its own summary and index (LZ4 chunks, like the recorder), and reports what it
-dropped. The original is renamed to ``<name>.partial`` when anything in it was damaged or
-missing, so a replay of the folder reads each exchange once.
+intact one, writes every intact plotgate record (the messages replay reads, checked as
+:func:`clients.recordings.parse_record` does, their channels and schemas, the metadata)
+into a new file with its own summary and index (LZ4 chunks, like the recorder), and
+reports what it dropped with its offset. The original is renamed to ``<name>.partial``
+when anything in it was damaged or missing, so a replay of the folder reads each exchange
+once.
 
 A file that does not start with the MCAP magic is refused (:class:`Refused`) and left as
 it is: it is not a recording, and an empty copy would pass for one.
@@ -19,7 +21,7 @@ from pathlib import Path
 from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
-from clients.recordings import MAX_LISTED
+from clients.recordings import MAX_LISTED, parse_record, plotgate_channel
 from clients.scan import MAGIC, Damage, NotMcap, Scan
 
 __all__ = ["Recovery", "Refused", "recover"]
@@ -65,17 +67,21 @@ class Recovery:
 
 
 class _Copy:
-    """Writes the intact records into the new file, renumbering schemas and channels."""
+    """Writes the intact plotgate records into the new file, renumbering schemas and
+    channels; a message that is not a plotgate record (or is on a channel that is not a
+    plotgate channel) is dropped as damage, so the copy holds only what replay reads."""
 
     def __init__(self, writer: Writer, recovery: Recovery) -> None:
         self.writer = writer
         self.recovery = recovery
         self.started = False
         self.waiting: list[McapRecord] = []
-        self.schemas: dict[int, int] = {}
-        self.channels: dict[int, int] = {}
+        self.schemas: dict[int, Schema] = {}
+        self.written_schemas: dict[int, int] = {}
+        self.channels: dict[int, tuple[str, str] | str] = {}
+        self.written_channels: dict[int, int] = {}
 
-    def __call__(self, record: McapRecord, offset: int) -> None:
+    def __call__(self, record: McapRecord, offset: int, inner: int | None) -> None:
         if not self.started:
             if isinstance(record, Header):
                 self.start(record.profile, record.library)
@@ -84,30 +90,47 @@ class _Copy:
                 self.waiting.append(record)
                 return
             self.start("", "plotgate recover")
-        if isinstance(record, Schema) and record.id not in self.schemas:
-            self.schemas[record.id] = self.writer.register_schema(
-                record.name, record.encoding, record.data)
+        if isinstance(record, Schema):
+            self.schemas.setdefault(record.id, record)
         elif isinstance(record, Channel) and record.id not in self.channels:
-            self.channels[record.id] = self.writer.register_channel(
-                record.topic, record.message_encoding, self.schemas.get(record.schema_id, 0),
-                dict(record.metadata))
+            self.channels[record.id] = plotgate_channel(record, set(self.schemas))
+            if not isinstance(self.channels[record.id], str):
+                self.written_channels[record.id] = self.writer.register_channel(
+                    record.topic, record.message_encoding, self.schema(record.schema_id),
+                    dict(record.metadata))
         elif isinstance(record, Metadata):
             self.writer.add_metadata(record.name, dict(record.metadata))
         elif isinstance(record, Message):
-            if record.channel_id not in self.channels:
-                self.dropped(Damage(offset, f"a message on channel {record.channel_id}, which "
-                                    "no Channel record declared"))
-                return
-            self.writer.add_message(self.channels[record.channel_id], record.log_time,
-                                    record.data, record.publish_time, record.sequence)
-            self.recovery.messages += 1
+            self.message(record, offset, inner)
+
+    def schema(self, sid: int) -> int:
+        if sid not in self.written_schemas:
+            s = self.schemas[sid]
+            self.written_schemas[sid] = self.writer.register_schema(s.name, s.encoding, s.data)
+        return self.written_schemas[sid]
+
+    def message(self, message: Message, offset: int, inner: int | None) -> None:
+        channel = self.channels.get(message.channel_id)
+        try:
+            if channel is None:
+                raise ValueError(f"a message on channel {message.channel_id}, which no Channel "
+                                 "record declared")
+            if isinstance(channel, str):
+                raise ValueError(f"a message on {channel}")
+            parse_record(channel[1], channel[0], message.data)
+        except ValueError as exc:
+            self.dropped(Damage(offset, str(exc), inner))
+            return
+        self.writer.add_message(self.written_channels[message.channel_id], message.log_time,
+                                message.data, message.publish_time, message.sequence)
+        self.recovery.messages += 1
 
     def start(self, profile: str, library: str) -> None:
         self.writer.start(profile=profile, library=library)
         self.started = True
         waiting, self.waiting = self.waiting, []
         for record in waiting:
-            self(record, 0)
+            self(record, 0, None)
 
     def dropped(self, damage: Damage) -> None:
         self.recovery.damage_count += 1
@@ -149,7 +172,7 @@ def recover(path: Path | str, out: Path | str | None = None, keep: bool = False)
                 if isinstance(item, Damage):
                     copy.dropped(item)
                 else:
-                    copy(item.record, item.offset)
+                    copy(item.record, item.offset, item.inner)
             if not copy.started:
                 copy.start("", "plotgate recover")
             writer.finish()

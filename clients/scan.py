@@ -250,6 +250,9 @@ class Scan:
                               "MCAP magic)")
             yield from self._summary_channels()
             yield from self._records(len(MAGIC))
+            if not self.complete:
+                yield Damage(self.size, "the file ends without its footer (its writer did not "
+                             "finish it: killed, or still writing)")
 
     def _pread(self, n: int, at: int) -> bytes:
         return os.pread(self._fd, n, at)
@@ -459,15 +462,20 @@ class Scan:
                 yield Damage(pos, f"malformed {NAMES[opcode]} record: {exc}", inner)
             inner += 9 + length
 
-    def _summary_channels(self) -> Iterator[Located]:
+    def _summary_channels(self) -> Iterator[Located | Damage]:
         """The Schema and Channel records of the summary section, when the footer points
-        at one whose CRC checks (or is not stored)."""
+        at one whose CRC checks (or is not stored); damage when it points elsewhere or the
+        CRC fails."""
         at = self.size - len(MAGIC) - FOOTER_BYTES
         if at <= len(MAGIC) or self._pread(len(MAGIC), self.size - len(MAGIC)) != MAGIC:
             return
         head = self._pread(FOOTER_BYTES, at)
         opcode, length, start, _, crc = struct.unpack("<BQQQI", head)
-        if opcode != FOOTER or length != 20 or not len(MAGIC) < start < at:
+        if opcode != FOOTER or length != 20 or start == 0:
+            return
+        if not len(MAGIC) < start < at:
+            yield Damage(at, f"the footer puts the summary at offset {start}, outside the file's "
+                         "data; the summary is not used")
             return
         if crc != 0:
             computed = 0
@@ -475,6 +483,8 @@ class Scan:
                 n = min(PIECE_BYTES, at + FOOTER_BYTES - 4 - piece_at)
                 computed = zlib.crc32(self._pread(n, piece_at), computed)
             if computed != crc:
+                yield Damage(start, f"the summary section fails its CRC (stored {crc}, "
+                             f"computed {computed}); it is not used")
                 return
         pos = start
         while pos < at:

@@ -9,7 +9,7 @@
 //
 // A sound recording:
 //  - reads from magic to footer with the streaming reader, every chunk's CRC checked, every
-//    chunk under MAX_CHUNK_BYTES uncompressed (a larger declared size is refused before
+//    chunk under MAX_CHUNK_BYTES (256 MiB) uncompressed (a larger declared size is refused before
 //    anything is allocated), no record the MCAP spec does not define;
 //  - has channels `<operation>/request` and `<operation>/response`, json messages, each with
 //    a jsonschema schema that is a JSON object schema;
@@ -17,24 +17,36 @@
 //    MAX_DEPTH deep, with no integer literal of more than MAX_INT_DIGITS digits (Python's
 //    json refuses those), a request_id the service could have given and the channel's
 //    operation; a request's raw body is text and replay_of an id; a response has an HTTP
-//    status, a duration, and a result (status < 400) or a problem object;
+//    status, a duration, and a result (status < 400) or an RFC 9457 problem;
 //  - when it has a summary: the indexed reader (summary CRC checked) reads back as many
 //    messages as the stream, and Statistics counts them too.
 // With --schemas the report also carries each topic's schema (parsed JSON).
 
 import { createReadStream } from "node:fs";
 import { open, stat } from "node:fs/promises";
+import { createRequire } from "node:module";
+import { sep } from "node:path";
 
-import lz4 from "@foxglove/wasm-lz4";
 import * as zstd from "@foxglove/wasm-zstd";
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 import { FileHandleReadable } from "@mcap/nodejs";
 
-const MAX_CHUNK_BYTES = 2 ** 30;
+const MAX_CHUNK_BYTES = 2 ** 28; // no test writes a chunk near this
 const MAX_DEPTH = 256;
 const MAX_INT_DIGITS = 4300;
 const REQUEST_ID = /^[A-Za-z0-9._:-]{1,128}$/;
 const TOPIC = /^([a-z_]+\.[a-z_]+)\/(request|response)$/;
+
+// wasm-lz4 keeps one decompression context for good, and a frame that fails part-way (a
+// bomb) leaves it broken for every later chunk: each file gets a module of its own.
+const require = createRequire(import.meta.url);
+async function freshLz4() {
+  const marker = `${sep}@foxglove${sep}wasm-lz4${sep}`;
+  for (const key of Object.keys(require.cache)) if (key.includes(marker)) delete require.cache[key];
+  const decompress = require("@foxglove/wasm-lz4");
+  await decompress.isLoaded;
+  return decompress;
+}
 
 function guarded(name, decompress) {
   return (buffer, size) => {
@@ -112,10 +124,17 @@ function recordProblem(kind, operation, data) {
   if (!Number.isInteger(status) || status < 100 || status > 599) return "no HTTP status";
   if (typeof duration !== "number" || !(duration >= 0) || !Number.isFinite(duration)) return "no duration";
   if (status < 400 && !("result" in record)) return `a ${status} without a result`;
-  if (status >= 400 && (record.error === null || typeof record.error !== "object" || Array.isArray(record.error))) {
-    return `a ${status} without a problem`;
-  }
+  if (status >= 400 && !isProblem(record.error)) return `a ${status} without a problem`;
   return null;
+}
+
+// RFC 9457 problem details as the service writes them (service.schemas.Problem).
+function isProblem(p) {
+  const text = (v) => typeof v === "string";
+  return p !== null && typeof p === "object" && !Array.isArray(p) && text(p.type) &&
+    text(p.title) && Number.isInteger(p.status) && text(p.detail) &&
+    (p.errors === undefined || (Array.isArray(p.errors) &&
+      p.errors.every((e) => e !== null && typeof e === "object" && text(e.field) && text(e.reason))));
 }
 
 async function read(file, withSchemas) {
@@ -131,7 +150,9 @@ async function read(file, withSchemas) {
     errors.push(`cannot read: ${e.message}`);
     return report;
   }
-  const decompressHandlers = { lz4: guarded("lz4", lz4), zstd: guarded("zstd", zstd.decompress) };
+  const decompressHandlers = {
+    lz4: guarded("lz4", await freshLz4()), zstd: guarded("zstd", zstd.decompress),
+  };
   const reader = new McapStreamReader({ validateCrcs: true, decompressHandlers, includeChunks: true });
   const schemas = new Map();
   const channels = new Map();
@@ -242,7 +263,6 @@ if (files.length === 0 || files.some((f) => f.startsWith("--"))) {
   process.stderr.write("usage: node read.mjs [--schemas] FILE.mcap...\n");
   process.exit(2);
 }
-await lz4.isLoaded;
 await zstd.isLoaded;
 let allOk = true;
 for (const file of files) {
