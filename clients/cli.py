@@ -437,8 +437,12 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``plotgate`` console script."""
-    args = _parser().parse_args(argv)
+    """Entry point of the ``plotgate`` console script: its exit status (a usage error is
+    2, after argparse's message)."""
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a usage error (2)
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         return args.func(args)
     except BrokenPipeError:

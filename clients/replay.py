@@ -46,7 +46,7 @@ import numpy as np
 from tqdm import tqdm
 
 from clients.errors import TransportError
-from clients.recordings import MAX_LISTED, Exchange, Filters, Reader
+from clients.recordings import MAX_LISTED, Exchange, Filters, Reader, iso_time
 from service.schemas import ENDPOINTS
 
 __all__ = ["Answer", "Change", "ReplayReport", "diff", "in_process", "over_http", "replay"]
@@ -87,6 +87,8 @@ class Change:
     file: str
     operation: str
     request_id: str
+    time: str
+    """When the request arrived (ISO 8601 UTC): ids may be reused."""
     field: str
     recorded: Any
     replayed: Any
@@ -136,7 +138,7 @@ class ReplayReport:
         for c in self.changes:
             lines.append(f"CHANGED {c.operation} {c.request_id} {c.field}: "
                          f"recorded {_short(c.recorded)}, replayed {_short(c.replayed)}")
-        if self.changed > len({(c.file, c.request_id) for c in self.changes}):
+        if self.changed > len({(c.file, c.request_id, c.time) for c in self.changes}):
             lines.append(f"... more changes than the {MAX_CHANGES} listed")
         lines += [f"note: {n}" for n in self.notes]
         skipped = sum(self.not_compared.values())
@@ -416,7 +418,8 @@ def _count(report: ReplayReport, exchange: Exchange, differences: list[tuple[str
     for where, a, b in differences:
         if len(report.changes) < MAX_CHANGES:
             report.changes.append(Change(exchange.file, exchange.operation,
-                                         exchange.request_id, where, a, b))
+                                         exchange.request_id, iso_time(exchange.log_time) or "",
+                                         where, a, b))
 
 
 class _SessionWriter:

@@ -1,0 +1,294 @@
+"""plotgate replay as a regression gate: its exit code (0 unchanged, 1 changed, 2 nothing
+comparable or unusable input), the tally (exchanges = compared + not compared, compared =
+unchanged + changed, each exchange once, across files), and no traceback on any of it."""
+
+import json
+import time
+from pathlib import Path
+
+from fastapi.testclient import TestClient
+from hypothesis import HealthCheck, given
+from hypothesis import settings as hsettings
+from hypothesis import strategies as st
+from mcap.writer import CompressionType, Writer
+
+from clients.cli import main
+from clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
+from service import registry
+from service.app import create_app
+from service.recorder import request_record, response_record
+from service.registry import OPERATIONS, execute
+from service.schemas import request_schema, response_schema
+from tests.service.test_recording import BAD_COV, GOOD
+
+OP = "gates.test"
+GOOD_BODY = json.dumps(GOOD).encode()
+BAD_BODY = json.dumps(BAD_COV).encode()
+
+
+def _answers() -> dict[str, tuple[bytes, int, bytes]]:
+    """What this build answers, by kind of exchange: (body, status, answer)."""
+    good, bad = execute(OPERATIONS[OP], GOOD_BODY), execute(OPERATIONS[OP], BAD_BODY)
+    changed = json.loads(good.content)
+    changed["statistic"][0] += 1.0
+    return {"ok": (GOOD_BODY, good.status, good.content),
+            "refused": (BAD_BODY, bad.status, bad.content),
+            "changed": (GOOD_BODY, good.status, json.dumps(changed).encode())}
+
+
+def write_files(folder: Path, events: list[tuple[int, str, bytes]], cuts: set[int]) -> None:
+    """Messages (time, kind, record) in order into files, a new file after each index in
+    ``cuts`` (a rotation), with the recorder's channels and schemas."""
+    folder.mkdir(parents=True, exist_ok=True)
+    writer = None
+    for i, (t, kind, data) in enumerate(events):
+        if writer is None:
+            stream = open(folder / f"plotgate-{i:05d}.mcap", "wb")  # noqa: SIM115
+            writer = Writer(stream, compression=CompressionType.LZ4)
+            writer.start()
+            channels = {}
+            for k, schema, model in (("request", request_schema, OPERATIONS[OP].request),
+                                     ("response", response_schema, OPERATIONS[OP].response)):
+                sid = writer.register_schema(k, "jsonschema", json.dumps(schema(model)).encode())
+                channels[k] = writer.register_channel(f"{OP}/{k}", "json", sid)
+        writer.add_message(channels[kind], t, data, t)
+        if i in cuts or i == len(events) - 1:
+            writer.finish()
+            stream.close()
+            writer = None
+
+
+KINDS = ("ok", "refused", "changed", "never", "timeout")
+T0, MS = 1_700_000_000 * 10**9, 10**6
+
+
+@st.composite
+def sessions(draw):
+    """Exchanges of each kind, overlapping in time, ids reused only once an earlier
+    exchange of that id is answered, some request records written twice, cut into files."""
+    n = draw(st.integers(1, 14))
+    kinds = draw(st.lists(st.sampled_from(KINDS), min_size=n, max_size=n))
+    delays = draw(st.lists(st.integers(1, 40), min_size=n, max_size=n))
+    pool = draw(st.lists(st.sampled_from("abc"), min_size=n, max_size=n))
+    twice = draw(st.lists(st.booleans(), min_size=n, max_size=n))
+    answers = _ANSWERS
+    events, open_until, count = [], {}, {k: 0 for k in KINDS}
+    count["twice"] = 0
+    for i, (kind, delay_ms, rid) in enumerate(zip(kinds, delays, pool, strict=True)):
+        t, delay = T0 + (i + 1) * 10 * MS, delay_ms * MS
+        if open_until.get(rid, 0) >= t:
+            rid = f"{rid}-{i}"
+        answered = kind not in ("never",)
+        open_until[rid] = t + delay if answered else T0 * 2
+        count[kind] += 1
+        if kind == "timeout":
+            events.append((t, "request", request_record(rid, OP, GOOD_BODY[:20], False)))
+            problem = b'{"type": "urn:plotgate:problem:request-timeout", "title": "t", ' \
+                      b'"status": 408, "detail": "d", "errors": [{"field": "body", ' \
+                      b'"reason": "r"}]}'
+            events.append((t + delay, "response", response_record(rid, OP, 408, 30.0, problem)))
+            continue
+        body, status, answer = answers["ok" if kind == "never" else kind]
+        request = request_record(rid, OP, body)
+        events.append((t, "request", request))
+        if twice[i]:
+            events.append((t, "request", request))  # written again after a lost file
+            count["twice"] += 1
+        if answered:
+            events.append((t + delay, "response", response_record(rid, OP, status, 0.001,
+                                                                  answer)))
+    events.sort(key=lambda e: e[0])
+    cuts = set(draw(st.lists(st.integers(0, len(events) - 1), max_size=6)))
+    return events, cuts, count
+
+
+_ANSWERS = _answers()
+
+
+@hsettings(max_examples=150, deadline=None, derandomize=True,
+           suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(session=sessions())
+def test_the_tally_adds_up_and_counts_each_exchange_once(tmp_path_factory, session):
+    events, cuts, count = session
+    folder = tmp_path_factory.mktemp("session")
+    write_files(folder, events, cuts)
+    report = replay(folder, progress=False)
+    exchanges = sum(count[k] for k in KINDS)
+    assert report.exchanges == exchanges
+    assert report.compared == count["ok"] + count["refused"] + count["changed"]
+    assert report.compared == report.unchanged + report.changed
+    assert report.changed == count["changed"]
+    assert report.compared + sum(report.not_compared.values()) == exchanges
+    assert report.not_compared.get(NEVER_ANSWERED, 0) == count["never"]
+    assert report.not_compared.get(BODY_TIMEOUT, 0) == count["timeout"]
+    assert report.written_twice == count["twice"]
+    assert len({(c.file, c.request_id, c.time) for c in report.changes}) == count["changed"]
+    code = report.exit_code()
+    assert code == (1 if count["changed"] else 0 if report.compared else 2)
+
+
+def _session(settings, bodies: list[bytes]) -> Path:
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        for i, body in enumerate(bodies):
+            c.post("/v1/gates/test", content=body, headers={
+                "x-request-id": f"r{i}", "content-type": "application/json"})
+    return settings.log_dir
+
+
+def test_nothing_comparable_is_exit_2_unless_allowed(tmp_path, capsys):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["replay", str(empty)]) == 2
+    assert "nothing was compared" in capsys.readouterr().out
+    assert main(["replay", str(empty), "--allow-empty"]) == 0
+    json_file = tmp_path / "session.json"
+    json_file.write_text('{"request_id": "x"}')
+    assert main(["replay", str(json_file)]) == 2
+    assert main(["replay", str(json_file), "--allow-empty"]) == 2  # not a recording at all
+    assert "not an MCAP file" in capsys.readouterr().err
+    assert main(["replay", str(tmp_path / "nowhere")]) == 2
+    err = capsys.readouterr().err
+    assert "no such file or folder" in err and len(err.strip().splitlines()) == 1
+    assert main(["replay", str(empty), "--operation", "gates.test", "--since", "yesterday"]) == 2
+    assert "not a time" in capsys.readouterr().err
+
+
+def test_unchanged_changed_and_unreadable(settings, tmp_path, capsys):
+    folder = _session(settings, [GOOD_BODY, BAD_BODY, b'{"gate": '])
+    report = tmp_path / "report.json"
+    assert main(["replay", str(folder), "--report", str(report)]) == 0
+    tally = json.loads(report.read_text())
+    assert (tally["exchanges"], tally["compared"], tally["unchanged"]) == (3, 3, 3)
+    altered = tmp_path / "altered"
+    events = [(t, kind, data) for t, kind, data in _events(folder)]
+    events = [(t, k, d.replace(b'"inside":[true,true]', b'"inside":[true,false]'))
+              for t, k, d in events]
+    write_files(altered, events, set())
+    assert main(["replay", str(altered)]) == 1
+    out = capsys.readouterr().out
+    assert "CHANGED gates.test r0 inside[1]" in out and "1 changed" in out
+    (altered / "junk.mcap").write_bytes(b"not a recording")
+    assert main(["replay", str(altered)]) == 2  # 2 wins over 1: the input is not all usable
+
+
+def _events(folder: Path) -> list[tuple[int, str, bytes]]:
+    from mcap.reader import make_reader
+
+    out = []
+    for f in sorted(folder.glob("*.mcap")):
+        with open(f, "rb") as stream:
+            for _, channel, message in make_reader(stream).iter_messages():
+                out.append((message.log_time, channel.topic.rpartition("/")[2], message.data))
+    return out
+
+
+def test_a_recorded_500_replays_by_the_contract_without_a_traceback(settings, monkeypatch,
+                                                                     capsys):
+    op = registry.OPERATIONS[OP]
+
+    def broken(request):
+        raise RuntimeError("boom")
+
+    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, broken,
+                                                                    op.field_of))
+    folder = _session(settings, [GOOD_BODY, BAD_BODY])
+    capsys.readouterr()
+    # the bug is still there: the same 500 again, unchanged
+    assert main(["replay", str(folder)]) == 0
+    captured = capsys.readouterr()
+    assert "2 compared: 2 unchanged, 0 changed" in captured.out
+    assert "RuntimeError: boom" in captured.out  # said, as a note
+    assert "Traceback" not in captured.out + captured.err
+    # the bug is fixed: the recorded 500 now answers 200, a change
+    monkeypatch.setitem(registry.OPERATIONS, OP, op)
+    assert main(["replay", str(folder)]) == 1
+    captured = capsys.readouterr()
+    assert "CHANGED gates.test r0 status: recorded 500, replayed 200" in captured.out
+    assert "Traceback" not in captured.out + captured.err
+
+
+def test_an_operation_this_build_lacks_is_a_change(tmp_path):
+    events = [(1, "request", b'{"request_id": "x", "operation": "gates.gone", "body": {}}'),
+              (2, "response", b'{"request_id": "x", "operation": "gates.gone", "status": 200, '
+                              b'"duration_s": 0.1, "result": {}}')]
+    folder = tmp_path / "gone"
+    folder.mkdir()
+    with open(folder / "a.mcap", "wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        channels = {k: writer.register_channel(f"gates.gone/{k}", "json", 0)
+                    for k in ("request", "response")}
+        for t, kind, data in events:
+            writer.add_message(channels[kind], t, data, t)
+        writer.finish()
+    report = replay(folder, progress=False)
+    assert (report.compared, report.changed) == (1, 1) and report.exit_code() == 1
+    assert report.changes[0].replayed == "not an operation of this build"
+
+
+def test_body_timeouts_are_not_compared(tmp_path):
+    folder = tmp_path / "timeouts"
+    problem = execute(OPERATIONS[OP], GOOD_BODY).content
+    write_files(folder, [
+        (1, "request", request_record("half", OP, GOOD_BODY[:30], False)),
+        (2, "response", response_record("half", OP, 408, 30.0, (
+            b'{"type": "urn:plotgate:problem:request-timeout", "title": "Request timeout", '
+            b'"status": 408, "detail": "body: ...", "errors": [{"field": "body", '
+            b'"reason": "did not arrive"}]}'))),
+        (3, "request", request_record("whole", OP, GOOD_BODY)),
+        (4, "response", response_record("whole", OP, 200, 0.01, problem)),
+    ], set())
+    report = replay(folder, progress=False)
+    assert report.not_compared == {BODY_TIMEOUT: 1}
+    assert (report.compared, report.unchanged, report.exit_code()) == (1, 1, 0)
+
+
+def test_timeout_and_work_caps(settings, monkeypatch, capsys):
+    folder = _session(settings, [GOOD_BODY, GOOD_BODY])
+    op = registry.OPERATIONS[OP]
+
+    def slow(request):
+        time.sleep(30)
+
+    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, slow,
+                                                                    op.field_of))
+    capsys.readouterr()
+    started = time.monotonic()
+    assert main(["replay", str(folder), "--timeout", "0.2"]) == 1
+    assert time.monotonic() - started < 20  # each exchange was stopped
+    assert "no answer within 0.2 s (--timeout)" in capsys.readouterr().out
+    monkeypatch.setitem(registry.OPERATIONS, OP, op)
+
+    monkeypatch.setenv("PLOTGATE_LIMITS", json.dumps({OP: {"candidates": 1}}))
+    report_path = settings.log_dir.parent / "report.json"
+    assert main(["replay", str(folder), "--report", str(report_path)]) == 2
+    assert json.loads(report_path.read_text())["not_compared"] == {OVER_CAPS: 2}
+    assert main(["replay", str(folder), "--no-limits"]) == 0
+    monkeypatch.setenv("PLOTGATE_LIMITS", json.dumps({"gates.nothing": {"x": 1}}))
+    assert main(["replay", str(folder)]) == 2
+    assert "PLOTGATE_LIMITS" in capsys.readouterr().err
+
+
+def test_filters_pick_operations_and_times(settings, tmp_path):
+    with TestClient(create_app(settings)) as c:
+        c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "early"})
+        time.sleep(0.05)
+        middle = time.time()
+        time.sleep(0.05)
+        c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "late"})
+        c.post("/v1/identification/pair", json={
+            "passive_bearings_deg": [1.0, 1.1, 0.9, 1.0], "active_bearings_deg": [1.0, 1.05],
+            "delta_deg": 0.5}, headers={"x-request-id": "pair"})
+    folder = settings.log_dir
+    report = tmp_path / "r.json"
+
+    def compared(*args: str) -> int:
+        main(["replay", str(folder), "--report", str(report), *args])
+        return json.loads(report.read_text())["compared"]
+
+    assert compared() == 3
+    assert compared("--operation", "gates.test") == 2
+    assert compared("--operation", "identification.pair,gates.test") == 3
+    assert compared("--since", str(middle)) == 2
+    assert compared("--until", str(middle)) == 1
+    assert compared("--operation", "gates.test", "--since", str(middle)) == 1
