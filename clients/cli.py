@@ -90,9 +90,14 @@ def _call(args: argparse.Namespace) -> int:
     body = (sys.stdin.buffer.read() if args.request in (None, "-")
             else Path(args.request).read_bytes())
     if args.server is None:
-        from service.registry import OPERATIONS, execute
+        from service.registry import OPERATIONS, execute, internal_error
 
-        outcome = execute(OPERATIONS[args.operation], body)
+        op = OPERATIONS[args.operation]
+        try:
+            outcome = execute(op, body)
+        except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
+            print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
+            outcome = internal_error(op, None)
         status, content = outcome.status, outcome.content
     else:
         import httpx
@@ -444,7 +449,9 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else 2
     try:
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()
+        return code
     except BrokenPipeError:
         _silence_stdout()
         return 0

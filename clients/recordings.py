@@ -23,6 +23,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from mcap.records import Channel, Message, Metadata, Schema
 
 from clients.scan import MAX_RECORD_BYTES, Damage, Located, NotMcap, Scan
@@ -165,19 +166,33 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
     return sorted(found.values(), key=lambda f: (f.name, str(f)))
 
 
-def _depth(value: Any) -> int:
-    """Nesting depth of a JSON value (a scalar is 0), iteratively."""
-    deepest, stack = 0, [(value, 1)]
-    while stack:
-        node, level = stack.pop()
-        children = node.values() if isinstance(node, dict) else node
-        if isinstance(node, dict | list):
-            deepest = max(deepest, level)
-            if level > MAX_DEPTH:
-                break
-            stack.extend((child, level + 1) for child in children
-                         if isinstance(child, dict | list))
-    return deepest
+_STRINGS = re.compile(rb'"(?:[^"\\]|\\.)*"', re.S)
+_BARE_STRINGS = re.compile(rb'"[^"]*"')
+_NOT_STRUCTURE = bytes(set(range(256)) - set(b'[]{}"'))
+_STEP = np.zeros(256, np.int8)
+_STEP[list(b"[{")] = 1
+_STEP[list(b"]}")] = -1
+
+
+def _too_deep(text: bytes) -> bool:
+    """True when JSON ``text`` nests deeper than :data:`MAX_DEPTH`, from its bytes: the
+    strings taken out (with the brackets in them), the brackets left counted, vectorized (a
+    walk over the parsed values in Python cost more than the parse itself)."""
+    if text.count(b"[") + text.count(b"{") <= MAX_DEPTH:
+        return False
+    if b"\\" in text:  # escapes: strings found in the whole text
+        brackets = _STRINGS.sub(b"", text).translate(None, _NOT_STRUCTURE)
+    else:  # every quote delimits a string: find them among the structure alone
+        brackets = _BARE_STRINGS.sub(b"", text.translate(None, _NOT_STRUCTURE))
+    level = 0
+    for start in range(0, len(brackets), 2**20):
+        steps = _STEP[np.frombuffer(brackets, np.uint8, min(2**20, len(brackets) - start),
+                                    start)]
+        run = np.cumsum(steps, dtype=np.int64) + level
+        if run.max() > MAX_DEPTH:
+            return True
+        level = int(run[-1])
+    return False
 
 
 def _no_constant(token: str) -> Any:
@@ -197,7 +212,7 @@ def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
         raise ValueError(f"not JSON: {str(exc)[:200]}") from None
     if not isinstance(record, dict):
         raise ValueError(f"a JSON {type(record).__name__}, not an object")
-    if _depth(record) > MAX_DEPTH:
+    if _too_deep(data):
         raise ValueError(f"JSON nested deeper than {MAX_DEPTH} levels")
     rid = record.get("request_id")
     if not isinstance(rid, str) or not REQUEST_ID.match(rid):
@@ -249,12 +264,9 @@ class _Waiting:
     log_time: int
     file: str
     data: bytes | None
-    """The raw record, parsed again when paired; None for a request the filters leave out."""
+    """The raw record; None for a request the filters leave out."""
     record: dict[str, Any] | None = None
-    """The parsed record while it is the message being read (dropped once it waits)."""
-
-    def parsed(self) -> dict[str, Any]:
-        return self.record if self.record is not None else json.loads(self.data or b"{}")
+    """The parsed record (None with ``data``)."""
 
 
 class Reader:
@@ -270,9 +282,9 @@ class Reader:
 
     ``files`` holds a :class:`Recording` for each file as it is read; ``unreadable`` the
     files that could not be read at all; ``written_twice`` the records seen a second time.
-    Memory holds the requests waiting for an answer (raw), the keys of the last 100,000
-    answered exchanges and the (operation, id) of every original request read (to know a
-    replay whose original was read).
+    Memory holds the requests waiting for an answer (raw and parsed), the keys of the last
+    100,000 answered exchanges and the (operation, id) of every original request read (to
+    know a replay whose original was read).
     """
 
     def __init__(self, paths: Path | str | Iterable[Path | str], filters: Filters | None = None,
@@ -357,7 +369,6 @@ class Reader:
             mine, other = self._responses, self._requests
         counterparts = other.get(key)
         if not counterparts:
-            current.record = None
             mine.setdefault(key, deque()).append(current)
             self._seen.add(mark)
             return
@@ -373,11 +384,11 @@ class Reader:
             self._recent.popitem(last=False)
         if request.data is not None:
             exchange = self._exchange(request)
-            exchange.response, exchange.response_bytes = response.parsed(), response.data
+            exchange.response, exchange.response_bytes = response.record, response.data
             yield exchange
 
     def _exchange(self, request: _Waiting) -> Exchange:
-        record = request.parsed()
+        record = request.record or {}
         replay_of = record.get("replay_of")
         return Exchange(request.operation, request.request_id, record, None, request.log_time,
                         request.file, replay_of is not None
@@ -392,7 +403,7 @@ class Reader:
             for response in queue:
                 if self.filters.admit(response.operation, response.log_time):
                     yield Exchange(response.operation, response.request_id, None,
-                                   response.parsed(), response.log_time, response.file,
+                                   response.record, response.log_time, response.file,
                                    response_bytes=response.data)
         self._requests.clear()
         self._responses.clear()
