@@ -27,7 +27,13 @@ def _tally(report: Path) -> tuple[int, int, int, int, dict[str, int]]:
     return r["exchanges"], r["compared"], r["unchanged"], r["changed"], r["not_compared"]
 
 
-def test_a_folder_replayed_into_itself_twice(tmp_path):
+def _sound(folder: Path, mcap_check) -> None:
+    """Every file in the folder is sound for the independent reader."""
+    code, reports = mcap_check.many(sorted(folder.glob("*.mcap")))
+    assert code == 0, [r["errors"] for r in reports if not r["ok"]]
+
+
+def test_a_folder_replayed_into_itself_twice(tmp_path, mcap_check):
     folder = tmp_path / "recordings"
     ids = [f"orig-{i}" for i in range(len(BODIES))]
     with serve(folder) as (_, url):
@@ -54,9 +60,10 @@ def test_a_folder_replayed_into_itself_twice(tmp_path):
     for ex in replays:
         original = next(o for o in originals if o.request_id == ex.replay_of)
         assert ex.response["status"] == original.response["status"]
+    _sound(folder, mcap_check)
 
 
-def test_rotation_under_load_hides_no_exchange(tmp_path):
+def test_rotation_under_load_hides_no_exchange(tmp_path, mcap_check):
     folder = tmp_path / "recordings"
     clients, each = 10, 200
     calls = [("/v1/gates/test", json.dumps(GOOD).encode()),
@@ -83,6 +90,7 @@ def test_rotation_under_load_hides_no_exchange(tmp_path):
     split = sum(1 for f in files for ex in read_recording(f).exchanges if ex.response is None)
     print(f"{len(files)} files, {split} answers recorded in a later file than their request")
     assert len(files) > 10 and split > 0  # answers did land in the file after their request
+    _sound(folder, mcap_check)
     report = tmp_path / "report.json"
     assert main(["replay", str(folder), "--report", str(report)]) == 0
     assert _tally(report) == (clients * each, clients * each, clients * each, 0, {})
