@@ -25,6 +25,7 @@ def _serve(args: argparse.Namespace) -> int:
     import uvicorn
 
     from service.config import Settings
+    from service.connections import HeaderDeadline
 
     overrides = {
         "PLOTGATE_HOST": args.host, "PLOTGATE_PORT": args.port,
@@ -39,6 +40,7 @@ def _serve(args: argparse.Namespace) -> int:
         host=settings.host,
         port=settings.port,
         workers=settings.workers,
+        http=HeaderDeadline,
         log_level="info",
     )
     return 0
