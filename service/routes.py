@@ -70,10 +70,12 @@ def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] 
         return Outcome(500, problem_json(err, op.path, request_id), err)
 
 
-def _intake(op: Operation, body: bytes, request_id: str) -> tuple[Parsed, bytes]:
-    """Parse a body once and build its request record: the two passes over every byte."""
+def _intake(op: Operation, body: bytes, request_id: str, recording: bool
+            ) -> tuple[Parsed, bytes]:
+    """Parse a body once and, when recording, build its request record: the two passes
+    over every byte."""
     parsed = parse(op, body)
-    return parsed, request_record(request_id, op.name, body, parsed.json)
+    return parsed, request_record(request_id, op.name, body, parsed.json) if recording else b""
 
 
 def _timed_out(op: Operation, request_id: str, exc: BodyTimeout) -> Outcome:
@@ -103,10 +105,11 @@ def _endpoint(op: Operation):
         else:
             outcome = None
             large = len(body) > INLINE_BODY_BYTES
+            recording = recorder is not None
             if large:
-                parsed, record = await run_in_threadpool(_intake, op, body, rid)
+                parsed, record = await run_in_threadpool(_intake, op, body, rid, recording)
             else:
-                parsed, record = _intake(op, body, rid)
+                parsed, record = _intake(op, body, rid, recording)
         try:
             if recorder is not None:
                 try:
