@@ -8,7 +8,9 @@ operations do), and the opaque ``state`` object goes through
 
 Core errors name core arguments; :func:`initiate_field` maps them to the request: a
 setting to ``config.<name>``, ``state`` to ``state``, ``scans`` with an index to
-``scans[i]``, and a plot error (``z``, ``R``) inside scan i to ``scans[i].plots[j]``.
+``scans[i]``, and a plot error (``z``) inside scan i to ``scans[i].plots[j]``; a plot's own
+covariance is checked before the scan is built (:func:`service.operations.plots.plot_arrays`)
+and named ``scans[i].plots[j].covariance`` (a polar plot: ``scans[i].plots[j]``).
 """
 
 import numpy as np
@@ -29,7 +31,7 @@ from core.initiation.evaluate import evaluate as core_evaluate
 from core.initiation.simulate import Scenario
 from core.initiation.simulate import simulate as core_simulate
 from core.initiation.state import PLOT_STRIDE
-from service.operations.gates import _cartesian
+from service.operations.plots import PlotError, plot_arrays
 from service.schemas import (
     EvaluateRequest,
     EvaluateResult,
@@ -63,10 +65,8 @@ def _config(settings: InitiationSettings) -> InitiationConfig:
 
 
 def _scan(i: int, scan: ScanIn) -> Scan:
+    z, R, sensor = plot_arrays(scan.plots, lambda j: f"scans[{i}].plots[{j}]")
     try:
-        if not scan.plots:
-            return cartesian_scan(scan.t, np.zeros((0, 2)), np.zeros((0, 2, 2)))
-        z, R, sensor = _cartesian(scan.plots)
         return cartesian_scan(scan.t, z, R, sensor)
     except PlotgateError as exc:
         raise _ScanError(exc, i) from exc
@@ -106,6 +106,8 @@ def initiate(request: InitiateRequest) -> InitiateResult:
 
 def initiate_field(request: InitiateRequest, exc: PlotgateError) -> str:
     """``config.<name>``, ``state``, ``scans[i]`` or ``scans[i].plots[j]``."""
+    if isinstance(exc, PlotError):
+        return exc.field
     if isinstance(exc, _ScanError):
         where = f"scans[{exc.scan}]"
         if exc.field == "t":
