@@ -1,7 +1,8 @@
 """Track initiation from plots in clutter (DESIGN section 5; seeds 002, 003, 000).
 
 :mod:`.scan` builds a scan of Cartesian or polar plots, :mod:`.config` holds the rules,
-:mod:`.state` the versioned state between calls, :mod:`.logic` the initiation itself,
+:mod:`.state` the versioned state between calls, :mod:`.logic` the initiation itself
+(:mod:`.sharing` its plot-reuse rules),
 :mod:`.simulate` the seeded scenario simulator and :mod:`.evaluate` the Monte Carlo
 evaluation (targets initiated, false tracks, time to confirmation).
 """

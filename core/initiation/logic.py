@@ -53,6 +53,7 @@ from core.errors import ParameterError
 from core.frames import _wrap
 from core.initiation.config import InitiationConfig
 from core.initiation.scan import Scan
+from core.initiation.sharing import keep_greedy, shares_two
 from core.initiation.state import (
     PLOT_STRIDE,
     InitiationState,
@@ -367,38 +368,6 @@ def _shift_in(old: np.ndarray, new: np.ndarray, hit: np.ndarray) -> np.ndarray:
     return np.where(hit[:, None], shifted, old)
 
 
-def _sharing(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row pairs (i, j) of plot histories a (p, H) and b (q, H) with two or more plot ids
-    in common (a join on the plot id: the work grows with the shared plots only)."""
-    ai, ak = np.nonzero(a >= 0)
-    bi, bk = np.nonzero(b >= 0)
-    av, bv = a[ai, ak], b[bi, bk]
-    order = np.argsort(bv, kind="stable")
-    bv, bi = bv[order], bi[order]
-    lo, hi = np.searchsorted(bv, av, "left"), np.searchsorted(bv, av, "right")
-    counts = hi - lo
-    first = np.repeat(lo - np.cumsum(counts) + counts, counts)
-    j = bi[first + np.arange(counts.sum())]
-    pairs, shared = np.unique(np.repeat(ai, counts) * b.shape[0] + j, return_counts=True)
-    pairs = pairs[shared >= 2]
-    return pairs // b.shape[0], pairs % b.shape[0]
-
-
-def _greedy(clash_i: np.ndarray, clash_j: np.ndarray, p: int) -> np.ndarray:
-    """Keep tracks 0..p-1 in order, each unless it clashes with a track kept before it."""
-    keep = np.ones(p, dtype=bool)
-    if clash_i.size == 0:
-        return keep
-    later = clash_i > clash_j
-    i, j = np.where(later, clash_i, clash_j), np.where(later, clash_j, clash_i)
-    sort = np.lexsort((j, i))
-    i, j = i[sort], j[sort]
-    starts = np.flatnonzero(np.r_[True, i[1:] != i[:-1]])
-    for s, e in zip(starts, np.r_[starts[1:], i.size], strict=True):  # clashing tracks only
-        keep[i[s]] = not keep[j[s:e]].any()
-    return keep
-
-
 def _acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
     """Seed 002: |second divided difference of range| <= K_A a_max for every plot triple."""
     r, t = tracks.ranges, tracks.times
@@ -506,16 +475,14 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
         ready &= ~jerky
     order = np.flatnonzero(ready)
     order = order[np.argsort(tracks.cost[order] / (tracks.n[order] - 1), kind="stable")]
-    i, j = _sharing(tracks.plots[order], tracks.plots[order])
-    keep = _greedy(i[i != j], j[i != j], order.size)
+    keep = keep_greedy(tracks.plots[order])
     confirmed = tracks.confirmed.copy()
     confirmed[order[keep]] = True
     newly = np.zeros(tracks.size, dtype=bool)
     newly[order[keep]] = True
     tentative = np.flatnonzero(~confirmed)
-    i, _ = _sharing(tracks.plots[tentative], tracks.plots[confirmed])
     pruned = np.zeros(tracks.size, dtype=bool)
-    pruned[tentative[i]] = True
+    pruned[tentative] = shares_two(tracks.plots[tentative], tracks.plots[confirmed])
     dropped.append(pruned)
     reasons.append("pruned")
     tracks = replace(tracks, confirmed=confirmed,
