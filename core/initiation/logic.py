@@ -55,6 +55,7 @@ from core.initiation.config import InitiationConfig
 from core.initiation.scan import Scan
 from core.initiation.sharing import keep_greedy, shares_two
 from core.initiation.state import (
+    MAX_SESSION_SCANS,
     PLOT_STRIDE,
     InitiationState,
     Initiators,
@@ -547,7 +548,8 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     ------
     ParameterError
         ``"state"`` for a state made under other settings; ``"scans"`` (with the scan's
-        index) for a time earlier than the one before it.
+        index) for a time earlier than the one before it, or for scans that would take
+        the session past :data:`~core.initiation.state.MAX_SESSION_SCANS`.
 
     References
     ----------
@@ -570,6 +572,9 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     state = empty_state(config) if state is None else state
     if state.config_digest != config.digest():
         raise ParameterError("state", "was made under other settings than these")
+    if state.scans + len(scans) > MAX_SESSION_SCANS:
+        raise ParameterError("scans", f"would take the session past {MAX_SESSION_SCANS} "
+                             f"scans (it has {state.scans}); start a new session")
     reports = []
     last = state.t
     for i, scan in enumerate(scans):

@@ -3,19 +3,25 @@
 The wire's settings become :class:`core.initiation.InitiationConfig` (degrees nowhere:
 the settings carry no angles), its scans of Cartesian or polar plots become
 :class:`core.initiation.Scan` (each plot with its own sensor, converted as the gate
-operations do), and the opaque ``state`` object goes through
-:func:`core.initiation.state_from_json`, which refuses a malformed or foreign one.
+operations do), and the typed ``state`` (:class:`service.schemas.SessionState`, its types
+and magnitudes checked by the schema) goes through :func:`core.initiation.state_from_json`,
+which holds every field to its invariants and names it (``state.tracks.misses`` with row
+3: ``state.tracks.misses[3]``). The state a call returns is validated by the same schema
+on the way out: a call whose scans would leave one beyond its ceilings or magnitudes
+(more than :data:`~service.schemas.MAX_STATE_TRACKS` tracks, say) is refused naming
+``scans``, so every state answered is a state the next call takes.
 
 Core errors name core arguments; :func:`initiate_field` maps them to the request: a
-setting to ``config.<name>``, ``state`` to ``state``, ``scans`` with an index to
+setting to ``config.<name>``, ``state...`` to itself with its row, ``scans`` with an index to
 ``scans[i]``, and a plot error (``z``) inside scan i to ``scans[i].plots[j]``; a plot's own
 covariance is checked before the scan is built (:func:`service.operations.plots.plot_arrays`)
 and named ``scans[i].plots[j].covariance`` (a polar plot: ``scans[i].plots[j]``).
 """
 
 import numpy as np
+from pydantic import ValidationError
 
-from core import PlotgateError
+from core import ParameterError, PlotgateError
 from core.initiation import (
     InitiationConfig,
     InitiationState,
@@ -42,10 +48,12 @@ from service.schemas import (
     ScanIn,
     ScanOutcome,
     ScenarioIn,
+    SessionState,
     SimulateRequest,
     SimulateResult,
     TrackOut,
 )
+from service.schemas.initiation_state import MAX_STATE_INITIATORS, MAX_STATE_TRACKS
 
 __all__ = ["evaluate", "initiate", "initiate_field", "scenario_field", "simulate"]
 
@@ -94,20 +102,38 @@ def _tracks(state: InitiationState) -> list[TrackOut]:
     return out
 
 
+def _answered(state: InitiationState) -> SessionState:
+    """The wire state, refused (naming ``scans``) beyond the schema's ceilings."""
+    try:
+        return SessionState.model_validate(state.to_json())
+    except ValidationError as exc:
+        first = exc.errors(include_url=False)[0]
+        where = ".".join(str(part) for part in first["loc"])
+        raise ParameterError("scans", f"would leave a state the next call could not take "
+                             f"back (state.{where}: {first['msg']}); a state carries at "
+                             f"most {MAX_STATE_TRACKS} tracks and {MAX_STATE_INITIATORS} "
+                             "initiators: send fewer or sparser scans, or narrower "
+                             "gates") from None
+
+
 def initiate(request: InitiateRequest) -> InitiateResult:
     """Run the request's scans through initiation, continuing its state."""
     config = _config(request.config)
-    state = None if request.state is None else state_from_json(request.state, config)
+    state = None
+    if request.state is not None:
+        state = state_from_json(request.state.model_dump(), config)
     scans = [_scan(i, s) for i, s in enumerate(request.scans)]
     state, reports = core_initiate(state, scans, config)
-    return InitiateResult(state=state.to_json(), scans=[_outcome(r) for r in reports],
+    return InitiateResult(state=_answered(state), scans=[_outcome(r) for r in reports],
                           tracks=_tracks(state))
 
 
 def initiate_field(request: InitiateRequest, exc: PlotgateError) -> str:
-    """``config.<name>``, ``state``, ``scans[i]`` or ``scans[i].plots[j]``."""
+    """``config.<name>``, ``state...``, ``scans[i]`` or ``scans[i].plots[j]...``."""
     if isinstance(exc, PlotError):
         return exc.field
+    if exc.field == "state" or exc.field.startswith("state."):
+        return exc.field if exc.index is None else f"{exc.field}[{exc.index}]"
     if isinstance(exc, _ScanError):
         where = f"scans[{exc.scan}]"
         if exc.field == "t":
@@ -115,8 +141,6 @@ def initiate_field(request: InitiateRequest, exc: PlotgateError) -> str:
         return f"{where}.plots" if exc.index is None else f"{where}.plots[{exc.index}]"
     if exc.field == "scans":
         return "scans" if exc.index is None else f"scans[{exc.index}]"
-    if exc.field == "state":
-        return "state"
     return f"config.{exc.field}"
 
 

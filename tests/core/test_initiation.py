@@ -324,14 +324,16 @@ def test_foreign_or_malformed_states_are_refused():
     data = state.to_json()
     with pytest.raises(ParameterError, match="other settings") as info:
         state_from_json(data, InitiationConfig(v_max=21.0))
-    assert info.value.field == "state"
-    for change in ({"version": 99}, {"scans": -1}, {"t": None},
-                   {"tracks": dict(data["tracks"], x=[[1.0]])},
-                   {"initiators": dict(data["initiators"], z="nope")},
-                   {"tracks": {"id": []}}):
+    assert info.value.field == "state.config_digest"
+    for change, field in (({"version": 99}, "state.version"), ({"scans": -1}, "state.scans"),
+                          ({"t": None}, "state.t"),
+                          ({"tracks": dict(data["tracks"], x=[[1.0]])}, "state.tracks.x"),
+                          ({"initiators": dict(data["initiators"], z="nope")},
+                           "state.initiators.z"),
+                          ({"tracks": {"id": []}}, "state.tracks.confirmed")):
         with pytest.raises(ParameterError) as info:
             state_from_json({**data, **change}, CONFIG)
-        assert info.value.field == "state"
+        assert info.value.field == field
     with pytest.raises(ParameterError, match="other settings"):
         initiate(empty_state(CONFIG), [], POLAR)
 
