@@ -523,8 +523,8 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
         tracks=tracks.take(~gone)), report
 
 
-def initiate(state: InitiationState | None, scans: Sequence[Scan], config: InitiationConfig
-             ) -> tuple[InitiationState, list[ScanReport]]:
+def initiate(state: InitiationState | None, scans: Sequence[Scan], config: InitiationConfig,
+             max_tracks: int | None = None) -> tuple[InitiationState, list[ScanReport]]:
     """Run track initiation over scans in time order, from a state (None: a new session).
 
     Parameters
@@ -535,6 +535,9 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     scans : sequence of Scan
         The next scans, times non-decreasing and not before the state's last scan.
     config : InitiationConfig
+    max_tracks : int, optional
+        Most live tracks after any scan: a bound on the work of every later scan (each
+        predicts, gates and checks every live track). None: no bound.
 
     Returns
     -------
@@ -548,8 +551,9 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     ------
     ParameterError
         ``"state"`` for a state made under other settings; ``"scans"`` (with the scan's
-        index) for a time earlier than the one before it, or for scans that would take
-        the session past :data:`~core.initiation.state.MAX_SESSION_SCANS`.
+        index) for a time earlier than the one before it, for a scan after which more
+        than ``max_tracks`` tracks live, or for scans that would take the session past
+        :data:`~core.initiation.state.MAX_SESSION_SCANS`.
 
     References
     ----------
@@ -582,6 +586,11 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
             raise ParameterError("scans", f"time {scan.t} s is before the previous scan's "
                                  f"{last} s; scans must come in time order", i)
         state, report = _step(state, scan, config)
+        if max_tracks is not None and state.tracks.size > max_tracks:
+            raise ParameterError("scans", f"leaves {state.tracks.size} live tracks (scan "
+                                 f"{state.scans - 1} of the session); at most {max_tracks}: "
+                                 "narrower capture gates, nearest association or fewer "
+                                 "plots", i)
         reports.append(report)
         last = scan.t
     return state, reports

@@ -6,9 +6,10 @@ the settings carry no angles), its scans of Cartesian or polar plots become
 operations do), and the typed ``state`` (:class:`service.schemas.SessionState`, its types
 and magnitudes checked by the schema) goes through :func:`core.initiation.state_from_json`,
 which holds every field to its invariants and names it (``state.tracks.misses`` with row
-3: ``state.tracks.misses[3]``). The state a call returns is validated by the same schema
-on the way out: a call whose scans would leave one beyond its ceilings or magnitudes
-(more than :data:`~service.schemas.MAX_STATE_TRACKS` tracks, say) is refused naming
+3: ``state.tracks.misses[3]``). The work is bounded by the state's ceilings: core stops at
+the first scan after which more tracks live than a state may carry
+(:data:`~service.schemas.MAX_STATE_TRACKS`, fewer for long histories) and the state a
+call returns is validated by the same schema on the way out; either refusal names
 ``scans``, so every state answered is a state the next call takes.
 
 Core errors name core arguments; :func:`initiate_field` maps them to the request: a
@@ -51,9 +52,12 @@ from service.schemas import (
     SessionState,
     SimulateRequest,
     SimulateResult,
-    TrackOut,
 )
-from service.schemas.initiation_state import MAX_STATE_INITIATORS, MAX_STATE_TRACKS
+from service.schemas.initiation_state import (
+    MAX_HISTORY_CELLS,
+    MAX_STATE_INITIATORS,
+    MAX_STATE_TRACKS,
+)
 
 __all__ = ["evaluate", "initiate", "initiate_field", "scenario_field", "simulate"]
 
@@ -87,19 +91,18 @@ def _outcome(report: ScanReport) -> ScanOutcome:
                        reasons=report.reasons.tolist())
 
 
-def _tracks(state: InitiationState) -> list[TrackOut]:
+def _tracks(state: InitiationState) -> list[dict]:
+    """The live tracks as wire objects (:class:`TrackOut`), validated with the answer."""
     tr = state.tracks
-    out = []
-    for i in range(tr.size):  # one wire object per live track
-        plots = tr.plots[i][tr.plots[i] >= 0]
-        out.append(TrackOut(
-            id=int(tr.id[i]), status="confirmed" if tr.confirmed[i] else "tentative",
-            position=tr.x[i, :2].tolist(), velocity=tr.x[i, 2:].tolist(),
-            covariance=tr.P[i].tolist(),
-            plots=[[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in plots],
-            n_plots=int(tr.n[i]), misses=int(tr.misses[i]), first_scan=int(tr.first_scan[i]),
-            confirmed_scan=int(tr.confirmed_scan[i]) if tr.confirmed[i] else None))
-    return out
+    plots = [[[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in row if p >= 0]
+             for row in tr.plots.tolist()]
+    return [{"id": i, "status": "confirmed" if c else "tentative", "position": x[:2],
+             "velocity": x[2:], "covariance": P, "plots": p, "n_plots": n, "misses": m,
+             "first_scan": f, "confirmed_scan": k if c else None}
+            for i, c, x, P, p, n, m, f, k in zip(
+                tr.id.tolist(), tr.confirmed.tolist(), tr.x.tolist(), tr.P.tolist(), plots,
+                tr.n.tolist(), tr.misses.tolist(), tr.first_scan.tolist(),
+                tr.confirmed_scan.tolist(), strict=True)]
 
 
 def _answered(state: InitiationState) -> SessionState:
@@ -111,21 +114,25 @@ def _answered(state: InitiationState) -> SessionState:
         where = ".".join(str(part) for part in first["loc"])
         raise ParameterError("scans", f"would leave a state the next call could not take "
                              f"back (state.{where}: {first['msg']}); a state carries at "
-                             f"most {MAX_STATE_TRACKS} tracks and {MAX_STATE_INITIATORS} "
-                             "initiators: send fewer or sparser scans, or narrower "
-                             "gates") from None
+                             f"most {MAX_STATE_INITIATORS} initiators and "
+                             f"{MAX_STATE_TRACKS} tracks ({MAX_HISTORY_CELLS} history "
+                             "cells): send fewer or sparser scans, or narrower gates"
+                             ) from None
 
 
 def initiate(request: InitiateRequest) -> InitiateResult:
     """Run the request's scans through initiation, continuing its state."""
     config = _config(request.config)
     state = None
-    if request.state is not None:
-        state = state_from_json(request.state.model_dump(), config)
+    if request.state is not None:  # the validated lists as they are: no copy of the state
+        wire = request.state
+        state = state_from_json({**dict(wire), "initiators": dict(wire.initiators),
+                                 "tracks": dict(wire.tracks)}, config)
     scans = [_scan(i, s) for i, s in enumerate(request.scans)]
-    state, reports = core_initiate(state, scans, config)
-    return InitiateResult(state=_answered(state), scans=[_outcome(r) for r in reports],
-                          tracks=_tracks(state))
+    most = min(MAX_STATE_TRACKS, MAX_HISTORY_CELLS // config.history)
+    state, reports = core_initiate(state, scans, config, max_tracks=most)
+    return InitiateResult.model_validate({"state": _answered(state), "tracks": _tracks(state),
+                                          "scans": [_outcome(r) for r in reports]})
 
 
 def initiate_field(request: InitiateRequest, exc: PlotgateError) -> str:

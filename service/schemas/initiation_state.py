@@ -27,13 +27,14 @@ would leave more is refused, naming ``scans``.
 import math
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, MAX_PLOTS, MIN_RANGE, Schema
+from service.schemas.common import MAX_DISTANCE, MAX_PLOTS, MIN_RANGE, Schema, invalid
 from service.schemas.solves import MAX_TIME
 
 __all__ = [
     "MAX_HISTORY",
+    "MAX_HISTORY_CELLS",
     "MAX_PLOT_ID",
     "MAX_SESSION_SCANS",
     "MAX_STATE_INITIATORS",
@@ -48,6 +49,9 @@ __all__ = [
 
 MAX_STATE_TRACKS = 20_000
 """Most tracks one state carries (bench/README.md: one call at the ceiling)."""
+MAX_HISTORY_CELLS = 160_000
+"""Most plot-history cells (tracks x history) one state carries: at history 8, 20,000
+tracks; at history 64, 2,500 (the plot-reuse rules key every pair of a track's plots)."""
 MAX_STATE_INITIATORS = MAX_PLOTS
 """Most initiators one state carries: as many plots as one request may."""
 MAX_SESSION_SCANS = 2**32
@@ -142,6 +146,15 @@ class SessionTracks(Schema):
                                     description="Its azimuth sigma, rad.")
     sensor: list[Sensor] = Field(max_length=MAX_STATE_TRACKS,
                                  description="The last plot's sensor [x, y], m.")
+
+    @model_validator(mode="after")
+    def _cells(self) -> "SessionTracks":
+        cells = sum(len(row) for row in self.plots)
+        if cells > MAX_HISTORY_CELLS:
+            raise invalid("SessionTracks", [(
+                ("plots",), f"hold {cells} history cells (tracks x history); a state carries "
+                f"at most {MAX_HISTORY_CELLS}", len(self.plots))])
+        return self
 
 
 class SessionState(Schema):

@@ -338,6 +338,16 @@ def test_foreign_or_malformed_states_are_refused():
         initiate(empty_state(CONFIG), [], POLAR)
 
 
+def test_max_tracks_stops_at_the_scan_that_passes_it():
+    candidates = [target(1), (1000.0, 2015.0)]  # two branches from one initiator
+    scans = [scan(0, target(0)), scan(1, *candidates)]
+    state, _ = initiate(None, scans, CONFIG, max_tracks=2)
+    assert state.tracks.size == 2
+    with pytest.raises(ParameterError, match="leaves 2 live tracks") as info:
+        initiate(None, scans, CONFIG, max_tracks=1)
+    assert info.value.field == "scans" and info.value.index == 1
+
+
 def test_scans_must_come_in_time_order():
     with pytest.raises(ParameterError) as info:
         initiate(None, [scan(1.0, target(1)), scan(0.5, target(0))], CONFIG)

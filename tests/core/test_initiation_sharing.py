@@ -36,9 +36,13 @@ def test_greedy_and_pruning_equal_the_brute_force(seed):
 def test_pair_keys_count_every_pair_once():
     rng = np.random.default_rng(5)
     plots = _histories(rng, 30, 6, pool=9)
-    rows, keys = plot_pairs(plots)
+    rows, keys = plot_pairs(plots, np.unique(plots[plots >= 0]))
     h = (plots >= 0).sum(axis=1)
     assert np.bincount(rows, minlength=30).tolist() == (h * (h - 1) // 2).tolist()
+    some = np.unique(plots[plots >= 0])[::2]
+    rows_some, _ = plot_pairs(plots, some)
+    k = np.isin(plots, some).sum(axis=1)
+    assert np.bincount(rows_some, minlength=30).tolist() == (k * (k - 1) // 2).tolist()
     for i in range(30):
         for j in range(30):
             common = set(keys[rows == i].tolist()) & set(keys[rows == j].tolist())
@@ -49,6 +53,8 @@ def test_many_branches_of_one_plot_cost_no_pairs():
     # 10^5 tracks sharing one initiator plot: a join on plot ids would form 10^10 pairs
     n = 100_000
     plots = np.column_stack([np.full(n, 7), np.arange(n) + (1 << 20)])
-    rows, keys = plot_pairs(plots)
+    rows, keys = plot_pairs(plots, np.unique(plots))
     assert rows.size == n and np.unique(keys).size == n
+    assert plot_pairs(plots, np.array([7]))[0].size == 0  # the one plot they share
     assert keep_greedy(plots).all()
+    assert not shares_two(plots, np.array([[7, 5 << 20]])).any()

@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core.initiation import PLOT_STRIDE, InitiationConfig, check_state, initiate
+from core.initiation import (
+    PLOT_STRIDE,
+    InitiationConfig,
+    Initiators,
+    check_state,
+    empty_state,
+    initiate,
+)
 from core.initiation import state as core_state
 from core.initiation.simulate import seed_002_scenario, simulate
 from core.initiation.state_json import state_from_json
@@ -292,15 +299,20 @@ def test_the_schema_ceiling_bounds_a_state(client, session):
     hostile = copy.deepcopy(state)
     hostile["initiators"]["plot"] = list(range(MAX_STATE_INITIATORS + 1))
     invalid_input(_post(client, hostile, scans), "state.initiators.plot")
+    hostile = copy.deepcopy(state)
+    wide = [-1] * (wire.MAX_HISTORY - 2) + [0, 1]
+    hostile["tracks"]["plots"] = [wide] * (wire.MAX_HISTORY_CELLS // wire.MAX_HISTORY + 1)
+    body = invalid_input(_post(client, hostile, scans), "state.tracks.plots")
+    assert str(wire.MAX_HISTORY_CELLS) in body["detail"]
     schema = SessionState.model_json_schema()
     tracks = schema["$defs"]["SessionTracks"]["properties"]
     assert all(prop["maxItems"] == MAX_STATE_TRACKS for prop in tracks.values())
 
 
-def test_a_call_that_would_leave_too_many_tracks_is_refused(client):
-    """One initiator and MAX_STATE_TRACKS + 1 plots in its ring (branch): the answer's state
-    would be over the ceiling, so the call is refused naming scans, not answered with a
-    state the next call could not take."""
+def test_a_call_that_would_hold_too_many_tracks_is_refused(client):
+    """One initiator and MAX_STATE_TRACKS + 1 plots in its ring (branch): the scan would
+    leave more live tracks than a state may carry, so the call stops there, naming it,
+    rather than work on (or answer a state the next call could not take)."""
     first = answer(client.post("/v1/initiation/initiate", json={
         "config": {"v_max": 1e4}, "scans": [{"t": 0.0, "plots": [cartesian(0.0, 5e4)]}]}))
     rng = np.random.default_rng(1)
@@ -308,9 +320,31 @@ def test_a_call_that_would_leave_too_many_tracks_is_refused(client):
     plots = [cartesian(float(x), float(y), 1.0, 1.0) for x, y in xy]
     r = client.post("/v1/initiation/initiate", json={
         "config": {"v_max": 1e4}, "state": first["state"],
-        "scans": [{"t": 1.0, "plots": plots}]}, headers={"x-request-id": "too-many"})
-    body = invalid_input(r, "scans")
-    assert "state.tracks" in body["detail"] and str(MAX_STATE_TRACKS) in body["detail"]
+        "scans": [{"t": 1.0, "plots": plots}]})
+    body = invalid_input(r, "scans[0]")
+    assert f"leaves {MAX_STATE_TRACKS + 1} live tracks" in body["detail"]
+
+
+def test_a_call_that_would_answer_too_many_initiators_is_refused(client):
+    """A state at the initiators' ceiling less 50, and a scan of 100 plots no initiator
+    captures: the answer's state would carry 50 initiators too many."""
+    config = InitiationConfig(v_max=50.0, capture_scans=3)
+    m = MAX_STATE_INITIATORS - 50
+    xy = np.column_stack([np.arange(m) % 1000 * 100.0 + 1e4, np.arange(m) // 1000 * 100.0
+                          + 1e4])
+    r = np.hypot(*xy.T)
+    ini = Initiators(plot=np.arange(m, dtype=np.int64), scan=np.zeros(m, dtype=np.int64),
+                     t=np.zeros(m), z=xy, R=np.tile(np.eye(2) * 100.0, (m, 1, 1)),
+                     sensor=np.zeros((m, 2)), r=r, az=np.arctan2(*xy.T),
+                     sigma_r=np.full(m, 10.0), sigma_az=10.0 / r)
+    state = empty_state(config).replace(scans=1, t=0.0, initiators=ini)
+    check_state(state, config)
+    far = [cartesian(-5e5 + 1000.0 * j, -5e5) for j in range(100)]
+    body = invalid_input(client.post("/v1/initiation/initiate", json={
+        "config": {"v_max": 50.0, "capture_scans": 3}, "state": state.to_json(),
+        "scans": [{"t": 1.0, "plots": far}]}), "scans")
+    assert "state.initiators.plot" in body["detail"]
+    assert str(MAX_STATE_INITIATORS) in body["detail"]
 
 
 def test_schema_bounds_match_core():
