@@ -552,7 +552,8 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     ParameterError
         ``"state"`` for a state made under other settings; ``"scans"`` (with the scan's
         index) for a time earlier than the one before it, for a scan after which more
-        than ``max_tracks`` tracks live, or for scans that would take the session past
+        than ``max_tracks`` tracks live or a track's state is not finite (two plots too
+        close in time for a velocity), or for scans that would take the session past
         :data:`~core.initiation.state.MAX_SESSION_SCANS`.
 
     References
@@ -585,7 +586,14 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
         if last is not None and scan.t < last:
             raise ParameterError("scans", f"time {scan.t} s is before the previous scan's "
                                  f"{last} s; scans must come in time order", i)
-        state, report = _step(state, scan, config)
+        with np.errstate(all="ignore"):  # checked below, on the step's result
+            state, report = _step(state, scan, config)
+        if not (np.isfinite(state.tracks.x).all() and np.isfinite(state.tracks.P).all()):
+            bad = int(np.flatnonzero(~np.isfinite(state.tracks.P).all(axis=(1, 2))
+                                     | ~np.isfinite(state.tracks.x).all(axis=1))[0])
+            raise ParameterError("scans", f"leaves track {state.tracks.id[bad]} with a state "
+                                 "or covariance beyond double precision (scans or plot "
+                                 "times too close together for a velocity?)", i)
         if max_tracks is not None and state.tracks.size > max_tracks:
             raise ParameterError("scans", f"leaves {state.tracks.size} live tracks (scan "
                                  f"{state.scans - 1} of the session); at most {max_tracks}: "

@@ -111,13 +111,12 @@ def _answered(state: InitiationState) -> SessionState:
         return SessionState.model_validate(state.to_json())
     except ValidationError as exc:
         first = exc.errors(include_url=False)[0]
-        where = ".".join(str(part) for part in first["loc"])
+        where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"])
         raise ParameterError("scans", f"would leave a state the next call could not take "
-                             f"back (state.{where}: {first['msg']}); a state carries at "
+                             f"back (state{where}: {first['msg']}); a state carries at "
                              f"most {MAX_STATE_INITIATORS} initiators and "
                              f"{MAX_STATE_TRACKS} tracks ({MAX_HISTORY_CELLS} history "
-                             "cells): send fewer or sparser scans, or narrower gates"
-                             ) from None
+                             "cells), its values within the schema's magnitudes") from None
 
 
 def initiate(request: InitiateRequest) -> InitiateResult:

@@ -347,6 +347,20 @@ def test_a_call_that_would_answer_too_many_initiators_is_refused(client):
     assert str(MAX_STATE_INITIATORS) in body["detail"]
 
 
+@pytest.mark.parametrize(("interval", "field", "says"), [
+    (1e-300, "scans[1]", "beyond double precision"),  # tau^2 underflows: P_vv = inf
+    (1e-150, "scans", "state.tracks.x[0][2]"),  # v = 10 m / tau = 1e151 m/s: finite, absurd
+])
+def test_plots_too_close_in_time_for_a_velocity_are_refused(client, interval, field, says):
+    """Two plots 10 m apart, tau seconds apart, in the expanded gate (10 m sigma): no
+    numpy warning escapes, and no state beyond the schema's magnitudes is answered."""
+    scans = [{"t": 0.0, "plots": [cartesian(1000.0, 2000.0, 100.0, 100.0)]},
+             {"t": interval, "plots": [cartesian(1010.0, 2000.0, 100.0, 100.0)]}]
+    body = invalid_input(client.post("/v1/initiation/initiate", json={
+        "config": {"capture_gate": "expanded"}, "scans": scans}), field)
+    assert says in body["detail"]
+
+
 def test_schema_bounds_match_core():
     assert wire.MAX_SESSION_SCANS == core_state.MAX_SESSION_SCANS
     assert wire.MAX_TRACK_ID == core_state.MAX_TRACK_ID
