@@ -93,14 +93,14 @@ def _array(field: str, value: Any, dtype: type, shape: tuple[int, ...], nullable
         a = np.array(value)
     except (TypeError, ValueError, OverflowError):
         a = None
-    if (a is None or a.size and (a.ndim != 1 + len(shape) or a.shape[1:] != shape
-                                 or a.dtype.kind not in _KINDS[dtype])):
+    empty = a is not None and a.shape == (0,)  # [], whatever the rows' shape
+    if a is None or not empty and (a.ndim != 1 + len(shape) or a.shape[1:] != shape
+                                   or a.size and a.dtype.kind not in _KINDS[dtype]):
         i = _bad_row(value, dtype, shape)
         want = f"(n, {', '.join(map(str, shape))})".replace(", )", ")")
         raise ParameterError(field, f"{what} shaped {want}" if i is None else
                              f"row {i} must be {_WHAT[dtype]} shaped {shape}", i)
-    a = a.reshape((0, *shape)) if a.size == 0 else a
-    a = a.astype(dtype)
+    a = (a.reshape((0, *shape)) if empty else a).astype(dtype)
     if rows is not None and a.shape[0] != rows[1]:
         raise ParameterError(field, f"has {a.shape[0]} rows; {rows[0]} has {rows[1]}")
     if dtype is float:

@@ -5,10 +5,10 @@ the common frame (:func:`service.operations.plots.plot_arrays`, which checks eac
 covariance on its own, whatever the gate kind, before any sum B = P_first + P_candidate,
 and names the plot's own field: ``first.covariance``, ``candidates[2].covariance``,
 ``pairs[3].second.covariance``, or the polar plot ``candidates[2]`` with its sigmas). The
-capture and tracking gates run on those. The polar gates (sector,
-first association) take range, azimuth and their sigmas about the *first* plot's sensor,
-from the same (z, P) through the Jacobian of DESIGN section 2, so a polar plot from that
-sensor keeps its own sigmas exactly.
+capture and tracking gates run on those. The polar gates (sector, first association) take
+range, azimuth and their sigmas about the *first* plot's sensor, from the same (z, P)
+through the Jacobian of DESIGN section 2, so a polar plot from that sensor keeps its own
+sigmas exactly.
 """
 
 import numpy as np
