@@ -94,3 +94,22 @@ def test_parsing_once_tells_strict_json_as_a_full_check_would(body):
         assert record["body"] == json.loads(body)
     else:
         assert record["raw"] == body.decode("utf-8", "backslashreplace")
+
+
+def _unbounded_lists(node: object, path: str = "") -> list[str]:
+    """Where a JSON schema has an array without maxItems."""
+    found = []
+    if isinstance(node, dict):
+        if node.get("type") == "array" and "items" in node and "maxItems" not in node:
+            found.append(path)
+        for key, value in node.items():
+            found += _unbounded_lists(value, f"{path}/{key}")
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            found += _unbounded_lists(value, f"{path}/{i}")
+    return found
+
+
+def test_every_list_of_every_request_has_a_longest():
+    for op in OPERATIONS.values():
+        assert _unbounded_lists(op.request.model_json_schema()) == [], op.name
