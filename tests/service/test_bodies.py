@@ -10,6 +10,7 @@ import pytest
 from service.bodies import (
     MAX_BODY_VALUES,
     SLICE_BYTES,
+    ShapeScan,
     is_strict_json,
     shape_problem,
     value_ceiling,
@@ -113,3 +114,21 @@ def _unbounded_lists(node: object, path: str = "") -> list[str]:
 def test_every_list_of_every_request_has_a_longest():
     for op in OPERATIONS.values():
         assert _unbounded_lists(op.request.model_json_schema()) == [], op.name
+
+
+def test_scanning_piece_by_piece_refuses_as_scanning_the_whole_body():
+    rng = random.Random(5)
+    shapes = [b"{}", b"[]", b"0", b'"k":0', b" " * 5000, b"x" * 70_000]
+    for _ in range(200):
+        body = b",".join(rng.choice(shapes) for _ in range(rng.randrange(1, 400)))
+        ceiling = rng.choice([10, 100, 1000, 10_000])
+        whole = shape_problem(body, ceiling)
+        scan = ShapeScan(ceiling)
+        cuts = sorted(rng.sample(range(len(body) + 1), min(len(body) + 1, 5)))
+        pieces = [body[a:b] for a, b in zip([0, *cuts], [*cuts, len(body)], strict=True)]
+        streamed = None
+        for piece in pieces:
+            streamed = scan.feed(piece)
+        assert streamed == whole
+    long_run = b"[" + b" " * (SLICE_BYTES // 2) + b"1" * (SLICE_BYTES // 2 + 2) + b"]"
+    assert shape_problem(long_run, 10) is not None  # a run across two pieces
