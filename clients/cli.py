@@ -66,6 +66,7 @@ def _serve(args: argparse.Namespace) -> int:
     import uvicorn
 
     from service.config import Settings
+    from service.connections import HeaderDeadline
 
     overrides = {
         "PLOTGATE_HOST": args.host, "PLOTGATE_PORT": args.port,
@@ -80,6 +81,7 @@ def _serve(args: argparse.Namespace) -> int:
         host=settings.host,
         port=settings.port,
         workers=settings.workers,
+        http=HeaderDeadline,
         log_level="info",
     )
     return 0

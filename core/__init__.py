@@ -20,6 +20,7 @@ K_R, K_az : window coefficients of the polar sector gates.
 """
 
 from core.capture_gates import combined_gate, expanded_gate, ring_gate
+from core.covariance import MAX_CONDITION, check_covariance
 from core.errors import (
     CovarianceError,
     GeometryError,
@@ -69,6 +70,7 @@ from core.thresholds import expansion_coefficient, gate_threshold, rectangular_c
 from core.tracking_gates import ellipse_gate, innovation_covariance, rectangular_gate
 
 __all__ = [
+    "MAX_CONDITION",
     "CombinedGate",
     "EllipseGate",
     "ExpandedGate",
@@ -83,6 +85,7 @@ __all__ = [
     "SectorGate",
     "StarRegion",
     "capture_probability",
+    "check_covariance",
     "combined_area_approximation",
     "conditional_probability",
     "design_gate",

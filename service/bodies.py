@@ -4,15 +4,17 @@ A body is read from the ASGI ``receive`` channel with :func:`read_body`, which g
 after ``deadline_s`` (:class:`BodyTimeout`, answered 408): a client that sends half a body
 and stops does not hold the server for ever.
 
-Before a body is parsed it is sized up with :func:`value_count` against the operation's
+While it arrives, a body is sized up by a :class:`ShapeScan` against the operation's
 :func:`value_ceiling`. Parsing JSON costs memory per *value*, not per byte: measured with
 pydantic on this machine, a million empty objects (3 MB of body) cost about 380 MB before
 validation could refuse them, a million zeros about 150 MB. So a body that holds more JSON
-values than any valid request of its operation could hold is refused before anything is
-built from it, whatever its size in bytes. The count is an upper bound taken from the raw
-bytes (one value per comma, per opening bracket or brace, plus the root): it never refuses
-a valid body, and it costs a few ``bytes.count`` passes, cut into slices so a large body
-never holds the interpreter for long.
+values than any valid request of its operation could hold, or a megabyte with no JSON
+structure in it, is refused (:class:`BodyRefused`) as soon as the bytes received show it:
+the rest is drained unread and nothing is built from any of it, whatever its size. The
+count is an upper bound taken from the raw bytes (one value per comma, per opening bracket
+or brace, plus the root): it never refuses a valid body, and it costs a few ``bytes.count``
+calls per piece received. The same scan runs over a whole body in :func:`shape_problem`,
+so an in-process replay of the received part refuses it the same way.
 """
 
 import asyncio
@@ -25,8 +27,9 @@ from typing import Any
 from pydantic import BaseModel
 from pydantic_core import from_json
 
-__all__ = ["MAX_BODY_VALUES", "SLICE_BYTES", "BodyTimeout", "ClientGone", "is_strict_json",
-           "read_body", "shape_problem", "slices", "value_ceiling", "value_count"]
+__all__ = ["MAX_BODY_VALUES", "SLICE_BYTES", "BodyRefused", "BodyTimeout", "ClientGone",
+           "ShapeScan", "is_strict_json", "read_body", "shape_problem", "slices",
+           "value_ceiling", "value_count"]
 
 MAX_BODY_VALUES = 3_000_000
 """Most JSON values one body may hold, whatever its operation's schema allows: 100,000
@@ -50,24 +53,86 @@ class BodyTimeout(Exception):
         self.deadline_s = deadline_s
 
 
+class BodyRefused(Exception):
+    """The bytes received show the body cannot be a valid request (``reason``); ``received``
+    is the body up to the piece that showed it (the rest was drained unread), and
+    ``drained`` says whether the whole body arrived within the deadline."""
+
+    def __init__(self, received: bytes, reason: str, drained: bool) -> None:
+        super().__init__(reason)
+        self.received = received
+        self.reason = reason
+        self.drained = drained
+
+
 class ClientGone(Exception):
     """The client disconnected before sending its whole body."""
 
 
-async def read_body(receive: Receive, deadline_s: float) -> bytes:
-    """The whole request body, or :class:`BodyTimeout` after ``deadline_s`` seconds."""
+class ShapeScan:
+    """Sizes up a body from its bytes, fed piece by piece as they arrive.
+
+    Two things cannot be in a valid request of at most ``ceiling`` JSON values: more values
+    than that (:func:`value_count`'s bound, accumulated), and a run of more than
+    :data:`SLICE_BYTES` bytes with no JSON structure (``, : [ ] { }``): no string, number or
+    whitespace of a valid request is that long, and a parser would copy it whole. The
+    reasons name no position, so the received part, scanned again, is refused alike.
+    """
+
+    def __init__(self, ceiling: int) -> None:
+        self.ceiling = ceiling
+        self.values = 1
+        self.plain = 0  # bytes since the last structural character
+        self.problem: str | None = None
+
+    def feed(self, body: bytes) -> str | None:
+        """Scan the next piece; the reason the body is refused, once there is one."""
+        for piece in slices(body):
+            if self.problem is not None:
+                break
+            self.values += value_count(piece) - 1
+            first = _STRUCTURE.search(piece)
+            if first is None:
+                self.plain += len(piece)
+            else:
+                self.plain += first.start()
+                if self.plain <= SLICE_BYTES:
+                    self.plain = len(piece) - 1 - max(piece.rfind(c) for c in b",:[]{}")
+            if self.values > self.ceiling:
+                self.problem = (f"holds more than {self.ceiling} JSON values; no valid "
+                                "request does")
+            elif self.plain > SLICE_BYTES:
+                self.problem = (f"has more than {SLICE_BYTES} bytes without JSON structure; "
+                                "no string, number or whitespace of a valid request is that "
+                                "long")
+        return self.problem
+
+
+async def read_body(receive: Receive, deadline_s: float, scan: ShapeScan | None = None
+                    ) -> bytes:
+    """The whole request body; :class:`BodyTimeout` after ``deadline_s`` seconds, and
+    :class:`BodyRefused` once ``scan`` refuses what has arrived."""
     chunks: list[bytes] = []
+    refused: str | None = None
     try:
         async with asyncio.timeout(deadline_s):
             while True:
                 message = await receive()
                 if message["type"] == "http.disconnect":
                     raise ClientGone
-                chunks.append(message.get("body", b""))
+                if refused is None:
+                    chunk = message.get("body", b"")
+                    chunks.append(chunk)
+                    if scan is not None:
+                        refused = scan.feed(chunk)
                 if not message.get("more_body", False):
                     break
     except TimeoutError:
-        raise BodyTimeout(b"".join(chunks), deadline_s) from None
+        if refused is None:
+            raise BodyTimeout(b"".join(chunks), deadline_s) from None
+        raise BodyRefused(b"".join(chunks), refused, drained=False) from None
+    if refused is not None:
+        raise BodyRefused(b"".join(chunks), refused, drained=True)
     return chunks[0] if len(chunks) == 1 else b"".join(chunks)
 
 
@@ -86,21 +151,9 @@ def slices(body: bytes) -> Iterator[bytes]:
 
 
 def shape_problem(body: bytes, ceiling: int) -> str | None:
-    """Why ``body`` cannot be a valid request whose values are at most ``ceiling``, judged
-    from its bytes alone; None when it may be.
-
-    Two things are refused: more values than ``ceiling`` (:func:`value_count`), and a run of
-    :data:`SLICE_BYTES` with no JSON structure in it (no ``, : [ ] { }``): no string, number
-    or whitespace of a valid request is that long, and a parser would copy it whole.
-    """
-    values = value_count(body)
-    if values > ceiling:
-        return f"holds up to {values} JSON values; a valid request holds at most {ceiling}"
-    for index, piece in enumerate(slices(body)):
-        if len(piece) == SLICE_BYTES and _STRUCTURE.search(piece) is None:
-            return (f"has no JSON structure in bytes {index * SLICE_BYTES} to "
-                    f"{(index + 1) * SLICE_BYTES}: no value of a valid request is that long")
-    return None
+    """Why ``body`` cannot be a valid request of at most ``ceiling`` JSON values, judged
+    from its bytes alone (:class:`ShapeScan`); None when it may be one."""
+    return ShapeScan(ceiling).feed(body)
 
 
 _STRUCTURE = re.compile(rb"[,:\[\]{}]")

@@ -30,6 +30,10 @@ class Settings(BaseSettings):
     body_timeout_s: float = Field(
         default=30.0, gt=0, description="Deadline for receiving a request's whole body, s "
         "(408 after it, and the connection closed).")
+    header_timeout_s: float = Field(
+        default=10.0, gt=0, description="Deadline for a request's headers, from a "
+        "connection's start or its previous response, s (the connection is closed after "
+        "it; plotgate serve only).")
     probe_interval_s: float = Field(
         default=1.0, gt=0, le=60, description="How often the recorder checks its folder "
         "(re-created when missing; readiness comes back by itself), s; also the "

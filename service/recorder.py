@@ -499,7 +499,7 @@ class Recorder:
         record it took (all of them when the file itself is gone, else those not yet
         flushed; every response, since an exchange leaves once its response is flushed)."""
         self._error = exc
-        for exchange in self._inflight:
+        for exchange in list(self._inflight):  # a snapshot: forget() may run meanwhile
             if exchange.file == self._seq and (whole_file or not exchange.flushed):
                 exchange.file, exchange.flushed = 0, False
                 self._lost = True

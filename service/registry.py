@@ -30,7 +30,7 @@ from service.problems import ProblemError, from_core, from_validation, problem_j
 from service.schemas import ENDPOINTS, Endpoint, FieldError
 
 __all__ = ["OPERATIONS", "Operation", "Outcome", "Parsed", "check_limits", "execute", "failed",
-           "internal_error", "parse", "run"]
+           "internal_error", "misshapen", "parse", "run"]
 
 Handler = Callable[[Any], BaseModel]
 """A pure function from a validated request model to a response model."""
@@ -138,28 +138,35 @@ class Parsed:
     json: bool
 
 
-def parse(op: Operation, body: bytes) -> Parsed:
+def parse(op: Operation, body: bytes, *, sized_up: bool = False) -> Parsed:
     """Size up ``body`` (:func:`service.bodies.shape_problem`) and validate it, once.
 
     A body holding more JSON values than any valid request of the operation could, or a
     megabyte without JSON structure, is refused (422 on ``body``) before anything is built
-    from it. Bodies are validated strictly: a JSON
-    ``true`` is not the number 1 and ``"5"`` is not 5, so what the OpenAPI schema refuses,
-    the service refuses. Validation parses the JSON itself; pydantic's parser also takes
-    ``NaN`` and ``Infinity`` tokens, so a body holding those letters is checked once more
-    before it is called strict JSON.
+    from it; ``sized_up`` says the caller already scanned it so as it arrived. Bodies are
+    validated strictly: a JSON ``true`` is not the number 1 and ``"5"`` is not 5, so what
+    the OpenAPI schema refuses, the service refuses. Validation parses the JSON itself;
+    pydantic's parser also takes ``NaN`` and ``Infinity`` tokens, so a body holding those
+    letters is checked once more before it is called strict JSON.
     """
-    reason = shape_problem(body, value_ceiling(op.request))
-    if reason is not None:
-        problem = ProblemError("invalid-input", 422, f"body: {reason}",
-                               [FieldError(field="body", reason=reason)])
-        return Parsed(None, problem, json=False)
+    if not sized_up:
+        reason = shape_problem(body, value_ceiling(op.request))
+        if reason is not None:
+            return misshapen(reason)
     try:
         request = op.request.model_validate_json(body, strict=True)
     except ValidationError as exc:
         problem = from_validation(exc)
         return Parsed(None, problem, problem.kind != "malformed-json" and _strict_json(body))
     return Parsed(request, None, _strict_json(body))
+
+
+def misshapen(reason: str) -> Parsed:
+    """A body refused by its shape (:class:`service.bodies.ShapeScan`): 422 on ``body``,
+    recorded as raw text, as nothing was parsed."""
+    problem = ProblemError("invalid-input", 422, f"body: {reason}",
+                           [FieldError(field="body", reason=reason)])
+    return Parsed(None, problem, json=False)
 
 
 def _strict_json(body: bytes) -> bool:

@@ -30,7 +30,14 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
-from service.bodies import BodyTimeout, ClientGone, read_body
+from service.bodies import (
+    BodyRefused,
+    BodyTimeout,
+    ClientGone,
+    ShapeScan,
+    read_body,
+    value_ceiling,
+)
 from service.guards import replay_of, request_id
 from service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
 from service.problems import ProblemError, problem_json
@@ -42,6 +49,7 @@ from service.registry import (
     Parsed,
     failed,
     internal_error,
+    misshapen,
     parse,
     run,
 )
@@ -78,19 +86,24 @@ def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] 
         return internal_error(op, request_id)
 
 
-def _intake(op: Operation, body: bytes, request_id: str, replay: str | None
-            ) -> tuple[Parsed, bytes]:
-    """Parse a body once and build its request record: the two passes over every byte."""
-    parsed = parse(op, body)
+def _intake(op: Operation, body: bytes, parsed: Parsed | None, request_id: str,
+            recording: bool, replay: str | None) -> tuple[Parsed, bytes]:
+    """Parse a body once, unless it was refused as it arrived (``parsed``), and, when
+    recording, build its request record (``replay``: the id it replays, for a replay): the
+    passes over every byte."""
+    if parsed is None:
+        parsed = parse(op, body, sized_up=True)
+    if not recording:
+        return parsed, b""
     return parsed, request_record(request_id, op.name, body, parsed.json, replay)
 
 
-def _timed_out(op: Operation, request_id: str, exc: BodyTimeout) -> Outcome:
+def _timed_out(exc: BodyTimeout) -> Parsed:
     reason = (f"did not arrive within {exc.deadline_s:g} s ({len(exc.received)} bytes "
               "received; PLOTGATE_BODY_TIMEOUT_S)")
     err = ProblemError("request-timeout", 408, f"body: {reason}",
                        [FieldError(field="body", reason=reason)])
-    return failed(op, err, request_id)
+    return Parsed(None, err, json=False)
 
 
 def _endpoint(op: Operation):
@@ -102,22 +115,24 @@ def _endpoint(op: Operation):
         metrics = request.app.state.metrics
         started = time.perf_counter()
         exchange: Exchange | None = None
+        close = False  # the connection, after answering: the body was not read to its end
         try:
-            body = await read_body(request.receive, settings.body_timeout_s)
+            body = await read_body(request.receive, settings.body_timeout_s,
+                                   ShapeScan(value_ceiling(op.request)))
+            parsed = None
         except ClientGone:
             return Response(status_code=499)  # nobody to answer, nothing acknowledged
         except BodyTimeout as exc:
-            large, parsed = False, None
-            record = request_record(rid, op.name, exc.received, strict_json=False,
-                                    replay_of=replay)
-            outcome = _timed_out(op, rid, exc)
+            body, parsed, close = exc.received, _timed_out(exc), True
+        except BodyRefused as exc:
+            body, parsed, close = exc.received, misshapen(exc.reason), not exc.drained
+        large = len(body) > INLINE_BODY_BYTES
+        if large:
+            parsed, record = await run_in_threadpool(_intake, op, body, parsed, rid,
+                                                     recorder is not None, replay)
         else:
-            outcome = None
-            large = len(body) > INLINE_BODY_BYTES
-            if large:
-                parsed, record = await run_in_threadpool(_intake, op, body, rid, replay)
-            else:
-                parsed, record = _intake(op, body, rid, replay)
+            parsed, record = _intake(op, body, parsed, rid, recorder is not None, replay)
+        del body  # the record holds it from here on
         try:
             if recorder is not None:
                 try:
@@ -127,13 +142,11 @@ def _endpoint(op: Operation):
                         raise
                     recorder = None  # best effort: answer this exchange unrecorded
                     metrics.unrecorded(op.name)
-            if outcome is None:
-                assert parsed is not None
-                limits = settings.limits.get(op.name)
-                if large or op.endpoint.slow:
-                    outcome = await run_in_threadpool(_run, op, parsed, rid, limits)
-                else:
-                    outcome = _run(op, parsed, rid, limits)
+            limits = settings.limits.get(op.name)
+            if parsed.request is not None and (large or op.endpoint.slow):
+                outcome = await run_in_threadpool(_run, op, parsed, rid, limits)
+            else:
+                outcome = _run(op, parsed, rid, limits)
             if recorder is not None and exchange is not None:
                 record = response_record(
                     rid, op.name, outcome.status, time.perf_counter() - started,
@@ -155,7 +168,7 @@ def _endpoint(op: Operation):
             if recorder is not None and exchange is not None:
                 recorder.forget(exchange)
         metrics.observe(op.name, outcome.status, time.perf_counter() - started)
-        headers = {"connection": "close"} if outcome.status == 408 else None
+        headers = {"connection": "close"} if close else None
         return Response(outcome.content, outcome.status, headers,
                         media_type="application/json" if outcome.ok else PROBLEM_JSON)
 

@@ -1,7 +1,9 @@
 """Track initiation from plots in clutter (DESIGN section 5; seeds 002, 003, 000).
 
 :mod:`.scan` builds a scan of Cartesian or polar plots, :mod:`.config` holds the rules,
-:mod:`.state` the versioned state between calls, :mod:`.logic` the initiation itself,
+:mod:`.state` the versioned state between calls (:mod:`.state_json` reads one back
+and checks it), :mod:`.logic` the initiation itself
+(:mod:`.sharing` its plot-reuse rules),
 :mod:`.simulate` the seeded scenario simulator and :mod:`.evaluate` the Monte Carlo
 evaluation (targets initiated, false tracks, time to confirmation).
 """
@@ -16,8 +18,8 @@ from core.initiation.state import (
     Initiators,
     Tracks,
     empty_state,
-    state_from_json,
 )
+from core.initiation.state_json import check_state, state_from_json
 
 __all__ = [
     "DROP_REASONS",
@@ -30,6 +32,7 @@ __all__ = [
     "ScanReport",
     "Tracks",
     "cartesian_scan",
+    "check_state",
     "empty_state",
     "initiate",
     "polar_scan",

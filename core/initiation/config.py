@@ -78,7 +78,8 @@ class InitiationConfig:
         unequal intervals). The default 30 m/s^2 leaves room for the range noise's own
         second difference, sqrt(6) sigma_r / tau^2 rms (12 m/s^2 for 5 m at 1 s).
     history : int
-        Plot ids kept per track for the plot-reuse rules (>= confirm_m).
+        Plot ids kept per track for the plot-reuse rules (>= confirm_m, and >= 2: a track
+        starts with two plots).
     """
 
     mode: str = "cartesian"
@@ -133,7 +134,7 @@ class InitiationConfig:
             if getattr(self, name) is not None:
                 number(name, getattr(self, name) > 0, "> 0 or null")
         for name, low in (("capture_scans", 2), ("confirm_k", 1), ("confirm_m", 1),
-                          ("drop_misses", 1), ("history", self.confirm_m)):
+                          ("drop_misses", 1), ("history", max(2, self.confirm_m))):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ParameterError(name, f"must be an integer >= {low}, got {value!r}")

@@ -53,7 +53,9 @@ from core.errors import ParameterError
 from core.frames import _wrap
 from core.initiation.config import InitiationConfig
 from core.initiation.scan import Scan
+from core.initiation.sharing import keep_greedy, shares_two
 from core.initiation.state import (
+    MAX_SESSION_SCANS,
     PLOT_STRIDE,
     InitiationState,
     Initiators,
@@ -367,38 +369,6 @@ def _shift_in(old: np.ndarray, new: np.ndarray, hit: np.ndarray) -> np.ndarray:
     return np.where(hit[:, None], shifted, old)
 
 
-def _sharing(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row pairs (i, j) of plot histories a (p, H) and b (q, H) with two or more plot ids
-    in common (a join on the plot id: the work grows with the shared plots only)."""
-    ai, ak = np.nonzero(a >= 0)
-    bi, bk = np.nonzero(b >= 0)
-    av, bv = a[ai, ak], b[bi, bk]
-    order = np.argsort(bv, kind="stable")
-    bv, bi = bv[order], bi[order]
-    lo, hi = np.searchsorted(bv, av, "left"), np.searchsorted(bv, av, "right")
-    counts = hi - lo
-    first = np.repeat(lo - np.cumsum(counts) + counts, counts)
-    j = bi[first + np.arange(counts.sum())]
-    pairs, shared = np.unique(np.repeat(ai, counts) * b.shape[0] + j, return_counts=True)
-    pairs = pairs[shared >= 2]
-    return pairs // b.shape[0], pairs % b.shape[0]
-
-
-def _greedy(clash_i: np.ndarray, clash_j: np.ndarray, p: int) -> np.ndarray:
-    """Keep tracks 0..p-1 in order, each unless it clashes with a track kept before it."""
-    keep = np.ones(p, dtype=bool)
-    if clash_i.size == 0:
-        return keep
-    later = clash_i > clash_j
-    i, j = np.where(later, clash_i, clash_j), np.where(later, clash_j, clash_i)
-    sort = np.lexsort((j, i))
-    i, j = i[sort], j[sort]
-    starts = np.flatnonzero(np.r_[True, i[1:] != i[:-1]])
-    for s, e in zip(starts, np.r_[starts[1:], i.size], strict=True):  # clashing tracks only
-        keep[i[s]] = not keep[j[s:e]].any()
-    return keep
-
-
 def _acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
     """Seed 002: |second divided difference of range| <= K_A a_max for every plot triple."""
     r, t = tracks.ranges, tracks.times
@@ -506,16 +476,14 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
         ready &= ~jerky
     order = np.flatnonzero(ready)
     order = order[np.argsort(tracks.cost[order] / (tracks.n[order] - 1), kind="stable")]
-    i, j = _sharing(tracks.plots[order], tracks.plots[order])
-    keep = _greedy(i[i != j], j[i != j], order.size)
+    keep = keep_greedy(tracks.plots[order])
     confirmed = tracks.confirmed.copy()
     confirmed[order[keep]] = True
     newly = np.zeros(tracks.size, dtype=bool)
     newly[order[keep]] = True
     tentative = np.flatnonzero(~confirmed)
-    i, _ = _sharing(tracks.plots[tentative], tracks.plots[confirmed])
     pruned = np.zeros(tracks.size, dtype=bool)
-    pruned[tentative[i]] = True
+    pruned[tentative] = shares_two(tracks.plots[tentative], tracks.plots[confirmed])
     dropped.append(pruned)
     reasons.append("pruned")
     tracks = replace(tracks, confirmed=confirmed,
@@ -555,8 +523,8 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
         tracks=tracks.take(~gone)), report
 
 
-def initiate(state: InitiationState | None, scans: Sequence[Scan], config: InitiationConfig
-             ) -> tuple[InitiationState, list[ScanReport]]:
+def initiate(state: InitiationState | None, scans: Sequence[Scan], config: InitiationConfig,
+             max_tracks: int | None = None) -> tuple[InitiationState, list[ScanReport]]:
     """Run track initiation over scans in time order, from a state (None: a new session).
 
     Parameters
@@ -567,6 +535,9 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     scans : sequence of Scan
         The next scans, times non-decreasing and not before the state's last scan.
     config : InitiationConfig
+    max_tracks : int, optional
+        Most live tracks after any scan: a bound on the work of every later scan (each
+        predicts, gates and checks every live track). None: no bound.
 
     Returns
     -------
@@ -580,7 +551,10 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     ------
     ParameterError
         ``"state"`` for a state made under other settings; ``"scans"`` (with the scan's
-        index) for a time earlier than the one before it.
+        index) for a time earlier than the one before it, for a scan after which more
+        than ``max_tracks`` tracks live or a track's state is not finite (two plots too
+        close in time for a velocity), or for scans that would take the session past
+        :data:`~core.initiation.state.MAX_SESSION_SCANS`.
 
     References
     ----------
@@ -603,13 +577,28 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     state = empty_state(config) if state is None else state
     if state.config_digest != config.digest():
         raise ParameterError("state", "was made under other settings than these")
+    if state.scans + len(scans) > MAX_SESSION_SCANS:
+        raise ParameterError("scans", f"would take the session past {MAX_SESSION_SCANS} "
+                             f"scans (it has {state.scans}); start a new session")
     reports = []
     last = state.t
     for i, scan in enumerate(scans):
         if last is not None and scan.t < last:
             raise ParameterError("scans", f"time {scan.t} s is before the previous scan's "
                                  f"{last} s; scans must come in time order", i)
-        state, report = _step(state, scan, config)
+        with np.errstate(all="ignore"):  # checked below, on the step's result
+            state, report = _step(state, scan, config)
+        if not (np.isfinite(state.tracks.x).all() and np.isfinite(state.tracks.P).all()):
+            bad = int(np.flatnonzero(~np.isfinite(state.tracks.P).all(axis=(1, 2))
+                                     | ~np.isfinite(state.tracks.x).all(axis=1))[0])
+            raise ParameterError("scans", f"leaves track {state.tracks.id[bad]} with a state "
+                                 "or covariance beyond double precision (scans or plot "
+                                 "times too close together for a velocity?)", i)
+        if max_tracks is not None and state.tracks.size > max_tracks:
+            raise ParameterError("scans", f"leaves {state.tracks.size} live tracks (scan "
+                                 f"{state.scans - 1} of the session); at most {max_tracks}: "
+                                 "narrower capture gates, nearest association or fewer "
+                                 "plots", i)
         reports.append(report)
         last = scan.t
     return state, reports

@@ -1,18 +1,21 @@
 """Gate tests (seed 000 section on capture gates; DESIGN section 3).
 
 Plots arrive Cartesian or polar; both become positions z (m) and covariances P (m^2) in
-the common frame. The capture and tracking gates run on those. The polar gates (sector,
-first association) take range, azimuth and their sigmas about the *first* plot's sensor,
-from the same (z, P) through the Jacobian of DESIGN section 2, so a polar plot from that
-sensor keeps its own sigmas exactly.
+the common frame (:func:`service.operations.plots.plot_arrays`, which checks each plot's
+covariance on its own, whatever the gate kind, before any sum B = P_first + P_candidate,
+and names the plot's own field: ``first.covariance``, ``candidates[2].covariance``,
+``pairs[3].second.covariance``, or the polar plot ``candidates[2]`` with its sigmas). The
+capture and tracking gates run on those. The polar gates (sector, first association) take
+range, azimuth and their sigmas about the *first* plot's sensor, from the same (z, P)
+through the Jacobian of DESIGN section 2, so a polar plot from that sensor keeps its own
+sigmas exactly.
 """
-
-from collections.abc import Sequence
 
 import numpy as np
 
 import core
 from core import GeometryError, PlotgateError
+from service.operations.plots import PlotError, plot_arrays
 from service.schemas import (
     MIN_RANGE,
     GatePairsRequest,
@@ -39,27 +42,6 @@ _STATISTICS = {
     "sector": "max(|dr|/(K_R s_r), |d az|/(K_az s_az)), window fractions",
     "first_association": "max(|dr|/W_R, |d az|/W_az), window fractions",
 }
-
-
-def _cartesian(plots: Sequence[Plot]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Positions (N, 2), covariances (N, 2, 2) and sensor positions (N, 2) of the plots."""
-    n = len(plots)
-    z = np.empty((n, 2))
-    P = np.empty((n, 2, 2))
-    sensor = np.array([p.sensor for p in plots], dtype=float)
-    polar = np.array([isinstance(p, PolarPlot) for p in plots], dtype=bool)
-    cart = [p for p in plots if not isinstance(p, PolarPlot)]
-    if cart:
-        z[~polar] = [(p.x, p.y) for p in cart]
-        P[~polar] = [p.covariance for p in cart]
-    if polar.any():
-        r, az_deg, s_r, s_az_deg = np.array(
-            [(p.r, p.az_deg, p.sigma_r, p.sigma_az_deg) for p in plots if isinstance(p, PolarPlot)]
-        ).T
-        az, s_az = np.radians(az_deg), np.radians(s_az_deg)
-        z[polar] = core.polar_to_cartesian(r, az) + sensor[polar]
-        P[polar] = core.polar_covariance_to_cartesian(r, az, s_r, s_az)
-    return z, P, sensor
 
 
 def _polar(z: np.ndarray, P: np.ndarray, sensor: np.ndarray, side: str):
@@ -133,15 +115,17 @@ def _results(gate: Gate, result: core.GateResult) -> GateResults:
 
 def test(request: GateTestRequest) -> GateResults:
     """Test the first plot against every candidate."""
-    z1, P1, s1 = _cartesian([request.first])
-    z2, P2, _ = _cartesian(request.candidates)
+    z1, P1, s1 = plot_arrays([request.first], lambda _: "first")
+    z2, P2, _ = plot_arrays(request.candidates, lambda i: f"candidates[{i}]")
     return _results(request.gate, _gate(request.gate, z1[0], P1[0], s1[0], z2, P2))
 
 
 def pairs(request: GatePairsRequest) -> GateResults:
     """Test every (first, second) pair on its own."""
-    z1, P1, s1 = _cartesian([pair.first for pair in request.pairs])
-    z2, P2, _ = _cartesian([pair.second for pair in request.pairs])
+    z1, P1, s1 = plot_arrays([pair.first for pair in request.pairs],
+                             lambda i: f"pairs[{i}].first")
+    z2, P2, _ = plot_arrays([pair.second for pair in request.pairs],
+                            lambda i: f"pairs[{i}].second")
     return _results(request.gate, _gate(request.gate, z1, P1, s1, z2, P2))
 
 
@@ -164,6 +148,8 @@ def _covariance(plot: Plot, exc: PlotgateError) -> str:
 
 def test_field(request: GateTestRequest, exc: PlotgateError) -> str:
     """The request field a core error on a ``gates.test`` request concerns."""
+    if isinstance(exc, PlotError):
+        return exc.field
     side = _side(request.gate, exc)
     if side is None:
         return f"gate.{exc.field}"
@@ -176,6 +162,8 @@ def test_field(request: GateTestRequest, exc: PlotgateError) -> str:
 
 def pairs_field(request: GatePairsRequest, exc: PlotgateError) -> str:
     """The request field a core error on a ``gates.pairs`` request concerns."""
+    if isinstance(exc, PlotError):
+        return exc.field
     side = _side(request.gate, exc)
     if side is None:
         return f"gate.{exc.field}"

@@ -3,17 +3,26 @@
 The wire's settings become :class:`core.initiation.InitiationConfig` (degrees nowhere:
 the settings carry no angles), its scans of Cartesian or polar plots become
 :class:`core.initiation.Scan` (each plot with its own sensor, converted as the gate
-operations do), and the opaque ``state`` object goes through
-:func:`core.initiation.state_from_json`, which refuses a malformed or foreign one.
+operations do), and the typed ``state`` (:class:`service.schemas.SessionState`, its types
+and magnitudes checked by the schema) goes through :func:`core.initiation.state_from_json`,
+which holds every field to its invariants and names it (``state.tracks.misses`` with row
+3: ``state.tracks.misses[3]``). The work is bounded by the state's ceilings: core stops at
+the first scan after which more tracks live than a state may carry
+(:data:`~service.schemas.MAX_STATE_TRACKS`, fewer for long histories) and the state a
+call returns is validated by the same schema on the way out; either refusal names
+``scans``, so every state answered is a state the next call takes.
 
 Core errors name core arguments; :func:`initiate_field` maps them to the request: a
-setting to ``config.<name>``, ``state`` to ``state``, ``scans`` with an index to
-``scans[i]``, and a plot error (``z``, ``R``) inside scan i to ``scans[i].plots[j]``.
+setting to ``config.<name>``, ``state...`` to itself with its row, ``scans`` with an index to
+``scans[i]``, and a plot error (``z``) inside scan i to ``scans[i].plots[j]``; a plot's own
+covariance is checked before the scan is built (:func:`service.operations.plots.plot_arrays`)
+and named ``scans[i].plots[j].covariance`` (a polar plot: ``scans[i].plots[j]``).
 """
 
 import numpy as np
+from pydantic import ValidationError
 
-from core import PlotgateError
+from core import ParameterError, PlotgateError
 from core.initiation import (
     InitiationConfig,
     InitiationState,
@@ -29,7 +38,7 @@ from core.initiation.evaluate import evaluate as core_evaluate
 from core.initiation.simulate import Scenario
 from core.initiation.simulate import simulate as core_simulate
 from core.initiation.state import PLOT_STRIDE
-from service.operations.gates import _cartesian
+from service.operations.plots import PlotError, plot_arrays
 from service.schemas import (
     EvaluateRequest,
     EvaluateResult,
@@ -40,9 +49,14 @@ from service.schemas import (
     ScanIn,
     ScanOutcome,
     ScenarioIn,
+    SessionState,
     SimulateRequest,
     SimulateResult,
-    TrackOut,
+)
+from service.schemas.initiation_state import (
+    MAX_HISTORY_CELLS,
+    MAX_STATE_INITIATORS,
+    MAX_STATE_TRACKS,
 )
 
 __all__ = ["evaluate", "initiate", "initiate_field", "scenario_field", "simulate"]
@@ -63,10 +77,8 @@ def _config(settings: InitiationSettings) -> InitiationConfig:
 
 
 def _scan(i: int, scan: ScanIn) -> Scan:
+    z, R, sensor = plot_arrays(scan.plots, lambda j: f"scans[{i}].plots[{j}]")
     try:
-        if not scan.plots:
-            return cartesian_scan(scan.t, np.zeros((0, 2)), np.zeros((0, 2, 2)))
-        z, R, sensor = _cartesian(scan.plots)
         return cartesian_scan(scan.t, z, R, sensor)
     except PlotgateError as exc:
         raise _ScanError(exc, i) from exc
@@ -79,33 +91,55 @@ def _outcome(report: ScanReport) -> ScanOutcome:
                        reasons=report.reasons.tolist())
 
 
-def _tracks(state: InitiationState) -> list[TrackOut]:
+def _tracks(state: InitiationState) -> list[dict]:
+    """The live tracks as wire objects (:class:`TrackOut`), validated with the answer."""
     tr = state.tracks
-    out = []
-    for i in range(tr.size):  # one wire object per live track
-        plots = tr.plots[i][tr.plots[i] >= 0]
-        out.append(TrackOut(
-            id=int(tr.id[i]), status="confirmed" if tr.confirmed[i] else "tentative",
-            position=tr.x[i, :2].tolist(), velocity=tr.x[i, 2:].tolist(),
-            covariance=tr.P[i].tolist(),
-            plots=[[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in plots],
-            n_plots=int(tr.n[i]), misses=int(tr.misses[i]), first_scan=int(tr.first_scan[i]),
-            confirmed_scan=int(tr.confirmed_scan[i]) if tr.confirmed[i] else None))
-    return out
+    plots = [[[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in row if p >= 0]
+             for row in tr.plots.tolist()]
+    return [{"id": i, "status": "confirmed" if c else "tentative", "position": x[:2],
+             "velocity": x[2:], "covariance": P, "plots": p, "n_plots": n, "misses": m,
+             "first_scan": f, "confirmed_scan": k if c else None}
+            for i, c, x, P, p, n, m, f, k in zip(
+                tr.id.tolist(), tr.confirmed.tolist(), tr.x.tolist(), tr.P.tolist(), plots,
+                tr.n.tolist(), tr.misses.tolist(), tr.first_scan.tolist(),
+                tr.confirmed_scan.tolist(), strict=True)]
+
+
+def _answered(state: InitiationState) -> SessionState:
+    """The wire state, refused (naming ``scans``) beyond the schema's ceilings."""
+    try:
+        return SessionState.model_validate(state.to_json())
+    except ValidationError as exc:
+        first = exc.errors(include_url=False)[0]
+        where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"])
+        raise ParameterError("scans", f"would leave a state the next call could not take "
+                             f"back (state{where}: {first['msg']}); a state carries at "
+                             f"most {MAX_STATE_INITIATORS} initiators and "
+                             f"{MAX_STATE_TRACKS} tracks ({MAX_HISTORY_CELLS} history "
+                             "cells), its values within the schema's magnitudes") from None
 
 
 def initiate(request: InitiateRequest) -> InitiateResult:
     """Run the request's scans through initiation, continuing its state."""
     config = _config(request.config)
-    state = None if request.state is None else state_from_json(request.state, config)
+    state = None
+    if request.state is not None:  # the validated lists as they are: no copy of the state
+        wire = request.state
+        state = state_from_json({**dict(wire), "initiators": dict(wire.initiators),
+                                 "tracks": dict(wire.tracks)}, config)
     scans = [_scan(i, s) for i, s in enumerate(request.scans)]
-    state, reports = core_initiate(state, scans, config)
-    return InitiateResult(state=state.to_json(), scans=[_outcome(r) for r in reports],
-                          tracks=_tracks(state))
+    most = min(MAX_STATE_TRACKS, MAX_HISTORY_CELLS // config.history)
+    state, reports = core_initiate(state, scans, config, max_tracks=most)
+    return InitiateResult.model_validate({"state": _answered(state), "tracks": _tracks(state),
+                                          "scans": [_outcome(r) for r in reports]})
 
 
 def initiate_field(request: InitiateRequest, exc: PlotgateError) -> str:
-    """``config.<name>``, ``state``, ``scans[i]`` or ``scans[i].plots[j]``."""
+    """``config.<name>``, ``state...``, ``scans[i]`` or ``scans[i].plots[j]...``."""
+    if isinstance(exc, PlotError):
+        return exc.field
+    if exc.field == "state" or exc.field.startswith("state."):
+        return exc.field if exc.index is None else f"{exc.field}[{exc.index}]"
     if isinstance(exc, _ScanError):
         where = f"scans[{exc.scan}]"
         if exc.field == "t":
@@ -113,8 +147,6 @@ def initiate_field(request: InitiateRequest, exc: PlotgateError) -> str:
         return f"{where}.plots" if exc.index is None else f"{where}.plots[{exc.index}]"
     if exc.field == "scans":
         return "scans" if exc.index is None else f"scans[{exc.index}]"
-    if exc.field == "state":
-        return "state"
     return f"config.{exc.field}"
 
 

@@ -13,11 +13,13 @@ prior when both are, as core checks the prior first).
 """
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 import core
 from core import PlotgateError
+from service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
 from service.schemas import (
     AreaApproximation,
     FalseMarks,
@@ -89,8 +91,27 @@ def _gate(gate: GateRegion) -> core.Gate:
     raise AssertionError(gate.kind)
 
 
-def _geometry(mark: Mark, tau: float, r: float | np.ndarray | None = None) -> core.MarkGeometry:
-    """The mark's geometry; ``r`` (an array: one problem per range) replaces ``mark.r``."""
+def _own_covariances(mark: Mark, r: np.ndarray, where: Callable[[int], str]) -> None:
+    """Check each mark's own covariance (axes sigma_r and r sigma_az) before core forms
+    B = P1 + P2, naming the mark (``where(i)`` at range r[i]) and the two sigmas."""
+    second = (("sigma_r" if mark.sigma_r2 is None else "sigma_r2",
+               "sigma_az_deg" if mark.sigma_az2_deg is None else "sigma_az2_deg"),
+              mark.sigma_r if mark.sigma_r2 is None else mark.sigma_r2,
+              mark.sigma_az_deg if mark.sigma_az2_deg is None else mark.sigma_az2_deg)
+    for names, sigma_r, sigma_az_deg in ((("sigma_r", "sigma_az_deg"), mark.sigma_r,
+                                          mark.sigma_az_deg), second):
+        i = first_thin_polar(r, np.full(r.shape, mark.az_deg), np.full(r.shape, sigma_r),
+                             np.full(r.shape, sigma_az_deg))
+        if i is not None:
+            raise PlotError(where(i), polar_ellipse_reason(float(r[i]), sigma_r,
+                                                           sigma_az_deg, names))
+
+
+def _geometry(mark: Mark, tau: float, r: np.ndarray | None = None,
+              where: Callable[[int], str] = lambda _: "mark") -> core.MarkGeometry:
+    """The mark's geometry; ``r`` (an array: one problem per range, problem i named
+    ``where(i)``) replaces ``mark.r``."""
+    _own_covariances(mark, np.array([mark.r]) if r is None else r, where)
     return core.mark_geometry(
         mark.r if r is None else r, math.radians(mark.az_deg), mark.sigma_r,
         math.radians(mark.sigma_az_deg), tau, mark.sigma_r2,
@@ -150,7 +171,7 @@ def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
             gate, geometry, _velocity(values, request.course_deg)
         )
     else:
-        geometry = _geometry(request.mark, request.tau, values)
+        geometry = _geometry(request.mark, request.tau, values, lambda i: f"values[{i}]")
         if request.prior is not None:
             result = _unconditional(gate, geometry, request.prior)
         else:
@@ -226,6 +247,8 @@ def field_of(
     exc: PlotgateError,
 ) -> str:
     """The request field a core error concerns (``gate.v_min``, ``mark.sigma_r``, ``tau`` ...)."""
+    if isinstance(exc, PlotError):
+        return exc.field
     if exc.field in ("v_min", "v_max"):
         prior = getattr(request, "prior", None)
         inconsistent = prior is not None and prior.v_min > prior.v_max

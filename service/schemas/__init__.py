@@ -55,6 +55,13 @@ from service.schemas.initiation import (
     TargetIn,
     TrackOut,
 )
+from service.schemas.initiation_state import (
+    MAX_STATE_INITIATORS,
+    MAX_STATE_TRACKS,
+    SessionInitiators,
+    SessionState,
+    SessionTracks,
+)
 from service.schemas.probability import (
     MAX_CURVE_POINTS,
     MAX_UNCONDITIONAL_POINTS,
@@ -133,6 +140,8 @@ __all__ = [
     "MAX_SAMPLES",
     "MAX_SCANS",
     "MAX_SIMULATED_SAMPLES",
+    "MAX_STATE_INITIATORS",
+    "MAX_STATE_TRACKS",
     "MAX_STUDY_RANGE_SUMS",
     "MAX_STUDY_RUNS",
     "MAX_STUDY_SAMPLES",
@@ -210,6 +219,9 @@ __all__ = [
     "SectorGate",
     "SectorRegion",
     "SequentialHistory",
+    "SessionInitiators",
+    "SessionState",
+    "SessionTracks",
     "SimulateRequest",
     "SimulateResult",
     "SingleShotBound",

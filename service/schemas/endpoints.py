@@ -151,7 +151,8 @@ ENDPOINTS: dict[str, Endpoint] = {
             "Start and confirm tracks from scans of plots in clutter, continuing a state",
             InitiateRequest, InitiateResult, slow=True,
             work={"scans": lambda r: len(r.scans),
-                  "scans.plots": lambda r: max((len(s.plots) for s in r.scans), default=0)},
+                  "scans.plots": lambda r: max((len(s.plots) for s in r.scans), default=0),
+                  "state": lambda r: 0 if r.state is None else r.state.size()},
         ),
         Endpoint(
             "initiation.simulate", "/v1/initiation/simulate",

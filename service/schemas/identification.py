@@ -109,7 +109,9 @@ class IdentifyPairResult(Schema):
         default=None, description="With sequential: the decision after each active sample.")
 
 
-Tracks = Annotated[list[Samples], Field(min_length=1, max_length=10_000)]
+MAX_TRACKS = 10_000
+"""Most passive (or active) tracks in one picture."""
+Tracks = Annotated[list[Samples], Field(min_length=1, max_length=MAX_TRACKS)]
 
 
 class IdentifyPictureRequest(Schema):
@@ -117,7 +119,7 @@ class IdentifyPictureRequest(Schema):
 
     passive_deg: Tracks = Field(description="Bearings of each passive track, degrees.")
     active_deg: Tracks = Field(description="Bearings of each active track, degrees.")
-    sigma_deg: Sigma | list[Sigma] | None = Field(
+    sigma_deg: Sigma | Annotated[list[Sigma], Field(max_length=MAX_TRACKS)] | None = Field(
         default=None, description="Bearing sigma: one for all, one per passive track, or "
         "null (estimated per passive track).")
     alpha: Level = Field(default=0.05, description="Level of each pair's test.")

@@ -3,9 +3,11 @@
 Operations:
 
 - ``initiation.initiate``: scans of plots (and the state of the previous call) in; the
-  next state, what each scan did, and the tracks out. The state is an opaque, versioned
-  JSON object bound to the settings that made it: send it back unchanged with the next
-  scans and the same ``config``; a malformed or foreign state answers 422 (``state``).
+  next state, what each scan did, and the tracks out. The state
+  (:class:`~service.schemas.initiation_state.SessionState`) is a typed, versioned JSON
+  object bound to the settings that made it: send it back unchanged with the next scans
+  and the same ``config``; a malformed, foreign or inconsistent state answers 422 naming
+  its own field (``state.tracks.misses[3]``).
 - ``initiation.simulate``: seeded scans of a scenario (targets, P_D, Poisson clutter,
   polar noise), every plot labelled with its source.
 - ``initiation.evaluate``: Monte Carlo of initiation on a scenario: mean targets
@@ -14,7 +16,7 @@ Operations:
 Angles on the wire are degrees (``*_deg``); everything else SI.
 """
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
@@ -26,6 +28,7 @@ from service.schemas.common import (
     Schema,
     invalid,
 )
+from service.schemas.initiation_state import MAX_HISTORY, SessionState
 from service.schemas.solves import Time
 
 __all__ = [
@@ -98,7 +101,8 @@ class InitiationSettings(Schema):
                          description="Polar mode: largest radial acceleration, m/s^2.")
     K_A: float = Field(default=3.0, gt=1, le=100,
                        description="Polar mode: factor (> 1) of the acceleration check.")
-    history: int = Field(default=8, ge=1, le=64, description="Plots remembered per track.")
+    history: int = Field(default=8, ge=2, le=MAX_HISTORY,
+                         description="Plots remembered per track (>= confirm_m and >= 2).")
 
 
 class ScanIn(Schema):
@@ -113,7 +117,7 @@ class InitiateRequest(Schema):
 
     config: InitiationSettings = Field(default_factory=InitiationSettings,
                                        description="The rules; the same for a whole session.")
-    state: dict[str, Any] | None = Field(
+    state: SessionState | None = Field(
         default=None, description="The state returned by the previous call, unchanged; "
         "null to start a session.")
     scans: list[ScanIn] = Field(min_length=1, max_length=MAX_SCANS,
@@ -164,7 +168,7 @@ class TrackOut(Schema):
 class InitiateResult(Schema):
     """The next state, the scans' outcomes and the live tracks."""
 
-    state: dict[str, Any] = Field(description="Send back with the next scans.")
+    state: SessionState = Field(description="Send back with the next scans.")
     scans: list[ScanOutcome] = Field(description="One per scan of the request.")
     tracks: list[TrackOut] = Field(description="The live tracks after the last scan.")
 

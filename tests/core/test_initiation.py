@@ -324,16 +324,28 @@ def test_foreign_or_malformed_states_are_refused():
     data = state.to_json()
     with pytest.raises(ParameterError, match="other settings") as info:
         state_from_json(data, InitiationConfig(v_max=21.0))
-    assert info.value.field == "state"
-    for change in ({"version": 99}, {"scans": -1}, {"t": None},
-                   {"tracks": dict(data["tracks"], x=[[1.0]])},
-                   {"initiators": dict(data["initiators"], z="nope")},
-                   {"tracks": {"id": []}}):
+    assert info.value.field == "state.config_digest"
+    for change, field in (({"version": 99}, "state.version"), ({"scans": -1}, "state.scans"),
+                          ({"t": None}, "state.t"),
+                          ({"tracks": dict(data["tracks"], x=[[1.0]])}, "state.tracks.x"),
+                          ({"initiators": dict(data["initiators"], z="nope")},
+                           "state.initiators.z"),
+                          ({"tracks": {"id": []}}, "state.tracks.confirmed")):
         with pytest.raises(ParameterError) as info:
             state_from_json({**data, **change}, CONFIG)
-        assert info.value.field == "state"
+        assert info.value.field == field
     with pytest.raises(ParameterError, match="other settings"):
         initiate(empty_state(CONFIG), [], POLAR)
+
+
+def test_max_tracks_stops_at_the_scan_that_passes_it():
+    candidates = [target(1), (1000.0, 2015.0)]  # two branches from one initiator
+    scans = [scan(0, target(0)), scan(1, *candidates)]
+    state, _ = initiate(None, scans, CONFIG, max_tracks=2)
+    assert state.tracks.size == 2
+    with pytest.raises(ParameterError, match="leaves 2 live tracks") as info:
+        initiate(None, scans, CONFIG, max_tracks=1)
+    assert info.value.field == "scans" and info.value.index == 1
 
 
 def test_scans_must_come_in_time_order():

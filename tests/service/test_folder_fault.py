@@ -1,7 +1,10 @@
 """The recordings folder deleted or replaced while serving (an operator's ``rm -rf``, a
-volume unmounted): the server never answers an exchange whose records are not on disk, it
-creates the folder again, and readiness comes back by itself, with no traffic."""
+volume unmounted), and writes that fail: the server never answers an exchange whose records
+are not on disk, it writes lost records again to a new file (the folder created again),
+refuses with 503 only when that fails too, and readiness comes back by itself, with no
+traffic."""
 
+import asyncio
 import contextlib
 import json
 import shutil
@@ -11,11 +14,13 @@ from collections import Counter
 from pathlib import Path
 
 import httpx
+import pytest
 from fastapi.testclient import TestClient
+from mcap.writer import Writer
 
 from clients.recordings import read_recording
 from service.app import create_app
-from service.recorder import Recorder
+from service.recorder import Recorder, RecordingError
 from service.registry import OPERATIONS
 from tests.conftest import serve
 from tests.service.test_recording import GOOD
@@ -130,3 +135,57 @@ def test_unwritable_folder_answers_503_with_retry_after_then_recovers(settings):
         assert r.status_code == 200
     on_disk = _answered(folder)
     assert "back" in on_disk and "refused" not in on_disk
+
+
+class _FailingFlushes:
+    """mcap's Writer.flush failing the next ``n`` times (a disk that refuses a write)."""
+
+    def __init__(self, monkeypatch, n: int) -> None:
+        self.n = n
+        real = Writer.flush
+
+        def flush(writer):
+            if self.n > 0:
+                self.n -= 1
+                raise OSError(5, "Input/output error")
+            return real(writer)
+
+        monkeypatch.setattr(Writer, "flush", flush)
+
+
+def _exchange(recorder: Recorder, rid: str):
+    head = b'{"request_id": "%s", "operation": "gates.test"' % rid.encode()
+    exchange = recorder.request("gates.test", head + b"}")
+    recorder.response(exchange, head + b', "status": 200, "duration_s": 0.1, "result": {}}')
+    return exchange
+
+
+def test_a_failed_write_is_written_again_to_a_new_file(tmp_path, monkeypatch):
+    recorder = Recorder(tmp_path, OPERATIONS.values()).start()
+    _exchange(recorder, "before")
+    recorder.flush()
+    failing = _FailingFlushes(monkeypatch, 1)
+    _exchange(recorder, "during")
+    recorder.flush()  # fails once, then writes both records again to a new file
+    assert failing.n == 0 and recorder.ready and recorder.rewritten == 2
+    recorder.close()
+    files = sorted(tmp_path.glob("*.mcap"))
+    assert len(files) == 2
+    answered = [ex.request_id for f in files for ex in read_recording(f).exchanges
+                if ex.response is not None]
+    assert sorted(answered) == ["before", "during"]
+
+
+def test_two_failed_writes_refuse_the_answers_waiting_on_them(tmp_path, monkeypatch):
+    recorder = Recorder(tmp_path, OPERATIONS.values()).start()
+
+    async def answer() -> None:
+        exchange = await recorder.arequest("gates.test", b'{"request_id": "x"}')
+        await recorder.aresponse(exchange, b'{"request_id": "x", "status": 200}')
+
+    _FailingFlushes(monkeypatch, 2)
+    with pytest.raises(RecordingError, match="Input/output error"):
+        asyncio.run(answer())
+    assert not recorder.ready
+    assert recorder.probe() and recorder.ready  # the folder itself is fine
+    recorder.close()

@@ -63,10 +63,11 @@ def test_bad_initiation_input_is_named(client):
     post = lambda **body: client.post("/v1/initiation/initiate", json=body)  # noqa: E731
     first = answer(post(config=POLAR, scans=sim["scans"][:1]))
     invalid_input(post(config={**POLAR, "v_max": 31.0}, state=first["state"],
-                       scans=sim["scans"][1:]), "state")
-    invalid_input(post(config=POLAR, state={"version": 1}, scans=sim["scans"]), "state")
+                       scans=sim["scans"][1:]), "state.config_digest")
+    invalid_input(post(config=POLAR, state={"version": 1}, scans=sim["scans"]),
+                  "state.config_digest")
     broken = dict(first["state"], tracks=dict(first["state"]["tracks"], x=[[1.0]]))
-    invalid_input(post(config=POLAR, state=broken, scans=sim["scans"][1:]), "state")
+    invalid_input(post(config=POLAR, state=broken, scans=sim["scans"][1:]), "state.tracks.x[0]")
     invalid_input(post(config={"gate_widening": [2.0, 1.0]}, scans=sim["scans"]),
                   "config.gate_widening")
     invalid_input(post(config={"v_min": 60.0}, scans=sim["scans"]), "config.v_max")

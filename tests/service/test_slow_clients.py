@@ -3,6 +3,8 @@
 * A body not received within ``PLOTGATE_BODY_TIMEOUT_S`` is answered 408 problem+json,
   recorded like any refusal of a request that reached an operation, and the connection is
   closed: connections that send half a body are dropped after the deadline, not held.
+* A connection whose request headers are not complete within ``PLOTGATE_HEADER_TIMEOUT_S``
+  (nothing sent, or half a request) is closed.
 * The access log never carries a query string.
 """
 
@@ -64,6 +66,25 @@ def test_half_sent_bodies_are_answered_408_and_dropped_after_the_deadline(tmp_pa
         exchange = recorded[f"half-{i}"]
         assert exchange.response["status"] == 408
         assert exchange.request["raw"] == json.dumps(GOOD)[: len(json.dumps(GOOD)) // 2]
+
+
+def test_connections_without_whole_headers_are_closed_after_the_deadline(tmp_path):
+    env = {"PLOTGATE_HEADER_TIMEOUT_S": str(DEADLINE_S)}
+    with serve(tmp_path, env=env) as (_, url):
+        port = int(url.rsplit(":", 1)[1])
+        idle = [socket.create_connection(("127.0.0.1", port)) for _ in range(HALF_SENT // 2)]
+        half = [socket.create_connection(("127.0.0.1", port)) for _ in range(HALF_SENT // 2)]
+        for conn in half:
+            conn.sendall(b"POST /v1/gates/test HTTP/1.1\r\nhost: x\r\n")
+        with httpx.Client(base_url=url) as http:  # a keep-alive client keeps being served
+            for _ in range(3):
+                assert http.get("/healthz").status_code == 200
+                time.sleep(DEADLINE_S / 2)
+        started = time.monotonic()
+        assert all(_read_all(c, within_s=10 * DEADLINE_S) == b"" for c in idle + half)
+        assert time.monotonic() - started < 10 * DEADLINE_S
+        for c in idle + half:
+            c.close()
 
 
 def test_the_access_log_never_carries_a_query_string(tmp_path):
