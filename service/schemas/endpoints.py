@@ -4,12 +4,14 @@ Clients read this table to call the service without importing it; the registry
 (:mod:`service.registry`) binds each endpoint to its handler.
 """
 
+import copy
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from pydantic import BaseModel
 
+from service.schemas.examples import EXAMPLES
 from service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
 from service.schemas.identification import (
     IdentifyPairRequest,
@@ -77,6 +79,11 @@ class Endpoint:
     @property
     def tag(self) -> str:
         return self.name.split(".")[0]
+
+    @property
+    def example(self) -> dict[str, Any]:
+        """A small valid request body (:data:`service.schemas.examples.EXAMPLES`), a copy."""
+        return copy.deepcopy(EXAMPLES[self.name])
 
 
 ENDPOINTS: dict[str, Endpoint] = {
