@@ -84,6 +84,9 @@ would reach 1e-5 by a ratio of 14, and with them it stays near 1e-8 at 6-8 times
 the cost."""
 _TAIL = 9.0
 """Standard deviations beyond which a Gaussian's density (< e^-40) is left out."""
+_THIN_NODES = 8
+"""Gauss-Legendre nodes across a prior ring no wider than sigma_min: the Gaussian varies
+by at most one standard deviation across it, and 8 nodes hold the integral to ~1e-12."""
 
 
 @dataclass(frozen=True)
@@ -281,6 +284,21 @@ def _prior_weights(prior: str, R_min: float, R_max: float) -> tuple[float, float
     return 0.0, 2.0 / (R_max * R_max - R_min * R_min)
 
 
+def _thin_ring_rule(prior: str, R_min: float, R_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes s_j and weights of the prior's integral over a ring thinner than sigma_min.
+
+    Gauss-Legendre in u = (s - R_min) / (R_max - R_min) on [0, 1], where the prior's
+    density is 1 (``"speed"``) or 2 s / (R_max + R_min) (``"area"``): finite and free of
+    cancellation however thin or small the ring (tau or the speeds down to 5e-324),
+    where the closed form's 1 / (R_max^2 - R_min^2) overflows and its moments cancel.
+    """
+    u, w = panel_rule(np.array([0.0, 1.0]), _THIN_NODES)
+    s = R_min + u * (R_max - R_min)
+    if prior == "area":
+        w = w * (2.0 * s / (R_max + R_min))
+    return s, w
+
+
 def _unconditional_chunk(region: StarRegion, B: Sym2, R_min: float, R_max: float,
                          prior: str, rule: tuple[int, float], theta_edges: np.ndarray,
                          ) -> np.ndarray:
@@ -350,13 +368,17 @@ def _prior_density(dx: np.ndarray, dy: np.ndarray, B: Sym2, R_min: float, R_max:
     Q = _column(_inverse(B), 3)
     ex, ey = np.cos(phi), np.sin(phi)
     mx, my = dx[..., None], dy[..., None]
-    if R_max > R_min:
+    if R_max - R_min > float(sigma.min()):
         c0, c1 = _prior_weights(prior, R_min, R_max)
         M0, M1 = _ray_moments(ex, ey, mx, my, Q, np.float64(R_min), np.float64(R_max))
         kernel = c0 * M0 + c1 * M1 if c1 else c0 * M0
-    else:  # v_min = v_max: the displacement's length is R_max exactly
-        nx, ny = R_max * ex - mx, R_max * ey - my
-        kernel = np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny + Q.yy * ny * ny))
+    else:  # a ring thinner than the Gaussian (v_min = v_max: a circle) is a smooth factor
+        s, w = _thin_ring_rule(prior, R_min, R_max) if R_max > R_min else ([R_max], [1.0])
+        kernel = np.zeros(np.broadcast_shapes(ex.shape, mx.shape))
+        for s_j, w_j in zip(s, w, strict=True):
+            nx, ny = s_j * ex - mx, s_j * ey - my
+            kernel += w_j * np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny
+                                           + Q.yy * ny * ny))
     density: np.ndarray = np.einsum("nkf,nkf->nk", w_phi, kernel)
     return density
 
