@@ -10,8 +10,9 @@ Each scan, in this order:
 
 1. Every track is predicted to the scan time (constant velocity; Kalman with white
    acceleration q, or the alpha-beta smoother whose covariance follows its fixed gains).
-2. Confirmed tracks take plots one to one (scipy's ``linear_sum_assignment`` on the
-   gate statistic). Their plots are not reused by anything else.
+2. Confirmed tracks take plots one to one (a minimum-cost assignment on the gate
+   statistic, solved on the candidate pairs only). Their plots are not reused by
+   anything else.
 3. Tentative tracks take the nearest plot in their gate (several may share one). The
    gate is the chi-square ellipse rho = nu^T S^-1 nu <= gamma (Cartesian) or the polar
    windows (range about the linear extrapolation of the last two ranges, azimuth about
@@ -45,12 +46,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
-from scipy.optimize import linear_sum_assignment
 from scipy.spatial import cKDTree
 
 from core.capture_gates import combined_gate, expanded_gate, ring_gate
 from core.errors import ParameterError
 from core.frames import _wrap
+from core.initiation.assignment import one_to_one
 from core.initiation.config import InitiationConfig
 from core.initiation.scan import Scan
 from core.initiation.state import (
@@ -343,21 +344,6 @@ def _nearest(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
     return rows[first], cols[first], s[first]
 
 
-def _one_to_one(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A minimum-cost one-to-one choice among the pairs (linear_sum_assignment)."""
-    if rows.size == 0:
-        return rows, cols, s
-    ur, ri = np.unique(rows, return_inverse=True)
-    uc, ci = np.unique(cols, return_inverse=True)
-    big = 1.0 + 2.0 * s.max() * min(ur.size, uc.size)
-    cost = np.full((ur.size, uc.size), big)
-    cost[ri, ci] = s
-    a, b = linear_sum_assignment(cost)
-    ok = cost[a, b] < big
-    return ur[a[ok]], uc[b[ok]], cost[a[ok], b[ok]]
-
-
 # ------------------------------------------------------------------ track bookkeeping
 
 
@@ -455,7 +441,7 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
     used = np.zeros(n, dtype=bool)  # taken by a confirmed track
     rows, cols, s = _track_pairs(tracks, xp, Pp, dt, scan, index, config)
     conf = tracks.confirmed[rows]
-    a, b, c = _one_to_one(rows[conf], cols[conf], s[conf])
+    a, b, c = one_to_one(rows[conf], cols[conf], s[conf])
     assoc[a], stat[a], used[b] = b, c, True
     free = ~conf & ~used[cols]
     a, b, c = _nearest(rows[free], cols[free], s[free])
@@ -609,7 +595,12 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
         if last is not None and scan.t < last:
             raise ParameterError("scans", f"time {scan.t} s is before the previous scan's "
                                  f"{last} s; scans must come in time order", i)
-        state, report = _step(state, scan, config)
+        try:
+            state, report = _step(state, scan, config)
+        except ParameterError as exc:  # a scan's own problem: say which scan
+            if exc.field != "scans" or exc.index is not None:
+                raise
+            raise ParameterError("scans", exc.reason, i) from exc
         reports.append(report)
         last = scan.t
     return state, reports
