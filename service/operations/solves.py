@@ -48,6 +48,7 @@ from service.schemas import (
     ClosedFormResult,
     CrlbRequest,
     CrlbResult,
+    FittedState,
     NoiseRequest,
     NoiseResult,
     Platform,
@@ -55,7 +56,6 @@ from service.schemas import (
     PositionSolveRequest,
     PositionSolveResult,
     SingleShotBound,
-    TargetState,
     TrajectorySolveRequest,
     TrajectorySolveResult,
 )
@@ -304,7 +304,7 @@ def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
     positions, covariances = sol.at(np.asarray(times, dtype=float))
     return TrajectorySolveResult(
         t_ref=sol.t_ref,
-        state=TargetState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
+        state=FittedState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
         covariance=sol.covariance.tolist(),
         residuals=sol.residuals.tolist(),
         cost=sol.cost,
