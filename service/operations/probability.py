@@ -65,6 +65,7 @@ _FIELDS = {
     "m_max": "m_max",
     "dR": "resolution.range",
     "dAz": "resolution.azimuth_deg",
+    "cells": "resolution",
 }
 """Core argument -> request path, for every argument a request feeds core."""
 
