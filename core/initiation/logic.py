@@ -64,11 +64,16 @@ from core.initiation.state import (
 from core.polar_gates import first_association_gate
 from core.thresholds import expansion_coefficient
 
-__all__ = ["DROP_REASONS", "ScanReport", "initiate"]
+__all__ = ["DROP_REASONS", "MAX_CANDIDATES", "ScanReport", "initiate"]
 
 DROP_REASONS = ("misses", "window", "acceleration", "pruned")
 """Why a track was dropped: l misses in a row; k unreachable within m; the polar
 acceleration check; sharing two or more plots with a confirmed track."""
+MAX_CANDIDATES = 2**24
+"""Most candidate (track or initiator, plot) pairs one search may return (about 400 MB):
+plots so dense that every gate holds hundreds (a thousand targets at one spot) would
+otherwise grow tentative tracks, and their pairs, without bound. Over it the scan is
+refused (ParameterError on ``scans``)."""
 
 
 @dataclass(frozen=True)
@@ -172,7 +177,9 @@ def _near(tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
 
     Queries go in bins of radii within a factor 1.5, each bin one
     ``sparse_distance_matrix`` between a tree of its centres and the points (pairs come
-    back as arrays, not Python lists), then the exact per-query radius.
+    back as arrays, not Python lists), then the exact per-query radius. A bin that could
+    hold more than :data:`MAX_CANDIDATES` pairs is counted first (``count_neighbors``
+    allocates no pairs) and refused over it.
     """
     if centres.shape[0] == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -181,8 +188,15 @@ def _near(tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
     rows, cols = [], []
     for b in np.unique(bins):  # a few bins of similar radius
         idx = np.flatnonzero(bins == b)
-        found = cKDTree(centres[idx]).sparse_distance_matrix(
-            tree, float(radius[idx].max()), p=p, output_type="ndarray")
+        queries = cKDTree(centres[idx])
+        reach = float(radius[idx].max())
+        if idx.size * tree.n > MAX_CANDIDATES:
+            count = int(queries.count_neighbors(tree, reach, p=p))
+            if count > MAX_CANDIDATES:
+                raise ParameterError("scans", f"{count} candidate (track, plot) pairs in "
+                                     f"one search, more than {MAX_CANDIDATES}: the plots "
+                                     f"are too dense for the gates")
+        found = queries.sparse_distance_matrix(tree, reach, p=p, output_type="ndarray")
         i = idx[found["i"]]
         keep = found["v"] <= radius[i]
         rows.append(i[keep])
