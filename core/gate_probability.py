@@ -244,8 +244,10 @@ def conditional_probability(gate: Gate, geometry: MarkGeometry,
     # panels are then bisected until two rules agree
     inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
     reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
-    edges = _angle_breaks(region.start, region.span, centres, [np.sqrt(lam_min) / reach] * 3,
-                          region.kinks, uniform=4)
+    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
+        width = np.sqrt(lam_min) / reach
+    edges = _angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks,
+                          uniform=4)
     norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
     integral, error = adaptive_panels(
         _conditional_integrand(region, _inverse(geometry.B), rel), edges,
@@ -351,18 +353,21 @@ def _prior_density(dx: np.ndarray, dy: np.ndarray, B: Sym2, R_min: float, R_max:
     lam_min, lam_max, major = _axes(B)
     sigma = np.sqrt(lam_min)[:, None]
     dist = np.hypot(dx, dy)
-    half = np.arcsin(np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None]
-                                / np.maximum(dist, 1e-300)))
-    half = np.where(half < 0.5 * np.pi, half, np.pi)
-    centres = [np.arctan2(dy, dx)]
-    widths = [scale * sigma / np.maximum(dist, max(R_min, 1e-300))]
-    if eccentric:
-        ex, ey = np.cos(major)[:, None], np.sin(major)[:, None]
-        crossings = _ring_features(dx, dy, ex, ey, (R_min, R_max), None)[..., 1:]
-        for k, R in enumerate((R_min, R_min, R_max, R_max)):
-            t = crossings[..., k]
-            centres.append(np.arctan2(dy + t * ey, dx + t * ex))
-            widths.append(np.broadcast_to(scale * sigma / max(R, 1e-300), t.shape))
+    # near the origin (or a vanishing ring) the ratios overflow to inf: every heading
+    # is within reach, and an infinite width grades nothing
+    with np.errstate(over="ignore"):
+        half = np.arcsin(np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None]
+                                    / np.maximum(dist, 1e-300)))
+        half = np.where(half < 0.5 * np.pi, half, np.pi)
+        centres = [np.arctan2(dy, dx)]
+        widths = [scale * sigma / np.maximum(dist, max(R_min, 1e-300))]
+        if eccentric:
+            ex, ey = np.cos(major)[:, None], np.sin(major)[:, None]
+            crossings = _ring_features(dx, dy, ex, ey, (R_min, R_max), None)[..., 1:]
+            for k, R in enumerate((R_min, R_min, R_max, R_max)):
+                t = crossings[..., k]
+                centres.append(np.arctan2(dy + t * ey, dx + t * ex))
+                widths.append(np.broadcast_to(scale * sigma / max(R, 1e-300), t.shape))
     phi_edges = _angle_breaks(centres[0] - half, 2.0 * half, centres, widths, None, uniform=2)
     phi, w_phi = panel_rule(phi_edges, m)
     Q = _column(_inverse(B), 3)
@@ -391,7 +396,7 @@ def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float,
     dist = np.hypot(ox, oy)
     towards = np.arctan2(-oy, -ox)
     centres, widths = [], []
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         for R in (R_min, R_max):
             half = np.arcsin(R / dist)
             centres += [towards + half, towards - half]

@@ -262,6 +262,17 @@ def test_vanishing_prior_ring_is_the_target_at_rest(gate, tau, prior):
     assert abs(res.probability[0] - at_rest) <= TARGET
 
 
+def test_a_mean_at_the_origin_with_a_huge_sigma_holds_P_G_without_overflow():
+    # |v tau| = 0 against sigmas of 10^9 m: the angular widths sigma / |m| overflow to inf
+    # (no grading), which numpy used to warn about (found by the fuzzer)
+    g = mark_geometry(467254430.96, 0.0, 1e9, math.radians(122.6), tau=5e-324)
+    cond = conditional_probability(EllipseGate(0.99), g, [5e-324, 0.0])
+    assert cond.probability[0] == pytest.approx(0.99, abs=1e-12)
+    res = unconditional_probability(EllipseGate(0.99), g, 0.0, 5e-324, "area")
+    assert res.error[0] < TARGET
+    assert abs(res.probability[0] - 0.99) <= TARGET
+
+
 # ---------------------------------------------------------------- Monte Carlo agreement
 
 # The geometries of the Monte Carlo check: near (5 km) and far (80 km), small errors
