@@ -29,6 +29,7 @@ from core.initiation.evaluate import evaluate as core_evaluate
 from core.initiation.simulate import Scenario
 from core.initiation.simulate import simulate as core_simulate
 from core.initiation.state import PLOT_STRIDE
+from service.operations.answers import checked
 from service.operations.gates import _cartesian
 from service.schemas import (
     EvaluateRequest,
@@ -94,6 +95,7 @@ def _tracks(state: InitiationState) -> list[TrackOut]:
     return out
 
 
+@checked
 def initiate(request: InitiateRequest) -> InitiateResult:
     """Run the request's scans through initiation, continuing its state."""
     config = _config(request.config)
@@ -133,6 +135,7 @@ def _azimuth_deg(az: np.ndarray) -> np.ndarray:
     return np.where(np.abs(deg) <= 360.0, deg, np.mod(deg + 180.0, 360.0) - 180.0)
 
 
+@checked
 def simulate(request: SimulateRequest) -> SimulateResult:
     """Seeded scans of a scenario, every plot labelled."""
     sim = core_simulate(_scenario(request.scenario), request.seed)
@@ -145,6 +148,7 @@ def simulate(request: SimulateRequest) -> SimulateResult:
                           truth=sim.truth.tolist())
 
 
+@checked
 def evaluate(request: EvaluateRequest) -> EvaluateResult:
     """Monte Carlo of initiation on a scenario."""
     ev = core_evaluate(_scenario(request.scenario), _config(request.config), request.runs,

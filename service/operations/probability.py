@@ -18,6 +18,7 @@ import numpy as np
 
 import core
 from core import PlotgateError
+from service.operations.answers import checked
 from service.schemas import (
     AreaApproximation,
     FalseMarks,
@@ -124,6 +125,7 @@ def _false_marks(area: np.ndarray, r: float, resolution: Resolution, F: float,
     )
 
 
+@checked
 def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
     """Conditional (seed 000 eq. 2) or unconditional (eq. 3-6) gating probability."""
     gate = _gate(request.gate)
@@ -141,6 +143,7 @@ def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
     )
 
 
+@checked
 def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
     """The probability at every value, in one vectorized core call (seed 000, Fig. 2 and 5)."""
     gate = _gate(request.gate)
@@ -168,6 +171,7 @@ def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
     )
 
 
+@checked
 def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
     """Area, cells, false marks and capture probability P_gate P_D1 P_D2 (seed 000).
 
@@ -195,6 +199,7 @@ def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
                               approximation=approximation, **probabilities)
 
 
+@checked
 def design(request: GateDesignRequest) -> GateDesignResult:
     """The combined gate's P_G or the expanded gate's p reaching the wanted capture."""
     prior = request.prior
