@@ -84,6 +84,9 @@ would reach 1e-5 by a ratio of 14, and with them it stays near 1e-8 at 6-8 times
 the cost."""
 _TAIL = 9.0
 """Standard deviations beyond which a Gaussian's density (< e^-40) is left out."""
+_THIN_NODES = 8
+"""Gauss-Legendre nodes across a prior ring no wider than sigma_min: the Gaussian varies
+by at most one standard deviation across it, and 8 nodes hold the integral to ~1e-12."""
 
 
 @dataclass(frozen=True)
@@ -241,8 +244,10 @@ def conditional_probability(gate: Gate, geometry: MarkGeometry,
     # panels are then bisected until two rules agree
     inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
     reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
-    edges = _angle_breaks(region.start, region.span, centres, [np.sqrt(lam_min) / reach] * 3,
-                          region.kinks, uniform=4)
+    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
+        width = np.sqrt(lam_min) / reach
+    edges = _angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks,
+                          uniform=4)
     norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
     integral, error = adaptive_panels(
         _conditional_integrand(region, _inverse(geometry.B), rel), edges,
@@ -279,6 +284,21 @@ def _prior_weights(prior: str, R_min: float, R_max: float) -> tuple[float, float
     if prior == "speed":
         return 1.0 / (R_max - R_min), 0.0
     return 0.0, 2.0 / (R_max * R_max - R_min * R_min)
+
+
+def _thin_ring_rule(prior: str, R_min: float, R_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes s_j and weights of the prior's integral over a ring thinner than sigma_min.
+
+    Gauss-Legendre in u = (s - R_min) / (R_max - R_min) on [0, 1], where the prior's
+    density is 1 (``"speed"``) or 2 s / (R_max + R_min) (``"area"``): finite and free of
+    cancellation however thin or small the ring (tau or the speeds down to 5e-324),
+    where the closed form's 1 / (R_max^2 - R_min^2) overflows and its moments cancel.
+    """
+    u, w = panel_rule(np.array([0.0, 1.0]), _THIN_NODES)
+    s = R_min + u * (R_max - R_min)
+    if prior == "area":
+        w = w * (2.0 * s / (R_max + R_min))
+    return s, w
 
 
 def _unconditional_chunk(region: StarRegion, B: Sym2, R_min: float, R_max: float,
@@ -333,30 +353,37 @@ def _prior_density(dx: np.ndarray, dy: np.ndarray, B: Sym2, R_min: float, R_max:
     lam_min, lam_max, major = _axes(B)
     sigma = np.sqrt(lam_min)[:, None]
     dist = np.hypot(dx, dy)
-    half = np.arcsin(np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None]
-                                / np.maximum(dist, 1e-300)))
-    half = np.where(half < 0.5 * np.pi, half, np.pi)
-    centres = [np.arctan2(dy, dx)]
-    widths = [scale * sigma / np.maximum(dist, max(R_min, 1e-300))]
-    if eccentric:
-        ex, ey = np.cos(major)[:, None], np.sin(major)[:, None]
-        crossings = _ring_features(dx, dy, ex, ey, (R_min, R_max), None)[..., 1:]
-        for k, R in enumerate((R_min, R_min, R_max, R_max)):
-            t = crossings[..., k]
-            centres.append(np.arctan2(dy + t * ey, dx + t * ex))
-            widths.append(np.broadcast_to(scale * sigma / max(R, 1e-300), t.shape))
+    # near the origin (or a vanishing ring) the ratios overflow to inf: every heading
+    # is within reach, and an infinite width grades nothing
+    with np.errstate(over="ignore"):
+        half = np.arcsin(np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None]
+                                    / np.maximum(dist, 1e-300)))
+        half = np.where(half < 0.5 * np.pi, half, np.pi)
+        centres = [np.arctan2(dy, dx)]
+        widths = [scale * sigma / np.maximum(dist, max(R_min, 1e-300))]
+        if eccentric:
+            ex, ey = np.cos(major)[:, None], np.sin(major)[:, None]
+            crossings = _ring_features(dx, dy, ex, ey, (R_min, R_max), None)[..., 1:]
+            for k, R in enumerate((R_min, R_min, R_max, R_max)):
+                t = crossings[..., k]
+                centres.append(np.arctan2(dy + t * ey, dx + t * ex))
+                widths.append(np.broadcast_to(scale * sigma / max(R, 1e-300), t.shape))
     phi_edges = _angle_breaks(centres[0] - half, 2.0 * half, centres, widths, None, uniform=2)
     phi, w_phi = panel_rule(phi_edges, m)
     Q = _column(_inverse(B), 3)
     ex, ey = np.cos(phi), np.sin(phi)
     mx, my = dx[..., None], dy[..., None]
-    if R_max > R_min:
+    if R_max - R_min > float(sigma.min()):
         c0, c1 = _prior_weights(prior, R_min, R_max)
         M0, M1 = _ray_moments(ex, ey, mx, my, Q, np.float64(R_min), np.float64(R_max))
         kernel = c0 * M0 + c1 * M1 if c1 else c0 * M0
-    else:  # v_min = v_max: the displacement's length is R_max exactly
-        nx, ny = R_max * ex - mx, R_max * ey - my
-        kernel = np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny + Q.yy * ny * ny))
+    else:  # a ring thinner than the Gaussian (v_min = v_max: a circle) is a smooth factor
+        s, w = _thin_ring_rule(prior, R_min, R_max) if R_max > R_min else ([R_max], [1.0])
+        kernel = np.zeros(np.broadcast_shapes(ex.shape, mx.shape))
+        for s_j, w_j in zip(s, w, strict=True):
+            nx, ny = s_j * ex - mx, s_j * ey - my
+            kernel += w_j * np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny
+                                           + Q.yy * ny * ny))
     density: np.ndarray = np.einsum("nkf,nkf->nk", w_phi, kernel)
     return density
 
@@ -369,7 +396,7 @@ def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float,
     dist = np.hypot(ox, oy)
     towards = np.arctan2(-oy, -ox)
     centres, widths = [], []
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         for R in (R_min, R_max):
             half = np.arcsin(R / dist)
             centres += [towards + half, towards - half]

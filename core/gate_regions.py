@@ -270,8 +270,10 @@ class CombinedGate:
         A0 = 0.5 * (Bxx + Byy) / det
         A1 = np.hypot(0.5 * (Byy - Bxx), Bxy) / det
         theta0 = 0.5 * np.arctan2(-Bxy, 0.5 * (Byy - Bxx))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            half = 0.5 * np.arccos((gamma / R_min**2 - A0) / A1) if R_min > 0 else np.nan
+        # numpy division: a subnormal R_min gives gamma / R_min^2 = inf, so no kinks
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            ratio = np.divide(gamma, R_min * R_min) if R_min > 0 else np.nan
+            half = 0.5 * np.arccos((ratio - A0) / A1)
         kinks = theta0[:, None] + np.stack([half, -half, np.pi + half, np.pi - half], axis=-1)
         return _full_turn(n, np.zeros(2), kinks, radii)
 

@@ -134,7 +134,8 @@ async def _validation_problem(request: Request, exc: Exception) -> Response:
 
 
 def _openapi(app: FastAPI) -> dict[str, Any]:
-    """FastAPI's schema plus the request models (routes read raw bodies), problem+json, and
+    """FastAPI's schema plus the request models (routes read raw bodies) with each
+    operation's example body (:data:`service.schemas.examples.EXAMPLES`), problem+json, and
     per operation ``x-plotgate-limits``: the sizes a server may cap and this server's caps
     (null: only the schema's own bounds)."""
     if app.openapi_schema:
@@ -147,6 +148,7 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
         components.update(model.pop("$defs", {}))
         components[op.request.__name__] = model
         post = schema["paths"][op.path]["post"]
+        post["requestBody"]["content"]["application/json"]["example"] = op.endpoint.example
         if op.endpoint.work:
             caps = app.state.settings.limits.get(op.name, {})
             post["x-plotgate-limits"] = {size: caps.get(size) for size in op.endpoint.work}

@@ -24,7 +24,7 @@ from scipy.optimize import linear_sum_assignment
 from core._validate import as_array, as_probability
 from core.errors import ParameterError
 from core.frames import _wrap
-from core.identification.ztest import _sigma
+from core.identification.ztest import MIN_ESTIMATED_SIGMA, _sigma
 
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
 
@@ -129,9 +129,10 @@ def identify_picture(passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | N
     if sigma is None:
         dev = _wrap(pa - mean_p[:, None]) * pv
         s = np.sqrt((dev * dev).sum(1) / (pv.sum(1) - 1))
-        if not (s > 0).all():
+        if not (s >= MIN_ESTIMATED_SIGMA).all():
             raise ParameterError("sigma", "cannot be estimated: a passive track's angles are "
-                                 "all equal", int(np.argmax(~(s > 0))))
+                                 "all equal (to rounding)",
+                                 int(np.argmax(~(s >= MIN_ESTIMATED_SIGMA))))
     else:
         s = np.broadcast_to(as_array("sigma", sigma), mean_p.shape).astype(float)
         if not (s > 0).all():

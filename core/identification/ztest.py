@@ -40,6 +40,7 @@ from core.errors import ParameterError
 from core.frames import _wrap
 
 __all__ = [
+    "MIN_ESTIMATED_SIGMA",
     "ZTest",
     "circular_mean",
     "circular_sigma",
@@ -47,6 +48,11 @@ __all__ = [
     "type_two_error",
     "z_test",
 ]
+
+
+MIN_ESTIMATED_SIGMA = 1e-15
+"""Smallest sigma (rad) estimated from angles: below it the angles differ by rounding
+only (a double near 2 pi is resolved to 9e-16), and Z = d sqrt(m) / sigma could overflow."""
 
 
 def circular_mean(theta: ArrayLike, axis: int = -1) -> np.ndarray:
@@ -128,6 +134,9 @@ def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
         raise ParameterError("delta", "must be non-zero: identical bearings cannot be "
                              "told apart by any number of samples")
     k = (stats.norm.ppf(1 - alpha / 2) + stats.norm.ppf(1 - beta_max)) * sigma / abs(delta)
+    if not abs(k) <= np.sqrt(m_max):  # the approximation alone needs too many (k may be inf)
+        raise ParameterError("beta_max", f"needs more than {m_max} active samples for this "
+                             f"delta, sigma and alpha")
     m = max(1, int(np.floor(k * k)) - 2)
     step = 64
     while m <= m_max:  # bracket by doubling, then the exact smallest m in the bracket
@@ -199,8 +208,9 @@ def _samples(name: str, value: ArrayLike) -> np.ndarray:
 def _sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarray:
     if value is None:
         s = circular_sigma(passive)
-        if not s > 0:
-            raise ParameterError(name, "cannot be estimated: the passive angles are all equal")
+        if not s >= MIN_ESTIMATED_SIGMA:
+            raise ParameterError(name, "cannot be estimated: the passive angles are all equal "
+                                 f"(to rounding: {float(s):.3g} rad)")
         return s
     s = as_array(name, value)
     if s.ndim or not s > 0:

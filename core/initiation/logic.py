@@ -10,8 +10,9 @@ Each scan, in this order:
 
 1. Every track is predicted to the scan time (constant velocity; Kalman with white
    acceleration q, or the alpha-beta smoother whose covariance follows its fixed gains).
-2. Confirmed tracks take plots one to one (scipy's ``linear_sum_assignment`` on the
-   gate statistic). Their plots are not reused by anything else.
+2. Confirmed tracks take plots one to one (a minimum-cost assignment on the gate
+   statistic, solved on the candidate pairs only). Their plots are not reused by
+   anything else.
 3. Tentative tracks take the nearest plot in their gate (several may share one). The
    gate is the chi-square ellipse rho = nu^T S^-1 nu <= gamma (Cartesian) or the polar
    windows (range about the linear extrapolation of the last two ranges, azimuth about
@@ -45,12 +46,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
-from scipy.optimize import linear_sum_assignment
 from scipy.spatial import cKDTree
 
 from core.capture_gates import combined_gate, expanded_gate, ring_gate
 from core.errors import ParameterError
 from core.frames import _wrap
+from core.initiation.assignment import one_to_one
 from core.initiation.config import InitiationConfig
 from core.initiation.scan import Scan
 from core.initiation.sharing import keep_greedy, shares_two
@@ -65,11 +66,16 @@ from core.initiation.state import (
 from core.polar_gates import first_association_gate
 from core.thresholds import expansion_coefficient
 
-__all__ = ["DROP_REASONS", "ScanReport", "initiate"]
+__all__ = ["DROP_REASONS", "MAX_CANDIDATES", "ScanReport", "initiate"]
 
 DROP_REASONS = ("misses", "window", "acceleration", "pruned")
 """Why a track was dropped: l misses in a row; k unreachable within m; the polar
 acceleration check; sharing two or more plots with a confirmed track."""
+MAX_CANDIDATES = 2**24
+"""Most candidate (track or initiator, plot) pairs one search may return (about 400 MB):
+plots so dense that every gate holds hundreds (a thousand targets at one spot) would
+otherwise grow tentative tracks, and their pairs, without bound. Over it the scan is
+refused (ParameterError on ``scans``)."""
 
 
 @dataclass(frozen=True)
@@ -173,7 +179,9 @@ def _near(tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
 
     Queries go in bins of radii within a factor 1.5, each bin one
     ``sparse_distance_matrix`` between a tree of its centres and the points (pairs come
-    back as arrays, not Python lists), then the exact per-query radius.
+    back as arrays, not Python lists), then the exact per-query radius. A bin that could
+    hold more than :data:`MAX_CANDIDATES` pairs is counted first (``count_neighbors``
+    allocates no pairs) and refused over it.
     """
     if centres.shape[0] == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -182,8 +190,15 @@ def _near(tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
     rows, cols = [], []
     for b in np.unique(bins):  # a few bins of similar radius
         idx = np.flatnonzero(bins == b)
-        found = cKDTree(centres[idx]).sparse_distance_matrix(
-            tree, float(radius[idx].max()), p=p, output_type="ndarray")
+        queries = cKDTree(centres[idx])
+        reach = float(radius[idx].max())
+        if idx.size * tree.n > MAX_CANDIDATES:
+            count = int(queries.count_neighbors(tree, reach, p=p))
+            if count > MAX_CANDIDATES:
+                raise ParameterError("scans", f"{count} candidate (track, plot) pairs in "
+                                     f"one search, more than {MAX_CANDIDATES}: the plots "
+                                     f"are too dense for the gates")
+        found = queries.sparse_distance_matrix(tree, reach, p=p, output_type="ndarray")
         i = idx[found["i"]]
         keep = found["v"] <= radius[i]
         rows.append(i[keep])
@@ -345,21 +360,6 @@ def _nearest(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
     return rows[first], cols[first], s[first]
 
 
-def _one_to_one(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A minimum-cost one-to-one choice among the pairs (linear_sum_assignment)."""
-    if rows.size == 0:
-        return rows, cols, s
-    ur, ri = np.unique(rows, return_inverse=True)
-    uc, ci = np.unique(cols, return_inverse=True)
-    big = 1.0 + 2.0 * s.max() * min(ur.size, uc.size)
-    cost = np.full((ur.size, uc.size), big)
-    cost[ri, ci] = s
-    a, b = linear_sum_assignment(cost)
-    ok = cost[a, b] < big
-    return ur[a[ok]], uc[b[ok]], cost[a[ok], b[ok]]
-
-
 # ------------------------------------------------------------------ track bookkeeping
 
 
@@ -425,7 +425,7 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
     used = np.zeros(n, dtype=bool)  # taken by a confirmed track
     rows, cols, s = _track_pairs(tracks, xp, Pp, dt, scan, index, config)
     conf = tracks.confirmed[rows]
-    a, b, c = _one_to_one(rows[conf], cols[conf], s[conf])
+    a, b, c = one_to_one(rows[conf], cols[conf], s[conf])
     assoc[a], stat[a], used[b] = b, c, True
     free = ~conf & ~used[cols]
     a, b, c = _nearest(rows[free], cols[free], s[free])
@@ -586,8 +586,13 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
         if last is not None and scan.t < last:
             raise ParameterError("scans", f"time {scan.t} s is before the previous scan's "
                                  f"{last} s; scans must come in time order", i)
-        with np.errstate(all="ignore"):  # checked below, on the step's result
-            state, report = _step(state, scan, config)
+        try:
+            with np.errstate(all="ignore"):  # checked below, on the step's result
+                state, report = _step(state, scan, config)
+        except ParameterError as exc:  # a scan's own problem: say which scan
+            if exc.field != "scans" or exc.index is not None:
+                raise
+            raise ParameterError("scans", exc.reason, i) from exc
         if not (np.isfinite(state.tracks.x).all() and np.isfinite(state.tracks.P).all()):
             bad = int(np.flatnonzero(~np.isfinite(state.tracks.P).all(axis=(1, 2))
                                      | ~np.isfinite(state.tracks.x).all(axis=1))[0])

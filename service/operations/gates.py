@@ -15,6 +15,7 @@ import numpy as np
 
 import core
 from core import GeometryError, PlotgateError
+from service.operations.answers import checked
 from service.operations.plots import PlotError, plot_arrays
 from service.schemas import (
     MIN_RANGE,
@@ -113,6 +114,7 @@ def _results(gate: Gate, result: core.GateResult) -> GateResults:
     )
 
 
+@checked
 def test(request: GateTestRequest) -> GateResults:
     """Test the first plot against every candidate."""
     z1, P1, s1 = plot_arrays([request.first], lambda _: "first")
@@ -120,6 +122,7 @@ def test(request: GateTestRequest) -> GateResults:
     return _results(request.gate, _gate(request.gate, z1[0], P1[0], s1[0], z2, P2))
 
 
+@checked
 def pairs(request: GatePairsRequest) -> GateResults:
     """Test every (first, second) pair on its own."""
     z1, P1, s1 = plot_arrays([pair.first for pair in request.pairs],

@@ -9,6 +9,7 @@ import numpy as np
 
 from core import PlotgateError
 from core.identification import experiment, identify_picture, sequential, z_test
+from service.operations.answers import checked
 from service.schemas import (
     IdentifyPairRequest,
     IdentifyPairResult,
@@ -26,6 +27,7 @@ def _rad(value: list[float] | float | None) -> np.ndarray | float | None:
     return None if value is None else np.radians(np.asarray(value, dtype=float))
 
 
+@checked
 def pair(request: IdentifyPairRequest) -> IdentifyPairResult:
     """Z-test of one passive and one active track, optionally its decision history."""
     r = request
@@ -63,6 +65,7 @@ def pair_field(request: IdentifyPairRequest, exc: PlotgateError) -> str:
     return _PAIR_FIELDS.get(exc.field, exc.field)
 
 
+@checked
 def picture(request: IdentifyPictureRequest) -> IdentifyPictureResult:
     """Z matrix and one-to-one identification of many tracks."""
     pic = identify_picture([np.radians(t) for t in request.passive_deg],
@@ -83,6 +86,7 @@ def picture_field(request: IdentifyPictureRequest, exc: PlotgateError) -> str:
     return name if exc.index is None else f"{name}[{exc.index}]"
 
 
+@checked
 def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
     """Seed 004's experiment: realized alpha (separation 0) or beta."""
     r = request

@@ -38,6 +38,7 @@ from core.initiation.evaluate import evaluate as core_evaluate
 from core.initiation.simulate import Scenario
 from core.initiation.simulate import simulate as core_simulate
 from core.initiation.state import PLOT_STRIDE
+from service.operations.answers import checked
 from service.operations.plots import PlotError, plot_arrays
 from service.schemas import (
     EvaluateRequest,
@@ -119,6 +120,7 @@ def _answered(state: InitiationState) -> SessionState:
                              "cells), its values within the schema's magnitudes") from None
 
 
+@checked
 def initiate(request: InitiateRequest) -> InitiateResult:
     """Run the request's scans through initiation, continuing its state."""
     config = _config(request.config)
@@ -158,18 +160,27 @@ def _scenario(s: ScenarioIn) -> Scenario:
                     sigma_r=s.sigma_r, sigma_az=np.radians(s.sigma_az_deg))
 
 
+def _azimuth_deg(az: np.ndarray) -> np.ndarray:
+    """Azimuths in degrees, those beyond +-360 (noise of a sigma_az up to 180 degrees
+    added to atan2's (-180, 180]) wrapped to [-180, 180), as a plot takes them."""
+    deg = np.degrees(az)
+    return np.where(np.abs(deg) <= 360.0, deg, np.mod(deg + 180.0, 360.0) - 180.0)
+
+
+@checked
 def simulate(request: SimulateRequest) -> SimulateResult:
     """Seeded scans of a scenario, every plot labelled."""
     sim = core_simulate(_scenario(request.scenario), request.seed)
     scans = [ScanIn(t=s.t, plots=[
-        PolarPlot(frame="polar", r=float(r), az_deg=float(np.degrees(az)),
-                  sigma_r=float(sr), sigma_az_deg=float(np.degrees(sa)), sensor=tuple(c))
-        for r, az, sr, sa, c in zip(s.r, s.az, s.sigma_r, s.sigma_az, s.sensor.tolist(),
-                                    strict=True)]) for s in sim.scans]
+        PolarPlot(frame="polar", r=float(r), az_deg=float(az), sigma_r=float(sr),
+                  sigma_az_deg=float(np.degrees(sa)), sensor=tuple(c))
+        for r, az, sr, sa, c in zip(s.r, _azimuth_deg(s.az), s.sigma_r, s.sigma_az,
+                                    s.sensor.tolist(), strict=True)]) for s in sim.scans]
     return SimulateResult(scans=scans, labels=[lab.tolist() for lab in sim.labels],
                           truth=sim.truth.tolist())
 
 
+@checked
 def evaluate(request: EvaluateRequest) -> EvaluateResult:
     """Monte Carlo of initiation on a scenario."""
     ev = core_evaluate(_scenario(request.scenario), _config(request.config), request.runs,

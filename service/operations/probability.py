@@ -19,6 +19,7 @@ import numpy as np
 
 import core
 from core import PlotgateError
+from service.operations.answers import checked
 from service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
 from service.schemas import (
     AreaApproximation,
@@ -67,6 +68,7 @@ _FIELDS = {
     "m_max": "m_max",
     "dR": "resolution.range",
     "dAz": "resolution.azimuth_deg",
+    "cells": "resolution",
 }
 """Core argument -> request path, for every argument a request feeds core."""
 
@@ -144,6 +146,7 @@ def _false_marks(area: np.ndarray, r: float, resolution: Resolution, F: float,
     )
 
 
+@checked
 def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
     """Conditional (seed 000 eq. 2) or unconditional (eq. 3-6) gating probability."""
     gate = _gate(request.gate)
@@ -161,6 +164,7 @@ def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
     )
 
 
+@checked
 def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
     """The probability at every value, in one vectorized core call (seed 000, Fig. 2 and 5)."""
     gate = _gate(request.gate)
@@ -188,6 +192,7 @@ def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
     )
 
 
+@checked
 def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
     """Area, cells, false marks and capture probability P_gate P_D1 P_D2 (seed 000).
 
@@ -215,6 +220,7 @@ def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
                               approximation=approximation, **probabilities)
 
 
+@checked
 def design(request: GateDesignRequest) -> GateDesignResult:
     """The combined gate's P_G or the expanded gate's p reaching the wanted capture."""
     prior = request.prior

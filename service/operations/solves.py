@@ -34,23 +34,23 @@ with the batch index of the first bad problem or sample; the ``*_field`` functio
 them into request paths such as ``problems[3].receivers`` or ``range_sums[7]``.
 """
 
-import functools
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ValidationError
 from scipy import stats
 
 import core.multistatic as ms
 from core import PlotgateError
 from core.multistatic.model import BASELINE_SIGMAS
+from service.operations.answers import checked
 from service.schemas import (
     AccumulatedBound,
     ClosedFormResult,
     CrlbRequest,
     CrlbResult,
+    FittedState,
     NoiseRequest,
     NoiseResult,
     Platform,
@@ -58,7 +58,6 @@ from service.schemas import (
     PositionSolveRequest,
     PositionSolveResult,
     SingleShotBound,
-    TargetState,
     TrajectorySolveRequest,
     TrajectorySolveResult,
 )
@@ -74,8 +73,6 @@ __all__ = [
     "trajectory_field",
 ]
 
-Req = TypeVar("Req", bound=BaseModel)
-Res = TypeVar("Res", bound=BaseModel)
 
 _CLOSED_FORMS = {"sum_range": ms.sum_range_solve,
                  "difference_range": ms.difference_range_solve}
@@ -118,24 +115,6 @@ def _samples(t: np.ndarray | None, moving: bool) -> Iterator[None]:
         raise
 
 
-def _built(handler: Callable[[Req], Res]) -> Callable[[Req], Res]:
-    """Turn a response model that fails validation (a non-finite number) into a bug.
-
-    The request is validated before the handler runs, so a ``ValidationError`` inside it
-    can only come from the answer; left alone, the registry would report it as bad
-    input (422) instead of the 500 it is.
-    """
-
-    @functools.wraps(handler)
-    def run(request: Req) -> Res:
-        try:
-            return handler(request)
-        except ValidationError as exc:
-            raise RuntimeError(f"{handler.__name__} built an invalid answer: {exc}") from None
-
-    return run
-
-
 def _threshold(alpha: float, dof: int) -> float:
     """chi2.ppf(1 - alpha, dof)."""
     return float(stats.chi2.ppf(1.0 - alpha, dof))
@@ -144,7 +123,7 @@ def _threshold(alpha: float, dof: int) -> float:
 # --------------------------------------------------------------------------- solves.position
 
 
-@_built
+@checked
 def position(request: PositionSolveRequest) -> PositionSolveResult:
     """Maximum-likelihood positions (seed 001 eq. 4, 6), and a closed form on request."""
     problems = request.problems
@@ -291,7 +270,7 @@ def _platform_field(request: Any, field: str) -> str | None:
 # --------------------------------------------------------------------------- solves.trajectory
 
 
-@_built
+@checked
 def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
     """Constant-velocity track by maximum likelihood over all samples (seed 001)."""
     t = np.asarray(request.sample_times, dtype=float)
@@ -307,7 +286,7 @@ def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
     positions, covariances = sol.at(np.asarray(times, dtype=float))
     return TrajectorySolveResult(
         t_ref=sol.t_ref,
-        state=TargetState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
+        state=FittedState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
         covariance=sol.covariance.tolist(),
         residuals=sol.residuals.tolist(),
         cost=sol.cost,
@@ -335,7 +314,7 @@ def trajectory_field(request: TrajectorySolveRequest, exc: PlotgateError) -> str
 # --------------------------------------------------------------------------- solves.crlb
 
 
-@_built
+@checked
 def crlb(request: CrlbRequest) -> CrlbResult:
     """Cramer-Rao bounds (seed 001 eq. 3): single shot per sample, accumulated on a track."""
     t = None if request.sample_times is None else np.asarray(request.sample_times, dtype=float)
@@ -390,7 +369,7 @@ def crlb_field(request: CrlbRequest, exc: PlotgateError) -> str:
 # --------------------------------------------------------------------------- solves.noise
 
 
-@_built
+@checked
 def noise(request: NoiseRequest) -> NoiseResult:
     """Noise of each range-sum series (seed 001 eq. 5) and smoothed coordinates."""
     t = np.asarray(request.sample_times, dtype=float)

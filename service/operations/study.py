@@ -17,7 +17,8 @@ import numpy as np
 
 from core import PlotgateError
 from core.multistatic.study import accuracy_study
-from service.operations.solves import _built, _platform, _samples
+from service.operations.answers import checked
+from service.operations.solves import _platform, _samples
 from service.schemas import StudyRequest, StudyResult, StudySample
 
 __all__ = ["study", "study_field"]
@@ -32,7 +33,7 @@ def _scalars(a: np.ndarray) -> list[float | None]:
     return [None if np.isnan(v) else float(v) for v in a]
 
 
-@_built
+@checked
 def study(request: StudyRequest) -> StudyResult:
     """Seed 001 Fig. 3 curves 1-6 and their diagnostics, by seeded Monte Carlo."""
     t = np.asarray(request.sample_times, dtype=float)

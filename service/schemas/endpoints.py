@@ -4,12 +4,15 @@ Clients read this table to call the service without importing it; the registry
 (:mod:`service.registry`) binds each endpoint to its handler.
 """
 
+import copy
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from pydantic import BaseModel
 
+from service.schemas.examples import EXAMPLES
 from service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
 from service.schemas.identification import (
     IdentifyPairRequest,
@@ -36,6 +39,7 @@ from service.schemas.probability import (
     GateProbabilityCurveRequest,
     GateProbabilityRequest,
     GateProbabilityResult,
+    unconditional_axis_ratio,
 )
 from service.schemas.solves import (
     CrlbRequest,
@@ -57,7 +61,9 @@ class Endpoint:
     """One operation as seen from the wire.
 
     ``work`` names the sizes of a request an operator may cap per operation (plots per
-    scan, problems per batch, Monte Carlo runs, curve points...). ``slow`` marks an
+    scan, problems per batch, Monte Carlo runs, curve points, mean clutter plots per
+    simulated scan, the axis ratio of the marks' error ellipse that sets the cost of an
+    unconditional gating probability...). ``slow`` marks an
     operation that may compute for seconds (unconditional
     probabilities, curves, gate design) or for more than ~50 ms at its size limits
     (the multistatic solves and bounds): the server runs it off the event loop and
@@ -78,6 +84,11 @@ class Endpoint:
     def tag(self) -> str:
         return self.name.split(".")[0]
 
+    @property
+    def example(self) -> dict[str, Any]:
+        """A small valid request body (:data:`service.schemas.examples.EXAMPLES`), a copy."""
+        return copy.deepcopy(EXAMPLES[self.name])
+
 
 ENDPOINTS: dict[str, Endpoint] = {
     e.name: e
@@ -95,22 +106,26 @@ ENDPOINTS: dict[str, Endpoint] = {
             "Probability that the second mark falls in a gate, for a known velocity or over "
             "a speed prior",
             GateProbabilityRequest, GateProbabilityResult, slow=True,
+            work={"mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
             "gates.probability_curve", "/v1/gates/probability/curve",
             "Gating probability against target speed or the first mark's range",
             GateProbabilityCurveRequest, GateProbabilityCurve, slow=True,
-            work={"values": lambda r: len(r.values)},
+            work={"values": lambda r: len(r.values),
+                  "mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
             "gates.analysis", "/v1/gates/analysis",
             "Gate area, resolution cells, false marks and capture probability",
             GateAnalysisRequest, GateAnalysisResult, slow=True,
+            work={"mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
             "gates.design", "/v1/gates/design",
             "Size a combined or expanded gate for a wanted capture probability",
             GateDesignRequest, GateDesignResult, slow=True,
+            work={"mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
             "solves.position", "/v1/solves/position",
@@ -164,7 +179,8 @@ ENDPOINTS: dict[str, Endpoint] = {
             "initiation.evaluate", "/v1/initiation/evaluate",
             "Monte Carlo of track initiation: targets initiated, false tracks",
             EvaluateRequest, EvaluateResult, slow=True,
-            work={"runs": lambda r: r.runs},
+            work={"runs": lambda r: r.runs, "scenario.scans": lambda r: r.scenario.scans,
+                  "scenario.clutter": lambda r: math.ceil(r.scenario.clutter)},
         ),
         Endpoint(
             "identification.pair", "/v1/identification/pair",

@@ -13,7 +13,9 @@ Operations:
   beta).
 
 Angles are degrees on the wire (``*_deg``), any value in [-720, 720]; differences are
-wrapped, so 359 and 1 degree are 2 degrees apart.
+wrapped, so 359 and 1 degree are 2 degrees apart. Levels (``alpha``, ``beta_max``,
+``normality_alpha``) lie in [1e-12, 1) and sigmas in [1e-6, 180] degrees, so critical
+values and Z stay finite.
 """
 
 from typing import Annotated, Any, Literal
@@ -44,8 +46,12 @@ MAX_SIMULATED_SAMPLES = 50_000_000
 
 Angle = Annotated[float, Field(ge=-720, le=720)]
 Samples = Annotated[list[Angle], Field(min_length=2, max_length=MAX_TRACK_SAMPLES)]
-Level = Annotated[float, Field(gt=0, lt=1)]
-Sigma = Annotated[float, Field(gt=0, le=180)]
+Level = Annotated[float, Field(ge=1e-12, lt=1)]
+"""A level or error probability in [1e-12, 1): below 1e-12 the critical value
+z_{1 - level/2} is as good as infinite (1 - level/2 rounds to 1 near 1e-16)."""
+Sigma = Annotated[float, Field(ge=1e-6, le=180)]
+"""A sigma in degrees, [1e-6, 180] as the plots' sigma_az_deg: much smaller, Z = d sqrt(m) /
+sigma would overflow double precision."""
 
 
 class IdentifyPairRequest(Schema):
@@ -55,24 +61,27 @@ class IdentifyPairRequest(Schema):
         description="Passive bearings, degrees (the population: n >= 2, n >> m).")
     active_bearings_deg: Samples = Field(description="Active bearings, degrees (m >= 2).")
     sigma_deg: Sigma | None = Field(
-        default=None, description="Bearing sigma of the population, degrees; null: "
-        "estimated from the passive bearings.")
-    alpha: Level = Field(default=0.05, description="Level of the two-sided test.")
+        default=None, description="Bearing sigma of the population, degrees, in [1e-6, "
+        "180]; null: estimated from the passive bearings.")
+    alpha: Level = Field(default=0.05,
+                         description="Level of the two-sided test, in [1e-12, 1).")
     passive_elevations_deg: Samples | None = Field(
         default=None, description="Passive elevations, degrees (with active ones).")
     active_elevations_deg: Samples | None = Field(
         default=None, description="Active elevations, degrees (with passive ones).")
     sigma_elevation_deg: Sigma | None = Field(
-        default=None, description="Elevation sigma, degrees; null: estimated.")
+        default=None, description="Elevation sigma, degrees, in [1e-6, 180]; null: "
+        "estimated.")
     delta_deg: Annotated[float, Field(gt=0, le=180)] | None = Field(
         default=None, description="Smallest bearing separation of two objects, degrees: "
         "gives beta.")
     beta_max: Level | None = Field(
-        default=None, description="Wanted type II error: gives m_required (needs delta_deg).")
+        default=None, description="Wanted type II error, in [1e-12, 1): gives m_required "
+        "(needs delta_deg).")
     ratio: float = Field(default=10.0, gt=1, le=1e6,
                          description="The n / m that counts as 'n much larger than m'.")
-    normality_alpha: Level = Field(default=0.05,
-                                   description="Level of the Shapiro-Wilk normality check.")
+    normality_alpha: Level = Field(
+        default=0.05, description="Level of the Shapiro-Wilk normality check, in [1e-12, 1).")
     sequential: bool = Field(default=False,
                              description="Also return the decision after each active sample.")
 
@@ -120,9 +129,9 @@ class IdentifyPictureRequest(Schema):
     passive_deg: Tracks = Field(description="Bearings of each passive track, degrees.")
     active_deg: Tracks = Field(description="Bearings of each active track, degrees.")
     sigma_deg: Sigma | Annotated[list[Sigma], Field(max_length=MAX_TRACKS)] | None = Field(
-        default=None, description="Bearing sigma: one for all, one per passive track, or "
-        "null (estimated per passive track).")
-    alpha: Level = Field(default=0.05, description="Level of each pair's test.")
+        default=None, description="Bearing sigma, degrees, each in [1e-6, 180]: one for "
+        "all, one per passive track, or null (estimated per passive track).")
+    alpha: Level = Field(default=0.05, description="Level of each pair's test, in [1e-12, 1).")
 
     @model_validator(mode="after")
     def _size(self) -> "IdentifyPictureRequest":
@@ -159,7 +168,8 @@ class IdentifySimulateRequest(Schema):
 
     n: int = Field(default=50, ge=2, le=MAX_TRACK_SAMPLES, description="Passive samples.")
     m: int = Field(default=5, ge=2, le=MAX_TRACK_SAMPLES, description="Active samples.")
-    sigma_deg: Sigma = Field(default=1.0, description="Passive bearing sigma, degrees.")
+    sigma_deg: Sigma = Field(default=1.0,
+                             description="Passive bearing sigma, degrees, in [1e-6, 180].")
     separation_deg: Annotated[float, Field(ge=-180, le=180)] = Field(
         default=0.0, description="Active object's bearing minus the passive one's: 0 "
         "measures the type I error, else the type II error.")
@@ -170,7 +180,7 @@ class IdentifySimulateRequest(Schema):
         "or normal with sigma.")
     estimate_sigma: bool = Field(default=False,
                                  description="Estimate sigma from each passive sample.")
-    alpha: Level = Field(default=0.05, description="Level of the test.")
+    alpha: Level = Field(default=0.05, description="Level of the test, in [1e-12, 1).")
     runs: int = Field(default=10_000, ge=1, le=10_000_000, description="Monte Carlo runs.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1, description="Seed.")
 

@@ -16,13 +16,15 @@ Operations:
 Angles on the wire are degrees (``*_deg``); everything else SI.
 """
 
-from typing import Annotated, Literal
+import math
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
 from service.schemas.common import (
     MAX_DISTANCE,
     MAX_PLOTS,
+    Loc,
     Plot,
     Position,
     Schema,
@@ -52,6 +54,8 @@ MAX_SCANS = 1000
 """Most scans of one initiate call or one simulated scenario."""
 MAX_EVALUATION_PLOTS = 5_000_000
 """Most plots an evaluation may simulate: runs x scans x (clutter + targets)."""
+MAX_SPEED = 1e6
+"""Largest |velocity component| of a simulated target, m/s."""
 
 class InitiationSettings(Schema):
     """The rules of initiation (defaults: Cartesian logic, ring capture 2/2, 3/4, l = 2)."""
@@ -91,10 +95,10 @@ class InitiationSettings(Schema):
     confirm_m: int = Field(default=4, ge=1, le=100, description="Confirmation m of k/m.")
     drop_misses: int = Field(default=2, ge=1, le=100,
                              description="l of k/m - l: misses in a row that drop a track.")
-    K_R: float | None = Field(default=None, gt=0, le=100,
+    K_R: float | None = Field(default=None, ge=0.01, le=100,
                               description="Polar range-window coefficient; null: from "
                               "gate_P_G.")
-    K_az: float | None = Field(default=None, gt=0, le=100,
+    K_az: float | None = Field(default=None, ge=0.01, le=100,
                                description="Polar azimuth-window coefficient; null: from "
                                "gate_P_G.")
     a_max: float = Field(default=10.0, gt=0, le=1e4,
@@ -173,11 +177,16 @@ class InitiateResult(Schema):
     tracks: list[TrackOut] = Field(description="The live tracks after the last scan.")
 
 
+Speed = Annotated[float, Field(ge=-MAX_SPEED, le=MAX_SPEED)]
+Coordinate = Annotated[float, Field(ge=-MAX_DISTANCE, le=MAX_DISTANCE)]
+
+
 class TargetIn(Schema):
     """A constant-velocity target."""
 
     position: Position = Field(description="Position at the first scan, m.")
-    velocity: tuple[float, float] = Field(description="Velocity [vx, vy], m/s.")
+    velocity: tuple[Speed, Speed] = Field(
+        description="Velocity [vx, vy], m/s; |component| <= 1e6.")
 
 
 class ScenarioIn(Schema):
@@ -192,17 +201,45 @@ class ScenarioIn(Schema):
     P_D: float = Field(default=0.8, ge=0, le=1, description="Detection probability.")
     clutter: float = Field(default=20.0, ge=0, le=MAX_PLOTS,
                            description="Mean clutter plots per scan (Poisson).")
-    region: tuple[float, float, float, float] = Field(
+    region: tuple[Coordinate, Coordinate, Coordinate, Coordinate] = Field(
         default=(0.0, 15000.0, 0.0, 15000.0),
-        description="Clutter rectangle (x_min, x_max, y_min, y_max), m.")
+        description="Clutter rectangle (x_min, x_max, y_min, y_max), m; |coordinate| <= 1e9.")
     sensor: Position = Field(default=(0.0, 0.0), description="Radar position, m.")
-    sigma_r: float = Field(default=5.0, gt=0, le=MAX_DISTANCE, description="Range sigma, m.")
-    sigma_az_deg: float = Field(default=0.2, gt=0, le=180,
-                                description="Azimuth sigma, degrees.")
+    sigma_r: float = Field(default=5.0, ge=1e-3, le=MAX_DISTANCE,
+                           description="Range sigma, m, from 1 mm (as a plot's).")
+    sigma_az_deg: float = Field(default=0.2, ge=1e-6, le=180,
+                                description="Azimuth sigma, degrees, from 1e-6 (as a plot's).")
 
     def plots(self) -> float:
         """Expected plots of the whole scenario (for the work limits)."""
         return self.scans * (self.clutter + len(self.targets))
+
+    @model_validator(mode="after")
+    def _in_reach(self) -> "ScenarioIn":
+        """Every plot the scenario draws must be one a plot schema takes: within 1e9 m of
+        the sensor. A target's range is largest at its first or last scan (it moves in a
+        straight line) and must leave 10 sigma_r for the noise (a draw beyond has
+        probability 1e-23); the clutter rectangle's farthest corner must be within reach."""
+        sx, sy = self.sensor
+        x_min, x_max, y_min, y_max = self.region
+        far = max(math.hypot(x - sx, y - sy) for x in (x_min, x_max) for y in (y_min, y_max))
+        errors: list[tuple[Loc, str, Any]] = []
+        if far > MAX_DISTANCE:
+            errors.append((("region",), f"reaches {far:.6g} m from the sensor; plots must lie "
+                           f"within {MAX_DISTANCE:g} m of it", list(self.region)))
+        span = self.interval * (self.scans - 1)
+        for i, target in enumerate(self.targets):
+            (x, y), (vx, vy) = target.position, target.velocity
+            reach = max(math.hypot(x - sx, y - sy),
+                        math.hypot(x + vx * span - sx, y + vy * span - sy))
+            if reach + 10.0 * self.sigma_r > MAX_DISTANCE:
+                errors.append((("targets", i), f"is {reach:.6g} m from the sensor within the "
+                               f"scans; with 10 sigma_r of noise its plots must stay within "
+                               f"{MAX_DISTANCE:g} m", None))
+                break
+        if errors:
+            raise invalid("ScenarioIn", errors)
+        return self
 
 
 class SimulateRequest(Schema):

@@ -18,6 +18,7 @@ needs for each ``against``; the value-count limits) are model validators that an
 naming the offending field.
 """
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
@@ -52,6 +53,7 @@ __all__ = [
     "SectorRegion",
     "SpeedPrior",
     "Velocity",
+    "unconditional_axis_ratio",
 ]
 
 MAX_CURVE_POINTS = 1000
@@ -168,6 +170,19 @@ class Mark(Schema):
         description="The second mark's azimuth sigma, degrees; null: equal to the first's.",
     )
 
+    def axis_ratio(self, r: float | None = None) -> float:
+        """sqrt(lambda_max / lambda_min) of B = P1 + P2, the covariance of z2 - z1.
+
+        Both marks are seen at range ``r`` (default the mark's own), so B has
+        sigma_r^2 + sigma_r2^2 along the line of sight and r^2 (sigma_az^2 + sigma_az2^2)
+        across it (DESIGN section 2's Jacobian): those are its eigenvalues.
+        """
+        r = self.r if r is None else r
+        along = self.sigma_r**2 + (self.sigma_r if self.sigma_r2 is None else self.sigma_r2)**2
+        az2 = self.sigma_az_deg if self.sigma_az2_deg is None else self.sigma_az2_deg
+        across = (r * math.radians(self.sigma_az_deg))**2 + (r * math.radians(az2))**2
+        return math.sqrt(max(along, across) / min(along, across))
+
 
 class Velocity(Schema):
     """A known target velocity: v = speed (sin course, cos course), x east, y north."""
@@ -191,8 +206,15 @@ class SpeedPrior(Schema):
 class Resolution(Schema):
     """The radar's resolution: a cell is range x (R azimuth) at the first mark's range R."""
 
-    range: float = Field(gt=0, le=MAX_DISTANCE, description="Range resolution dR, m.")
-    azimuth_deg: float = Field(gt=0, le=360, description="Azimuth resolution dAz, degrees.")
+    range: float = Field(
+        ge=1e-3, le=MAX_DISTANCE,
+        description="Range resolution dR, m, at least 1 mm (as sigma_r): finer, a gate's "
+        "S / (dR R dAz) resolution cells could overflow double precision.",
+    )
+    azimuth_deg: float = Field(
+        ge=1e-6, le=360,
+        description="Azimuth resolution dAz, degrees, at least 1e-6 (as sigma_az_deg).",
+    )
 
 
 class GateProbabilityRequest(Schema):
@@ -391,3 +413,22 @@ class GateDesignResult(Schema):
     area: float = Field(description="Gate area, m^2.")
     cells: float = Field(description="Resolution cells S' it covers.")
     false_marks: FalseMarks = Field(description="False marks in the gate (m_max = 5).")
+
+
+def unconditional_axis_ratio(
+    request: GateProbabilityRequest | GateProbabilityCurveRequest | GateAnalysisRequest
+    | GateDesignRequest,
+) -> int:
+    """The work size ``mark.axis_ratio``: the largest axis ratio of B (rounded up) over the
+    request's unconditional probabilities, 1 when it asks for none.
+
+    The unconditional quadrature grades its panels towards the thin features of an
+    eccentric B, so its cost grows steeply with the ratio (about 0.1 s at 2, seconds at
+    20, minutes at 10^3 and beyond; ``bench/README.md``); conditional probabilities and
+    areas cost milliseconds at any ratio.
+    """
+    if request.prior is None:
+        return 1
+    ranges = (request.values if isinstance(request, GateProbabilityCurveRequest)
+              and request.against == "range" else [request.mark.r])
+    return math.ceil(max(request.mark.axis_ratio(r) for r in ranges))

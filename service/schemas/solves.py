@@ -48,6 +48,7 @@ __all__ = [
     "ClosedFormResult",
     "CrlbRequest",
     "CrlbResult",
+    "FittedState",
     "NoiseRequest",
     "NoiseResult",
     "Platform",
@@ -228,6 +229,14 @@ class TargetState(Schema):
 
     position: Point = Field(description="Position at the reference time, m.")
     velocity: VelocityVector = Field(description="Velocity, m/s.")
+
+
+class FittedState(Schema):
+    """A fitted constant-velocity state, as found: a fit to inconsistent range sums may lie
+    outside the bounds a request's :class:`TargetState` keeps (it is still finite)."""
+
+    position: list[float] = Field(description="Position at the reference time, m.")
+    velocity: list[float] = Field(description="Velocity, m/s.")
 
 
 def _platform_rules(
@@ -525,7 +534,7 @@ class TrajectorySolveResult(Schema):
     """The fitted track and the position (with covariance) at the requested times."""
 
     t_ref: float = Field(description="Reference time of the state: sample_times[0], s.")
-    state: TargetState = Field(description="Position at t_ref (m) and velocity (m/s).")
+    state: FittedState = Field(description="Position at t_ref (m) and velocity (m/s).")
     covariance: list[list[float]] = Field(
         description="Covariance of (x0, v), 2D x 2D: m^2, m^2/s and m^2/s^2 blocks."
     )

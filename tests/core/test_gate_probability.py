@@ -180,8 +180,11 @@ def test_ring_gate_conditional_isotropic_is_rice(sigma_r, speed):
 @pytest.mark.parametrize("prior", ["speed", "area"])
 @pytest.mark.parametrize(("sigma_r", "v_min", "v_max"), [(150.0, 100.0, 500.0),
                                                          (40.0, 20.0, 100.0),
-                                                         (600.0, 0.0, 300.0)],
-                         ids=["paper-speeds", "slow-small", "from-zero-large"])
+                                                         (600.0, 0.0, 300.0),
+                                                         (400.0, 100.0, 200.0),
+                                                         (600.0, 0.0, 100.0)],
+                         ids=["paper-speeds", "slow-small", "from-zero-large",
+                              "ring-thinner-than-sigma", "disc-smaller-than-sigma"])
 def test_ring_gate_unconditional_isotropic_is_rice_average(sigma_r, v_min, v_max, prior):
     # heading is irrelevant for isotropic B; average the Rice ring probability over the
     # speed prior: density 1 / (v_max - v_min) ("speed") or 2 v / (v_max^2 - v_min^2) ("area")
@@ -225,6 +228,49 @@ def test_point_prior_is_heading_average_of_conditional(gate, speed):
         assert res.error[0] < TARGET
         assert abs(res.probability[0] - ref) <= TARGET
         assert abs(res.probability[0] - ref) <= 2.0 * res.error[0] + 1e-8
+
+
+@pytest.mark.parametrize("prior", ["speed", "area"])
+@pytest.mark.parametrize("tau", [1e-9, 1e-100])
+def test_vanishing_ring_gate_holds_its_area_times_the_density(tau, prior):
+    # R_max = 500 tau << s: the density of d ~ N(x, s^2 I) is 1 / (2 pi s^2) to 1e-15 over
+    # the gate and wherever x lies, so P = pi (R_max^2 - R_min^2) / (2 pi s^2); the closed
+    # form's 1 / (R_max^2 - R_min^2) overflows at such tau (ZeroDivisionError below 1e-160)
+    g = mark_geometry(30e3, 0.8, 150.0, 150.0 / 30e3, tau=tau)  # B = 2 (150 m)^2 I
+    s = math.sqrt(2.0) * 150.0
+    R_min, R_max = 100.0 * tau, 500.0 * tau
+    res = unconditional_probability(RingGate(100.0, 500.0), g, 100.0, 500.0, prior)
+    assert res.probability[0] == pytest.approx((R_max**2 - R_min**2) / (2.0 * s * s),
+                                               rel=1e-9)
+
+
+@pytest.mark.parametrize("prior", ["speed", "area"])
+@pytest.mark.parametrize("tau", [1e-9, 1e-160, 5e-324])
+@pytest.mark.parametrize("gate", [EllipseGate(0.9), SectorGate(3.0, 3.0),
+                                  CombinedGate(100.0, 500.0, 0.9)],
+                         ids=["ellipse", "sector", "combined"])
+def test_vanishing_prior_ring_is_the_target_at_rest(gate, tau, prior):
+    # tau -> 0 shrinks the prior's ring onto z1: the probability tends to the conditional
+    # one of a target at rest (P_G for the ellipse centred on z1 and for the combined
+    # gate, whose ring shrinks too); it used to be 0, negative or above 1 below tau 1e-9
+    g = mark_geometry(50e3, 0.0, 200.0, math.radians(0.5), tau=tau)  # the paper's marks
+    at_rest = conditional_probability(gate, g, [0.0, 0.0]).probability[0]
+    if not isinstance(gate, SectorGate):
+        assert at_rest == pytest.approx(0.9, abs=1e-9)  # the ring is 5e-7 m wide at 1e-9
+    res = unconditional_probability(gate, g, 100.0, 500.0, prior)
+    assert res.error[0] < TARGET
+    assert abs(res.probability[0] - at_rest) <= TARGET
+
+
+def test_a_mean_at_the_origin_with_a_huge_sigma_holds_P_G_without_overflow():
+    # |v tau| = 0 against sigmas of 10^9 m: the angular widths sigma / |m| overflow to inf
+    # (no grading), which numpy used to warn about (found by the fuzzer)
+    g = mark_geometry(467254430.96, 0.0, 1e9, math.radians(122.6), tau=5e-324)
+    cond = conditional_probability(EllipseGate(0.99), g, [5e-324, 0.0])
+    assert cond.probability[0] == pytest.approx(0.99, abs=1e-12)
+    res = unconditional_probability(EllipseGate(0.99), g, 0.0, 5e-324, "area")
+    assert res.error[0] < TARGET
+    assert abs(res.probability[0] - 0.99) <= TARGET
 
 
 # ---------------------------------------------------------------- Monte Carlo agreement

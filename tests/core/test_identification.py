@@ -144,6 +144,11 @@ def test_sequential_decisions_are_the_prefix_tests():
     ({"passive_elevation": [0.1, 0.2, 0.3]}, ParameterError, "active_elevation"),
     ({"beta_max": 0.05}, ParameterError, "beta_max"),
     ({"delta": 0.0, "beta_max": 0.05}, ParameterError, "delta"),
+    # m ~ ((z_a + z_b) sigma / delta)^2 overflows: refused, not an OverflowError
+    ({"delta": 1e-300, "beta_max": 0.05}, ParameterError, "beta_max"),
+    ({"delta": 1e-6, "beta_max": 0.05}, ParameterError, "beta_max"),
+    # angles equal to rounding: a sigma of 5e-324 would make Z infinite
+    ({"passive": [0.0, 5e-324, 0.0]}, ParameterError, "sigma"),
 ])
 def test_bad_input_is_named(kwargs, error, field):
     args = {"passive": [0.1, 0.2, 0.15], "active": [0.12, 0.14]}
@@ -163,3 +168,6 @@ def test_bad_pictures_are_named():
     with pytest.raises(ParameterError) as info:
         identify_picture([[0.1, 0.1]], [[0.1, 0.2]])
     assert info.value.field == "sigma"
+    with pytest.raises(ParameterError) as info:
+        identify_picture([[0.1, 0.2], [0.0, 1e-300]], [[0.1, 0.2]])
+    assert info.value.field == "sigma" and info.value.index == 1

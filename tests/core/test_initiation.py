@@ -14,6 +14,7 @@ from core.initiation import (
     cartesian_scan,
     empty_state,
     initiate,
+    logic,
     polar_scan,
     state_from_json,
 )
@@ -170,6 +171,20 @@ def test_confirmed_tracks_take_plots_one_to_one():
     state, (report,) = initiate(state, [vague], CONFIG)
     assert report.associated.tolist() in ([0], [1])
     assert sorted(state.tracks.misses.tolist()) == [0, 1]
+
+
+def test_plots_too_dense_for_the_gates_are_refused_naming_the_scan(monkeypatch):
+    # 30 plots at one spot: 30 initiators x 30 plots = 900 capture pairs in scan 1; with
+    # at most 500 pairs a search (10^9 pairs for 1000 such plots would exhaust memory)
+    monkeypatch.setattr(logic, "MAX_CANDIDATES", 500)
+    z = np.full((30, 2), 5000.0)
+    scans = [cartesian_scan(float(t), z, np.broadcast_to(R4, (30, 2, 2))) for t in range(3)]
+    with pytest.raises(ParameterError) as info:
+        initiate(None, scans, CONFIG)
+    assert info.value.field == "scans" and info.value.index == 1
+    assert "900 candidate" in info.value.reason
+    # 20 plots (400 pairs) pass
+    initiate(None, [cartesian_scan(s.t, s.z[:20], s.R[:20]) for s in scans[:2]], CONFIG)
 
 
 def test_candidate_search_finds_exactly_the_brute_force_gate_members():

@@ -116,7 +116,8 @@ def test_operators_cap_work_per_operation(tmp_path):
         single = c.post("/v1/gates/test", json=dict(one, candidates=[one["first"]]))
         assert single.status_code == 200
         spec = c.get("/openapi.json").json()["paths"]
-        assert spec["/v1/initiation/evaluate"]["post"]["x-plotgate-limits"] == {"runs": 10}
+        assert spec["/v1/initiation/evaluate"]["post"]["x-plotgate-limits"] == {
+            "runs": 10, "scenario.scans": None, "scenario.clutter": None}
         assert spec["/v1/gates/pairs"]["post"]["x-plotgate-limits"] == {"pairs": None}
     for bad in ({"no.such": {"runs": 1}}, {"initiation.evaluate": {"plots": 1}},
                 {"initiation.evaluate": {"runs": 0}}):

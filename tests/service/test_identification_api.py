@@ -75,6 +75,19 @@ def test_bad_identification_input_is_named(client):
     invalid_input(post("/v1/identification/simulate", {"runs": 10_000_000}), "runs")
 
 
+@pytest.mark.parametrize(("changes", "field"), [
+    ({"alpha": 1e-13}, "alpha"),  # z_{1 - alpha/2} would be infinite
+    ({"normality_alpha": 5e-324}, "normality_alpha"),
+    ({"sigma_deg": 1e-7}, "sigma_deg"),  # Z = d sqrt(m) / sigma would overflow
+    ({"delta_deg": 1e-300, "beta_max": 0.05}, "beta_max"),  # m needed overflows
+    ({"delta_deg": 1e-3, "beta_max": 1e-12}, "beta_max"),
+    ({"passive_bearings_deg": [0.0, 5e-324, 0.0]}, "sigma_deg"),  # equal to rounding
+])
+def test_levels_and_sigmas_are_bounded_so_z_stays_finite(client, changes, field):
+    pair = {"passive_bearings_deg": PASSIVE.tolist(), "active_bearings_deg": ACTIVE.tolist()}
+    invalid_input(client.post("/v1/identification/pair", json={**pair, **changes}), field)
+
+
 def test_session_records_and_replays(settings, tmp_path):
     pair = {"passive_bearings_deg": PASSIVE.tolist(), "active_bearings_deg": ACTIVE.tolist()}
     with TestClient(create_app(settings)) as c:

@@ -12,12 +12,16 @@ from clients import AsyncClient
 from clients.cli import main
 from clients.recordings import read_recording
 from core.initiation import InitiationConfig, initiate
-from core.initiation.simulate import seed_002_scenario, simulate
+from core.initiation.simulate import Scenario, seed_002_scenario, simulate
 from service.app import create_app
 from service.schemas import ENDPOINTS, MAX_PLOTS
 from tests.conftest import answer, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0, "a_max": 10.0, "K_A": 3.0}
+
+
+def _simulated_body(client, body: dict) -> dict:
+    return answer(client.post("/v1/initiation/simulate", json=body))
 
 
 def _simulated(client, clutter=250.0, seed=3, scans=4) -> dict:
@@ -102,6 +106,43 @@ def test_evaluate_answers_the_means(client):
         "scenario": {"clutter": 0, "P_D": 1.0}, "config": POLAR, "runs": 3, "seed": 1}))
     assert body["mean_true"] == 5.0 and body["mean_false"] == 0.0
     assert body["confirmable"] == 5.0 and body["mean_time_to_confirmation"] == 2.0
+
+
+def test_scenario_plots_stay_within_a_plots_bounds(client):
+    # a target within 10 sigma_r of 1e9 m, or one that leaves that reach by its last scan, or
+    # clutter beyond it, would draw plots no plot schema takes: refused, naming the part
+    far = {"targets": [{"position": [0.0, 999_999_990.0], "velocity": [0.0, 0.0]}]}
+    invalid_input(client.post("/v1/initiation/simulate", json={"scenario": far}),
+                  "scenario.targets[0]")
+    leaving = {"targets": [{"position": [0.0, 1000.0], "velocity": [1e6, 0.0]}],
+               "interval": 1e3, "scans": 3}
+    invalid_input(client.post("/v1/initiation/evaluate", json={"scenario": leaving}),
+                  "scenario.targets[0]")
+    wide = {"region": [-1e9, 1e9, -1e9, 1e9]}
+    invalid_input(client.post("/v1/initiation/simulate", json={"scenario": wide}),
+                  "scenario.region")
+    for field, value in (("sigma_r", 1e-4), ("sigma_az_deg", 1e-7)):
+        invalid_input(client.post("/v1/initiation/simulate",
+                                  json={"scenario": {field: value}}), f"scenario.{field}")
+    fast = {"targets": [{"position": [0.0, 1000.0], "velocity": [2e6, 0.0]}]}
+    invalid_input(client.post("/v1/initiation/simulate", json={"scenario": fast}),
+                  "scenario.targets[0].velocity[0]")
+
+
+def test_simulated_azimuths_are_wrapped_into_a_plots_range(client):
+    # azimuth noise of 180 degrees throws az + noise far past +-360: wrapped, the same plot
+    body = {"scenario": {"sigma_az_deg": 180.0, "clutter": 0.0, "P_D": 1.0, "scans": 50},
+            "seed": 5}
+    sim = _simulated_body(client, body)
+    plots = [p for scan in sim["scans"] for p in scan["plots"]]
+    assert all(-360.0 <= p["az_deg"] <= 360.0 for p in plots)
+    core_sim = simulate(Scenario(**{**vars(seed_002_scenario(0.0, 50)), "P_D": 1.0,
+                                    "sigma_az": np.radians(180.0)}), 5)
+    az = np.concatenate([s.az for s in core_sim.scans])
+    assert (np.abs(np.degrees(az)) > 360.0).any()  # the case is exercised
+    np.testing.assert_allclose(np.radians([p["az_deg"] for p in plots]) % (2 * np.pi),
+                               az % (2 * np.pi), rtol=0, atol=1e-12)
+    answer(client.post("/v1/initiation/initiate", json={"scans": sim["scans"]}))
 
 
 def test_session_records_and_replays(settings, tmp_path):

@@ -17,7 +17,8 @@ import core
 from clients.cli import main
 from clients.recordings import read_recording
 from service.app import create_app
-from service.schemas import MAX_CURVE_POINTS, MAX_UNCONDITIONAL_POINTS
+from service.config import Settings
+from service.schemas import MAX_CURVE_POINTS, MAX_UNCONDITIONAL_POINTS, Mark
 from tests.conftest import answer, invalid_input
 
 TAU = 5.0
@@ -360,6 +361,48 @@ def test_numerically_singular_mark(client):
     body = _curve(against="range", values=[5e4, 1e8], speed=200.0,
                   mark=dict(mark, r=5e4))
     invalid_input(client.post("/v1/gates/probability/curve", json=body), "values[1]")
+
+
+# --- the unconditional quadrature's work: the axis ratio of B ---------------------------
+
+
+@pytest.mark.parametrize(("r", "sigma_r", "sigma_az_deg", "sigma_r2", "sigma_az2_deg"), [
+    (50_000.0, 200.0, 0.5, None, None), (50_000.0, 1e-3, 0.5, 20.0, None),
+    (1.0, 200.0, 1e-6, None, 3.0), (1e9, 5.0, 180.0, 1e9, 1e-6)])
+def test_axis_ratio_is_that_of_cores_B(r, sigma_r, sigma_az_deg, sigma_r2, sigma_az2_deg):
+    mark = Mark(r=r, az_deg=33.0, sigma_r=sigma_r, sigma_az_deg=sigma_az_deg,
+                sigma_r2=sigma_r2, sigma_az2_deg=sigma_az2_deg)
+    g = core.mark_geometry(r, math.radians(33.0), sigma_r, math.radians(sigma_az_deg), TAU,
+                           sigma_r2, None if sigma_az2_deg is None
+                           else math.radians(sigma_az2_deg))
+    B = np.array([[g.B.xx[0], g.B.xy[0]], [g.B.xy[0], g.B.yy[0]]])
+    lam = np.linalg.eigvalsh(B)  # exact enough below a ratio of ~1e6
+    if lam[0] > 1e-12 * lam[1]:
+        assert mark.axis_ratio() == pytest.approx(math.sqrt(lam[1] / lam[0]), rel=1e-6)
+    along = sigma_r**2 + (sigma_r if sigma_r2 is None else sigma_r2)**2
+    assert mark.axis_ratio()**2 == pytest.approx(max(along, np.trace(B) - along)
+                                                 / min(along, np.trace(B) - along), rel=1e-6)
+
+
+def test_operators_cap_the_axis_ratio_of_unconditional_probabilities(tmp_path):
+    limits = {name: {"mark.axis_ratio": 10} for name in
+              ("gates.probability", "gates.probability_curve", "gates.analysis",
+               "gates.design")}
+    thin = dict(MARK, sigma_r=1.0)  # B: 617 m by 1.4 m sigmas, a ratio of 437: minutes
+    with TestClient(create_app(Settings(log_dir=tmp_path, limits=limits))) as c:
+        body = invalid_input(c.post("/v1/gates/probability", json={
+            "gate": RING, "mark": thin, "tau": TAU, "prior": AREA}), "mark.axis_ratio")
+        assert "is 437; this server allows at most 10" in body["detail"]
+        invalid_input(c.post("/v1/gates/design", json=_design(mark=thin)), "mark.axis_ratio")
+        invalid_input(c.post("/v1/gates/analysis", json=_analysis(mark=thin, prior=AREA)),
+                      "mark.axis_ratio")
+        # conditional probabilities and areas cost milliseconds at any ratio: not capped
+        answer(c.post("/v1/gates/probability", json=_probability(mark=thin)))
+        answer(c.post("/v1/gates/analysis", json=_analysis(mark=thin)))
+        answer(c.post("/v1/gates/probability/curve", json=_curve(mark=thin)))
+        spec = c.get("/openapi.json").json()["paths"]
+        assert spec["/v1/gates/design"]["post"]["x-plotgate-limits"] == {
+            "mark.axis_ratio": 10}
 
 
 # --- recording and replay --------------------------------------------------------------

@@ -327,6 +327,23 @@ def test_trajectory_moving_platforms_2d(client):
     assert np.trace(body["covariances"][2]) > np.trace(body["covariances"][1])
 
 
+def test_trajectory_fit_outside_the_request_bounds_is_answered(client):
+    # one range sum of 1e10 m among sums of ~1e4 m: the fit lands beyond the 1e9 m and
+    # 1e6 m/s a request's TargetState allows; it is finite, answered (not consistent),
+    # and equals core's (it used to fail the answer's validation: a 500)
+    example = ENDPOINTS["solves.trajectory"].example
+    example["range_sums"][0][0] = 1e10
+    body = answer(client.post("/v1/solves/trajectory", json=example))
+    _finite(body)
+    assert not body["consistent"]
+    assert max(np.abs(body["state"]["position"]).max() / 1e9,
+               np.abs(body["state"]["velocity"]).max() / 1e6) > 1.0
+    t = np.array(example["sample_times"])
+    sol = trajectory_solve(np.array(example["range_sums"]), t, [0.0, 0.0],
+                           [r["position"] for r in example["receivers"]], 0.5)
+    np.testing.assert_allclose(body["state"]["position"], sol.position, rtol=1e-9)
+
+
 def test_trajectory_per_sample_platforms_3d(client):
     t = np.arange(8.0)
     x0, v = [3000.0, 4000.0, 2000.0], [50.0, 60.0, -5.0]
