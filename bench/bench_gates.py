@@ -22,7 +22,7 @@ from collections.abc import Callable
 import numpy as np
 import scipy
 
-from core import (
+from plotgate.core import (
     combined_gate,
     ellipse_gate,
     expanded_gate,
@@ -85,17 +85,25 @@ def main() -> None:
         ("ring_gate", lambda: ring_gate(z1, z2, 5.0, 100.0, 500.0)),
         ("expanded_gate", lambda: expanded_gate(z1, z2, 5.0, 500.0, sigma_r, sigma_az, 0.9)),
         ("rectangular_gate", lambda: rectangular_gate(z2, z1, sigma_r, sigma_r, 2.0)),
-        ("sector_gate", lambda: sector_gate(r2, az2, r1, az1, sigma_r, sigma_az, sigma_r,
-                                            sigma_az, 3.0, 3.0)),
-        ("first_association_gate", lambda: first_association_gate(
-            r1, az1, r2, az2, 5.0, 500.0, sigma_r, sigma_az, sigma_r, sigma_az, 3.0, 3.0)),
+        (
+            "sector_gate",
+            lambda: sector_gate(r2, az2, r1, az1, sigma_r, sigma_az, sigma_r, sigma_az, 3.0, 3.0),
+        ),
+        (
+            "first_association_gate",
+            lambda: first_association_gate(
+                r1, az1, r2, az2, 5.0, 500.0, sigma_r, sigma_az, sigma_r, sigma_az, 3.0, 3.0
+            ),
+        ),
     ]
     rates = {name: N / best_time(run) for name, run in cases}
     baseline = rates[cases[0][0]]
 
-    print(f"N = {N:,} pairs, best of {REPEATS}, seed {SEED}; Python {platform.python_version()},"
-          f" numpy {np.__version__}, scipy {scipy.__version__}, {os.cpu_count()} CPUs"
-          f" ({platform.machine()})\n")
+    print(
+        f"N = {N:,} pairs, best of {REPEATS}, seed {SEED}; Python {platform.python_version()},"
+        f" numpy {np.__version__}, scipy {scipy.__version__}, {os.cpu_count()} CPUs"
+        f" ({platform.machine()})\n"
+    )
     print("| gate | best time (ms) | pair tests / s | vs solve baseline |")
     print("|---|---:|---:|---:|")
     for name, rate in rates.items():

@@ -19,23 +19,23 @@ r, az : range (m) and azimuth, clockwise from north: x = r sin az, y = r cos az.
 K_R, K_az : window coefficients of the polar sector gates.
 """
 
-from core.capture_gates import combined_gate, expanded_gate, ring_gate
-from core.covariance import MAX_CONDITION, check_covariance
-from core.errors import (
+from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
+from plotgate.core.covariance import MAX_CONDITION, check_covariance
+from plotgate.core.errors import (
     CovarianceError,
     GeometryError,
     NonFiniteError,
     ParameterError,
     PlotgateError,
 )
-from core.frames import (
+from plotgate.core.frames import (
     cartesian_covariance_to_polar,
     cartesian_to_polar,
     polar_covariance_to_cartesian,
     polar_to_cartesian,
     wrap_angle,
 )
-from core.gate_analysis import (
+from plotgate.core.gate_analysis import (
     FalseMarks,
     GateDesign,
     capture_probability,
@@ -45,13 +45,13 @@ from core.gate_analysis import (
     gate_area,
     resolution_cells,
 )
-from core.gate_probability import (
+from plotgate.core.gate_probability import (
     GateProbability,
     conditional_probability,
     monte_carlo_probability,
     unconditional_probability,
 )
-from core.gate_regions import (
+from plotgate.core.gate_regions import (
     CombinedGate,
     EllipseGate,
     ExpandedGate,
@@ -64,10 +64,10 @@ from core.gate_regions import (
     StarRegion,
     mark_geometry,
 )
-from core.gating import GateResult, GateStage
-from core.polar_gates import first_association_gate, sector_gate
-from core.thresholds import expansion_coefficient, gate_threshold, rectangular_coefficient
-from core.tracking_gates import ellipse_gate, innovation_covariance, rectangular_gate
+from plotgate.core.gating import GateResult, GateStage
+from plotgate.core.polar_gates import first_association_gate, sector_gate
+from plotgate.core.thresholds import expansion_coefficient, gate_threshold, rectangular_coefficient
+from plotgate.core.tracking_gates import ellipse_gate, innovation_covariance, rectangular_gate
 
 __all__ = [
     "MAX_CONDITION",

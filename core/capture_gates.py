@@ -5,7 +5,7 @@ the ring gate of Fig. 1 (R_min = v_min tau, R_max = v_max tau, area eq. 5), the
 expanded ellipse gate of its ref. [4] (Fig. 3, delta X(Y) = K_g sigma_X(Y)) and the
 two-stage combined gate of Fig. 4 (ring, else the chi-square ellipse of eq. 1 with
 B = P1 + P2 centred on the nearest circle). Symbols and batching as in
-:mod:`core.gating`.
+:mod:`plotgate.core.gating`.
 """
 
 from __future__ import annotations
@@ -13,10 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._sym2 import largest_eigenvalue, quadratic_form, sym2
-from core._validate import as_covariance, as_points, first_index, pair_count
-from core.errors import GeometryError
-from core.gating import (
+from plotgate.core.errors import GeometryError
+from plotgate.core.gating import (
     GateResult,
     GateStage,
     _difference,
@@ -26,13 +24,13 @@ from core.gating import (
     _ring_radii,
     _sigma,
 )
+from plotgate.core.sym2 import largest_eigenvalue, quadratic_form, sym2
+from plotgate.core.validation import as_covariance, as_points, first_index, pair_count
 
 __all__ = ["combined_gate", "expanded_gate", "ring_gate"]
 
 
-def ring_gate(
-    z1: ArrayLike, z2: ArrayLike, tau: float, v_min: float, v_max: float
-) -> GateResult:
+def ring_gate(z1: ArrayLike, z2: ArrayLike, tau: float, v_min: float, v_max: float) -> GateResult:
     """Ring capture gate: the distance travelled must fit the speed bounds.
 
     .. math:: R_{min} \\le |\\mathbf{z}_2 - \\mathbf{z}_1| \\le R_{max}, \\quad
@@ -105,7 +103,7 @@ def expanded_gate(
 
     with :math:`\\sigma_X = \\sigma_r`, :math:`\\sigma_Y = r_1\\sigma_{az}`,
     :math:`r_1 = |\\mathbf{z}_1 - \\mathbf{s}|` and
-    :math:`K_g = \\sqrt{-2\\ln(1-p)}` (:func:`core.thresholds.expansion_coefficient`).
+    :math:`K_g = \\sqrt{-2\\ln(1-p)}` (:func:`plotgate.core.thresholds.expansion_coefficient`).
 
     Parameters
     ----------
@@ -166,14 +164,20 @@ def expanded_gate(
     sigma_r = _sigma("sigma_r", sigma_r)
     sigma_az = _sigma("sigma_az", sigma_az)
     K_g = _expansion_coefficient(p)
-    n = pair_count(z1=z1.shape[:-1], z2=z2.shape[:-1], sensor=sensor.shape[:-1],
-                   sigma_r=sigma_r.shape, sigma_az=sigma_az.shape)
+    n = pair_count(
+        z1=z1.shape[:-1],
+        z2=z2.shape[:-1],
+        sensor=sensor.shape[:-1],
+        sigma_r=sigma_r.shape,
+        sigma_az=sigma_az.shape,
+    )
     los_x, los_y = _difference(sensor, z1)
     r1 = np.sqrt(los_x * los_x + los_y * los_y)
     at_sensor = r1 == 0.0
     if at_sensor.any():
-        raise GeometryError("z1", "is at the sensor, so the line of sight is undefined",
-                            first_index(at_sensor))
+        raise GeometryError(
+            "z1", "is at the sensor, so the line of sight is undefined", first_index(at_sensor)
+        )
     e_x, e_y = los_x / r1, los_y / r1
     dx, dy = _difference(z1, z2)
     d_X = (dx * e_x + dy * e_y) / (R_max + K_g * sigma_r)

@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import (
+from plotgate.core.errors import GeometryError
+from plotgate.core.validation import (
     as_array,
     as_covariance,
     as_points,
@@ -27,7 +28,6 @@ from core._validate import (
     require_nonnegative,
     require_positive,
 )
-from core.errors import GeometryError
 
 __all__ = [
     "cartesian_covariance_to_polar",
@@ -221,8 +221,7 @@ def polar_covariance_to_cartesian(
     require_nonnegative("r", r)
     require_positive("sigma_r", sigma_r)
     require_positive("sigma_az", sigma_az)
-    shape = broadcast_batch(r=r.shape, az=az.shape, sigma_r=sigma_r.shape,
-                            sigma_az=sigma_az.shape)
+    shape = broadcast_batch(r=r.shape, az=az.shape, sigma_r=sigma_r.shape, sigma_az=sigma_az.shape)
     s, c = np.sin(az), np.cos(az)
     var_r = sigma_r * sigma_r
     var_t = (r * sigma_az) ** 2  # cross-range variance
@@ -284,8 +283,9 @@ def cartesian_covariance_to_polar(xy: ArrayLike, P: ArrayLike) -> np.ndarray:
     r = np.hypot(x, y)
     at_origin = r == 0.0
     if at_origin.any():
-        raise GeometryError("xy", "is at the sensor (r = 0), where azimuth is undefined",
-                            first_index(at_origin))
+        raise GeometryError(
+            "xy", "is at the sensor (r = 0), where azimuth is undefined", first_index(at_origin)
+        )
     s, c = x / r, y / r
     sc, ss, cc = s * c, s * s, c * c
     P_polar = np.empty((*shape, 2, 2))

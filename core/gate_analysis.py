@@ -20,8 +20,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import optimize, stats
 
-from core._quadrature import adaptive_panels, breakpoints, panel_rule
-from core._validate import (
+from plotgate.core.errors import ParameterError
+from plotgate.core.gate_probability import Prior, _unconditional, unconditional_probability
+from plotgate.core.gate_regions import CombinedGate, ExpandedGate, Gate, MarkGeometry
+from plotgate.core.gating import _gate_threshold, _ring_radii
+from plotgate.core.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.validation import (
     as_array,
     as_probability,
     as_scalar,
@@ -29,10 +33,6 @@ from core._validate import (
     require_positive,
     require_scalar,
 )
-from core.errors import ParameterError
-from core.gate_probability import Prior, _unconditional, unconditional_probability
-from core.gate_regions import CombinedGate, ExpandedGate, Gate, MarkGeometry
-from core.gating import _gate_threshold, _ring_radii
 
 _SEARCH_RULE = (6, 1.0)
 
@@ -52,22 +52,28 @@ def gate_area(gate: Gate, geometry: MarkGeometry) -> np.ndarray:
     """Area of the gate, m^2, for each of N problems.
 
     The half integral of hi^2 - lo^2 over the gate's directions (its
-    :class:`~core.gate_regions.StarRegion`), on Gauss-Legendre panels split at the
+    :class:`~plotgate.core.gate_regions.StarRegion`), on Gauss-Legendre panels split at the
     boundary's kinks and bisected until two rules agree to 1e-12 of the area; exact to
     rounding for every gate kind (the ring, ellipse, expanded, rectangular and sector
     areas have closed forms the tests compare with).
 
     Examples
     --------
-    >>> from core.gate_regions import RingGate, mark_geometry
+    >>> from plotgate.core.gate_regions import RingGate, mark_geometry
     >>> g = mark_geometry(50e3, 0.0, 200.0, np.radians(0.5), tau=5.0)
     >>> bool(np.isclose(gate_area(RingGate(100.0, 500.0), g)[0], np.pi * (2500**2 - 500**2)))
     True
     """
     region = gate.region(geometry)
-    edges = breakpoints(region.start, region.start + region.span,
-                        np.empty((geometry.n, 0)), np.empty((geometry.n, 0)), region.kinks,
-                        periodic=True, uniform=16)
+    edges = breakpoints(
+        region.start,
+        region.start + region.span,
+        np.empty((geometry.n, 0)),
+        np.empty((geometry.n, 0)),
+        region.kinks,
+        periodic=True,
+        uniform=16,
+    )
 
     def half_difference(rows: np.ndarray | slice, theta: np.ndarray) -> np.ndarray:
         lo, hi = region.radii(theta, rows)
@@ -144,8 +150,10 @@ def false_marks(cells: ArrayLike, F: float, m_max: int = 5) -> FalseMarks:
 
 def capture_probability(P_gate: ArrayLike, P_D1: ArrayLike, P_D2: ArrayLike) -> np.ndarray:
     """P = P_gate P_D1 P_D2: both marks detected and the second gated (seed 000)."""
-    probs = [as_array(name, value) for name, value in
-             (("P_gate", P_gate), ("P_D1", P_D1), ("P_D2", P_D2))]
+    probs = [
+        as_array(name, value)
+        for name, value in (("P_gate", P_gate), ("P_D1", P_D1), ("P_D2", P_D2))
+    ]
     for name, p in zip(("P_gate", "P_D1", "P_D2"), probs, strict=True):
         if not ((p >= 0) & (p <= 1)).all():
             raise ParameterError(name, f"must lie in [0, 1], got {p.tolist()}")
@@ -221,20 +229,32 @@ def design_gate(
 
     def gated(x: float) -> float:
         # the search runs on a cheaper rule (error ~1e-7); the answer is re-evaluated fully
-        return float(_unconditional(replace(gate, **{field: x}), geometry, R_min, R_max,
-                                    prior, _SEARCH_RULE)[0])
+        return float(
+            _unconditional(
+                replace(gate, **{field: x}), geometry, R_min, R_max, prior, _SEARCH_RULE
+            )[0]
+        )
 
     wanted = capture / detection
     lo, hi = 1e-9, 1.0 - 1e-12
     first_stage = gated(lo)
     if first_stage >= wanted:
-        raise ParameterError("capture", f"{capture} is reached with {field} -> 0: the "
-                             f"gate's first stage alone gives {first_stage * detection:.6f}")
+        raise ParameterError(
+            "capture",
+            f"{capture} is reached with {field} -> 0: the "
+            f"gate's first stage alone gives {first_stage * detection:.6f}",
+        )
     if gated(hi) <= wanted:
         raise ParameterError("capture", f"{capture} needs {field} above {hi}")
     x = float(optimize.brentq(lambda t: gated(t) - wanted, lo, hi, xtol=tol))
     designed = replace(gate, **{field: x})
     result = unconditional_probability(designed, geometry, v_min, v_max, prior)
     p = float(result.probability[0])
-    return GateDesign(designed, x, p, float(result.error[0]), p * detection,
-                      float(gate_area(designed, geometry)[0]))
+    return GateDesign(
+        designed,
+        x,
+        p,
+        float(result.error[0]),
+        p * detection,
+        float(gate_area(designed, geometry)[0]),
+    )

@@ -10,7 +10,7 @@ The second mark is d = z2 - z1 ~ N(v tau, B) about the first (seed 000, eq. 1), 
   ``prior="speed"`` makes the speed uniform.
 
 Both are computed by deterministic quadrature in the gate's polar coordinates
-(:class:`core.gate_regions.StarRegion`). Along a ray o + t u the Gaussian has a
+(:class:`plotgate.core.gate_regions.StarRegion`). Along a ray o + t u the Gaussian has a
 closed-form integral (DESIGN section 4),
 
 .. math:: \\int_{t_1}^{t_2} t^k e^{-q(t)/2} dt, \\quad
@@ -21,7 +21,7 @@ with erf and exp only (:func:`_ray_moments`). The conditional probability is the
 a 1-D integral over direction; the unconditional one integrates the gate's
 directions and radii and the prior's heading, with the prior's speed in closed form.
 Every integral uses composite Gauss-Legendre panels graded towards its thin features
-(:mod:`core._quadrature`): the Gaussian's angular peak, the kinks of the gate's
+(:mod:`plotgate.core.quadrature`): the Gaussian's angular peak, the kinks of the gate's
 boundary, and the edges of the prior's ring. The conditional probability bisects its
 panels until a 10-point and a 5-point rule agree to 1e-10 and reports the sum of their
 differences (the error of the lower order: a bound in practice). The unconditional
@@ -44,12 +44,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import ndtr
 
-from core._quadrature import adaptive_panels, breakpoints, panel_rule
-from core._sym2 import Sym2
-from core._validate import as_points, pair_count
-from core.errors import ParameterError
-from core.gate_regions import Gate, MarkGeometry, StarRegion
-from core.gating import _ring_radii
+from plotgate.core.errors import ParameterError
+from plotgate.core.gate_regions import Gate, MarkGeometry, StarRegion
+from plotgate.core.gating import _ring_radii
+from plotgate.core.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.sym2 import Sym2
+from plotgate.core.validation import as_points, pair_count
 
 __all__ = [
     "GateProbability",
@@ -123,8 +123,13 @@ def _axes(B: Sym2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _ray_moments(
-    ux: np.ndarray, uy: np.ndarray, mx: np.ndarray, my: np.ndarray, Q: Sym2,
-    t1: np.ndarray, t2: np.ndarray,
+    ux: np.ndarray,
+    uy: np.ndarray,
+    mx: np.ndarray,
+    my: np.ndarray,
+    Q: Sym2,
+    t1: np.ndarray,
+    t2: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """M_k = integral over t in [t1, t2] of t^k exp(-q(t)/2), k = 0, 1.
 
@@ -174,11 +179,22 @@ def _ray_moments(
 
 
 def _angle_breaks(
-    start: np.ndarray, span: np.ndarray, centres: list[np.ndarray], widths: list[np.ndarray],
-    kinks: np.ndarray | None, uniform: int,
+    start: np.ndarray,
+    span: np.ndarray,
+    centres: list[np.ndarray],
+    widths: list[np.ndarray],
+    kinks: np.ndarray | None,
+    uniform: int,
 ) -> np.ndarray:
-    return breakpoints(start, start + span, np.stack(centres, axis=-1),
-                       np.stack(widths, axis=-1), kinks, periodic=True, uniform=uniform)
+    return breakpoints(
+        start,
+        start + span,
+        np.stack(centres, axis=-1),
+        np.stack(widths, axis=-1),
+        kinks,
+        periodic=True,
+        uniform=uniform,
+    )
 
 
 def _conditional_integrand(region: StarRegion, Q: Sym2, rel: np.ndarray) -> Callable:
@@ -187,15 +203,17 @@ def _conditional_integrand(region: StarRegion, Q: Sym2, rel: np.ndarray) -> Call
     def integrand(rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
         lo, hi = region.radii(theta, rows)
         Qr = Sym2(*(x[rows][:, None] for x in Q))
-        _, M1 = _ray_moments(np.cos(theta), np.sin(theta), rel[rows, :1], rel[rows, 1:], Qr,
-                             lo, hi)
+        _, M1 = _ray_moments(
+            np.cos(theta), np.sin(theta), rel[rows, :1], rel[rows, 1:], Qr, lo, hi
+        )
         return M1
 
     return integrand
 
 
-def conditional_probability(gate: Gate, geometry: MarkGeometry,
-                            velocity: ArrayLike) -> GateProbability:
+def conditional_probability(
+    gate: Gate, geometry: MarkGeometry, velocity: ArrayLike
+) -> GateProbability:
     """Probability that the second mark falls in the gate for a known velocity (eq. 2).
 
     .. math:: P = \\iint_{gate} \\mathcal N(\\mathbf d;\\, \\mathbf v\\tau, \\mathbf B)
@@ -204,7 +222,7 @@ def conditional_probability(gate: Gate, geometry: MarkGeometry,
     Parameters
     ----------
     gate : Gate
-        A gate of :mod:`core.gate_regions`.
+        A gate of :mod:`plotgate.core.gate_regions`.
     geometry : MarkGeometry
         N problems (first mark, sigmas, tau).
     velocity : (2,) or (N, 2) array_like
@@ -224,7 +242,7 @@ def conditional_probability(gate: Gate, geometry: MarkGeometry,
     --------
     The chi-square ellipse centred on the mean holds exactly P_G:
 
-    >>> from core.gate_regions import EllipseGate, mark_geometry
+    >>> from plotgate.core.gate_regions import EllipseGate, mark_geometry
     >>> g = mark_geometry(20e3, 0.3, 150.0, 0.004, tau=4.0)
     >>> res = conditional_probability(EllipseGate(0.9, offset=(800.0, 0.0)), g, [200.0, 0.0])
     >>> round(float(res.probability[0]), 10), bool(res.error[0] < 1e-6)
@@ -246,17 +264,25 @@ def conditional_probability(gate: Gate, geometry: MarkGeometry,
     reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
     with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
         width = np.sqrt(lam_min) / reach
-    edges = _angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks,
-                          uniform=4)
+    edges = _angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
     norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
     integral, error = adaptive_panels(
-        _conditional_integrand(region, _inverse(geometry.B), rel), edges,
-        _CONDITIONAL_TOL * norm, orders=M_CONDITIONAL)
+        _conditional_integrand(region, _inverse(geometry.B), rel),
+        edges,
+        _CONDITIONAL_TOL * norm,
+        orders=M_CONDITIONAL,
+    )
     return GateProbability(integral / norm, error / norm)
 
 
-def _ring_features(ox: np.ndarray, oy: np.ndarray, ux: np.ndarray, uy: np.ndarray,
-                   radii: tuple[float, float], minor: np.ndarray | None) -> np.ndarray:
+def _ring_features(
+    ox: np.ndarray,
+    oy: np.ndarray,
+    ux: np.ndarray,
+    uy: np.ndarray,
+    radii: tuple[float, float],
+    minor: np.ndarray | None,
+) -> np.ndarray:
     """Distances along rays o + t u to the edges of the blurred prior ring (NaN: none).
 
     The ray's closest approach to z1, its crossings of the circles |x| = R, and, for an
@@ -301,9 +327,15 @@ def _thin_ring_rule(prior: str, R_min: float, R_max: float) -> tuple[np.ndarray,
     return s, w
 
 
-def _unconditional_chunk(region: StarRegion, B: Sym2, R_min: float, R_max: float,
-                         prior: str, rule: tuple[int, float], theta_edges: np.ndarray,
-                         ) -> np.ndarray:
+def _unconditional_chunk(
+    region: StarRegion,
+    B: Sym2,
+    R_min: float,
+    R_max: float,
+    prior: str,
+    rule: tuple[int, float],
+    theta_edges: np.ndarray,
+) -> np.ndarray:
     """Integral over the gate of the prior-averaged density, for a chunk of problems."""
     m, scale = rule
     lam_min, lam_max, major = _axes(B)
@@ -333,15 +365,25 @@ def _unconditional_chunk(region: StarRegion, B: Sym2, R_min: float, R_max: float
     block = max(1, _BLOCK // n)
     for first in range(0, T * R, block):
         cols = slice(first, first + block)
-        density[:, cols] = _prior_density(dx[:, cols], dy[:, cols], B, R_min, R_max, prior, m,
-                                          scale, eccentric)
+        density[:, cols] = _prior_density(
+            dx[:, cols], dy[:, cols], B, R_min, R_max, prior, m, scale, eccentric
+        )
     radial = np.einsum("ntr,ntr->nt", w_rho * rho, density.reshape(n, T, R))
     total = np.einsum("nt,nt->n", w_theta, radial)
     return total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
 
 
-def _prior_density(dx: np.ndarray, dy: np.ndarray, B: Sym2, R_min: float, R_max: float,
-                   prior: str, m: int, scale: float, eccentric: bool) -> np.ndarray:
+def _prior_density(
+    dx: np.ndarray,
+    dy: np.ndarray,
+    B: Sym2,
+    R_min: float,
+    R_max: float,
+    prior: str,
+    m: int,
+    scale: float,
+    eccentric: bool,
+) -> np.ndarray:
     """2 pi |B|^1/2 (2 pi) g(d) at (n, K) points d: the heading integral of the prior's
     closed-form radial integral of N(s e_phi; d, B).
 
@@ -356,8 +398,9 @@ def _prior_density(dx: np.ndarray, dy: np.ndarray, B: Sym2, R_min: float, R_max:
     # near the origin (or a vanishing ring) the ratios overflow to inf: every heading
     # is within reach, and an infinite width grades nothing
     with np.errstate(over="ignore"):
-        half = np.arcsin(np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None]
-                                    / np.maximum(dist, 1e-300)))
+        half = np.arcsin(
+            np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None] / np.maximum(dist, 1e-300))
+        )
         half = np.where(half < 0.5 * np.pi, half, np.pi)
         centres = [np.arctan2(dy, dx)]
         widths = [scale * sigma / np.maximum(dist, max(R_min, 1e-300))]
@@ -382,14 +425,14 @@ def _prior_density(dx: np.ndarray, dy: np.ndarray, B: Sym2, R_min: float, R_max:
         kernel = np.zeros(np.broadcast_shapes(ex.shape, mx.shape))
         for s_j, w_j in zip(s, w, strict=True):
             nx, ny = s_j * ex - mx, s_j * ey - my
-            kernel += w_j * np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny
-                                           + Q.yy * ny * ny))
+            kernel += w_j * np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny + Q.yy * ny * ny))
     density: np.ndarray = np.einsum("nkf,nkf->nk", w_phi, kernel)
     return density
 
 
-def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float,
-                 scale: float = 1.0) -> np.ndarray:
+def _theta_edges(
+    region: StarRegion, B: Sym2, R_min: float, R_max: float, scale: float = 1.0
+) -> np.ndarray:
     """Gate-direction panels: kinks, plus the tangents to the prior ring from an outer origin."""
     lam_min, _, major = _axes(B)
     ox, oy = region.origin[:, 0], region.origin[:, 1]
@@ -410,8 +453,9 @@ def _theta_edges(region: StarRegion, B: Sym2, R_min: float, R_max: float,
         widths += [width] * 4
     full = bool((region.span >= 2.0 * np.pi).all())
     widths = [scale * w for w in widths]
-    return _angle_breaks(region.start, region.span, centres, widths, region.kinks,
-                         uniform=8 if full else 2)
+    return _angle_breaks(
+        region.start, region.span, centres, widths, region.kinks, uniform=8 if full else 2
+    )
 
 
 def _validate_prior(prior: str) -> None:
@@ -443,7 +487,7 @@ def unconditional_probability(
     Parameters
     ----------
     gate : Gate
-        A gate of :mod:`core.gate_regions`.
+        A gate of :mod:`plotgate.core.gate_regions`.
     geometry : MarkGeometry
         N problems.
     v_min, v_max : float
@@ -467,8 +511,14 @@ def unconditional_probability(
     return GateProbability(high, np.abs(high - low))
 
 
-def _unconditional(gate: Gate, geometry: MarkGeometry, R_min: float, R_max: float,
-                   prior: str, rule: tuple[int, float]) -> np.ndarray:
+def _unconditional(
+    gate: Gate,
+    geometry: MarkGeometry,
+    R_min: float,
+    R_max: float,
+    prior: str,
+    rule: tuple[int, float],
+) -> np.ndarray:
     """The unconditional probability with one rule of :data:`RULES`, problem by problem.
 
     Each problem is one vectorized 3-D quadrature of 10^5-10^6 nodes. Problems are not
@@ -480,8 +530,7 @@ def _unconditional(gate: Gate, geometry: MarkGeometry, R_min: float, R_max: floa
         part = geometry.take(slice(i, i + 1))
         region = gate.region(part)
         theta_edges = _theta_edges(region, part.B, R_min, R_max, rule[1])
-        out[i] = _unconditional_chunk(region, part.B, R_min, R_max, prior, rule,
-                                      theta_edges)[0]
+        out[i] = _unconditional_chunk(region, part.B, R_min, R_max, prior, rule, theta_edges)[0]
     return out
 
 
@@ -519,12 +568,14 @@ def monte_carlo_probability(
             x = np.broadcast_to(v[i] * geometry.tau, (samples, 2))
         else:
             u = rng.random(samples)
-            s = (np.sqrt(R_min**2 + u * (R_max**2 - R_min**2)) if prior == "area"
-                 else R_min + u * (R_max - R_min))
+            s = (
+                np.sqrt(R_min**2 + u * (R_max**2 - R_min**2))
+                if prior == "area"
+                else R_min + u * (R_max - R_min)
+            )
             heading = rng.uniform(0.0, 2.0 * np.pi, samples)
             x = np.stack([s * np.cos(heading), s * np.sin(heading)], axis=-1)
         B = np.array([[geometry.B.xx[i], geometry.B.xy[i]], [geometry.B.xy[i], geometry.B.yy[i]]])
         w = rng.standard_normal((samples, 2)) @ np.linalg.cholesky(B).T
         p[i] = gate.contains(geometry, i, geometry.z1[i] + x + w).mean()
     return p, np.sqrt(p * (1.0 - p) / samples)
-

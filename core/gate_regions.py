@@ -7,9 +7,10 @@ likely the second mark, taken tau seconds later, falls in a gate built about z1.
 range is N geometries). Each gate kind is a small frozen dataclass with
 
 - ``region(geometry)``: the gate as a :class:`StarRegion`, the form the quadrature of
-  :mod:`core.gate_probability` integrates over, and
+  :mod:`plotgate.core.gate_probability` integrates over, and
 - ``contains(geometry, z2)``: the gate test itself, delegating to the gate functions
-  of :mod:`core.capture_gates`, :mod:`core.tracking_gates` and :mod:`core.polar_gates`,
+  of :mod:`plotgate.core.capture_gates`, :mod:`plotgate.core.tracking_gates` and
+  :mod:`plotgate.core.polar_gates`,
   which is what the Monte Carlo check samples.
 
 Every gate is, seen from some origin o, a radial interval per direction: rays from o
@@ -34,8 +35,24 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._sym2 import Sym2, sym2
-from core._validate import (
+from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
+from plotgate.core.errors import GeometryError
+from plotgate.core.frames import (
+    cartesian_to_polar,
+    polar_covariance_to_cartesian,
+    polar_to_cartesian,
+)
+from plotgate.core.gating import (
+    _expansion_coefficient,
+    _gate_threshold,
+    _positive_coefficient,
+    _ring_radii,
+    _sigma,
+)
+from plotgate.core.polar_gates import first_association_gate, sector_gate
+from plotgate.core.sym2 import Sym2, sym2
+from plotgate.core.tracking_gates import ellipse_gate, rectangular_gate
+from plotgate.core.validation import (
     as_array,
     as_covariance,
     as_points,
@@ -45,18 +62,6 @@ from core._validate import (
     require_positive,
     to_pairs,
 )
-from core.capture_gates import combined_gate, expanded_gate, ring_gate
-from core.errors import GeometryError
-from core.frames import cartesian_to_polar, polar_covariance_to_cartesian, polar_to_cartesian
-from core.gating import (
-    _expansion_coefficient,
-    _gate_threshold,
-    _positive_coefficient,
-    _ring_radii,
-    _sigma,
-)
-from core.polar_gates import first_association_gate, sector_gate
-from core.tracking_gates import ellipse_gate, rectangular_gate
 
 __all__ = [
     "CombinedGate",
@@ -116,10 +121,19 @@ class MarkGeometry:
 
     def take(self, rows: slice | np.ndarray) -> MarkGeometry:
         """The problems in ``rows``."""
-        return MarkGeometry(self.r[rows], self.az[rows], self.sigma_r1[rows],
-                            self.sigma_az1[rows], self.sigma_r2[rows], self.sigma_az2[rows],
-                            self.tau, self.z1[rows], self.P1[rows], self.P2[rows],
-                            Sym2(*(x[rows] for x in self.B)))
+        return MarkGeometry(
+            self.r[rows],
+            self.az[rows],
+            self.sigma_r1[rows],
+            self.sigma_az1[rows],
+            self.sigma_r2[rows],
+            self.sigma_az2[rows],
+            self.tau,
+            self.z1[rows],
+            self.P1[rows],
+            self.P2[rows],
+            Sym2(*(x[rows] for x in self.B)),
+        )
 
 
 def mark_geometry(
@@ -163,19 +177,37 @@ def mark_geometry(
     s_az2 = s_az1 if sigma_az2 is None else _sigma("sigma_az2", sigma_az2)
     tau = as_scalar("tau", tau)
     require_positive("tau", tau)
-    n = pair_count(r=r.shape, az=az.shape, sigma_r=s_r1.shape, sigma_az=s_az1.shape,
-                   sigma_r2=s_r2.shape, sigma_az2=s_az2.shape)
+    n = pair_count(
+        r=r.shape,
+        az=az.shape,
+        sigma_r=s_r1.shape,
+        sigma_az=s_az1.shape,
+        sigma_r2=s_r2.shape,
+        sigma_az2=s_az2.shape,
+    )
     r, az = to_pairs(r, n), to_pairs(az, n)
     if not (r > 0).all():
         bad = first_index(~(r > 0))
-        raise GeometryError("r", f"must be positive (the mark cannot sit on the radar), "
-                            f"got {r[bad]}", bad)
+        raise GeometryError(
+            "r", f"must be positive (the mark cannot sit on the radar), got {r[bad]}", bad
+        )
     s_r1, s_az1, s_r2, s_az2 = (to_pairs(s, n) for s in (s_r1, s_az1, s_r2, s_az2))
     P1 = polar_covariance_to_cartesian(r, az, s_r1, s_az1)
     P2 = polar_covariance_to_cartesian(r, az, s_r2, s_az2)
     B = P1 + P2
-    return MarkGeometry(r, az, s_r1, s_az1, s_r2, s_az2, tau, polar_to_cartesian(r, az),
-                        P1, P2, sym2(as_covariance("B", B)))
+    return MarkGeometry(
+        r,
+        az,
+        s_r1,
+        s_az1,
+        s_r2,
+        s_az2,
+        tau,
+        polar_to_cartesian(r, az),
+        P1,
+        P2,
+        sym2(as_covariance("B", B)),
+    )
 
 
 class StarRegion(NamedTuple):
@@ -204,8 +236,9 @@ class StarRegion(NamedTuple):
 
 
 def _full_turn(n: int, origin: np.ndarray, kinks: np.ndarray, radii: Callable) -> StarRegion:
-    return StarRegion(np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI),
-                      kinks, radii)
+    return StarRegion(
+        np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI), kinks, radii
+    )
 
 
 def _no_kinks(n: int) -> np.ndarray:
@@ -278,8 +311,9 @@ class CombinedGate:
         return _full_turn(n, np.zeros(2), kinks, radii)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
-        return combined_gate(g.z1[i], g.P1[i], z2, g.P2[i], g.tau, self.v_min, self.v_max,
-                             self.P_G).inside
+        return combined_gate(
+            g.z1[i], g.P1[i], z2, g.P2[i], g.tau, self.v_min, self.v_max, self.P_G
+        ).inside
 
 
 @dataclass(frozen=True)
@@ -307,8 +341,9 @@ class ExpandedGate:
         return _full_turn(g.n, np.zeros(2), _no_kinks(g.n), radii)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
-        return expanded_gate(g.z1[i], z2, g.tau, self.v_max, g.sigma_r1[i], g.sigma_az1[i],
-                             self.p).inside
+        return expanded_gate(
+            g.z1[i], z2, g.tau, self.v_max, g.sigma_r1[i], g.sigma_az1[i], self.p
+        ).inside
 
 
 @dataclass(frozen=True)
@@ -379,16 +414,16 @@ class RectangularGate:
         return rectangular_gate(z2, z_pred, hx[i] / self.k, hy[i] / self.k, self.k).inside
 
 
-def _sector(g: MarkGeometry, r_c: np.ndarray, az_c: np.ndarray, W_R: np.ndarray,
-            W_az: np.ndarray) -> StarRegion:
+def _sector(
+    g: MarkGeometry, r_c: np.ndarray, az_c: np.ndarray, W_R: np.ndarray, W_az: np.ndarray
+) -> StarRegion:
     """Ranges r_c +- W_R over azimuths az_c +- W_az about the radar, relative to z1."""
     r_lo = np.maximum(r_c - W_R, 0.0)[:, None]
     r_hi = (r_c + W_R)[:, None]
     W_az = np.minimum(W_az, np.pi)
 
     def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
-        return (np.broadcast_to(r_lo[rows], theta.shape),
-                np.broadcast_to(r_hi[rows], theta.shape))
+        return (np.broadcast_to(r_lo[rows], theta.shape), np.broadcast_to(r_hi[rows], theta.shape))
 
     # azimuth az (clockwise from north) is the math angle pi/2 - az
     return StarRegion(-g.z1, 0.5 * np.pi - az_c - W_az, 2.0 * W_az, _no_kinks(g.n), radii)
@@ -410,24 +445,39 @@ class SectorGate:
 
     def _prediction(self, g: MarkGeometry) -> tuple[np.ndarray, ...]:
         r_p, az_p = cartesian_to_polar(g.z1 + as_points("offset", self.offset))
-        s_r = g.sigma_r1 if self.sigma_r_pred is None else _sigma("sigma_r_pred",
-                                                                  self.sigma_r_pred)
-        s_az = g.sigma_az1 if self.sigma_az_pred is None else _sigma("sigma_az_pred",
-                                                                     self.sigma_az_pred)
+        s_r = (
+            g.sigma_r1 if self.sigma_r_pred is None else _sigma("sigma_r_pred", self.sigma_r_pred)
+        )
+        s_az = (
+            g.sigma_az1
+            if self.sigma_az_pred is None
+            else _sigma("sigma_az_pred", self.sigma_az_pred)
+        )
         return r_p, az_p, to_pairs(s_r, g.n), to_pairs(s_az, g.n)
 
     def region(self, g: MarkGeometry) -> StarRegion:
         K_R = _positive_coefficient("K_R", self.K_R)
         K_az = _positive_coefficient("K_az", self.K_az)
         r_p, az_p, s_r, s_az = self._prediction(g)
-        return _sector(g, r_p, az_p, K_R * np.hypot(g.sigma_r2, s_r),
-                       K_az * np.hypot(g.sigma_az2, s_az))
+        return _sector(
+            g, r_p, az_p, K_R * np.hypot(g.sigma_r2, s_r), K_az * np.hypot(g.sigma_az2, s_az)
+        )
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
         r_p, az_p, s_r, s_az = self._prediction(g)
         r2, az2 = cartesian_to_polar(z2)
-        return sector_gate(r2, az2, r_p[i], az_p[i], g.sigma_r2[i], g.sigma_az2[i], s_r[i],
-                           s_az[i], self.K_R, self.K_az).inside
+        return sector_gate(
+            r2,
+            az2,
+            r_p[i],
+            az_p[i],
+            g.sigma_r2[i],
+            g.sigma_az2[i],
+            s_r[i],
+            s_az[i],
+            self.K_R,
+            self.K_az,
+        ).inside
 
 
 @dataclass(frozen=True)
@@ -448,11 +498,29 @@ class FirstAssociationGate:
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
         r2, az2 = cartesian_to_polar(z2)
-        return first_association_gate(g.r[i], g.az[i], r2, az2, g.tau, self.v_max,
-                                      g.sigma_r1[i], g.sigma_az1[i], g.sigma_r2[i],
-                                      g.sigma_az2[i], self.K_R, self.K_az).inside
+        return first_association_gate(
+            g.r[i],
+            g.az[i],
+            r2,
+            az2,
+            g.tau,
+            self.v_max,
+            g.sigma_r1[i],
+            g.sigma_az1[i],
+            g.sigma_r2[i],
+            g.sigma_az2[i],
+            self.K_R,
+            self.K_az,
+        ).inside
 
 
-Gate = (RingGate | CombinedGate | ExpandedGate | EllipseGate | RectangularGate | SectorGate
-        | FirstAssociationGate)
+Gate = (
+    RingGate
+    | CombinedGate
+    | ExpandedGate
+    | EllipseGate
+    | RectangularGate
+    | SectorGate
+    | FirstAssociationGate
+)
 """Any gate kind that has a region."""

@@ -1,7 +1,8 @@
 """Shared gate machinery: the result type and the helpers of the gate modules.
 
-The gates live in :mod:`core.capture_gates` (seed 000), :mod:`core.tracking_gates`
-(seed 000 ref. [6], seed 003) and :mod:`core.polar_gates` (seed 002, seed 003).
+The gates live in :mod:`plotgate.core.capture_gates` (seed 000),
+:mod:`plotgate.core.tracking_gates`
+(seed 000 ref. [6], seed 003) and :mod:`plotgate.core.polar_gates` (seed 002, seed 003).
 
 Symbols
 -------
@@ -31,7 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import (
+from plotgate.core.errors import ParameterError
+from plotgate.core.thresholds import expansion_coefficient, gate_threshold
+from plotgate.core.validation import (
     as_array,
     as_probability,
     as_scalar,
@@ -40,8 +43,6 @@ from core._validate import (
     require_scalar,
     to_pairs,
 )
-from core.errors import ParameterError
-from core.thresholds import expansion_coefficient, gate_threshold
 
 __all__ = ["GateResult", "GateStage"]
 
@@ -68,9 +69,9 @@ class GateResult:
     threshold : float
         Acceptance bound on the statistic. For every gate but the ring gate
         ``inside == (statistic <= threshold)``; the ring gate also has the lower
-        bound R_min (see :func:`core.capture_gates.ring_gate`).
+        bound R_min (see :func:`plotgate.core.capture_gates.ring_gate`).
     stage : (N,) ndarray of int8 or None
-        :class:`GateStage` values, from :func:`core.capture_gates.combined_gate`
+        :class:`GateStage` values, from :func:`plotgate.core.capture_gates.combined_gate`
         only; None otherwise.
     """
 
@@ -152,7 +153,16 @@ def _window_statistic(
     return np.maximum(np.abs(dr) / W_R, np.abs(daz) / W_az)
 
 
-def _result(n: int, inside: np.ndarray, statistic: np.ndarray, threshold: float,
-            stage: np.ndarray | None = None) -> GateResult:
-    return GateResult(to_pairs(inside, n), to_pairs(statistic, n), float(threshold),
-                      None if stage is None else to_pairs(stage, n))
+def _result(
+    n: int,
+    inside: np.ndarray,
+    statistic: np.ndarray,
+    threshold: float,
+    stage: np.ndarray | None = None,
+) -> GateResult:
+    return GateResult(
+        to_pairs(inside, n),
+        to_pairs(statistic, n),
+        float(threshold),
+        None if stage is None else to_pairs(stage, n),
+    )

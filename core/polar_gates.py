@@ -5,7 +5,7 @@ section 3.1: the sector gate about a prediction, eq. (1) (range) and eq. (2)
 (azimuth), and the first-association windows before any velocity is known, eq. (3)
 (range, grown by v_max tau) and eq. (4) (azimuth, grown by the largest bearing
 change). Seed 003, the polar gate of Fig. 3.6 a. Azimuth differences are wrapped
-to (-pi, pi]. Symbols and batching as in :mod:`core.gating`.
+to (-pi, pi]. Symbols and batching as in :mod:`plotgate.core.gating`.
 """
 
 from __future__ import annotations
@@ -13,9 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, pair_count, require_nonnegative
-from core.frames import wrap_angle
-from core.gating import (
+from plotgate.core.frames import wrap_angle
+from plotgate.core.gating import (
     GateResult,
     _positive_coefficient,
     _result,
@@ -23,6 +22,7 @@ from core.gating import (
     _sigma,
     _window_statistic,
 )
+from plotgate.core.validation import as_array, pair_count, require_nonnegative
 
 __all__ = ["first_association_gate", "sector_gate"]
 
@@ -104,9 +104,16 @@ def sector_gate(
     sigma_az_pred = _sigma("sigma_az_pred", sigma_az_pred)
     K_R = _positive_coefficient("K_R", K_R)
     K_az = _positive_coefficient("K_az", K_az)
-    n = pair_count(r=r.shape, az=az.shape, r_pred=r_pred.shape, az_pred=az_pred.shape,
-                   sigma_r=sigma_r.shape, sigma_az=sigma_az.shape,
-                   sigma_r_pred=sigma_r_pred.shape, sigma_az_pred=sigma_az_pred.shape)
+    n = pair_count(
+        r=r.shape,
+        az=az.shape,
+        r_pred=r_pred.shape,
+        az_pred=az_pred.shape,
+        sigma_r=sigma_r.shape,
+        sigma_az=sigma_az.shape,
+        sigma_r_pred=sigma_r_pred.shape,
+        sigma_az_pred=sigma_az_pred.shape,
+    )
     W_R = K_R * np.hypot(sigma_r, sigma_r_pred)
     W_az = K_az * np.hypot(sigma_az, sigma_az_pred)
     statistic = _window_statistic(r - r_pred, wrap_angle(az - az_pred), W_R, W_az)
@@ -197,9 +204,16 @@ def first_association_gate(
     sigma_az2 = _sigma("sigma_az2", sigma_az2)
     K_R = _positive_coefficient("K_R", K_R)
     K_az = _positive_coefficient("K_az", K_az)
-    n = pair_count(r1=r1.shape, az1=az1.shape, r2=r2.shape, az2=az2.shape,
-                   sigma_r1=sigma_r1.shape, sigma_az1=sigma_az1.shape,
-                   sigma_r2=sigma_r2.shape, sigma_az2=sigma_az2.shape)
+    n = pair_count(
+        r1=r1.shape,
+        az1=az1.shape,
+        r2=r2.shape,
+        az2=az2.shape,
+        sigma_r1=sigma_r1.shape,
+        sigma_az1=sigma_az1.shape,
+        sigma_r2=sigma_r2.shape,
+        sigma_az2=sigma_az2.shape,
+    )
     W_R = R_max + K_R * np.hypot(sigma_r1, sigma_r2)
     far = r1 > R_max
     sin_turn = np.divide(R_max, r1, out=np.ones(np.shape(r1)), where=far)

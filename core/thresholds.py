@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import stats
 
-from core._validate import as_dof, as_probability
+from plotgate.core.validation import as_dof, as_probability
 
 __all__ = ["expansion_coefficient", "gate_threshold", "rectangular_coefficient"]
 

@@ -4,7 +4,7 @@ The chi-square ellipse gate rho = nu^T S^-1 nu <= gamma "used for gating during
 tracking" (seed 000, its ref. [6]; gamma from P_G, seed 000's two-stage procedure),
 the innovation covariance S = H P H^T + R it needs (seed 000, refs. [6]/[7]), and
 the rectangular gate |d_i| <= k sigma_i of seed 003 (Fig. 3.6 b). Symbols and
-batching as in :mod:`core.gating`.
+batching as in :mod:`plotgate.core.gating`.
 """
 
 from __future__ import annotations
@@ -12,10 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._sym2 import quadratic_form, sym2
-from core._validate import as_array, as_covariance, as_points, pair_count
-from core.errors import ParameterError
-from core.gating import (
+from plotgate.core.errors import ParameterError
+from plotgate.core.gating import (
     GateResult,
     _difference,
     _gate_threshold,
@@ -24,6 +22,8 @@ from core.gating import (
     _sigma,
     _window_statistic,
 )
+from plotgate.core.sym2 import quadratic_form, sym2
+from plotgate.core.validation import as_array, as_covariance, as_points, pair_count
 
 __all__ = ["ellipse_gate", "innovation_covariance", "rectangular_gate"]
 
@@ -137,11 +137,13 @@ def innovation_covariance(
         H = as_array("H", H)
         if H.ndim < 2 or H.shape[-1] != P_pred.shape[-1]:
             raise ParameterError(
-                "H", f"must have shape (..., m, {P_pred.shape[-1]}), got shape {H.shape}")
+                "H", f"must have shape (..., m, {P_pred.shape[-1]}), got shape {H.shape}"
+            )
         H_P_Ht = H @ P_pred @ np.swapaxes(H, -1, -2)
     if H_P_Ht.shape[-1] != R.shape[-1]:
         raise ParameterError(
-            "R", f"must be {H_P_Ht.shape[-1]} x {H_P_Ht.shape[-1]}, got shape {R.shape}")
+            "R", f"must be {H_P_Ht.shape[-1]} x {H_P_Ht.shape[-1]}, got shape {R.shape}"
+        )
     try:
         S: np.ndarray = H_P_Ht + R
     except ValueError:
@@ -174,7 +176,7 @@ def rectangular_gate(
         prediction along x and y, metres, > 0.
     k : float
         Half-width in sigmas, > 0 (see
-        :func:`core.thresholds.rectangular_coefficient`).
+        :func:`plotgate.core.thresholds.rectangular_coefficient`).
 
     Returns
     -------
@@ -206,8 +208,9 @@ def rectangular_gate(
     sigma_x = _sigma("sigma_x", sigma_x)
     sigma_y = _sigma("sigma_y", sigma_y)
     k = _positive_coefficient("k", k)
-    n = pair_count(z=z.shape[:-1], z_pred=z_pred.shape[:-1], sigma_x=sigma_x.shape,
-                   sigma_y=sigma_y.shape)
+    n = pair_count(
+        z=z.shape[:-1], z_pred=z_pred.shape[:-1], sigma_x=sigma_x.shape, sigma_y=sigma_y.shape
+    )
     dx, dy = _difference(z_pred, z)
     statistic = _window_statistic(dx, dy, sigma_x, sigma_y)
     return _result(n, statistic <= k, statistic, k)

@@ -21,10 +21,10 @@ from numpy.typing import ArrayLike
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from core._validate import as_array, as_probability
-from core.errors import ParameterError
-from core.frames import _wrap
-from core.identification.ztest import MIN_ESTIMATED_SIGMA, _sigma
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import _wrap
+from plotgate.core.identification.ztest import MIN_ESTIMATED_SIGMA, _sigma
+from plotgate.core.validation import as_array, as_probability
 
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
 
@@ -38,10 +38,11 @@ def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         width = max((r.size for r in rows), default=0)
         a = np.full((len(rows), width), np.nan)
         for i, r in enumerate(rows):  # one copy per ragged track
-            a[i, :r.size] = r
+            a[i, : r.size] = r
     if a.ndim != 2 or a.shape[0] == 0:
-        raise ParameterError(name, f"must be a list of tracks, each a list of angles; got "
-                             f"shape {a.shape}")
+        raise ParameterError(
+            name, f"must be a list of tracks, each a list of angles; got shape {a.shape}"
+        )
     valid = ~np.isnan(a)
     bad = ~np.isfinite(a) & valid
     if bad.any():
@@ -49,8 +50,7 @@ def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     count = valid.sum(axis=1)
     if (count < 2).any():
         i = int(np.argmax(count < 2))
-        raise ParameterError(name, f"track {i} has {count[i]} samples; at least 2 are needed",
-                             i)
+        raise ParameterError(name, f"track {i} has {count[i]} samples; at least 2 are needed", i)
     return np.where(valid, a, 0.0), valid
 
 
@@ -89,8 +89,9 @@ class Picture:
     sigma: np.ndarray
 
 
-def identify_picture(passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | None = None,
-                     alpha: float = 0.05) -> Picture:
+def identify_picture(
+    passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | None = None, alpha: float = 0.05
+) -> Picture:
     """Z matrix and one-to-one identification of many passive and active tracks (seed 004).
 
     Parameters
@@ -130,9 +131,11 @@ def identify_picture(passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | N
         dev = _wrap(pa - mean_p[:, None]) * pv
         s = np.sqrt((dev * dev).sum(1) / (pv.sum(1) - 1))
         if not (s >= MIN_ESTIMATED_SIGMA).all():
-            raise ParameterError("sigma", "cannot be estimated: a passive track's angles are "
-                                 "all equal (to rounding)",
-                                 int(np.argmax(~(s >= MIN_ESTIMATED_SIGMA))))
+            raise ParameterError(
+                "sigma",
+                "cannot be estimated: a passive track's angles are all equal (to rounding)",
+                int(np.argmax(~(s >= MIN_ESTIMATED_SIGMA))),
+            )
     else:
         s = np.broadcast_to(as_array("sigma", sigma), mean_p.shape).astype(float)
         if not (s > 0).all():
@@ -144,11 +147,16 @@ def identify_picture(passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | N
     rows, cols = linear_sum_assignment(cost)
     keep = passes[rows, cols]
     pairs = np.column_stack([rows[keep], cols[keep]])
-    return Picture(z=z, p_value=2.0 * stats.norm.sf(np.abs(z)), critical=crit, passes=passes,
-                   pairs=pairs,
-                   unassigned_passive=np.setdiff1d(np.arange(z.shape[0]), pairs[:, 0]),
-                   unassigned_active=np.setdiff1d(np.arange(z.shape[1]), pairs[:, 1]),
-                   sigma=s)
+    return Picture(
+        z=z,
+        p_value=2.0 * stats.norm.sf(np.abs(z)),
+        critical=crit,
+        passes=passes,
+        pairs=pairs,
+        unassigned_passive=np.setdiff1d(np.arange(z.shape[0]), pairs[:, 0]),
+        unassigned_active=np.setdiff1d(np.arange(z.shape[1]), pairs[:, 1]),
+        sigma=s,
+    )
 
 
 @dataclass(frozen=True)
@@ -172,8 +180,9 @@ class Sequence:
     first_decision: int | None
 
 
-def sequential(passive: ArrayLike, active: ArrayLike, sigma: float | None = None,
-               alpha: float = 0.05) -> Sequence:
+def sequential(
+    passive: ArrayLike, active: ArrayLike, sigma: float | None = None, alpha: float = 0.05
+) -> Sequence:
     """The Z-test repeated as active samples arrive, one decision per prefix 2..m.
 
     Examples
@@ -196,5 +205,10 @@ def sequential(passive: ArrayLike, active: ArrayLike, sigma: float | None = None
     ident = np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)
     change = np.flatnonzero(ident != ident[-1])
     first = int(m[1:][change[-1] + 1]) if change.size else int(m[1])
-    return Sequence(m=m[1:], z=z, p_value=2.0 * stats.norm.sf(np.abs(z)), identified=ident,
-                    first_decision=first)
+    return Sequence(
+        m=m[1:],
+        z=z,
+        p_value=2.0 * stats.norm.sf(np.abs(z)),
+        identified=ident,
+        first_decision=first,
+    )

@@ -8,7 +8,7 @@ runs the test rejects is the realized type I error (the paper reports alpha of a
 0.04 at a nominal 0.05); with a separation the active object is another one, and the
 fraction identified is the realized type II error beta. ``law="normal"`` draws the
 active bearings N(theta_0 + separation, sigma) instead, the case the beta formula of
-:func:`core.identification.ztest.type_two_error` describes exactly.
+:func:`plotgate.core.identification.ztest.type_two_error` describes exactly.
 
 Every run is one Z-test, all runs at once (vectorized), seeded.
 """
@@ -20,10 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from core._validate import as_probability
-from core.errors import ParameterError
-from core.frames import _wrap
-from core.identification.ztest import circular_mean, circular_sigma
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import _wrap
+from plotgate.core.identification.ztest import circular_mean, circular_sigma
+from plotgate.core.validation import as_probability
 
 __all__ = ["ExperimentRates", "experiment"]
 
@@ -49,10 +49,19 @@ class ExperimentRates:
     standard_error: float
 
 
-def experiment(n: int, m: int, sigma: float, separation: float, width: float, runs: int,
-               seed: int, alpha: float = 0.05, law: str = "uniform",
-               estimate_sigma: bool = False, bearing: float = np.radians(1.5)
-               ) -> ExperimentRates:
+def experiment(
+    n: int,
+    m: int,
+    sigma: float,
+    separation: float,
+    width: float,
+    runs: int,
+    seed: int,
+    alpha: float = 0.05,
+    law: str = "uniform",
+    estimate_sigma: bool = False,
+    bearing: float = np.radians(1.5),
+) -> ExperimentRates:
     """Run seed 004's identification experiment ``runs`` times (angles in radians).
 
     Parameters

@@ -35,9 +35,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import stats
 
-from core._validate import as_array, as_probability
-from core.errors import ParameterError
-from core.frames import _wrap
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import _wrap
+from plotgate.core.validation import as_array, as_probability
 
 __all__ = [
     "MIN_ESTIMATED_SIGMA",
@@ -80,8 +80,9 @@ def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     return np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
 
 
-def type_two_error(delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: float,
-                   n: ArrayLike | None = None) -> np.ndarray:
+def type_two_error(
+    delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: float, n: ArrayLike | None = None
+) -> np.ndarray:
     """Probability of identifying two objects delta apart (rad): beta of the two-sided test.
 
     .. math:: \\beta = \\Phi\\left(\\frac{z - \\delta\\sqrt{m}/\\sigma}{c}\\right)
@@ -109,8 +110,14 @@ def type_two_error(delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: floa
     return stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
 
 
-def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
-                     n: int | None = None, m_max: int = 10**7) -> int:
+def required_samples(
+    delta: float,
+    sigma: float,
+    alpha: float,
+    beta_max: float,
+    n: int | None = None,
+    m_max: int = 10**7,
+) -> int:
     """Smallest m with type_two_error(delta, sigma, m, alpha, n) <= beta_max.
 
     Starts from the known-mean approximation m = ((z_{1-a/2} + z_{1-b}) sigma / delta)^2
@@ -131,12 +138,15 @@ def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
     alpha = float(as_probability("alpha", alpha))
     beta_max = float(as_probability("beta_max", beta_max))
     if not delta != 0:
-        raise ParameterError("delta", "must be non-zero: identical bearings cannot be "
-                             "told apart by any number of samples")
+        raise ParameterError(
+            "delta",
+            "must be non-zero: identical bearings cannot be told apart by any number of samples",
+        )
     k = (stats.norm.ppf(1 - alpha / 2) + stats.norm.ppf(1 - beta_max)) * sigma / abs(delta)
     if not abs(k) <= np.sqrt(m_max):  # the approximation alone needs too many (k may be inf)
-        raise ParameterError("beta_max", f"needs more than {m_max} active samples for this "
-                             f"delta, sigma and alpha")
+        raise ParameterError(
+            "beta_max", f"needs more than {m_max} active samples for this delta, sigma and alpha"
+        )
     m = max(1, int(np.floor(k * k)) - 2)
     step = 64
     while m <= m_max:  # bracket by doubling, then the exact smallest m in the bracket
@@ -209,8 +219,11 @@ def _sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarra
     if value is None:
         s = circular_sigma(passive)
         if not s >= MIN_ESTIMATED_SIGMA:
-            raise ParameterError(name, "cannot be estimated: the passive angles are all equal "
-                                 f"(to rounding: {float(s):.3g} rad)")
+            raise ParameterError(
+                name,
+                "cannot be estimated: the passive angles are all equal "
+                f"(to rounding: {float(s):.3g} rad)",
+            )
         return s
     s = as_array(name, value)
     if s.ndim or not s > 0:
@@ -291,11 +304,21 @@ def z_test(
         raise ParameterError("ratio", f"must be > 1, got {ratio!r}")
     coords = [("passive", "active", "sigma", passive, active, sigma)]
     if (passive_elevation is None) != (active_elevation is None):
-        raise ParameterError("active_elevation" if active_elevation is None
-                             else "passive_elevation", "give elevations on both sides or none")
+        raise ParameterError(
+            "active_elevation" if active_elevation is None else "passive_elevation",
+            "give elevations on both sides or none",
+        )
     if passive_elevation is not None:
-        coords.append(("passive_elevation", "active_elevation", "sigma_elevation",
-                       passive_elevation, active_elevation, sigma_elevation))
+        coords.append(
+            (
+                "passive_elevation",
+                "active_elevation",
+                "sigma_elevation",
+                passive_elevation,
+                active_elevation,
+                sigma_elevation,
+            )
+        )
     k = len(coords)
     z_crit = float(stats.norm.ppf(1.0 - alpha / (2 * k)))
     z, diff, sig, normal_p = [], [], [], []
@@ -303,8 +326,10 @@ def z_test(
     for p_name, a_name, s_name, p_val, a_val, s_val in coords:
         p, a = _samples(p_name, p_val), _samples(a_name, a_val)
         if n and (p.size != n or a.size != m):
-            raise ParameterError(p_name if p.size != n else a_name,
-                                 f"must have as many samples as the bearings ({n}, {m})")
+            raise ParameterError(
+                p_name if p.size != n else a_name,
+                f"must have as many samples as the bearings ({n}, {m})",
+            )
         n, m = p.size, a.size
         s = _sigma(s_name, s_val, p)
         d = _wrap(circular_mean(a) - circular_mean(p))
@@ -323,9 +348,18 @@ def z_test(
         if beta_max is not None:
             m_req = required_samples(delta, float(sig[0]), alpha / k, beta_max, n)
     return ZTest(
-        z=z, p_value=2.0 * stats.norm.sf(np.abs(z)), critical=z_crit,
-        identified=bool(np.all(np.abs(z) <= z_crit)), difference=np.array(diff, float),
-        sigma=np.array(sig, float), n=n, m=m, n_over_m=n / m, large_population=n / m >= ratio,
+        z=z,
+        p_value=2.0 * stats.norm.sf(np.abs(z)),
+        critical=z_crit,
+        identified=bool(np.all(np.abs(z) <= z_crit)),
+        difference=np.array(diff, float),
+        sigma=np.array(sig, float),
+        n=n,
+        m=m,
+        n_over_m=n / m,
+        large_population=n / m >= ratio,
         normality_p=normal_p,
         normal=bool(np.all(np.isnan(normal_p) | (normal_p >= normality_alpha))),
-        beta=beta, m_required=m_req)
+        beta=beta,
+        m_required=m_req,
+    )

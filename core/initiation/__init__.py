@@ -8,10 +8,10 @@ and checks it), :mod:`.logic` the initiation itself
 evaluation (targets initiated, false tracks, time to confirmation).
 """
 
-from core.initiation.config import InitiationConfig
-from core.initiation.logic import DROP_REASONS, ScanReport, initiate
-from core.initiation.scan import Scan, cartesian_scan, polar_scan
-from core.initiation.state import (
+from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.logic import DROP_REASONS, ScanReport, initiate
+from plotgate.core.initiation.scan import Scan, cartesian_scan, polar_scan
+from plotgate.core.initiation.state import (
     PLOT_STRIDE,
     STATE_VERSION,
     InitiationState,
@@ -19,7 +19,7 @@ from core.initiation.state import (
     Tracks,
     empty_state,
 )
-from core.initiation.state_json import check_state, state_from_json
+from plotgate.core.initiation.state_json import check_state, state_from_json
 
 __all__ = [
     "DROP_REASONS",

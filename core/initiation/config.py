@@ -14,7 +14,7 @@ import json
 import math
 from dataclasses import asdict, dataclass, field
 
-from core.errors import ParameterError
+from plotgate.core.errors import ParameterError
 
 __all__ = ["InitiationConfig"]
 
@@ -109,16 +109,21 @@ class InitiationConfig:
     def __post_init__(self) -> None:
         for name, options in _CHOICES.items():
             if getattr(self, name) not in options:
-                raise ParameterError(name, f"must be one of {', '.join(options)}, got "
-                                     f"{getattr(self, name)!r}")
+                raise ParameterError(
+                    name, f"must be one of {', '.join(options)}, got {getattr(self, name)!r}"
+                )
         object.__setattr__(self, "gate_widening", tuple(float(w) for w in self.gate_widening))
         self._check()
 
     def _check(self) -> None:
         def number(name: str, ok: bool, rule: str) -> None:
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
-                    and math.isfinite(value) and ok):
+            if not (
+                isinstance(value, (int, float))
+                and not isinstance(value, bool)
+                and math.isfinite(value)
+                and ok
+            ):
                 raise ParameterError(name, f"must be {rule}, got {value!r}")
 
         number("v_min", self.v_min >= 0, "finite and >= 0")
@@ -133,18 +138,25 @@ class InitiationConfig:
         for name in ("K_R", "K_az", "capture_time"):
             if getattr(self, name) is not None:
                 number(name, getattr(self, name) > 0, "> 0 or null")
-        for name, low in (("capture_scans", 2), ("confirm_k", 1), ("confirm_m", 1),
-                          ("drop_misses", 1), ("history", max(2, self.confirm_m))):
+        for name, low in (
+            ("capture_scans", 2),
+            ("confirm_k", 1),
+            ("confirm_m", 1),
+            ("drop_misses", 1),
+            ("history", max(2, self.confirm_m)),
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ParameterError(name, f"must be an integer >= {low}, got {value!r}")
         if self.confirm_k > self.confirm_m:
-            raise ParameterError("confirm_k", f"must be <= confirm_m = {self.confirm_m}, "
-                                 f"got {self.confirm_k}")
+            raise ParameterError(
+                "confirm_k", f"must be <= confirm_m = {self.confirm_m}, got {self.confirm_k}"
+            )
         w = self.gate_widening
         if not w or not all(math.isfinite(x) and x >= 1 for x in w) or list(w) != sorted(w):
-            raise ParameterError("gate_widening", f"must be non-decreasing factors >= 1, "
-                                 f"got {list(w)}")
+            raise ParameterError(
+                "gate_widening", f"must be non-decreasing factors >= 1, got {list(w)}"
+            )
 
     def digest(self) -> str:
         """A short fingerprint of these settings (stored in every state)."""

@@ -48,14 +48,14 @@ import numpy as np
 from scipy import stats
 from scipy.spatial import cKDTree
 
-from core.capture_gates import combined_gate, expanded_gate, ring_gate
-from core.errors import ParameterError
-from core.frames import _wrap
-from core.initiation.assignment import one_to_one
-from core.initiation.config import InitiationConfig
-from core.initiation.scan import Scan
-from core.initiation.sharing import keep_greedy, shares_two
-from core.initiation.state import (
+from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import _wrap
+from plotgate.core.initiation.assignment import one_to_one
+from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.sharing import keep_greedy, shares_two
+from plotgate.core.initiation.state import (
     MAX_SESSION_SCANS,
     PLOT_STRIDE,
     InitiationState,
@@ -63,8 +63,8 @@ from core.initiation.state import (
     Tracks,
     empty_state,
 )
-from core.polar_gates import first_association_gate
-from core.thresholds import expansion_coefficient
+from plotgate.core.polar_gates import first_association_gate
+from plotgate.core.thresholds import expansion_coefficient
 
 __all__ = ["DROP_REASONS", "MAX_CANDIDATES", "ScanReport", "initiate"]
 
@@ -117,8 +117,9 @@ class ScanReport:
 # ------------------------------------------------------------------ filter
 
 
-def _predict(x: np.ndarray, P: np.ndarray, dt: np.ndarray, q: float
-             ) -> tuple[np.ndarray, np.ndarray]:
+def _predict(
+    x: np.ndarray, P: np.ndarray, dt: np.ndarray, q: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Constant-velocity prediction over dt (m,) with white acceleration q (m^2/s^3)."""
     d = dt[:, None]
     xp = np.concatenate([x[:, :2] + d * x[:, 2:], x[:, 2:]], axis=1)
@@ -138,8 +139,15 @@ def _inv2(S: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([d, -b], -1), np.stack([-b, a], -1)], -2) / det[..., None, None]
 
 
-def _update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, n: np.ndarray,
-            dt: np.ndarray, config: InitiationConfig) -> tuple[np.ndarray, np.ndarray]:
+def _update(
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    n: np.ndarray,
+    dt: np.ndarray,
+    config: InitiationConfig,
+) -> tuple[np.ndarray, np.ndarray]:
     """Kalman update, or alpha-beta with gains of the n-th plot (Joseph covariance)."""
     nu = z - x[:, :2]
     if config.filter == "kalman":
@@ -159,8 +167,9 @@ def _update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, n: np.nd
     return x, 0.5 * (P + np.swapaxes(P, 1, 2))
 
 
-def _two_point(z1: np.ndarray, R1: np.ndarray, z2: np.ndarray, R2: np.ndarray,
-               tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _two_point(
+    z1: np.ndarray, R1: np.ndarray, z2: np.ndarray, R2: np.ndarray, tau: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """State [z2, (z2 - z1)/tau] and its exact covariance from two plots."""
     t = tau[:, None, None]
     P = np.zeros((tau.size, 4, 4))
@@ -173,8 +182,9 @@ def _two_point(z1: np.ndarray, R1: np.ndarray, z2: np.ndarray, R2: np.ndarray,
 # ------------------------------------------------------------------ candidates
 
 
-def _near(tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
-          ) -> tuple[np.ndarray, np.ndarray]:
+def _near(
+    tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(row, point) pairs with the tree's point within radius[row] of centres[row] (p-norm).
 
     Queries go in bins of radii within a factor 1.5, each bin one
@@ -195,9 +205,12 @@ def _near(tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
         if idx.size * tree.n > MAX_CANDIDATES:
             count = int(queries.count_neighbors(tree, reach, p=p))
             if count > MAX_CANDIDATES:
-                raise ParameterError("scans", f"{count} candidate (track, plot) pairs in "
-                                     f"one search, more than {MAX_CANDIDATES}: the plots "
-                                     f"are too dense for the gates")
+                raise ParameterError(
+                    "scans",
+                    f"{count} candidate (track, plot) pairs in "
+                    f"one search, more than {MAX_CANDIDATES}: the plots "
+                    f"are too dense for the gates",
+                )
         found = queries.sparse_distance_matrix(tree, reach, p=p, output_type="ndarray")
         i = idx[found["i"]]
         keep = found["v"] <= radius[i]
@@ -226,8 +239,9 @@ class _Index:
         K_R, K_az = _window_coefficients(config)
         self.scale = K_R * np.median(scan.sigma_r) / (K_az * np.median(scan.sigma_az))
         other = scan.az - 2.0 * np.pi * np.sign(scan.az)
-        pts = np.column_stack([np.concatenate([scan.r, scan.r]),
-                               self.scale * np.concatenate([scan.az, other])])
+        pts = np.column_stack(
+            [np.concatenate([scan.r, scan.r]), self.scale * np.concatenate([scan.az, other])]
+        )
         self.tree = cKDTree(pts)
         self.owner = np.tile(np.arange(scan.size), 2)
 
@@ -237,13 +251,18 @@ class _Index:
             return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
         return _near(self.tree, centres, radius, 2.0)
 
-    def window(self, r: np.ndarray, az: np.ndarray, W_R: np.ndarray, W_az: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
+    def window(
+        self, r: np.ndarray, az: np.ndarray, W_R: np.ndarray, W_az: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(row, plot) pairs with the plot possibly in the window about (r, az)[row]."""
         if self.tree is None:
             return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        rows, cols = _near(self.tree, np.column_stack([r, self.scale * az]),
-                           np.maximum(W_R, self.scale * W_az) * (1 + 1e-9), np.inf)
+        rows, cols = _near(
+            self.tree,
+            np.column_stack([r, self.scale * az]),
+            np.maximum(W_R, self.scale * W_az) * (1 + 1e-9),
+            np.inf,
+        )
         cols = self.owner[cols]
         key = np.unique(rows * self.owner.size + cols)  # a wide window may meet both copies
         return key // self.owner.size, key % self.owner.size
@@ -251,8 +270,10 @@ class _Index:
 
 def _window_coefficients(config: InitiationConfig) -> tuple[float, float]:
     k = float(np.sqrt(stats.chi2.ppf(config.gate_P_G, 2)))
-    return (config.K_R if config.K_R is not None else k,
-            config.K_az if config.K_az is not None else k)
+    return (
+        config.K_R if config.K_R is not None else k,
+        config.K_az if config.K_az is not None else k,
+    )
 
 
 def _widening(misses: np.ndarray, config: InitiationConfig) -> np.ndarray:
@@ -260,9 +281,15 @@ def _widening(misses: np.ndarray, config: InitiationConfig) -> np.ndarray:
     return w[np.minimum(misses, w.size - 1)]
 
 
-def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
-                 scan: Scan, index: _Index, config: InitiationConfig
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _track_pairs(
+    tracks: Tracks,
+    xp: np.ndarray,
+    Pp: np.ndarray,
+    dt: np.ndarray,
+    scan: Scan,
+    index: _Index,
+    config: InitiationConfig,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(track, plot, statistic) of the plots inside each track's gate."""
     w = _widening(tracks.misses, config)
     if config.mode == "cartesian":
@@ -285,11 +312,16 @@ def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
     k_r, k_az = K_R * np.sqrt(w), K_az * np.sqrt(w)
     big_r = scan.sigma_r.max() if scan.size else 0.0
     big_az = scan.sigma_az.max() if scan.size else 0.0
-    rows, cols = index.window(r_pred, tracks.az, k_r * np.sqrt(big_r**2 + var_pred),
-                              tangential + k_az * np.sqrt(big_az**2 + tracks.sigma_az**2))
+    rows, cols = index.window(
+        r_pred,
+        tracks.az,
+        k_r * np.sqrt(big_r**2 + var_pred),
+        tangential + k_az * np.sqrt(big_az**2 + tracks.sigma_az**2),
+    )
     W_R = k_r[rows] * np.sqrt(scan.sigma_r[cols] ** 2 + var_pred[rows])
-    W_az = tangential[rows] + k_az[rows] * np.sqrt(scan.sigma_az[cols] ** 2
-                                                     + tracks.sigma_az[rows] ** 2)
+    W_az = tangential[rows] + k_az[rows] * np.sqrt(
+        scan.sigma_az[cols] ** 2 + tracks.sigma_az[rows] ** 2
+    )
     d_r = np.abs(scan.r[cols] - r_pred[rows])
     d_az = np.abs(_wrap(scan.az[cols] - tracks.az[rows]))
     keep = (d_r <= W_R) & (d_az <= W_az)
@@ -297,9 +329,14 @@ def _track_pairs(tracks: Tracks, xp: np.ndarray, Pp: np.ndarray, dt: np.ndarray,
     return rows[keep], cols[keep], s[keep]
 
 
-def _capture_pairs(ini: Initiators, scan: Scan, index: _Index,
-                   config: InitiationConfig, allowed: np.ndarray, k: int
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _capture_pairs(
+    ini: Initiators,
+    scan: Scan,
+    index: _Index,
+    config: InitiationConfig,
+    allowed: np.ndarray,
+    k: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(initiator, plot, distance) of the plots inside each initiator's capture gate.
 
     Only initiators within the 2/N (or 2/T) window of scan number k take part.
@@ -314,8 +351,9 @@ def _capture_pairs(ini: Initiators, scan: Scan, index: _Index,
     if config.mode == "polar":
         K_R, K_az = _window_coefficients(config)
         W_R = R_max + K_R * np.sqrt(ini.sigma_r**2 + scan.sigma_r.max(initial=0.0) ** 2)
-        W_az = (np.arcsin(np.minimum(1.0, R_max / ini.r))
-                + K_az * np.sqrt(ini.sigma_az**2 + scan.sigma_az.max(initial=0.0) ** 2))
+        W_az = np.arcsin(np.minimum(1.0, R_max / ini.r)) + K_az * np.sqrt(
+            ini.sigma_az**2 + scan.sigma_az.max(initial=0.0) ** 2
+        )
         rows, cols = index.window(ini.r[later], ini.az[later], W_R[later], W_az[later])
     elif config.capture_gate == "ring":
         radius = R_max
@@ -336,24 +374,52 @@ def _capture_pairs(ini: Initiators, scan: Scan, index: _Index,
         g = np.flatnonzero(tau[rows] == t)
         i, c = rows[g], cols[g]
         if config.mode == "polar":
-            res = first_association_gate(ini.r[i], ini.az[i], scan.r[c], scan.az[c], t,
-                                         config.v_max, ini.sigma_r[i], ini.sigma_az[i],
-                                         scan.sigma_r[c], scan.sigma_az[c], K_R, K_az)
+            res = first_association_gate(
+                ini.r[i],
+                ini.az[i],
+                scan.r[c],
+                scan.az[c],
+                t,
+                config.v_max,
+                ini.sigma_r[i],
+                ini.sigma_az[i],
+                scan.sigma_r[c],
+                scan.sigma_az[c],
+                K_R,
+                K_az,
+            )
         elif config.capture_gate == "ring":
             res = ring_gate(ini.z[i], scan.z[c], t, config.v_min, config.v_max)
         elif config.capture_gate == "expanded":
-            res = expanded_gate(ini.z[i], scan.z[c], t, config.v_max, ini.sigma_r[i],
-                                ini.sigma_az[i], config.capture_p, sensor=ini.sensor[i])
+            res = expanded_gate(
+                ini.z[i],
+                scan.z[c],
+                t,
+                config.v_max,
+                ini.sigma_r[i],
+                ini.sigma_az[i],
+                config.capture_p,
+                sensor=ini.sensor[i],
+            )
         else:
-            res = combined_gate(ini.z[i], ini.R[i], scan.z[c], scan.R[c], t, config.v_min,
-                                config.v_max, config.capture_P_G)
+            res = combined_gate(
+                ini.z[i],
+                ini.R[i],
+                scan.z[c],
+                scan.R[c],
+                t,
+                config.v_min,
+                config.v_max,
+                config.capture_P_G,
+            )
         inside[g] = res.inside
     rows, cols = rows[inside], cols[inside]
     return rows, cols, np.linalg.norm(scan.z[cols] - ini.z[rows], axis=1)
 
 
-def _nearest(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _nearest(
+    rows: np.ndarray, cols: np.ndarray, s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pair of smallest statistic for each row (ties: the lower plot index)."""
     order = np.lexsort((cols, s, rows))
     first = order[np.r_[True, rows[order][1:] != rows[order][:-1]]] if rows.size else order
@@ -380,8 +446,15 @@ def _acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
     return ~bad.any(axis=1)
 
 
-def _new_tracks(ini: Initiators, rows: np.ndarray, cols: np.ndarray, scan: Scan,
-                ids: np.ndarray, first_id: int, config: InitiationConfig) -> Tracks:
+def _new_tracks(
+    ini: Initiators,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    scan: Scan,
+    ids: np.ndarray,
+    first_id: int,
+    config: InitiationConfig,
+) -> Tracks:
     """Tentative tracks from (initiator, plot) pairs."""
     m, h = rows.size, config.history
     tau = scan.t - ini.t[rows]
@@ -393,22 +466,32 @@ def _new_tracks(ini: Initiators, rows: np.ndarray, cols: np.ndarray, scan: Scan,
         return out
 
     return Tracks(
-        id=first_id + np.arange(m, dtype=np.int64), confirmed=np.zeros(m, dtype=bool),
-        x=x, P=P, t=np.full(m, scan.t), n=np.full(m, 2, dtype=np.int64),
-        first_scan=ini.scan[rows], confirmed_scan=np.full(m, -1, dtype=np.int64),
-        misses=np.zeros(m, dtype=np.int64), cost=np.zeros(m),
+        id=first_id + np.arange(m, dtype=np.int64),
+        confirmed=np.zeros(m, dtype=bool),
+        x=x,
+        P=P,
+        t=np.full(m, scan.t),
+        n=np.full(m, 2, dtype=np.int64),
+        first_scan=ini.scan[rows],
+        confirmed_scan=np.full(m, -1, dtype=np.int64),
+        misses=np.zeros(m, dtype=np.int64),
+        cost=np.zeros(m),
         plots=history(ini.plot[rows], ids[cols], -1),
         ranges=history(ini.r[rows], scan.r[cols], np.nan),
         times=history(ini.t[rows], np.full(m, scan.t), np.nan),
         sigma_r=history(ini.sigma_r[rows], scan.sigma_r[cols], np.nan),
-        az=scan.az[cols], sigma_az=scan.sigma_az[cols], sensor=scan.sensor[cols])
+        az=scan.az[cols],
+        sigma_az=scan.sigma_az[cols],
+        sensor=scan.sensor[cols],
+    )
 
 
 # ------------------------------------------------------------------ one scan
 
 
-def _step(state: InitiationState, scan: Scan, config: InitiationConfig
-          ) -> tuple[InitiationState, ScanReport]:
+def _step(
+    state: InitiationState, scan: Scan, config: InitiationConfig
+) -> tuple[InitiationState, ScanReport]:
     k, n = state.scans, scan.size
     if n > PLOT_STRIDE:
         raise ParameterError("scans", f"a scan may hold at most {PLOT_STRIDE} plots, got {n}")
@@ -435,20 +518,29 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
     if hit.any():
         j = assoc[hit]
         x, P = xp.copy(), Pp.copy()
-        x[hit], P[hit] = _update(xp[hit], Pp[hit], scan.z[j], scan.R[j],
-                                 tracks.n[hit] + 1.0, dt[hit], config)
+        x[hit], P[hit] = _update(
+            xp[hit], Pp[hit], scan.z[j], scan.R[j], tracks.n[hit] + 1.0, dt[hit], config
+        )
     j = np.maximum(assoc, 0)
     tracks = Tracks(
-        id=tracks.id, confirmed=tracks.confirmed, x=x, P=P, t=np.full(m, scan.t),
-        n=tracks.n + hit, first_scan=tracks.first_scan, confirmed_scan=tracks.confirmed_scan,
-        misses=np.where(hit, 0, tracks.misses + 1), cost=tracks.cost + stat,
+        id=tracks.id,
+        confirmed=tracks.confirmed,
+        x=x,
+        P=P,
+        t=np.full(m, scan.t),
+        n=tracks.n + hit,
+        first_scan=tracks.first_scan,
+        confirmed_scan=tracks.confirmed_scan,
+        misses=np.where(hit, 0, tracks.misses + 1),
+        cost=tracks.cost + stat,
         plots=_shift_in(tracks.plots, ids[j] if n else assoc, hit),
         ranges=_shift_in(tracks.ranges, scan.r[j] if n else dt, hit),
         times=_shift_in(tracks.times, np.full(m, scan.t), hit),
         sigma_r=_shift_in(tracks.sigma_r, scan.sigma_r[j] if n else dt, hit),
         az=np.where(hit, scan.az[j] if n else 0.0, tracks.az),
         sigma_az=np.where(hit, scan.sigma_az[j] if n else 0.0, tracks.sigma_az),
-        sensor=np.where(hit[:, None], scan.sensor[j] if n else 0.0, tracks.sensor))
+        sensor=np.where(hit[:, None], scan.sensor[j] if n else 0.0, tracks.sensor),
+    )
     by_track = np.full(n, -1, dtype=np.int64)
     by_track[assoc[hit & ~tracks.confirmed]] = tracks.id[hit & ~tracks.confirmed]
     by_track[assoc[hit & tracks.confirmed]] = tracks.id[hit & tracks.confirmed]
@@ -486,16 +578,18 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
     pruned[tentative] = shares_two(tracks.plots[tentative], tracks.plots[confirmed])
     dropped.append(pruned)
     reasons.append("pruned")
-    tracks = replace(tracks, confirmed=confirmed,
-                     confirmed_scan=np.where(newly, k, tracks.confirmed_scan))
+    tracks = replace(
+        tracks, confirmed=confirmed, confirmed_scan=np.where(newly, k, tracks.confirmed_scan)
+    )
 
     # 6: drops
     window = ~confirmed & (tracks.n + (config.confirm_m - age) < config.confirm_k)
     misses = tracks.misses >= config.drop_misses
     gone = np.zeros(tracks.size, dtype=bool)
     why = np.empty(tracks.size, dtype=object)
-    for mask, reason in zip([misses, window, *dropped], ["misses", "window", *reasons],
-                            strict=True):
+    for mask, reason in zip(
+        [misses, window, *dropped], ["misses", "window", *reasons], strict=True
+    ):
         fresh = mask & ~gone
         why[fresh] = reason
         gone |= fresh
@@ -507,24 +601,52 @@ def _step(state: InitiationState, scan: Scan, config: InitiationConfig
         alive = scan.t - ini.t < config.capture_time
     alive[rows] = False  # captured initiators are consumed
     fresh = ~used & ~captured & (by_track < 0)
-    new_ini = Initiators(plot=ids[fresh], scan=np.full(fresh.sum(), k, dtype=np.int64),
-                         t=np.full(fresh.sum(), scan.t), z=scan.z[fresh], R=scan.R[fresh],
-                         sensor=scan.sensor[fresh], r=scan.r[fresh], az=scan.az[fresh],
-                         sigma_r=scan.sigma_r[fresh], sigma_az=scan.sigma_az[fresh])
-    initiators = Initiators(*(np.concatenate([getattr(ini, f)[alive], getattr(new_ini, f)])
-                              for f in Initiators.__dataclass_fields__))
+    new_ini = Initiators(
+        plot=ids[fresh],
+        scan=np.full(fresh.sum(), k, dtype=np.int64),
+        t=np.full(fresh.sum(), scan.t),
+        z=scan.z[fresh],
+        R=scan.R[fresh],
+        sensor=scan.sensor[fresh],
+        r=scan.r[fresh],
+        az=scan.az[fresh],
+        sigma_r=scan.sigma_r[fresh],
+        sigma_az=scan.sigma_az[fresh],
+    )
+    initiators = Initiators(
+        *(
+            np.concatenate([getattr(ini, f)[alive], getattr(new_ini, f)])
+            for f in Initiators.__dataclass_fields__
+        )
+    )
     report = ScanReport(
-        scan=k, t=scan.t, plots=n, associated=by_track, initiators=int(fresh.sum()),
-        started=born.id, confirmed=tracks.id[newly], dropped=tracks.id[gone],
-        reasons=why[gone].astype(str))
+        scan=k,
+        t=scan.t,
+        plots=n,
+        associated=by_track,
+        initiators=int(fresh.sum()),
+        started=born.id,
+        confirmed=tracks.id[newly],
+        dropped=tracks.id[gone],
+        reasons=why[gone].astype(str),
+    )
     return InitiationState(
-        version=state.version, config_digest=state.config_digest, scans=k + 1, t=scan.t,
-        next_track=state.next_track + born.size, initiators=initiators,
-        tracks=tracks.take(~gone)), report
+        version=state.version,
+        config_digest=state.config_digest,
+        scans=k + 1,
+        t=scan.t,
+        next_track=state.next_track + born.size,
+        initiators=initiators,
+        tracks=tracks.take(~gone),
+    ), report
 
 
-def initiate(state: InitiationState | None, scans: Sequence[Scan], config: InitiationConfig,
-             max_tracks: int | None = None) -> tuple[InitiationState, list[ScanReport]]:
+def initiate(
+    state: InitiationState | None,
+    scans: Sequence[Scan],
+    config: InitiationConfig,
+    max_tracks: int | None = None,
+) -> tuple[InitiationState, list[ScanReport]]:
     """Run track initiation over scans in time order, from a state (None: a new session).
 
     Parameters
@@ -554,7 +676,7 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
         index) for a time earlier than the one before it, for a scan after which more
         than ``max_tracks`` tracks live or a track's state is not finite (two plots too
         close in time for a velocity), or for scans that would take the session past
-        :data:`~core.initiation.state.MAX_SESSION_SCANS`.
+        :data:`~plotgate.core.initiation.state.MAX_SESSION_SCANS`.
 
     References
     ----------
@@ -567,7 +689,7 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     --------
     A target at 10 m/s east, four scans a second apart, no clutter:
 
-    >>> from core.initiation.scan import cartesian_scan
+    >>> from plotgate.core.initiation.scan import cartesian_scan
     >>> R = np.eye(2)[None] * 4.0
     >>> scans = [cartesian_scan(t, [[1000.0 + 10.0 * t, 2000.0]], R) for t in range(4)]
     >>> state, reports = initiate(None, scans, InitiationConfig(v_max=20.0))
@@ -578,14 +700,21 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
     if state.config_digest != config.digest():
         raise ParameterError("state", "was made under other settings than these")
     if state.scans + len(scans) > MAX_SESSION_SCANS:
-        raise ParameterError("scans", f"would take the session past {MAX_SESSION_SCANS} "
-                             f"scans (it has {state.scans}); start a new session")
+        raise ParameterError(
+            "scans",
+            f"would take the session past {MAX_SESSION_SCANS} "
+            f"scans (it has {state.scans}); start a new session",
+        )
     reports = []
     last = state.t
     for i, scan in enumerate(scans):
         if last is not None and scan.t < last:
-            raise ParameterError("scans", f"time {scan.t} s is before the previous scan's "
-                                 f"{last} s; scans must come in time order", i)
+            raise ParameterError(
+                "scans",
+                f"time {scan.t} s is before the previous scan's "
+                f"{last} s; scans must come in time order",
+                i,
+            )
         try:
             with np.errstate(all="ignore"):  # checked below, on the step's result
                 state, report = _step(state, scan, config)
@@ -594,16 +723,28 @@ def initiate(state: InitiationState | None, scans: Sequence[Scan], config: Initi
                 raise
             raise ParameterError("scans", exc.reason, i) from exc
         if not (np.isfinite(state.tracks.x).all() and np.isfinite(state.tracks.P).all()):
-            bad = int(np.flatnonzero(~np.isfinite(state.tracks.P).all(axis=(1, 2))
-                                     | ~np.isfinite(state.tracks.x).all(axis=1))[0])
-            raise ParameterError("scans", f"leaves track {state.tracks.id[bad]} with a state "
-                                 "or covariance beyond double precision (scans or plot "
-                                 "times too close together for a velocity?)", i)
+            bad = int(
+                np.flatnonzero(
+                    ~np.isfinite(state.tracks.P).all(axis=(1, 2))
+                    | ~np.isfinite(state.tracks.x).all(axis=1)
+                )[0]
+            )
+            raise ParameterError(
+                "scans",
+                f"leaves track {state.tracks.id[bad]} with a state "
+                "or covariance beyond double precision (scans or plot "
+                "times too close together for a velocity?)",
+                i,
+            )
         if max_tracks is not None and state.tracks.size > max_tracks:
-            raise ParameterError("scans", f"leaves {state.tracks.size} live tracks (scan "
-                                 f"{state.scans - 1} of the session); at most {max_tracks}: "
-                                 "narrower capture gates, nearest association or fewer "
-                                 "plots", i)
+            raise ParameterError(
+                "scans",
+                f"leaves {state.tracks.size} live tracks (scan "
+                f"{state.scans - 1} of the session); at most {max_tracks}: "
+                "narrower capture gates, nearest association or fewer "
+                "plots",
+                i,
+            )
         reports.append(report)
         last = scan.t
     return state, reports

@@ -15,14 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, as_covariance, as_points, first_index
-from core.errors import GeometryError, ParameterError
-from core.frames import (
+from plotgate.core.errors import GeometryError, ParameterError
+from plotgate.core.frames import (
     cartesian_covariance_to_polar,
     cartesian_to_polar,
     polar_covariance_to_cartesian,
     polar_to_cartesian,
 )
+from plotgate.core.validation import as_array, as_covariance, as_points, first_index
 
 __all__ = ["MIN_SENSOR_RANGE", "Scan", "cartesian_scan", "polar_scan"]
 
@@ -83,12 +83,15 @@ def _far_from_sensor(r: np.ndarray) -> None:
     near = r < MIN_SENSOR_RANGE
     if near.any():
         i = first_index(near)
-        raise GeometryError("z", f"is {r[i]:.3g} m from its sensor; plots must be at least "
-                            f"{MIN_SENSOR_RANGE} m away to have an azimuth", i)
+        raise GeometryError(
+            "z",
+            f"is {r[i]:.3g} m from its sensor; plots must be at least "
+            f"{MIN_SENSOR_RANGE} m away to have an azimuth",
+            i,
+        )
 
 
-def cartesian_scan(t: float, z: ArrayLike, R: ArrayLike, sensor: ArrayLike = (0.0, 0.0)
-                   ) -> Scan:
+def cartesian_scan(t: float, z: ArrayLike, R: ArrayLike, sensor: ArrayLike = (0.0, 0.0)) -> Scan:
     """A scan of Cartesian plots z (n, 2) with covariances R (n, 2, 2), m and m^2.
 
     Raises
@@ -120,8 +123,14 @@ def cartesian_scan(t: float, z: ArrayLike, R: ArrayLike, sensor: ArrayLike = (0.
     return Scan(t, z, R, sensor, r, az, np.sqrt(polar[:, 0, 0]), np.sqrt(polar[:, 1, 1]))
 
 
-def polar_scan(t: float, r: ArrayLike, az: ArrayLike, sigma_r: ArrayLike,
-               sigma_az: ArrayLike, sensor: ArrayLike = (0.0, 0.0)) -> Scan:
+def polar_scan(
+    t: float,
+    r: ArrayLike,
+    az: ArrayLike,
+    sigma_r: ArrayLike,
+    sigma_az: ArrayLike,
+    sensor: ArrayLike = (0.0, 0.0),
+) -> Scan:
     """A scan of polar plots: range r (m), azimuth az (rad) and their sigmas, (n,) each.
 
     Raises
@@ -138,8 +147,10 @@ def polar_scan(t: float, r: ArrayLike, az: ArrayLike, sigma_r: ArrayLike,
     ([[0.0, 5000.0]], 17.453)
     """
     t = _time(t)
-    arrays = {name: np.atleast_1d(as_array(name, v)) for name, v in
-              (("r", r), ("az", az), ("sigma_r", sigma_r), ("sigma_az", sigma_az))}
+    arrays = {
+        name: np.atleast_1d(as_array(name, v))
+        for name, v in (("r", r), ("az", az), ("sigma_r", sigma_r), ("sigma_az", sigma_az))
+    }
     n = arrays["r"].shape
     for name, a in arrays.items():
         if a.ndim != 1 or a.shape != n:

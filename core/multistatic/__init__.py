@@ -9,22 +9,28 @@ smoothing, and :mod:`.study` the Monte Carlo accuracy study of Fig. 3. Positions
 metres, D = 2 or 3, batched over N independent problems.
 """
 
-from core.multistatic.closed_form import (
+from plotgate.core.multistatic.closed_form import (
     ClosedFormSolution,
     difference_range_solve,
     sum_range_solve,
 )
-from core.multistatic.crlb import CRLB, TrajectoryCRLB, crlb, difference_crlb, trajectory_crlb
-from core.multistatic.ml import MLSolution, TrajectorySolution, ml_solve, trajectory_solve
-from core.multistatic.model import (
+from plotgate.core.multistatic.crlb import (
+    CRLB,
+    TrajectoryCRLB,
+    crlb,
+    difference_crlb,
+    trajectory_crlb,
+)
+from plotgate.core.multistatic.ml import MLSolution, TrajectorySolution, ml_solve, trajectory_solve
+from plotgate.core.multistatic.model import (
     Problem,
     platform_positions,
     range_sum_jacobian,
     range_sums,
     validate_problem,
 )
-from core.multistatic.noise import NoiseEstimate, range_sum_noise, smooth_positions
-from core.multistatic.study import AccuracyStudy, accuracy_study
+from plotgate.core.multistatic.noise import NoiseEstimate, range_sum_noise, smooth_positions
+from plotgate.core.multistatic.study import AccuracyStudy, accuracy_study
 
 __all__ = [
     "CRLB",

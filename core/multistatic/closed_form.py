@@ -48,8 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core.errors import ParameterError
-from core.multistatic.model import COINCIDENT_RTOL, _scale, range_sums, validate_problem
+from plotgate.core.errors import ParameterError
+from plotgate.core.multistatic.model import COINCIDENT_RTOL, _scale, range_sums, validate_problem
 
 __all__ = [
     "RANK_RTOL",
@@ -107,9 +107,12 @@ def _single_transmitter(tx: np.ndarray, tol: np.ndarray) -> None:
         index = int(np.argmax(bad))
         k = int(np.argmax(spread[index] > tol[index]))
         raise ParameterError(
-            "tx", f"this closed form needs one transmitter per problem, but pair {k} has "
+            "tx",
+            f"this closed form needs one transmitter per problem, but pair {k} has "
             f"tx {tx[index, k].tolist()} and pair 0 has {tx[index, 0].tolist()}; "
-            f"solve each transmitter's pairs separately", index)
+            f"solve each transmitter's pairs separately",
+            index,
+        )
 
 
 def _intersect(
@@ -176,8 +179,11 @@ def _intersect(
     t = np.sqrt(np.maximum(t2, 0.0))
     null = Vt[:, -1]  # (N, D), unit
     sign = np.array([1.0, -1.0])
-    s = np.where(mirror[:, None, None],
-                 s_m[:, None, :] + (sign[:, None] * t[:, None, None]) * null[:, None, :], s)
+    s = np.where(
+        mirror[:, None, None],
+        s_m[:, None, :] + (sign[:, None] * t[:, None, None]) * null[:, None, :],
+        s,
+    )
     R = np.where(mirror[:, None], R_m[:, None], R)
     real = np.where(mirror, t2 >= -1e-12 * R_m * R_m, real)
     solvable_rank = full_rank | mirror
@@ -187,11 +193,16 @@ def _intersect(
     s = np.where(finite[..., None], s, 0.0)
     x = base[:, None, :] + s
     implied = ranges[:, None, :] + R[..., None] * ranges_slope[:, None, :]  # (N, 2, K)
-    consistent = (finite & real[:, None] & solvable_rank[:, None]
-                  & (R >= -tol[:, None])
-                  & (implied >= -tol[:, None, None]).all(axis=-1))
-    residual = np.linalg.norm(ls[:, None, :] - range_sums(x, tx[:, None], rx[:, None]),
-                              axis=-1)  # (N, 2)
+    consistent = (
+        finite
+        & real[:, None]
+        & solvable_rank[:, None]
+        & (R >= -tol[:, None])
+        & (implied >= -tol[:, None, None]).all(axis=-1)
+    )
+    residual = np.linalg.norm(
+        ls[:, None, :] - range_sums(x, tx[:, None], rx[:, None]), axis=-1
+    )  # (N, 2)
 
     # Smaller residual wins. Residuals equal to rounding (a square system, where both
     # roots are exact) fall back to the smaller reference range R, and equal R (mirror
@@ -215,8 +226,9 @@ def _intersect(
     vertex = np.where(np.isfinite(vertex), vertex, 0.0)
     fallback = base + a + vertex[:, None] * c
     x_out = np.where(solvable[:, None], x_best, fallback)
-    res_out = np.where(solvable, residual[rows, best],
-                       np.linalg.norm(ls - range_sums(fallback, tx, rx), axis=-1))
+    res_out = np.where(
+        solvable, residual[rows, best], np.linalg.norm(ls - range_sums(fallback, tx, rx), axis=-1)
+    )
     alt_out = np.where(has_alt[:, None], x_other, x_out)
     alt_res = np.where(has_alt, residual[rows, other], res_out)
     return ClosedFormSolution(x_out, alt_out, has_alt, solvable, res_out, alt_res)
@@ -252,7 +264,7 @@ def sum_range_solve(
         Receivers, metres; D = 2 or 3.
     baseline_tol : float or array_like, optional
         Metres a range sum may fall below its baseline (noise near a baseline crossing);
-        see :func:`core.multistatic.model.validate_problem`. Default 0.
+        see :func:`plotgate.core.multistatic.model.validate_problem`. Default 0.
 
     Returns
     -------
@@ -262,7 +274,7 @@ def sum_range_solve(
     Raises
     ------
     NonFiniteError, ParameterError, GeometryError
-        As :func:`core.multistatic.model.validate_problem`; also ParameterError
+        As :func:`plotgate.core.multistatic.model.validate_problem`; also ParameterError
         (field ``"tx"``) when the pairs of a problem do not share one transmitter.
 
     References
@@ -294,8 +306,9 @@ def sum_range_solve(
     b = rx - base[:, None]
     norm_b = np.linalg.norm(b, axis=-1)
     h = 0.5 * (norm_b - ls) * (norm_b + ls)  # (|b|^2 - l^2) / 2 without cancellation
-    return _intersect(M=b, g=ls, h=h, ranges=ls, ranges_slope=-np.ones_like(ls),
-                      base=base, ls=ls, tx=tx, rx=rx)
+    return _intersect(
+        M=b, g=ls, h=h, ranges=ls, ranges_slope=-np.ones_like(ls), base=base, ls=ls, tx=tx, rx=rx
+    )
 
 
 def difference_range_solve(
@@ -359,13 +372,16 @@ def difference_range_solve(
     p, d = rx.shape[1], rx.shape[2]
     if p < d + 1:
         raise ParameterError(
-            "l", f"has {p} measurements, giving {p - 1} differences for {d} unknowns; "
-            f"the difference-range method needs at least {d + 1}")
+            "l",
+            f"has {p} measurements, giving {p - 1} differences for {d} unknowns; "
+            f"the difference-range method needs at least {d + 1}",
+        )
     _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
     base = rx[:, 0]
     e = rx[:, 1:] - base[:, None]
     dk = ls[:, 1:] - ls[:, :1]
     norm_e = np.linalg.norm(e, axis=-1)
     h = 0.5 * (norm_e - dk) * (norm_e + dk)  # (|e|^2 - d^2) / 2 without cancellation
-    return _intersect(M=e, g=-dk, h=h, ranges=dk, ranges_slope=np.ones_like(dk),
-                      base=base, ls=ls, tx=tx, rx=rx)
+    return _intersect(
+        M=e, g=-dk, h=h, ranges=dk, ranges_slope=np.ones_like(dk), base=base, ls=ls, tx=tx, rx=rx
+    )

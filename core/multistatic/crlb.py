@@ -8,13 +8,13 @@ N(0, sigma_p^2) noise by the inverse of the Fisher information
           \\nabla l_{p,i} \\, \\nabla l_{p,i}^T = \\mathbf{H}^T \\mathbf{G} \\mathbf{H},
           \\quad \\mathbf{G} = \\mathrm{diag}(1/\\sigma_p^2)
 
-(eq. 3; H the Jacobian of :func:`core.multistatic.model.range_sum_jacobian`), single
+(eq. 3; H the Jacobian of :func:`plotgate.core.multistatic.model.range_sum_jacobian`), single
 shot (one sample, Fig. 3 curves 1) or accumulated over the samples of a
 constant-velocity track (curves 2).
 
 Conventions and decisions
 -------------------------
-* Shapes as :mod:`core.multistatic.model`: x (N, D) or (D,), tx / rx (N, P, D) or
+* Shapes as :mod:`plotgate.core.multistatic.model`: x (N, D) or (D,), tx / rx (N, P, D) or
   (P, D), sigma scalar, (P,) or (N, P); results are batched (N, ...).
 * GDOP = sqrt(trace J^-1) / sigma_ref with the reference sigma
   sigma_ref = (mean_p 1 / sigma_p^2)^(-1/2), the sigma that carries the average
@@ -37,15 +37,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, first_index
-from core.errors import GeometryError, ParameterError
-from core.multistatic.model import (
+from plotgate.core.errors import GeometryError, ParameterError
+from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
     _scale,
     range_sum_jacobian,
     range_sums,
     validate_problem,
 )
+from plotgate.core.validation import as_array, first_index
 
 __all__ = [
     "CRLB",
@@ -182,7 +182,8 @@ def _geometry(
         d = None  # range_sums words the error on rx
     if x.ndim not in (1, 2) or (d is not None and x.shape[-1] != d):
         raise ParameterError(
-            "x", f"must have shape (D,) or (N, D) with the D = {d} of rx, got {x.shape}")
+            "x", f"must have shape (D,) or (N, D) with the D = {d} of rx, got {x.shape}"
+        )
     ls = range_sums(x, tx, rx)  # shape, D, P and broadcast checks, field-named
     batched = x.ndim == 2
     d = x.shape[-1]
@@ -190,21 +191,25 @@ def _geometry(
     min_pairs = d + extra_pairs
     if p < min_pairs:
         raise ParameterError(
-            "rx", f"has {p} measurement pairs; this bound of {d} coordinates needs at "
-            f"least {min_pairs}")
+            "rx",
+            f"has {p} measurement pairs; this bound of {d} coordinates needs at least {min_pairs}",
+        )
     _, tx, rx, sigma = validate_problem(ls, tx, rx, sigma)
     n = tx.shape[0]
     x = np.array(np.broadcast_to(x, (n, d)))
     # the gradient of |x - platform| is undefined on the platform
     tol = COINCIDENT_RTOL * _scale(tx, rx)
-    gap = np.minimum(np.linalg.norm(x[:, None] - tx, axis=-1),
-                     np.linalg.norm(x[:, None] - rx, axis=-1)).min(axis=-1)
+    gap = np.minimum(
+        np.linalg.norm(x[:, None] - tx, axis=-1), np.linalg.norm(x[:, None] - rx, axis=-1)
+    ).min(axis=-1)
     on_platform = gap <= tol
     if on_platform.any():
         index = first_index(on_platform)
         raise GeometryError(
-            "x", f"{x[index].tolist()} is at a platform, where the range-sum gradient is "
-            f"undefined", index if batched else None)
+            "x",
+            f"{x[index].tolist()} is at a platform, where the range-sum gradient is undefined",
+            index if batched else None,
+        )
     return x, tx, rx, sigma
 
 
@@ -265,9 +270,13 @@ def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
 
 def _bound(J: np.ndarray, sigma_ref: np.ndarray) -> CRLB:
     cov = _inverse_information(J)
-    return CRLB(information=J, covariance=cov, sigma=_diag_sqrt(cov),
-                gdop=np.sqrt(np.trace(cov, axis1=-2, axis2=-1)) / sigma_ref,
-                sigma_ref=sigma_ref)
+    return CRLB(
+        information=J,
+        covariance=cov,
+        sigma=_diag_sqrt(cov),
+        gdop=np.sqrt(np.trace(cov, axis1=-2, axis2=-1)) / sigma_ref,
+        sigma_ref=sigma_ref,
+    )
 
 
 def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
@@ -292,7 +301,7 @@ def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike
         True target positions, metres.
     tx, rx : (P, D) or (N, P, D) array_like
         Transmitter and receiver of each pair, metres; P >= D + 1. The first pair is
-        the reference (as in :func:`core.multistatic.closed_form.difference_range_solve`).
+        the reference (as in :func:`plotgate.core.multistatic.closed_form.difference_range_solve`).
     sigma : float, (P,) or (N, P) array_like
         Range-sum noise standard deviations, metres, > 0.
 
@@ -384,7 +393,7 @@ def trajectory_crlb(
         Sample times, seconds (any epoch).
     tx, rx : (P, D) or (T, P, D) array_like
         Platforms of each pair, fixed or per sample (e.g. from
-        :func:`core.multistatic.model.platform_positions`), metres; P >= D.
+        :func:`plotgate.core.multistatic.model.platform_positions`), metres; P >= D.
     sigma : float, (P,) or (T, P) array_like
         Range-sum noise standard deviations, metres, > 0.
     measurements : ``"sum"`` or ``"difference"``, optional
@@ -422,7 +431,8 @@ def trajectory_crlb(
     """
     if measurements not in ("sum", "difference"):
         raise ParameterError(
-            "measurements", f"must be 'sum' or 'difference', got {measurements!r}")
+            "measurements", f"must be 'sum' or 'difference', got {measurements!r}"
+        )
     x0, v, t = _track_inputs(x0, v, t)
     tau = t - t[0]
     x = x0 + tau[:, None] * v  # (T, D)
@@ -453,6 +463,12 @@ def _track_bound(
 ) -> TrajectoryCRLB:
     pos = _position_covariance(cov, tau)
     return TrajectoryCRLB(
-        t_ref=t_ref, information=J, covariance=cov, sigma=_diag_sqrt(cov),
-        position_covariance=pos, position_sigma=_diag_sqrt(pos),
-        gdop=np.sqrt(np.trace(pos, axis1=-2, axis2=-1)) / sigma_ref, sigma_ref=sigma_ref)
+        t_ref=t_ref,
+        information=J,
+        covariance=cov,
+        sigma=_diag_sqrt(cov),
+        position_covariance=pos,
+        position_sigma=_diag_sqrt(pos),
+        gdop=np.sqrt(np.trace(pos, axis1=-2, axis2=-1)) / sigma_ref,
+        sigma_ref=sigma_ref,
+    )

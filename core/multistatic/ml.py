@@ -33,7 +33,7 @@ iterations loop in Python.
 Start and alternatives
 ----------------------
 By default the start is the sum-range closed form
-(:func:`core.multistatic.closed_form.sum_range_solve`); with several transmitters,
+(:func:`plotgate.core.multistatic.closed_form.sum_range_solve`); with several transmitters,
 that of the first transmitter's pairs (problems whose first transmitter has fewer than
 D pairs start at the centroid of their platforms). When the closed form has a second
 root, Gauss-Newton runs from both; the lower cost wins, and the other becomes the
@@ -69,11 +69,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import stats
 
-from core._validate import as_array, as_probability, as_scalar, require_positive
-from core.errors import ParameterError
-from core.multistatic.closed_form import sum_range_solve
-from core.multistatic.crlb import _inverse_information, _position_covariance, _symmetric_eigh
-from core.multistatic.model import (
+from plotgate.core.errors import ParameterError
+from plotgate.core.multistatic.closed_form import sum_range_solve
+from plotgate.core.multistatic.crlb import (
+    _inverse_information,
+    _position_covariance,
+    _symmetric_eigh,
+)
+from plotgate.core.multistatic.model import (
     BASELINE_SIGMAS,
     COINCIDENT_RTOL,
     _norm,
@@ -84,6 +87,7 @@ from core.multistatic.model import (
     _with_tx_axis,
     validate_problem,
 )
+from plotgate.core.validation import as_array, as_probability, as_scalar, require_positive
 
 __all__ = ["MLSolution", "TrajectorySolution", "ml_solve", "trajectory_solve"]
 
@@ -115,7 +119,7 @@ class MLSolution:
         Estimated positions, metres.
     covariance : (N, D, D) ndarray
         (H^T G H)^-1 at x, m^2 (eigenvalues of H^T G H floored as in
-        :func:`core.multistatic.crlb.crlb`: huge, finite, where unobservable).
+        :func:`plotgate.core.multistatic.crlb.crlb`: huge, finite, where unobservable).
     residuals : (N, P) ndarray
         l - h(x), metres.
     cost : (N,) ndarray
@@ -197,7 +201,7 @@ class TrajectorySolution:
     @property
     def velocity(self) -> np.ndarray:
         """(D,) or (N, D) velocity, m/s."""
-        return self.state[..., self.state.shape[-1] // 2:]
+        return self.state[..., self.state.shape[-1] // 2 :]
 
     def at(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Positions and their covariances at the requested times.
@@ -223,8 +227,10 @@ class TrajectorySolution:
         if t.ndim > 1:
             raise ParameterError("t", f"must be a scalar or have shape (M,), got {t.shape}")
         tau = np.atleast_1d(t) - self.t_ref
-        return (self.position[..., None, :] + tau[:, None] * self.velocity[..., None, :],
-                _position_covariance(self.covariance, tau))
+        return (
+            self.position[..., None, :] + tau[:, None] * self.velocity[..., None, :],
+            _position_covariance(self.covariance, tau),
+        )
 
 
 # ---------------------------------------------------------------- the Gauss-Newton core
@@ -309,8 +315,9 @@ def _gauss_newton(
         step = np.einsum("mik,mk->mi", V, gv_ev) / col
         # the cost decrease the Gauss-Newton model promises: g^T (H^T G H)^+ g
         promised = np.einsum("mk,mk->m", gv, gv_ev)
-        small = ((_norm(step) <= tol * (1.0 + _norm(th)))
-                 | (promised <= _DECREASE_TOL * (1.0 + cost[idx])))
+        small = (_norm(step) <= tol * (1.0 + _norm(th))) | (
+            promised <= _DECREASE_TOL * (1.0 + cost[idx])
+        )
         # seed eq. 6 with k = 1, 1/2, 1/4, ...; a converged problem still takes its
         # last (small) step when that lowers the cost
         ok, _ = try_steps(idx, th[:, None, :] + step[:, None, :])  # k = 1 first
@@ -341,8 +348,15 @@ def _gauss_newton(
 
     Hw = jacobian(theta, everyone) * w[:, :, None]
     information = np.einsum("npi,npj->nij", Hw, Hw)
-    return _Fit(theta, cost, r * sigma, information, _inverse_information(information),
-                iterations, converged)
+    return _Fit(
+        theta,
+        cost,
+        r * sigma,
+        information,
+        _inverse_information(information),
+        iterations,
+        converged,
+    )
 
 
 # ---------------------------------------------------------------- inputs and starts
@@ -350,8 +364,7 @@ def _gauss_newton(
 
 def _options(alpha: float, max_iter: int, tol: float) -> tuple[float, int, float]:
     alpha = float(as_probability("alpha", as_scalar("alpha", alpha)))
-    if (isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer))
-            or max_iter < 1):
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
         raise ParameterError("max_iter", f"must be an integer >= 1, got {max_iter!r}")
     tol = as_scalar("tol", tol)
     require_positive("tol", tol)
@@ -396,9 +409,12 @@ def _closed_form_starts(
             x[rows] = alternative[rows] = centroid
             continue
         m = int(pattern.sum())
-        sol = sum_range_solve(ls[rows][:, pattern], np.repeat(tx[rows, :1], m, axis=1),
-                              rx[rows][:, pattern],
-                              baseline_tol=BASELINE_SIGMAS * sigma[rows][:, pattern])
+        sol = sum_range_solve(
+            ls[rows][:, pattern],
+            np.repeat(tx[rows, :1], m, axis=1),
+            rx[rows][:, pattern],
+            baseline_tol=BASELINE_SIGMAS * sigma[rows][:, pattern],
+        )
         x[rows] = sol.x
         alternative[rows] = sol.alternative
         has_alternative[rows] = sol.has_alternative
@@ -406,8 +422,13 @@ def _closed_form_starts(
 
 
 def _worth_following(
-    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, sigma: np.ndarray,
-    start: np.ndarray, alt_start: np.ndarray, threshold: float,
+    ls: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    sigma: np.ndarray,
+    start: np.ndarray,
+    alt_start: np.ndarray,
+    threshold: float,
 ) -> np.ndarray:
     """(N,) which second closed-form roots Gauss-Newton also starts from.
 
@@ -416,6 +437,7 @@ def _worth_following(
     times that threshold: on the study's problems the closed form's roots sit within
     80 of a consistent minimum's cost, and this skips most far mirror roots.
     """
+
     def cost(x: np.ndarray) -> np.ndarray:
         r = (ls - _range_sums(x, tx, rx)) / sigma
         return np.einsum("np,np->n", r, r)
@@ -547,7 +569,7 @@ def ml_solve(
     One transmitter and three receivers about 10 km apart; the range sums of a target
     at (3, 4) km plus a few decimetres of noise:
 
-    >>> from core.multistatic.model import range_sums
+    >>> from plotgate.core.multistatic.model import range_sums
     >>> rx = [[10000.0, 0.0], [0.0, 10000.0], [-8000.0, -6000.0]]
     >>> l = range_sums([3000.0, 4000.0], [0.0, 0.0], rx) + [0.3, -0.4, 0.2]
     >>> sol = ml_solve(l, [0.0, 0.0], rx, sigma=0.5)
@@ -564,11 +586,13 @@ def ml_solve(
     """
     alpha, max_iter, tol = _options(alpha, max_iter, tol)
     if not isinstance(closed_form_starts, (bool, np.bool_)):
-        raise ParameterError("closed_form_starts",
-                             f"must be True or False, got {closed_form_starts!r}")
+        raise ParameterError(
+            "closed_form_starts", f"must be True or False, got {closed_form_starts!r}"
+        )
     if x0 is None and not closed_form_starts:
-        raise ParameterError("closed_form_starts",
-                             "False needs x0: without a start the closed form is the only one")
+        raise ParameterError(
+            "closed_form_starts", "False needs x0: without a start the closed form is the only one"
+        )
     ls, tx, rx, sigma = validate_problem(l, tx, rx, sigma)
     n, p, d = tx.shape
     threshold = _threshold(alpha, p - d)
@@ -579,14 +603,22 @@ def ml_solve(
     if closed_form_starts:
         start, alt_start, has_alt_start = _closed_form_starts(ls, tx, rx, sigma)
         starts.append(start)
-        second = np.flatnonzero(has_alt_start & _worth_following(
-            ls, tx, rx, sigma, start, alt_start, threshold))
+        second = np.flatnonzero(
+            has_alt_start & _worth_following(ls, tx, rx, sigma, start, alt_start, threshold)
+        )
         seconds = alt_start[second]
     k = len(starts)
     problem = np.concatenate([np.tile(np.arange(n), k), second])
     predict, jacobian = _position_model(tx[problem], rx[problem])
-    fit = _gauss_newton(predict, jacobian, ls[problem], sigma[problem],
-                        np.concatenate([*starts, seconds]), max_iter, tol)
+    fit = _gauss_newton(
+        predict,
+        jacobian,
+        ls[problem],
+        sigma[problem],
+        np.concatenate([*starts, seconds]),
+        max_iter,
+        tol,
+    )
 
     # runs (N, k + 1): run r = j n + i is problem i's start j; the last column is the
     # second root's run, or the problem's first run where there is none
@@ -613,8 +645,9 @@ def ml_solve(
 # ---------------------------------------------------------------- constant-velocity track
 
 
-def _line_terms(x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+def _line_terms(
+    x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Each sample's share of the normal equations of a line x_i ~ x0 + tau_i v.
 
     x (N, T, D) points with information W (N, T, D, D) at times tau (T,); use (N, T)
@@ -623,10 +656,16 @@ def _line_terms(x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray
     """
     Wm = W * use[..., None, None]
     tw = tau[:, None, None] * Wm
-    M = np.concatenate([np.concatenate([Wm, tw], axis=-1),
-                        np.concatenate([tw, tau[:, None, None] * tw], axis=-1)], axis=-2)
-    b = np.concatenate([np.einsum("ntij,ntj->nti", Wm, x), np.einsum("ntij,ntj->nti", tw, x)],
-                       axis=-1)
+    M = np.concatenate(
+        [
+            np.concatenate([Wm, tw], axis=-1),
+            np.concatenate([tw, tau[:, None, None] * tw], axis=-1),
+        ],
+        axis=-2,
+    )
+    b = np.concatenate(
+        [np.einsum("ntij,ntj->nti", Wm, x), np.einsum("ntij,ntj->nti", tw, x)], axis=-1
+    )
     return M, b
 
 
@@ -655,7 +694,11 @@ def _chain(cand: np.ndarray, tau: np.ndarray, first: int) -> np.ndarray:
 
 
 def _track_starts(
-    ls: np.ndarray, tau: np.ndarray, tx: np.ndarray, rx: np.ndarray, sigma: np.ndarray,
+    ls: np.ndarray,
+    tau: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    sigma: np.ndarray,
     alpha: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(x0, v) starts of N tracks: (starts (S, 2D), the track of each start (S,)).
@@ -673,8 +716,9 @@ def _track_starts(
     n, n_t, p, d = tx.shape
     flat = [a.reshape((n * n_t, *a.shape[2:])) for a in (ls, tx, rx, sigma)]
     start, alternative, has_alternative = _closed_form_starts(*flat)
-    sol = ml_solve(*flat, x0=start, alpha=alpha, max_iter=START_ITERATIONS,
-                   closed_form_starts=False)
+    sol = ml_solve(
+        *flat, x0=start, alpha=alpha, max_iter=START_ITERATIONS, closed_form_starts=False
+    )
     has_alternative &= p == d
     cand = np.stack([sol.x, np.where(has_alternative[:, None], alternative, sol.x)], axis=1)
     cand = cand.reshape(n, n_t, 2, d)
@@ -718,11 +762,11 @@ def _per_sample(name: str, value: ArrayLike, n: int, n_t: int, core_ndim: int) -
     extra = len(shape) - core_ndim
     if extra <= 0:
         return value
-    if extra > 2 or shape[:extra] != (n, n_t)[2 - extra:]:
+    if extra > 2 or shape[:extra] != (n, n_t)[2 - extra :]:
         want = f"({n_t}, ...) or ({n}, {n_t}, ...)" if n > 1 else f"({n_t}, ...)"
         raise ParameterError(
-            name, f"has shape {shape}: per-sample values need {want} for the {n_t} "
-            f"sample times")
+            name, f"has shape {shape}: per-sample values need {want} for the {n_t} sample times"
+        )
     core = shape[extra:]
     return np.broadcast_to(as_array(name, value), (n, n_t, *core)).reshape(n * n_t, *core)
 
@@ -754,7 +798,7 @@ def trajectory_solve(
         Sample times, seconds (any epoch); at least two distinct times.
     tx : (D,), (P, D), (T, P, D) or (N, T, P, D) array_like
         Transmitter of each pair, fixed or per sample (moving platforms, e.g. from
-        :func:`core.multistatic.model.platform_positions`), metres; the same for every
+        :func:`plotgate.core.multistatic.model.platform_positions`), metres; the same for every
         track unless given per track.
     rx : (P, D), (T, P, D) or (N, T, P, D) array_like
         Receiver of each pair, metres; P >= D.
@@ -790,7 +834,7 @@ def trajectory_solve(
     --------
     A target at 80 m/s north, five samples a second apart, noise-free:
 
-    >>> from core.multistatic.model import range_sums
+    >>> from plotgate.core.multistatic.model import range_sums
     >>> rx = [[10000.0, 0.0], [0.0, 10000.0], [-8000.0, -6000.0]]
     >>> t = np.arange(5.0)
     >>> x = np.array([3000.0, 4000.0]) + t[:, None] * [0.0, 80.0]
@@ -815,8 +859,9 @@ def trajectory_solve(
     l_shape = tuple(_shape("l", l))
     if len(l_shape) not in (2, 3) or l_shape[-2] != t.size:
         raise ParameterError(
-            "l", f"must have shape (T, P) or (N, T, P) with T = {t.size} samples as t, "
-            f"got {l_shape}")
+            "l",
+            f"must have shape (T, P) or (N, T, P) with T = {t.size} samples as t, got {l_shape}",
+        )
     if t.size < 2 or not (t != t[0]).any():
         raise ParameterError("t", "needs at least two distinct times to observe the velocity")
     n, n_t = (l_shape[0] if len(l_shape) == 3 else 1), t.size
@@ -843,8 +888,15 @@ def trajectory_solve(
         H = np.concatenate([H, tau[:, None, None] * H], axis=-1)
         return H.reshape(idx.size, n_t * p, 2 * d)
 
-    fit = _gauss_newton(predict, jacobian, ls.reshape(n, -1)[owner],
-                        sigma.reshape(n, -1)[owner], starts, max_iter, tol)
+    fit = _gauss_newton(
+        predict,
+        jacobian,
+        ls.reshape(n, -1)[owner],
+        sigma.reshape(n, -1)[owner],
+        starts,
+        max_iter,
+        tol,
+    )
     # the lowest cost of each track's starts (its primary start on a tie)
     order = np.lexsort((np.arange(owner.size), fit.cost, owner))
     best = order[np.r_[True, owner[order][1:] != owner[order][:-1]]]
@@ -867,7 +919,13 @@ def trajectory_solve(
 def _single_track(sol: TrajectorySolution) -> TrajectorySolution:
     """The first (only) track of a batch, with plain Python scalars."""
     return TrajectorySolution(
-        state=sol.state[0], covariance=sol.covariance[0], t_ref=sol.t_ref,
-        residuals=sol.residuals[0], cost=float(sol.cost[0]),
-        normalized_cost=float(sol.normalized_cost[0]), consistent=bool(sol.consistent[0]),
-        converged=bool(sol.converged[0]), iterations=int(sol.iterations[0]))
+        state=sol.state[0],
+        covariance=sol.covariance[0],
+        t_ref=sol.t_ref,
+        residuals=sol.residuals[0],
+        cost=float(sol.cost[0]),
+        normalized_cost=float(sol.normalized_cost[0]),
+        consistent=bool(sol.consistent[0]),
+        converged=bool(sol.converged[0]),
+        iterations=int(sol.iterations[0]),
+    )

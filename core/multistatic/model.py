@@ -29,8 +29,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, first_index
-from core.errors import GeometryError, ParameterError
+from plotgate.core.errors import GeometryError, ParameterError
+from plotgate.core.validation import as_array, first_index
 
 __all__ = [
     "COINCIDENT_RTOL",
@@ -114,13 +114,16 @@ def _model_inputs(
             raise ParameterError(name, f"has D = {arr.shape[-1]} but x has D = {d}")
     if tx.shape[-2] not in (1, rx.shape[-2]):
         raise ParameterError(
-            "tx", f"has P = {tx.shape[-2]} measurements but rx has {rx.shape[-2]}")
+            "tx", f"has P = {tx.shape[-2]} measurements but rx has {rx.shape[-2]}"
+        )
     try:
         np.broadcast_shapes(x.shape[:-1], tx.shape[:-2], rx.shape[:-2])
     except ValueError:
         raise ParameterError(
-            "x", f"batch shape {x.shape[:-1]} does not broadcast with tx {tx.shape[:-2]} "
-            f"and rx {rx.shape[:-2]}") from None
+            "x",
+            f"batch shape {x.shape[:-1]} does not broadcast with tx {tx.shape[:-2]} "
+            f"and rx {rx.shape[:-2]}",
+        ) from None
     return x, tx, rx
 
 
@@ -181,13 +184,14 @@ def platform_positions(
     velocity = _positions("velocity", velocity)
     if velocity.shape[-1] != initial.shape[-1]:
         raise ParameterError(
-            "velocity", f"has D = {velocity.shape[-1]} but initial has D = {initial.shape[-1]}")
+            "velocity", f"has D = {velocity.shape[-1]} but initial has D = {initial.shape[-1]}"
+        )
     try:
         batch = np.broadcast_shapes(initial.shape, velocity.shape)
     except ValueError:
         raise ParameterError(
-            "velocity", f"shape {velocity.shape} does not broadcast with initial "
-            f"{initial.shape}") from None
+            "velocity", f"shape {velocity.shape} does not broadcast with initial {initial.shape}"
+        ) from None
     t = as_array("t", t)
     if t.ndim > 1:
         raise ParameterError("t", f"must have shape (T,), got {t.shape}")
@@ -246,8 +250,9 @@ def _range_sums(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
 def _unit(v: np.ndarray) -> np.ndarray:
     """v / |v| along the last axis; 0 where v = 0 (the smallest subgradient of |v|)."""
     norm = _norm(v)[..., None]
-    return np.divide(v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)),
-                     where=norm > 0)
+    return np.divide(
+        v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)), where=norm > 0
+    )
 
 
 def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
@@ -396,14 +401,15 @@ def validate_problem(
         sig = as_array("sigma", sigma)
         if sig.ndim > 2 or (sig.ndim >= 1 and sig.shape[-1] != p):
             raise ParameterError(
-                "sigma", f"must be a scalar or have shape (P,) or (N, P) with P = {p}, "
-                f"got {sig.shape}")
+                "sigma",
+                f"must be a scalar or have shape (P,) or (N, P) with P = {p}, got {sig.shape}",
+            )
         shapes["sigma"] = sig.shape[:-1]
     n = _batch_length(**shapes)
     if p < d:
         raise ParameterError(
-            "l", f"has {p} measurements but the position has {d} unknowns; "
-            f"at least {d} are needed")
+            "l", f"has {p} measurements but the position has {d} unknowns; at least {d} are needed"
+        )
     negative = ls < 0
     if negative.any():
         bad = negative.any(axis=-1)
@@ -429,8 +435,8 @@ def validate_problem(
         index = int(np.argmax(coincident.any(axis=-1)))
         k = int(np.argmax(coincident[index]))
         raise GeometryError(
-            "rx", f"receiver {k} coincides with its transmitter at "
-            f"{tx[index, k].tolist()}", index)
+            "rx", f"receiver {k} coincides with its transmitter at {tx[index, k].tolist()}", index
+        )
     if p > 1:
         # (N, P, P) pair distances: a pair repeated has equal tx and equal rx.
         same_rx = np.linalg.norm(rx[:, :, None] - rx[:, None], axis=-1) <= tol[:, None, None]
@@ -440,27 +446,32 @@ def validate_problem(
             index = int(np.argmax(dup.any(axis=(-2, -1))))
             i, j = np.unravel_index(int(np.argmax(dup[index])), (p, p))
             raise GeometryError(
-                "rx", f"receivers {i} and {j} are at the same position "
-                f"{rx[index, i].tolist()} with the same transmitter", index)
+                "rx",
+                f"receivers {i} and {j} are at the same position "
+                f"{rx[index, i].tolist()} with the same transmitter",
+                index,
+            )
 
     if baseline_tol is None:
         allow = BASELINE_SIGMAS * sig if sig is not None else np.zeros((n, p))
     else:
         allow = as_array("baseline_tol", baseline_tol)
         if not (allow >= 0).all():
-            raise ParameterError(
-                "baseline_tol", f"must be non-negative, got {allow.tolist()}")
+            raise ParameterError("baseline_tol", f"must be non-negative, got {allow.tolist()}")
         try:
             allow = np.broadcast_to(allow, (n, p))
         except ValueError:
             raise ParameterError(
-                "baseline_tol", f"shape {allow.shape} does not broadcast with "
-                f"(N, P) = {(n, p)}") from None
+                "baseline_tol", f"shape {allow.shape} does not broadcast with (N, P) = {(n, p)}"
+            ) from None
     short = ls < baseline - allow - tol[:, None]
     if short.any():
         index = int(np.argmax(short.any(axis=-1)))
         k = int(np.argmax(short[index]))
         raise GeometryError(
-            "l", f"range sum {k} = {float(ls[index, k])} m is shorter than its baseline "
-            f"|tx - rx| = {float(baseline[index, k])} m; no target position gives it", index)
+            "l",
+            f"range sum {k} = {float(ls[index, k])} m is shorter than its baseline "
+            f"|tx - rx| = {float(baseline[index, k])} m; no target position gives it",
+            index,
+        )
     return Problem(ls, tx, rx, sig)

@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, first_index
-from core.errors import ParameterError
+from plotgate.core.errors import ParameterError
+from plotgate.core.validation import as_array, first_index
 
 __all__ = ["NoiseEstimate", "range_sum_noise", "smooth_positions"]
 
@@ -83,8 +83,9 @@ def _as_times(t: ArrayLike, n_needed: int, what: str) -> np.ndarray:
     step = np.diff(t)
     if not (step > 0.0).all():
         index = first_index(~(step > 0.0)) + 1
-        raise ParameterError("t", f"must be strictly increasing, got {t[index - 1]} then "
-                             f"{t[index]}", index)
+        raise ParameterError(
+            "t", f"must be strictly increasing, got {t[index - 1]} then {t[index]}", index
+        )
     return t
 
 
@@ -92,8 +93,9 @@ def _as_series(name: str, value: ArrayLike, n_samples: int) -> np.ndarray:
     x = as_array(name, value)
     if x.ndim == 0 or x.shape[0] != n_samples:
         raise ParameterError(
-            name, f"must have shape (T, ...) with T = {n_samples} samples as t, "
-                  f"got shape {x.shape}")
+            name,
+            f"must have shape (T, ...) with T = {n_samples} samples as t, got shape {x.shape}",
+        )
     return x
 
 
@@ -103,7 +105,9 @@ def _vandermonde(tau: np.ndarray, degree: int) -> np.ndarray:
 
 
 def range_sum_noise(
-    t: ArrayLike, l: ArrayLike, degree: int = 2  # noqa: E741 (seed 001 names it l)
+    t: ArrayLike,
+    l: ArrayLike,  # noqa: E741 (seed 001 names it l)
+    degree: int = 2,
 ) -> NoiseEstimate:
     """Noise of each range-sum series from its polynomial (quadratic) fit.
 
@@ -234,10 +238,14 @@ def smooth_positions(t: ArrayLike, x: ArrayLike, window: int, degree: int = 2) -
     True
     """
     degree = _as_degree(degree)
-    if (isinstance(window, bool) or not isinstance(window, (int, np.integer))
-            or window < degree + 1):
+    if (
+        isinstance(window, bool)
+        or not isinstance(window, (int, np.integer))
+        or window < degree + 1
+    ):
         raise ParameterError(
-            "window", f"must be an integer >= degree + 1 = {degree + 1}, got {window!r}")
+            "window", f"must be an integer >= degree + 1 = {degree + 1}, got {window!r}"
+        )
     window = int(window)
     t = _as_times(t, window, f"for a window of {window}")
     x = _as_series("x", x, t.size)

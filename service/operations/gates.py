@@ -1,7 +1,7 @@
 """Gate tests (seed 000 section on capture gates; DESIGN section 3).
 
 Plots arrive Cartesian or polar; both become positions z (m) and covariances P (m^2) in
-the common frame (:func:`service.operations.plots.plot_arrays`, which checks each plot's
+the common frame (:func:`plotgate.service.operations.plots.plot_arrays`, which checks each plot's
 covariance on its own, whatever the gate kind, before any sum B = P_first + P_candidate,
 and names the plot's own field: ``first.covariance``, ``candidates[2].covariance``,
 ``pairs[3].second.covariance``, or the polar plot ``candidates[2]`` with its sigmas). The
@@ -13,11 +13,11 @@ sigmas exactly.
 
 import numpy as np
 
-import core
-from core import GeometryError, PlotgateError
-from service.operations.answers import checked
-from service.operations.plots import PlotError, plot_arrays
-from service.schemas import (
+from plotgate import core
+from plotgate.core import GeometryError, PlotgateError
+from plotgate.service.operations.answers import checked
+from plotgate.service.operations.plots import PlotError, plot_arrays
+from plotgate.service.schemas import (
     MIN_RANGE,
     GatePairsRequest,
     GateResults,
@@ -25,14 +25,26 @@ from service.schemas import (
     Plot,
     PolarPlot,
 )
-from service.schemas.gates import Gate, Stage
+from plotgate.service.schemas.gates import Gate, Stage
 
 __all__ = ["pairs", "pairs_field", "test", "test_field"]
 
 _STAGES: tuple[Stage, ...] = ("none", "ring", "inner_ellipse", "outer_ellipse")
 _GATE_PARAMS = {"tau", "v_min", "v_max", "P_G", "p", "k", "K_R", "K_az"}
-_FIRST = {"z1", "P1", "z_pred", "r_pred", "az_pred", "sigma_r_pred", "sigma_az_pred",
-          "r1", "az1", "sigma_r1", "sigma_az1", "sensor"}
+_FIRST = {
+    "z1",
+    "P1",
+    "z_pred",
+    "r_pred",
+    "az_pred",
+    "sigma_r_pred",
+    "sigma_az_pred",
+    "r1",
+    "az1",
+    "sigma_r1",
+    "sigma_az1",
+    "sensor",
+}
 _SECOND = {"z2", "P2", "z", "r", "az", "sigma_r2", "sigma_az2"}
 _STATISTICS = {
     "ring": "distance |z2 - z1|, m",
@@ -60,8 +72,10 @@ def _polar(z: np.ndarray, P: np.ndarray, sensor: np.ndarray, side: str):
     if near.size:
         index = int(near[0]) if np.ndim(r) else None
         raise GeometryError(
-            "z" + side, f"is {np.atleast_1d(r)[near[0]]:.3g} m from the sensor of the first plot; "
-            f"polar gates need at least {MIN_RANGE:g} m", index,
+            "z" + side,
+            f"is {np.atleast_1d(r)[near[0]]:.3g} m from the sensor of the first plot; "
+            f"polar gates need at least {MIN_RANGE:g} m",
+            index,
         )
     try:
         C = core.cartesian_covariance_to_polar(rel, P)
@@ -125,10 +139,10 @@ def test(request: GateTestRequest) -> GateResults:
 @checked
 def pairs(request: GatePairsRequest) -> GateResults:
     """Test every (first, second) pair on its own."""
-    z1, P1, s1 = plot_arrays([pair.first for pair in request.pairs],
-                             lambda i: f"pairs[{i}].first")
-    z2, P2, _ = plot_arrays([pair.second for pair in request.pairs],
-                            lambda i: f"pairs[{i}].second")
+    z1, P1, s1 = plot_arrays([pair.first for pair in request.pairs], lambda i: f"pairs[{i}].first")
+    z2, P2, _ = plot_arrays(
+        [pair.second for pair in request.pairs], lambda i: f"pairs[{i}].second"
+    )
     return _results(request.gate, _gate(request.gate, z1, P1, s1, z2, P2))
 
 

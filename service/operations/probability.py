@@ -1,6 +1,6 @@
 """Gating probabilities, areas, false marks and gate design (seed 000; DESIGN section 4).
 
-The wire's gate, mark and tau become core's gate region and :class:`core.MarkGeometry`;
+The wire's gate, mark and tau become core's gate region and :class:`plotgate.core.MarkGeometry`;
 angles arrive in degrees and go to core in radians. A velocity is speed (sin course,
 cos course), course clockwise from north. A curve is one vectorized core call: the
 geometry batched over the ranges, or one geometry repeated and the velocity batched over
@@ -17,11 +17,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-import core
-from core import PlotgateError
-from service.operations.answers import checked
-from service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
-from service.schemas import (
+from plotgate import core
+from plotgate.core import PlotgateError
+from plotgate.service.operations.answers import checked
+from plotgate.service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
+from plotgate.service.schemas import (
     AreaApproximation,
     FalseMarks,
     GateAnalysisRequest,
@@ -96,27 +96,46 @@ def _gate(gate: GateRegion) -> core.Gate:
 def _own_covariances(mark: Mark, r: np.ndarray, where: Callable[[int], str]) -> None:
     """Check each mark's own covariance (axes sigma_r and r sigma_az) before core forms
     B = P1 + P2, naming the mark (``where(i)`` at range r[i]) and the two sigmas."""
-    second = (("sigma_r" if mark.sigma_r2 is None else "sigma_r2",
-               "sigma_az_deg" if mark.sigma_az2_deg is None else "sigma_az2_deg"),
-              mark.sigma_r if mark.sigma_r2 is None else mark.sigma_r2,
-              mark.sigma_az_deg if mark.sigma_az2_deg is None else mark.sigma_az2_deg)
-    for names, sigma_r, sigma_az_deg in ((("sigma_r", "sigma_az_deg"), mark.sigma_r,
-                                          mark.sigma_az_deg), second):
-        i = first_thin_polar(r, np.full(r.shape, mark.az_deg), np.full(r.shape, sigma_r),
-                             np.full(r.shape, sigma_az_deg))
+    second = (
+        (
+            "sigma_r" if mark.sigma_r2 is None else "sigma_r2",
+            "sigma_az_deg" if mark.sigma_az2_deg is None else "sigma_az2_deg",
+        ),
+        mark.sigma_r if mark.sigma_r2 is None else mark.sigma_r2,
+        mark.sigma_az_deg if mark.sigma_az2_deg is None else mark.sigma_az2_deg,
+    )
+    for names, sigma_r, sigma_az_deg in (
+        (("sigma_r", "sigma_az_deg"), mark.sigma_r, mark.sigma_az_deg),
+        second,
+    ):
+        i = first_thin_polar(
+            r,
+            np.full(r.shape, mark.az_deg),
+            np.full(r.shape, sigma_r),
+            np.full(r.shape, sigma_az_deg),
+        )
         if i is not None:
-            raise PlotError(where(i), polar_ellipse_reason(float(r[i]), sigma_r,
-                                                           sigma_az_deg, names))
+            raise PlotError(
+                where(i), polar_ellipse_reason(float(r[i]), sigma_r, sigma_az_deg, names)
+            )
 
 
-def _geometry(mark: Mark, tau: float, r: np.ndarray | None = None,
-              where: Callable[[int], str] = lambda _: "mark") -> core.MarkGeometry:
+def _geometry(
+    mark: Mark,
+    tau: float,
+    r: np.ndarray | None = None,
+    where: Callable[[int], str] = lambda _: "mark",
+) -> core.MarkGeometry:
     """The mark's geometry; ``r`` (an array: one problem per range, problem i named
     ``where(i)``) replaces ``mark.r``."""
     _own_covariances(mark, np.array([mark.r]) if r is None else r, where)
     return core.mark_geometry(
-        mark.r if r is None else r, math.radians(mark.az_deg), mark.sigma_r,
-        math.radians(mark.sigma_az_deg), tau, mark.sigma_r2,
+        mark.r if r is None else r,
+        math.radians(mark.az_deg),
+        mark.sigma_r,
+        math.radians(mark.sigma_az_deg),
+        tau,
+        mark.sigma_r2,
         None if mark.sigma_az2_deg is None else math.radians(mark.sigma_az2_deg),
     )
 
@@ -127,17 +146,18 @@ def _velocity(speed: float | np.ndarray, course_deg: float) -> np.ndarray:
     return np.multiply.outer(speed, [math.sin(course), math.cos(course)])
 
 
-def _unconditional(gate: core.Gate, geometry: core.MarkGeometry,
-                   prior: SpeedPrior) -> core.GateProbability:
+def _unconditional(
+    gate: core.Gate, geometry: core.MarkGeometry, prior: SpeedPrior
+) -> core.GateProbability:
     """Seed 000 eq. (3)-(6) over the prior's speeds and a uniform heading."""
     return core.unconditional_probability(gate, geometry, prior.v_min, prior.v_max, prior.kind)
 
 
-def _false_marks(area: np.ndarray, r: float, resolution: Resolution, F: float,
-                 m_max: int) -> tuple[float, FalseMarks]:
+def _false_marks(
+    area: np.ndarray, r: float, resolution: Resolution, F: float, m_max: int
+) -> tuple[float, FalseMarks]:
     """Cells S' = S / (dR R dAz) and the Poisson false marks in them (seed 000)."""
-    cells = core.resolution_cells(area, r, resolution.range,
-                                  math.radians(resolution.azimuth_deg))
+    cells = core.resolution_cells(area, r, resolution.range, math.radians(resolution.azimuth_deg))
     marks = core.false_marks(cells, F, m_max)
     return float(cells[0]), FalseMarks(
         mean=float(marks.mean[0]),
@@ -202,22 +222,33 @@ def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
     geometry = _geometry(request.mark, request.tau)
     gated = None if request.prior is None else _unconditional(gate, geometry, request.prior)
     area = core.gate_area(gate, geometry)
-    cells, marks = _false_marks(area, request.mark.r, request.resolution,
-                                request.false_alarm, request.m_max)
+    cells, marks = _false_marks(
+        area, request.mark.r, request.resolution, request.false_alarm, request.m_max
+    )
     approximation = None
     if isinstance(gate, core.CombinedGate):
         approx = core.combined_area_approximation(gate, geometry)
-        approx_cells, approx_marks = _false_marks(approx, request.mark.r, request.resolution,
-                                                  request.false_alarm, request.m_max)
-        approximation = AreaApproximation(area=float(approx[0]), cells=approx_cells,
-                                          false_marks=approx_marks)
+        approx_cells, approx_marks = _false_marks(
+            approx, request.mark.r, request.resolution, request.false_alarm, request.m_max
+        )
+        approximation = AreaApproximation(
+            area=float(approx[0]), cells=approx_cells, false_marks=approx_marks
+        )
     probabilities = {}
     if gated is not None:
         capture = core.capture_probability(gated.probability, request.P_D1, request.P_D2)
-        probabilities = {"gate_probability": float(gated.probability[0]),
-                         "error": float(gated.error[0]), "capture": float(capture[0])}
-    return GateAnalysisResult(area=float(area[0]), cells=cells, false_marks=marks,
-                              approximation=approximation, **probabilities)
+        probabilities = {
+            "gate_probability": float(gated.probability[0]),
+            "error": float(gated.error[0]),
+            "capture": float(capture[0]),
+        }
+    return GateAnalysisResult(
+        area=float(area[0]),
+        cells=cells,
+        false_marks=marks,
+        approximation=approximation,
+        **probabilities,
+    )
 
 
 @checked
@@ -225,15 +256,26 @@ def design(request: GateDesignRequest) -> GateDesignResult:
     """The combined gate's P_G or the expanded gate's p reaching the wanted capture."""
     prior = request.prior
     found = core.design_gate(
-        _gate(request.gate), _geometry(request.mark, request.tau), request.capture,
-        prior.v_min, prior.v_max, prior.kind, request.P_D1, request.P_D2,
+        _gate(request.gate),
+        _geometry(request.mark, request.tau),
+        request.capture,
+        prior.v_min,
+        prior.v_max,
+        prior.kind,
+        request.P_D1,
+        request.P_D2,
     )
     if request.gate.kind == "combined":
         parameter, threshold = "P_G", core.gate_threshold(found.parameter, 2)
     else:
         parameter, threshold = "p", core.expansion_coefficient(found.parameter)
-    cells, marks = _false_marks(np.array([found.area]), request.mark.r, request.resolution,
-                                request.false_alarm, DESIGN_M_MAX)
+    cells, marks = _false_marks(
+        np.array([found.area]),
+        request.mark.r,
+        request.resolution,
+        request.false_alarm,
+        DESIGN_M_MAX,
+    )
     return GateDesignResult(
         parameter=parameter,
         value=found.parameter,
@@ -248,7 +290,9 @@ def design(request: GateDesignRequest) -> GateDesignResult:
 
 
 def field_of(
-    request: GateProbabilityRequest | GateProbabilityCurveRequest | GateAnalysisRequest
+    request: GateProbabilityRequest
+    | GateProbabilityCurveRequest
+    | GateAnalysisRequest
     | GateDesignRequest,
     exc: PlotgateError,
 ) -> str:

@@ -7,7 +7,7 @@ problems share P, so ``solves.position`` groups the problems by their number of 
 group; error indices are mapped back to the request's problem numbers.
 
 Platforms given as a position plus a velocity are placed with
-:func:`core.multistatic.platform_positions` with ``t0 = sample_times[0]`` (the wire's
+:func:`plotgate.core.multistatic.platform_positions` with ``t0 = sample_times[0]`` (the wire's
 position is the one at the first sample time); per-sample positions are used as given.
 
 Decisions:
@@ -41,11 +41,12 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-import core.multistatic as ms
-from core import PlotgateError
-from core.multistatic.model import BASELINE_SIGMAS
-from service.operations.answers import checked
-from service.schemas import (
+import plotgate.core.multistatic as ms
+from plotgate.core import PlotgateError
+from plotgate.core.multistatic.model import BASELINE_SIGMAS
+from plotgate.service.fields import FieldMap
+from plotgate.service.operations.answers import checked
+from plotgate.service.schemas import (
     AccumulatedBound,
     ClosedFormResult,
     CrlbRequest,
@@ -63,19 +64,19 @@ from service.schemas import (
 )
 
 __all__ = [
+    "POSITION_FIELDS",
     "crlb",
     "crlb_field",
     "noise",
     "noise_field",
     "position",
-    "position_field",
+    "POSITION_FIELDS",
     "trajectory",
     "trajectory_field",
 ]
 
 
-_CLOSED_FORMS = {"sum_range": ms.sum_range_solve,
-                 "difference_range": ms.difference_range_solve}
+_CLOSED_FORMS = {"sum_range": ms.sum_range_solve, "difference_range": ms.difference_range_solve}
 
 _PER_PROBLEM = {"l", "tx", "rx", "sigma", "x0"}
 """Core arguments that belong to one problem (or one sample) of a batch."""
@@ -140,33 +141,56 @@ def position(request: PositionSolveRequest) -> PositionSolveResult:
         sigma = np.array([p.sigmas or [p.sigma] * n_pairs for p in group], dtype=float)
         x0 = np.array([p.initial for p in group], dtype=float) if guessed else None
         with _rows(rows):
-            ml = ms.ml_solve(ls, tx, rx, sigma, x0=x0, alpha=request.alpha,
-                             max_iter=request.max_iter)
+            ml = ms.ml_solve(
+                ls, tx, rx, sigma, x0=x0, alpha=request.alpha, max_iter=request.max_iter
+            )
             closed = None
             if request.method != "ml":
                 solve = _CLOSED_FORMS[request.method]
                 closed = solve(ls, tx, rx, baseline_tol=BASELINE_SIGMAS * sigma)
         solvable = ml.cost <= _threshold(request.alpha, max(n_pairs - d, 1))
-        _require_finite(ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost,
-                        ml.alternative)
-        out = _columns(ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost,
-                       ml.consistent, solvable, ml.iterations, ml.converged,
-                       ml.alternative, ml.has_alternative)
+        _require_finite(
+            ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost, ml.alternative
+        )
+        out = _columns(
+            ml.x,
+            ml.covariance,
+            ml.residuals,
+            ml.cost,
+            ml.normalized_cost,
+            ml.consistent,
+            solvable,
+            ml.iterations,
+            ml.converged,
+            ml.alternative,
+            ml.has_alternative,
+        )
         forms = _closed_forms(request.method, closed) if closed is not None else None
         for j, i in enumerate(rows):
-            (x, cov, res, cost, norm, consistent, ok, iterations, converged, alt,
-             has_alt) = (column[j] for column in out)
+            (x, cov, res, cost, norm, consistent, ok, iterations, converged, alt, has_alt) = (
+                column[j] for column in out
+            )
             # checked above, so built without a second validation (10^4 problems)
             solutions[i] = PositionSolution.model_construct(
-                position=x, covariance=cov, residuals=res, cost=cost, normalized_cost=norm,
-                consistent=consistent, solvable=ok, iterations=iterations,
-                converged=converged, alternative=alt if has_alt else None,
+                position=x,
+                covariance=cov,
+                residuals=res,
+                cost=cost,
+                normalized_cost=norm,
+                consistent=consistent,
+                solvable=ok,
+                iterations=iterations,
+                converged=converged,
+                alternative=alt if has_alt else None,
                 closed_form=None if forms is None else forms[j],
             )
     done = [s for s in solutions if s is not None]
     return PositionSolveResult.model_construct(
-        method=request.method, dimensions=d, solutions=done,
-        count_solvable=sum(s.solvable for s in done))
+        method=request.method,
+        dimensions=d,
+        solutions=done,
+        count_solvable=sum(s.solvable for s in done),
+    )
 
 
 def _columns(*arrays: np.ndarray) -> list[list[Any]]:
@@ -187,11 +211,19 @@ def _require_finite(*arrays: np.ndarray) -> None:
 def _closed_forms(method: str, sol: Any) -> list[ClosedFormResult]:
     _require_finite(sol.x, sol.alternative, sol.residual, sol.alternative_residual)
     x, alt, has_alt, solvable, res, alt_res = _columns(
-        sol.x, sol.alternative, sol.has_alternative, sol.solvable, sol.residual,
-        sol.alternative_residual)
+        sol.x,
+        sol.alternative,
+        sol.has_alternative,
+        sol.solvable,
+        sol.residual,
+        sol.alternative_residual,
+    )
     return [
         ClosedFormResult.model_construct(
-            method=method, position=x[j], solvable=solvable[j], residual=res[j],
+            method=method,
+            position=x[j],
+            solvable=solvable[j],
+            residual=res[j],
             alternative=alt[j] if has_alt[j] else None,
             alternative_residual=alt_res[j] if has_alt[j] else None,
         )
@@ -199,19 +231,17 @@ def _closed_forms(method: str, sol: Any) -> list[ClosedFormResult]:
     ]
 
 
-def position_field(request: PositionSolveRequest, exc: PlotgateError) -> str:
-    """``problems[i].<field>`` for a problem's error, else the top-level field."""
-    if exc.field in _PER_PROBLEM and exc.index is not None:
-        p = request.problems[exc.index]
-        name = {
-            "l": "range_sums",
-            "tx": "transmitter" if p.transmitter is not None else "transmitters",
-            "rx": "receivers",
-            "sigma": "sigma" if p.sigma is not None else "sigmas",
-            "x0": "initial",
-        }[exc.field]
-        return f"problems[{exc.index}].{name}"
-    return exc.field if exc.field in ("alpha", "max_iter") else "problems"
+POSITION_FIELDS: FieldMap = {
+    "l": "problems[{i}].range_sums",
+    "tx": "problems[{i}].transmitter|transmitters",
+    "rx": "problems[{i}].receivers",
+    "sigma": "problems[{i}].sigma|sigmas",
+    "x0": "problems[{i}].initial",
+    "alpha": "alpha",
+    "max_iter": "max_iter",
+    "*": "problems",
+}
+"""Where core's errors on a ``solves.position`` request point: a problem's own field."""
 
 
 # --------------------------------------------------------------------------- platforms
@@ -248,8 +278,11 @@ def _platforms(
 
 def _moving(request: TrajectorySolveRequest | CrlbRequest) -> bool:
     """Some platform's position depends on time."""
-    return any(q.moving for q in (request.transmitter, *(request.transmitters or ()),
-                                  *request.receivers) if q is not None)
+    return any(
+        q.moving
+        for q in (request.transmitter, *(request.transmitters or ()), *request.receivers)
+        if q is not None
+    )
 
 
 def _sigma(request: TrajectorySolveRequest | CrlbRequest) -> float | np.ndarray:
@@ -279,9 +312,16 @@ def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
     if request.initial is not None:
         x0 = np.concatenate([request.initial.position, request.initial.velocity])
     with _samples(t, _moving(request)):
-        sol = ms.trajectory_solve(np.asarray(request.range_sums, dtype=float), t, tx, rx,
-                                  _sigma(request), x0=x0, alpha=request.alpha,
-                                  max_iter=request.max_iter)
+        sol = ms.trajectory_solve(
+            np.asarray(request.range_sums, dtype=float),
+            t,
+            tx,
+            rx,
+            _sigma(request),
+            x0=x0,
+            alpha=request.alpha,
+            max_iter=request.max_iter,
+        )
     times = request.sample_times if request.times is None else request.times
     positions, covariances = sol.at(np.asarray(times, dtype=float))
     return TrajectorySolveResult(
@@ -321,7 +361,8 @@ def crlb(request: CrlbRequest) -> CrlbResult:
     if request.track is not None:
         assert t is not None  # the schema requires sample times with a track
         x = np.asarray(request.track.position) + np.multiply.outer(
-            t - t[0], np.asarray(request.track.velocity, dtype=float))
+            t - t[0], np.asarray(request.track.velocity, dtype=float)
+        )
     else:
         x = np.asarray(request.targets, dtype=float)
     tx, rx = _platforms(request, t, len(x))
@@ -331,8 +372,15 @@ def crlb(request: CrlbRequest) -> CrlbResult:
         single = bound(x, tx, rx, sigma)
         accumulated = None
         if request.track is not None:
-            acc = ms.trajectory_crlb(request.track.position, request.track.velocity, t, tx,
-                                     rx, sigma, measurements=request.measurements)
+            acc = ms.trajectory_crlb(
+                request.track.position,
+                request.track.velocity,
+                t,
+                tx,
+                rx,
+                sigma,
+                measurements=request.measurements,
+            )
             accumulated = AccumulatedBound(
                 t_ref=acc.t_ref,
                 state_covariance=acc.covariance.tolist(),
@@ -346,8 +394,10 @@ def crlb(request: CrlbRequest) -> CrlbResult:
         measurements=request.measurements,
         positions=x.tolist(),
         single_shot=SingleShotBound(
-            sigma=single.sigma.tolist(), gdop=single.gdop.tolist(),
-            covariance=single.covariance.tolist(), sigma_ref=single.sigma_ref.tolist(),
+            sigma=single.sigma.tolist(),
+            gdop=single.gdop.tolist(),
+            covariance=single.covariance.tolist(),
+            sigma_ref=single.sigma_ref.tolist(),
         ),
         accumulated=accumulated,
     )
@@ -376,12 +426,17 @@ def noise(request: NoiseRequest) -> NoiseResult:
     out: dict[str, Any] = {}
     if request.range_sums is not None:
         est = ms.range_sum_noise(t, np.asarray(request.range_sums, dtype=float), request.degree)
-        out.update(sigma=est.sigma.tolist(), variance=est.variance.tolist(), dof=est.dof,
-                   smoothed_range_sums=est.smoothed.tolist())
+        out.update(
+            sigma=est.sigma.tolist(),
+            variance=est.variance.tolist(),
+            dof=est.dof,
+            smoothed_range_sums=est.smoothed.tolist(),
+        )
     if request.positions is not None:
         assert request.window is not None  # the schema requires it with positions
-        smoothed = ms.smooth_positions(t, np.asarray(request.positions, dtype=float),
-                                       request.window, request.smoothing_degree)
+        smoothed = ms.smooth_positions(
+            t, np.asarray(request.positions, dtype=float), request.window, request.smoothing_degree
+        )
         out["smoothed_positions"] = smoothed.tolist()
     return NoiseResult(**out)
 

@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from service.schemas.common import MAX_PLOTS, Plot, Schema
+from plotgate.service.schemas.common import MAX_PLOTS, Plot, Schema
 
 __all__ = [
     "CombinedGate",
@@ -55,7 +55,9 @@ class ExpandedGate(Schema):
     tau: Seconds
     v_max: Speed
     p: float = Field(
-        default=0.9, ge=1e-6, lt=1,
+        default=0.9,
+        ge=1e-6,
+        lt=1,
         description="Probability p giving K_g = sqrt(-2 ln(1-p)); below 1e-6 the gate "
         "would grow by less than a thousandth of a sigma.",
     )
@@ -104,7 +106,12 @@ class FirstAssociationGate(Schema):
 
 
 Gate = Annotated[
-    RingGate | ExpandedGate | CombinedGate | EllipseGate | RectangularGate | SectorGate
+    RingGate
+    | ExpandedGate
+    | CombinedGate
+    | EllipseGate
+    | RectangularGate
+    | SectorGate
     | FirstAssociationGate,
     Field(discriminator="kind"),
 ]

@@ -2,7 +2,7 @@
 
 A problem is a first mark at range r and azimuth az from the radar, both marks' range
 and azimuth errors, the interval ``tau`` between the marks, and a gate built about the
-first mark. Unlike the gate-test models of :mod:`service.schemas.gates`, a gate here does
+first mark. Unlike the gate-test models of :mod:`plotgate.service.schemas.gates`, a gate here does
 not carry ``tau`` (the request does), and the tracking gates take the predicted
 displacement ``offset`` = z_pred - z1 instead of a predicted plot. The gate models are
 named ``*Region`` after the plane regions the probabilities integrate over.
@@ -23,8 +23,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, MIN_RANGE, Loc, Position, Schema, invalid
-from service.schemas.gates import Coefficient, Probability, Seconds, Speed
+from plotgate.service.schemas.common import MAX_DISTANCE, MIN_RANGE, Loc, Position, Schema, invalid
+from plotgate.service.schemas.gates import Coefficient, Probability, Seconds, Speed
 
 __all__ = [
     "MAX_CURVE_POINTS",
@@ -97,7 +97,9 @@ class ExpandedRegion(Schema):
     kind: Literal["expanded"] = Field(description="Discriminator: expanded ellipse gate.")
     v_max: Speed = Field(description="Largest target speed, m/s.")
     p: float = Field(
-        default=0.9, ge=1e-6, lt=1,
+        default=0.9,
+        ge=1e-6,
+        lt=1,
         description="Probability p giving K_g = sqrt(-2 ln(1-p)) (seed 000 ref. [4]).",
     )
 
@@ -139,8 +141,13 @@ class FirstAssociationRegion(Schema):
 
 
 GateRegion = Annotated[
-    RingRegion | CombinedRegion | ExpandedRegion | EllipseRegion | RectangularRegion
-    | SectorRegion | FirstAssociationRegion,
+    RingRegion
+    | CombinedRegion
+    | ExpandedRegion
+    | EllipseRegion
+    | RectangularRegion
+    | SectorRegion
+    | FirstAssociationRegion,
     Field(discriminator="kind", description="The gate, chosen by kind; tau is the request's."),
 ]
 
@@ -162,11 +169,15 @@ class Mark(Schema):
     sigma_r: float = Field(ge=1e-3, le=MAX_DISTANCE, description="Range error sigma, m.")
     sigma_az_deg: float = Field(ge=1e-6, le=180, description="Azimuth error sigma, degrees.")
     sigma_r2: float | None = Field(
-        default=None, ge=1e-3, le=MAX_DISTANCE,
+        default=None,
+        ge=1e-3,
+        le=MAX_DISTANCE,
         description="The second mark's range sigma, m; null: equal to the first's.",
     )
     sigma_az2_deg: float | None = Field(
-        default=None, ge=1e-6, le=180,
+        default=None,
+        ge=1e-6,
+        le=180,
         description="The second mark's azimuth sigma, degrees; null: equal to the first's.",
     )
 
@@ -178,9 +189,9 @@ class Mark(Schema):
         across it (DESIGN section 2's Jacobian): those are its eigenvalues.
         """
         r = self.r if r is None else r
-        along = self.sigma_r**2 + (self.sigma_r if self.sigma_r2 is None else self.sigma_r2)**2
+        along = self.sigma_r**2 + (self.sigma_r if self.sigma_r2 is None else self.sigma_r2) ** 2
         az2 = self.sigma_az_deg if self.sigma_az2_deg is None else self.sigma_az2_deg
-        across = (r * math.radians(self.sigma_az_deg))**2 + (r * math.radians(az2))**2
+        across = (r * math.radians(self.sigma_az_deg)) ** 2 + (r * math.radians(az2)) ** 2
         return math.sqrt(max(along, across) / min(along, across))
 
 
@@ -207,12 +218,14 @@ class Resolution(Schema):
     """The radar's resolution: a cell is range x (R azimuth) at the first mark's range R."""
 
     range: float = Field(
-        ge=1e-3, le=MAX_DISTANCE,
+        ge=1e-3,
+        le=MAX_DISTANCE,
         description="Range resolution dR, m, at least 1 mm (as sigma_r): finer, a gate's "
         "S / (dR R dAz) resolution cells could overflow double precision.",
     )
     azimuth_deg: float = Field(
-        ge=1e-6, le=360,
+        ge=1e-6,
+        le=360,
         description="Azimuth resolution dAz, degrees, at least 1e-6 (as sigma_az_deg).",
     )
 
@@ -234,9 +247,10 @@ class GateProbabilityRequest(Schema):
     def _one_of(self) -> "GateProbabilityRequest":
         if (self.velocity is None) == (self.prior is None):
             reason = "give exactly one of velocity and prior"
-            raise invalid(type(self).__name__, [
-                (("velocity",), reason, self.velocity), (("prior",), reason, self.prior)
-            ])
+            raise invalid(
+                type(self).__name__,
+                [(("velocity",), reason, self.velocity), (("prior",), reason, self.prior)],
+            )
         return self
 
 
@@ -263,7 +277,8 @@ class GateProbabilityCurveRequest(Schema):
     tau: Seconds
     against: Literal["speed", "range"] = Field(description="What the values are.")
     values: list[CurveValue] = Field(
-        min_length=1, max_length=MAX_CURVE_POINTS,
+        min_length=1,
+        max_length=MAX_CURVE_POINTS,
         description="Speeds (m/s) or ranges of the first mark (m).",
     )
     course_deg: Angle = Field(default=0.0, description="Course, degrees clockwise from north.")
@@ -284,20 +299,36 @@ class GateProbabilityCurveRequest(Schema):
         if self.against == "speed":
             for name in ("speed", "prior"):
                 if getattr(self, name) is not None:
-                    errors.append(((name,), "must be absent when against is speed: the "
-                                   "values are the speeds", getattr(self, name)))
-            errors += [(("values", i), f"a speed must not exceed {MAX_SPEED:g} m/s", v)
-                       for i, v in enumerate(self.values) if v > MAX_SPEED]
+                    errors.append(
+                        (
+                            (name,),
+                            "must be absent when against is speed: the values are the speeds",
+                            getattr(self, name),
+                        )
+                    )
+            errors += [
+                (("values", i), f"a speed must not exceed {MAX_SPEED:g} m/s", v)
+                for i, v in enumerate(self.values)
+                if v > MAX_SPEED
+            ]
         else:
             if (self.speed is None) == (self.prior is None):
                 reason = "give exactly one of speed and prior when against is range"
                 errors += [(("speed",), reason, self.speed), (("prior",), reason, self.prior)]
-            errors += [(("values", i), f"a range must be at least {MIN_RANGE:g} m", v)
-                       for i, v in enumerate(self.values) if v < MIN_RANGE]
+            errors += [
+                (("values", i), f"a range must be at least {MIN_RANGE:g} m", v)
+                for i, v in enumerate(self.values)
+                if v < MIN_RANGE
+            ]
             if self.prior is not None and len(self.values) > MAX_UNCONDITIONAL_POINTS:
-                errors.append((("values",), f"an unconditional curve takes at most "
-                               f"{MAX_UNCONDITIONAL_POINTS} values, got {len(self.values)}",
-                               len(self.values)))
+                errors.append(
+                    (
+                        ("values",),
+                        f"an unconditional curve takes at most "
+                        f"{MAX_UNCONDITIONAL_POINTS} values, got {len(self.values)}",
+                        len(self.values),
+                    )
+                )
         if errors:
             raise invalid(type(self).__name__, errors)
         return self
@@ -345,7 +376,8 @@ class GateAnalysisRequest(Schema):
         default=5, ge=0, le=1000, description="Largest false-mark count given a probability."
     )
     prior: SpeedPrior | None = Field(
-        default=None, description="Speed prior: also compute the unconditional gating and "
+        default=None,
+        description="Speed prior: also compute the unconditional gating and "
         "capture probabilities.",
     )
     P_D1: DetectionProbability = Field(
@@ -416,7 +448,9 @@ class GateDesignResult(Schema):
 
 
 def unconditional_axis_ratio(
-    request: GateProbabilityRequest | GateProbabilityCurveRequest | GateAnalysisRequest
+    request: GateProbabilityRequest
+    | GateProbabilityCurveRequest
+    | GateAnalysisRequest
     | GateDesignRequest,
 ) -> int:
     """The work size ``mark.axis_ratio``: the largest axis ratio of B (rounded up) over the
@@ -429,6 +463,9 @@ def unconditional_axis_ratio(
     """
     if request.prior is None:
         return 1
-    ranges = (request.values if isinstance(request, GateProbabilityCurveRequest)
-              and request.against == "range" else [request.mark.r])
+    ranges = (
+        request.values
+        if isinstance(request, GateProbabilityCurveRequest) and request.against == "range"
+        else [request.mark.r]
+    )
     return math.ceil(max(request.mark.axis_ratio(r) for r in ranges))

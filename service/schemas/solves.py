@@ -29,7 +29,7 @@ Rules over several fields (exactly one of two alternatives, matching lengths, on
 dimension per request, the size limits) are model validators that answer 422 naming
 the offending field. The mathematics (fewer measurements than unknowns, coincident
 platforms, a range sum shorter than its baseline) is checked by core and mapped to the
-field by :mod:`service.operations.solves`.
+field by :mod:`plotgate.service.operations.solves`.
 """
 
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -37,7 +37,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, Loc, Schema, invalid
+from plotgate.service.schemas.common import MAX_DISTANCE, Loc, Schema, invalid
 
 __all__ = [
     "MAX_MEASUREMENTS",
@@ -85,41 +85,60 @@ MAX_DEGREE = 10
 Coordinate = Annotated[float, Field(ge=-MAX_DISTANCE, le=MAX_DISTANCE)]
 Point = Annotated[
     list[Coordinate],
-    Field(min_length=2, max_length=3,
-          description="Position [x, y] (2D) or [x, y, z] (3D), m; |coordinate| <= 1e9."),
+    Field(
+        min_length=2,
+        max_length=3,
+        description="Position [x, y] (2D) or [x, y, z] (3D), m; |coordinate| <= 1e9.",
+    ),
 ]
 VelocityVector = Annotated[
     list[Annotated[float, Field(ge=-MAX_SPEED, le=MAX_SPEED)]],
-    Field(min_length=2, max_length=3,
-          description="Velocity [vx, vy] or [vx, vy, vz], m/s; |component| <= 1e6."),
+    Field(
+        min_length=2,
+        max_length=3,
+        description="Velocity [vx, vy] or [vx, vy, vz], m/s; |component| <= 1e6.",
+    ),
 ]
 RangeSum = Annotated[
     float,
-    Field(ge=0, le=MAX_RANGE_SUM,
-          description="Range sum |x - rx| + |x - tx|, m; finite, 0 <= l <= 1e10."),
+    Field(
+        ge=0,
+        le=MAX_RANGE_SUM,
+        description="Range sum |x - rx| + |x - tx|, m; finite, 0 <= l <= 1e10.",
+    ),
 ]
 Sigma = Annotated[
     float,
-    Field(ge=MIN_SIGMA, le=MAX_DISTANCE,
-          description="Range-sum noise standard deviation, m; 1e-6 <= sigma <= 1e9."),
+    Field(
+        ge=MIN_SIGMA,
+        le=MAX_DISTANCE,
+        description="Range-sum noise standard deviation, m; 1e-6 <= sigma <= 1e9.",
+    ),
 ]
 Row = Annotated[
     list[RangeSum],
-    Field(min_length=1, max_length=MAX_MEASUREMENTS,
-          description="The range sums of one sample, m, one per pair."),
+    Field(
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
+        description="The range sums of one sample, m, one per pair.",
+    ),
 ]
 Time = Annotated[
     float, Field(ge=-MAX_TIME, le=MAX_TIME, description="Time, s (any epoch); |t| <= 1e10.")
 ]
 Alpha = Annotated[
     float,
-    Field(ge=1e-12, le=0.5,
-          description="False-alarm probability of the chi-square residual test, in "
-          "[1e-12, 0.5]."),
+    Field(
+        ge=1e-12,
+        le=0.5,
+        description="False-alarm probability of the chi-square residual test, in [1e-12, 0.5].",
+    ),
 ]
 MaxIter = Annotated[
     int, Field(ge=1, le=1000, description="Largest number of Gauss-Newton iterations.")
 ]
+
+
 def _one_of(obj: Any, a: str, b: str, what: str) -> list[tuple[Loc, str, Any]]:
     """Errors unless exactly one of the fields ``a`` and ``b`` is given."""
     if (getattr(obj, a) is None) == (getattr(obj, b) is None):
@@ -152,9 +171,15 @@ def _dimension(
     d = max(dict.fromkeys(lengths), key=lengths.count)
     example = next(loc for loc, v in vectors if len(v) == d)
     loc, point = next((loc, v) for loc, v in vectors if len(v) != d)
-    return [(loc, f"has {len(point)} coordinates, but the request is {d}D (as "
-             f"{_dotted(example)}): every position and velocity of a request must be 2D, "
-             f"or every one 3D", list(point))]
+    return [
+        (
+            loc,
+            f"has {len(point)} coordinates, but the request is {d}D (as "
+            f"{_dotted(example)}): every position and velocity of a request must be 2D, "
+            f"or every one 3D",
+            list(point),
+        )
+    ]
 
 
 def _dotted(loc: Loc) -> str:
@@ -190,17 +215,28 @@ class Platform(Schema):
         description="Constant velocity, m/s; only with position. Null: a fixed platform.",
     )
     positions: list[Point] | None = Field(
-        default=None, min_length=1, max_length=MAX_SAMPLES,
+        default=None,
+        min_length=1,
+        max_length=MAX_SAMPLES,
         description="Position at each sample, m, one per sample; instead of position.",
     )
 
     @model_validator(mode="after")
     def _rules(self) -> "Platform":
-        errors = _one_of(self, "position", "positions", "a platform is fixed or moving "
-                         "from position, or given per sample by positions")
+        errors = _one_of(
+            self,
+            "position",
+            "positions",
+            "a platform is fixed or moving from position, or given per sample by positions",
+        )
         if self.velocity is not None and self.positions is not None:
-            errors.append((("velocity",), "must be absent with positions (the platform is "
-                           "given per sample)", self.velocity))
+            errors.append(
+                (
+                    ("velocity",),
+                    "must be absent with positions (the platform is given per sample)",
+                    self.velocity,
+                )
+            )
         _raise(self, errors)
         return self
 
@@ -248,18 +284,21 @@ def _platform_rules(
     for another reason) and ``samples`` says what they are, for messages; without
     sample times (``timed`` False) no platform may have a velocity.
     """
-    errors = _one_of(request, "transmitter", "transmitters",
-                     "one transmitter for every pair, or one per pair")
+    errors = _one_of(
+        request, "transmitter", "transmitters", "one transmitter for every pair, or one per pair"
+    )
     errors += _length(("transmitters",), request.transmitters, n_pairs, "pair")
-    platforms: list[tuple[Loc, Platform]] = [(("receivers", k), p)
-                                             for k, p in enumerate(request.receivers)]
+    platforms: list[tuple[Loc, Platform]] = [
+        (("receivers", k), p) for k, p in enumerate(request.receivers)
+    ]
     if request.transmitter is not None:
         platforms.insert(0, (("transmitter",), request.transmitter))
     platforms[:0] = [(("transmitters", k), p) for k, p in enumerate(request.transmitters or ())]
     for loc, platform in platforms:
         if platform.velocity is not None and not timed:
-            errors.append(((*loc, "velocity"), "a moving platform needs sample_times",
-                           platform.velocity))
+            errors.append(
+                ((*loc, "velocity"), "a moving platform needs sample_times", platform.velocity)
+            )
         if platform.positions is not None and n_samples is not None:
             errors += _length((*loc, "positions"), platform.positions, n_samples, samples)
     return errors
@@ -291,25 +330,31 @@ class PositionProblem(Schema):
     """
 
     range_sums: list[RangeSum] = Field(
-        min_length=1, max_length=MAX_MEASUREMENTS,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Measured range sums l_p = |x - rx_p| + |x - tx_p|, m, one per pair.",
     )
     transmitter: Point | None = Field(
         default=None, description="The one transmitter of every pair, m."
     )
     transmitters: list[Point] | None = Field(
-        default=None, min_length=1, max_length=MAX_MEASUREMENTS,
+        default=None,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Transmitter of each pair, m, one per range sum (several transmitters).",
     )
     receivers: list[Point] = Field(
-        min_length=1, max_length=MAX_MEASUREMENTS,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Receiver of each pair, m, one per range sum.",
     )
     sigma: Sigma | None = Field(
         default=None, description="One noise standard deviation for every range sum, m."
     )
     sigmas: list[Sigma] | None = Field(
-        default=None, min_length=1, max_length=MAX_MEASUREMENTS,
+        default=None,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Noise standard deviation of each range sum, m, one per range sum.",
     )
     initial: Point | None = Field(
@@ -324,8 +369,12 @@ class PositionProblem(Schema):
     @model_validator(mode="after")
     def _rules(self) -> "PositionProblem":
         p = len(self.range_sums)
-        errors = _one_of(self, "transmitter", "transmitters",
-                         "one transmitter for every pair, or one per range sum")
+        errors = _one_of(
+            self,
+            "transmitter",
+            "transmitters",
+            "one transmitter for every pair, or one per range sum",
+        )
         errors += _one_of(self, "sigma", "sigmas", "one sigma, or one per range sum")
         errors += _length(("receivers",), self.receivers, p, "range sum")
         errors += _length(("transmitters",), self.transmitters, p, "range sum")
@@ -335,8 +384,7 @@ class PositionProblem(Schema):
 
     def sizes(self) -> set[int]:
         """The lengths of the problem's positions."""
-        vectors = [self.transmitter, self.initial, *(self.transmitters or ()),
-                   *self.receivers]
+        vectors = [self.transmitter, self.initial, *(self.transmitters or ()), *self.receivers]
         return {len(v) for v in vectors if v is not None}
 
     def vectors(self, loc: Loc) -> Iterator[tuple[Loc, Sequence[float]]]:
@@ -361,7 +409,8 @@ class PositionSolveRequest(Schema):
     """
 
     problems: list[PositionProblem] = Field(
-        min_length=1, max_length=MAX_PROBLEMS,
+        min_length=1,
+        max_length=MAX_PROBLEMS,
         description=f"The problems, solved independently; at most {MAX_PROBLEMS}, with at "
         f"most {MAX_RANGE_SUMS} range sums in all.",
     )
@@ -378,11 +427,17 @@ class PositionSolveRequest(Schema):
         total = sum(len(p.range_sums) for p in self.problems)
         errors: list[tuple[Loc, str, Any]] = []
         if total > MAX_RANGE_SUMS:
-            errors.append((("problems",), f"carry {total} range sums in all; at most "
-                           f"{MAX_RANGE_SUMS} per request", total))
-        errors += _dimension((p.sizes() for p in self.problems),
-                             lambda: (v for i, p in enumerate(self.problems)
-                                      for v in p.vectors(("problems", i))))
+            errors.append(
+                (
+                    ("problems",),
+                    f"carry {total} range sums in all; at most {MAX_RANGE_SUMS} per request",
+                    total,
+                )
+            )
+        errors += _dimension(
+            (p.sizes() for p in self.problems),
+            lambda: (v for i, p in enumerate(self.problems) for v in p.vectors(("problems", i))),
+        )
         _raise(self, errors)
         return self
 
@@ -467,29 +522,36 @@ class TrajectorySolveRequest(Schema):
     """
 
     sample_times: list[Time] = Field(
-        min_length=2, max_length=MAX_SAMPLES,
+        min_length=2,
+        max_length=MAX_SAMPLES,
         description="Time of each sample, s (any epoch); at least two distinct times.",
     )
     range_sums: list[Row] = Field(
-        min_length=2, max_length=MAX_SAMPLES,
+        min_length=2,
+        max_length=MAX_SAMPLES,
         description="Range sums, m: one row per sample, one column per pair (T x P).",
     )
     transmitter: Platform | None = Field(
         default=None, description="The one transmitter of every pair."
     )
     transmitters: list[Platform] | None = Field(
-        default=None, min_length=1, max_length=MAX_MEASUREMENTS,
+        default=None,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Transmitter of each pair (several transmitters), one per column.",
     )
     receivers: list[Platform] = Field(
-        min_length=1, max_length=MAX_MEASUREMENTS,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Receiver of each pair, one per column of range_sums.",
     )
     sigma: Sigma | None = Field(
         default=None, description="One noise standard deviation for every range sum, m."
     )
     sigmas: list[Sigma] | None = Field(
-        default=None, min_length=1, max_length=MAX_MEASUREMENTS,
+        default=None,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Noise standard deviation of each pair's range sums, m, one per pair.",
     )
     initial: TargetState | None = Field(
@@ -498,7 +560,9 @@ class TrajectorySolveRequest(Schema):
         "the single-shot solutions.",
     )
     times: list[Time] | None = Field(
-        default=None, min_length=1, max_length=MAX_SAMPLES,
+        default=None,
+        min_length=1,
+        max_length=MAX_SAMPLES,
         description="Times at which to report the position and its covariance, s. Null: "
         "the sample times.",
     )
@@ -510,22 +574,37 @@ class TrajectorySolveRequest(Schema):
         t = len(self.sample_times)
         p = len(self.receivers)
         errors = _length(("range_sums",), self.range_sums, t, "sample time")
-        errors += [(("range_sums", i), f"must have {p} entries, one per receiver; got "
-                    f"{len(row)}", len(row))
-                   for i, row in enumerate(self.range_sums) if len(row) != p][:1]
+        errors += [
+            (
+                ("range_sums", i),
+                f"must have {p} entries, one per receiver; got {len(row)}",
+                len(row),
+            )
+            for i, row in enumerate(self.range_sums)
+            if len(row) != p
+        ][:1]
         if t * p > MAX_RANGE_SUMS:
-            errors.append((("range_sums",), f"carry {t * p} range sums; at most "
-                           f"{MAX_RANGE_SUMS} per request", t * p))
+            errors.append(
+                (
+                    ("range_sums",),
+                    f"carry {t * p} range sums; at most {MAX_RANGE_SUMS} per request",
+                    t * p,
+                )
+            )
         errors += _platform_rules(self, p, t, "sample time")
         errors += _one_of(self, "sigma", "sigmas", "one sigma, or one per pair")
         errors += _length(("sigmas",), self.sigmas, p, "pair")
         if not errors:
             own = []
             if self.initial is not None:
-                own = [(("initial", "position"), self.initial.position),
-                       (("initial", "velocity"), self.initial.velocity)]
-            errors += _dimension([*_platform_sizes(self), {len(v) for _, v in own}],
-                                 lambda: iter([*_platform_vectors(self), *own]))
+                own = [
+                    (("initial", "position"), self.initial.position),
+                    (("initial", "velocity"), self.initial.velocity),
+                ]
+            errors += _dimension(
+                [*_platform_sizes(self), {len(v) for _, v in own}],
+                lambda: iter([*_platform_vectors(self), *own]),
+            )
         _raise(self, errors)
         return self
 
@@ -547,9 +626,7 @@ class TrajectorySolveResult(Schema):
     converged: bool = Field(description="The iteration met its convergence test.")
     iterations: int = Field(description="Gauss-Newton iterations taken.")
     times: list[float] = Field(description="The requested times (or the sample times), s.")
-    positions: list[list[float]] = Field(
-        description="x0 + v (t - t_ref) at each time, m."
-    )
+    positions: list[list[float]] = Field(description="x0 + v (t - t_ref) at each time, m.")
     covariances: list[list[list[float]]] = Field(
         description="Covariance of each position, m^2 (D x D)."
     )
@@ -574,7 +651,9 @@ class CrlbRequest(Schema):
         "(transmitter cancels, correlated noise); needs P >= D + 1.",
     )
     targets: list[Point] | None = Field(
-        default=None, min_length=1, max_length=MAX_PROBLEMS,
+        default=None,
+        min_length=1,
+        max_length=MAX_PROBLEMS,
         description="True target positions, m: single-shot bounds, one per target.",
     )
     track: TargetState | None = Field(
@@ -583,7 +662,9 @@ class CrlbRequest(Schema):
         "at each sample and accumulated over the track.",
     )
     sample_times: list[Time] | None = Field(
-        default=None, min_length=1, max_length=MAX_SAMPLES,
+        default=None,
+        min_length=1,
+        max_length=MAX_SAMPLES,
         description="Sample times, s: required with track or moving platforms; with "
         "targets one per target.",
     )
@@ -591,7 +672,9 @@ class CrlbRequest(Schema):
         default=None, description="The one transmitter of every pair."
     )
     transmitters: list[Platform] | None = Field(
-        default=None, min_length=1, max_length=MAX_MEASUREMENTS,
+        default=None,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Transmitter of each pair (several transmitters).",
     )
     receivers: list[Platform] = Field(
@@ -601,7 +684,9 @@ class CrlbRequest(Schema):
         default=None, description="One noise standard deviation for every range sum, m."
     )
     sigmas: list[Sigma] | None = Field(
-        default=None, min_length=1, max_length=MAX_MEASUREMENTS,
+        default=None,
+        min_length=1,
+        max_length=MAX_MEASUREMENTS,
         description="Noise standard deviation of each pair's range sum, m, one per pair.",
     )
 
@@ -615,22 +700,31 @@ class CrlbRequest(Schema):
                 errors.append((("sample_times",), "is required with track", None))
             n = None if self.sample_times is None else len(self.sample_times)
         elif self.targets is not None:
-            errors += _length(("sample_times",), self.sample_times, len(self.targets),
-                              "target")
+            errors += _length(("sample_times",), self.sample_times, len(self.targets), "target")
             n = len(self.targets)
         if n is not None and n * p > MAX_RANGE_SUMS:
-            errors.append((("receivers",), f"{n} samples x {p} pairs is {n * p} range "
-                           f"sums; at most {MAX_RANGE_SUMS} per request", n * p))
+            errors.append(
+                (
+                    ("receivers",),
+                    f"{n} samples x {p} pairs is {n * p} range "
+                    f"sums; at most {MAX_RANGE_SUMS} per request",
+                    n * p,
+                )
+            )
         errors += _platform_rules(self, p, n, "sample", timed=self.sample_times is not None)
         errors += _one_of(self, "sigma", "sigmas", "one sigma, or one per pair")
         errors += _length(("sigmas",), self.sigmas, p, "pair")
         if not errors:
             own = [(("targets", i), x) for i, x in enumerate(self.targets or ())]
             if self.track is not None:
-                own += [(("track", "position"), self.track.position),
-                        (("track", "velocity"), self.track.velocity)]
-            errors += _dimension([{len(v) for _, v in own}, *_platform_sizes(self)],
-                                 lambda: iter([*own, *_platform_vectors(self)]))
+                own += [
+                    (("track", "position"), self.track.position),
+                    (("track", "velocity"), self.track.velocity),
+                ]
+            errors += _dimension(
+                [{len(v) for _, v in own}, *_platform_sizes(self)],
+                lambda: iter([*own, *_platform_vectors(self)]),
+            )
         _raise(self, errors)
         return self
 
@@ -657,9 +751,7 @@ class AccumulatedBound(Schema):
     state_covariance: list[list[float]] = Field(
         description="Bound on (x0, v), 2D x 2D: m^2, m^2/s, m^2/s^2 blocks."
     )
-    state_sigma: list[float] = Field(
-        description="sqrt of its diagonal: m for x0, m/s for v."
-    )
+    state_sigma: list[float] = Field(description="sqrt of its diagonal: m for x0, m/s for v.")
     sigma: list[list[float]] = Field(
         description="Per-axis bound on the position at each sample time, m (T x D)."
     )
@@ -667,9 +759,7 @@ class AccumulatedBound(Schema):
     covariance: list[list[list[float]]] = Field(
         description="Bound on the position at each sample time, m^2 (D x D)."
     )
-    sigma_ref: float = Field(
-        description="(mean over all T P range sums of 1/sigma^2)^(-1/2), m."
-    )
+    sigma_ref: float = Field(description="(mean over all T P range sums of 1/sigma^2)^(-1/2), m.")
 
 
 class CrlbResult(Schema):
@@ -695,29 +785,40 @@ class NoiseRequest(Schema):
     """
 
     sample_times: list[Time] = Field(
-        min_length=1, max_length=MAX_SAMPLES,
+        min_length=1,
+        max_length=MAX_SAMPLES,
         description="Time of each sample, s; strictly increasing.",
     )
     range_sums: list[Row] | None = Field(
-        default=None, min_length=1, max_length=MAX_SAMPLES,
+        default=None,
+        min_length=1,
+        max_length=MAX_SAMPLES,
         description="Range-sum series, m: one row per sample, one column per pair (T x P).",
     )
     degree: int = Field(
-        default=2, ge=0, le=MAX_DEGREE,
+        default=2,
+        ge=0,
+        le=MAX_DEGREE,
         description="Degree of the polynomial fitted to each range-sum series (2: the "
         "quadratic of eq. 5); needs T >= degree + 2.",
     )
     positions: list[Point] | None = Field(
-        default=None, min_length=1, max_length=MAX_SAMPLES,
+        default=None,
+        min_length=1,
+        max_length=MAX_SAMPLES,
         description="Solved coordinates to smooth, m, one per sample.",
     )
     window: int | None = Field(
-        default=None, ge=1, le=MAX_SAMPLES,
+        default=None,
+        ge=1,
+        le=MAX_SAMPLES,
         description="Samples per smoothing window, smoothing_degree + 1 <= window <= T; "
         "required with positions.",
     )
     smoothing_degree: int = Field(
-        default=2, ge=0, le=MAX_DEGREE,
+        default=2,
+        ge=0,
+        le=MAX_DEGREE,
         description="Degree of the sliding-window polynomial.",
     )
 
@@ -731,23 +832,42 @@ class NoiseRequest(Schema):
         if self.range_sums is not None:
             errors += _length(("range_sums",), self.range_sums, t, "sample time")
             width = len(self.range_sums[0])
-            errors += [(("range_sums", i), f"must have {width} entries, as range_sums[0]; "
-                        f"got {len(row)}", len(row))
-                       for i, row in enumerate(self.range_sums) if len(row) != width][:1]
+            errors += [
+                (
+                    ("range_sums", i),
+                    f"must have {width} entries, as range_sums[0]; got {len(row)}",
+                    len(row),
+                )
+                for i, row in enumerate(self.range_sums)
+                if len(row) != width
+            ][:1]
             if t * width > MAX_RANGE_SUMS:
-                errors.append((("range_sums",), f"carry {t * width} range sums; at most "
-                               f"{MAX_RANGE_SUMS} per request", t * width))
+                errors.append(
+                    (
+                        ("range_sums",),
+                        f"carry {t * width} range sums; at most {MAX_RANGE_SUMS} per request",
+                        t * width,
+                    )
+                )
         if self.positions is not None:
             errors += _length(("positions",), self.positions, t, "sample time")
             positions = self.positions
-            errors += _dimension([{len(x) for x in positions}],
-                                 lambda: ((("positions", i), x) for i, x in enumerate(positions)))
+            errors += _dimension(
+                [{len(x) for x in positions}],
+                lambda: ((("positions", i), x) for i, x in enumerate(positions)),
+            )
             if self.window is None:
                 errors.append((("window",), "is required with positions", None))
             elif not self.smoothing_degree + 1 <= self.window <= t:
-                errors.append((("window",), f"must be between smoothing_degree + 1 = "
-                               f"{self.smoothing_degree + 1} and the {t} samples, got "
-                               f"{self.window}", self.window))
+                errors.append(
+                    (
+                        ("window",),
+                        f"must be between smoothing_degree + 1 = "
+                        f"{self.smoothing_degree + 1} and the {t} samples, got "
+                        f"{self.window}",
+                        self.window,
+                    )
+                )
         elif self.window is not None:
             errors.append((("window",), "must be absent without positions", self.window))
         _raise(self, errors)

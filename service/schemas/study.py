@@ -4,7 +4,7 @@ One transmitter and its receivers (fixed, or moving at constant velocity from th
 positions at ``sample_times[0]``, or given per sample) watch a constant-velocity target;
 the study simulates ``runs`` noisy range-sum series (seeded) and reports, at every sample,
 the six curves of the paper's Fig. 3 and the diagnostics of
-:func:`core.multistatic.study.accuracy_study`. Positions are 2D or 3D, metres.
+:func:`plotgate.core.multistatic.study.accuracy_study`. Positions are 2D or 3D, metres.
 
 Work limits: runs x samples x pairs <= :data:`MAX_STUDY_RANGE_SUMS` (the simulated range
 sums), and with ``tracks`` (one trajectory solve per prefix of the samples) runs x
@@ -16,8 +16,8 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import Loc, Schema
-from service.schemas.solves import (
+from plotgate.service.schemas.common import Loc, Schema
+from plotgate.service.schemas.solves import (
     MAX_MEASUREMENTS,
     Alpha,
     Platform,
@@ -55,7 +55,8 @@ class StudyRequest(Schema):
 
     transmitter: Platform = Field(description="The one transmitter of every pair.")
     receivers: list[Platform] = Field(
-        min_length=2, max_length=MAX_MEASUREMENTS,
+        min_length=2,
+        max_length=MAX_MEASUREMENTS,
         description="The receivers, one per pair; at least D + 1 (the difference-range "
         "method needs them).",
     )
@@ -63,7 +64,8 @@ class StudyRequest(Schema):
         description="The target: position at sample_times[0] and constant velocity."
     )
     sample_times: list[Time] = Field(
-        min_length=2, max_length=MAX_STUDY_SAMPLES,
+        min_length=2,
+        max_length=MAX_STUDY_SAMPLES,
         description="Sample times, s, strictly increasing.",
     )
     sigma: Sigma = Field(description="Range-sum noise standard deviation, m.")
@@ -80,26 +82,46 @@ class StudyRequest(Schema):
     def _rules(self) -> "StudyRequest":
         t, p = len(self.sample_times), len(self.receivers)
         errors: list[tuple[Loc, str, Any]] = []
-        for loc, platform in [(("transmitter",), self.transmitter),
-                              *((("receivers", k), q) for k, q in enumerate(self.receivers))]:
+        for loc, platform in [
+            (("transmitter",), self.transmitter),
+            *((("receivers", k), q) for k, q in enumerate(self.receivers)),
+        ]:
             if platform.positions is not None:
                 errors += _length((*loc, "positions"), platform.positions, t, "sample time")
         work = self.runs * t * p
         if work > MAX_STUDY_RANGE_SUMS:
-            errors.append((("runs",), f"{self.runs} runs x {t} samples x {p} pairs is {work} "
-                           f"range sums; at most {MAX_STUDY_RANGE_SUMS}", self.runs))
+            errors.append(
+                (
+                    ("runs",),
+                    f"{self.runs} runs x {t} samples x {p} pairs is {work} "
+                    f"range sums; at most {MAX_STUDY_RANGE_SUMS}",
+                    self.runs,
+                )
+            )
         elif self.tracks and work * t > MAX_STUDY_TRACK_WORK:
-            errors.append((("runs",), f"with tracks, runs x samples^2 x pairs is "
-                           f"{work * t}; at most {MAX_STUDY_TRACK_WORK} (or set tracks "
-                           f"false)", self.runs))
+            errors.append(
+                (
+                    ("runs",),
+                    f"with tracks, runs x samples^2 x pairs is "
+                    f"{work * t}; at most {MAX_STUDY_TRACK_WORK} (or set tracks "
+                    f"false)",
+                    self.runs,
+                )
+            )
         if not errors:
-            own = [(("target", "position"), self.target.position),
-                   (("target", "velocity"), self.target.velocity)]
-            platforms = [*self.transmitter.vectors(("transmitter",)),
-                         *(v for k, q in enumerate(self.receivers)
-                           for v in q.vectors(("receivers", k)))]
-            sizes = [{len(v) for _, v in own}, self.transmitter.sizes(),
-                     *(q.sizes() for q in self.receivers)]
+            own = [
+                (("target", "position"), self.target.position),
+                (("target", "velocity"), self.target.velocity),
+            ]
+            platforms = [
+                *self.transmitter.vectors(("transmitter",)),
+                *(v for k, q in enumerate(self.receivers) for v in q.vectors(("receivers", k))),
+            ]
+            sizes = [
+                {len(v) for _, v in own},
+                self.transmitter.sizes(),
+                *(q.sizes() for q in self.receivers),
+            ]
             errors += _dimension(sizes, lambda: iter([*own, *platforms]))
         _raise(self, errors)
         return self

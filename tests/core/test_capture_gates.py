@@ -7,7 +7,7 @@ import pytest
 from gate_helpers import N_RANDOM, assert_matches_reference, combined_inputs
 from scipy import stats
 
-from core import (
+from plotgate.core import (
     CovarianceError,
     GateStage,
     NonFiniteError,
@@ -77,21 +77,29 @@ def test_ring_gate_hand_computed():
 def test_combined_gate_hand_computed_with_correlated_B():
     # B = P1 + P2 = [[1e4, 4e3], [4e3, 6e3]], |B| = 4.4e7; R_min = 100 m, R_max = 500 m
     P = np.array([[5000.0, 2000.0], [2000.0, 3000.0]])
-    z2 = np.array([
-        [300.0, 0.0],  # |d| = 300: ring
-        [600.0, 0.0],  # nu = (100, 0): rho = 6e3 * 1e4 / 4.4e7 = 15/11
-        [0.0, 700.0],  # nu = (0, 200): rho = 1e4 * 4e4 / 4.4e7 = 100/11 > gamma
-        [30.0, 40.0],  # |d| = 50, nu = -50 (0.6, 0.8) = (-30, -40): rho = 59/220
-        [0.0, 0.0],  # d = 0: rho = R_min^2 / lambda_max(B)
-    ])
+    z2 = np.array(
+        [
+            [300.0, 0.0],  # |d| = 300: ring
+            [600.0, 0.0],  # nu = (100, 0): rho = 6e3 * 1e4 / 4.4e7 = 15/11
+            [0.0, 700.0],  # nu = (0, 200): rho = 1e4 * 4e4 / 4.4e7 = 100/11 > gamma
+            [30.0, 40.0],  # |d| = 50, nu = -50 (0.6, 0.8) = (-30, -40): rho = 59/220
+            [0.0, 0.0],  # d = 0: rho = R_min^2 / lambda_max(B)
+        ]
+    )
     res = combined_gate([0.0, 0.0], P, z2, P, tau=10.0, v_min=10.0, v_max=50.0, P_G=0.9)
     lambda_max = 8000.0 + math.sqrt(2000.0**2 + 4000.0**2)
     np.testing.assert_allclose(
-        res.statistic, [0.0, 15 / 11, 100 / 11, 59 / 220, 100.0**2 / lambda_max], rtol=1e-12)
+        res.statistic, [0.0, 15 / 11, 100 / 11, 59 / 220, 100.0**2 / lambda_max], rtol=1e-12
+    )
     np.testing.assert_array_equal(res.inside, [True, True, False, True, True])
     assert res.stage.dtype == np.int8
-    assert res.stage.tolist() == [GateStage.RING, GateStage.OUTER_ELLIPSE, GateStage.NONE,
-                                  GateStage.INNER_ELLIPSE, GateStage.INNER_ELLIPSE]
+    assert res.stage.tolist() == [
+        GateStage.RING,
+        GateStage.OUTER_ELLIPSE,
+        GateStage.NONE,
+        GateStage.INNER_ELLIPSE,
+        GateStage.INNER_ELLIPSE,
+    ]
     assert res.threshold == pytest.approx(4.605, abs=1e-3)
 
 
@@ -112,8 +120,15 @@ def test_combined_gate_d_zero_far_inside_inner_circle_is_rejected():
 
 def test_expanded_gate_hand_computed_north():
     # LOS due north: a = 500 + K_g 200 = 929.19 m along it (y), b = 500 + K_g 100 = 714.60 m
-    res = expanded_gate([0.0, 10_000.0], [[0.0, 10_900.0], [900.0, 10_000.0]],
-                        tau=5.0, v_max=100.0, sigma_r=200.0, sigma_az=0.01, p=0.9)
+    res = expanded_gate(
+        [0.0, 10_000.0],
+        [[0.0, 10_900.0], [900.0, 10_000.0]],
+        tau=5.0,
+        v_max=100.0,
+        sigma_r=200.0,
+        sigma_az=0.01,
+        p=0.9,
+    )
     expected = [(900.0 / (500.0 + K_G_09 * 200.0)) ** 2, (900.0 / (500.0 + K_G_09 * 100.0)) ** 2]
     np.testing.assert_allclose(res.statistic, expected, rtol=1e-12)
     np.testing.assert_array_equal(res.inside, [True, False])
@@ -155,8 +170,10 @@ def test_expanded_gate_matches_reference():
     sigma_r = rng.uniform(10.0, 300.0, N_RANDOM)
     sigma_az = rng.uniform(1e-3, 2e-2, N_RANDOM)
     res = expanded_gate(z1, z2, 5.0, 200.0, sigma_r, sigma_az, 0.95, sensor=sensor)
-    ref = [expanded_ref(*row, 5.0, 200.0, sr, saz, 0.95, s)
-           for *row, sr, saz, s in zip(z1, z2, sigma_r, sigma_az, sensor, strict=True)]
+    ref = [
+        expanded_ref(*row, 5.0, 200.0, sr, saz, 0.95, s)
+        for *row, sr, saz, s in zip(z1, z2, sigma_r, sigma_az, sensor, strict=True)
+    ]
     assert_matches_reference(res, ref, N_RANDOM)
 
 
@@ -177,8 +194,16 @@ def test_combined_gate_matches_reference():
 def _combined_args(**override):
     rng = np.random.default_rng(112)
     z1, P1, z2, P2 = combined_inputs(rng, 8)
-    args = {"z1": z1, "P1": P1, "z2": z2, "P2": P2, "tau": 5.0, "v_min": 30.0,
-            "v_max": 100.0, "P_G": 0.9}
+    args = {
+        "z1": z1,
+        "P1": P1,
+        "z2": z2,
+        "P2": P2,
+        "tau": 5.0,
+        "v_min": 30.0,
+        "v_max": 100.0,
+        "P_G": 0.9,
+    }
     args.update(override)
     return args
 
@@ -192,46 +217,114 @@ def _with(array, index, value):
 @pytest.mark.parametrize(
     ("override", "error", "message", "index"),
     [
-        (lambda a: {"P2": _with(a["P2"], (3, 0, 1), np.nan)}, NonFiniteError,
-         r"^P2\[3\]: must be finite, got \[\[", 3),
-        (lambda a: {"z1": _with(a["z1"], (6, 1), np.inf)}, NonFiniteError,
-         r"^z1\[6\]: must be finite, got \[.*inf\]", 6),
+        (
+            lambda a: {"P2": _with(a["P2"], (3, 0, 1), np.nan)},
+            NonFiniteError,
+            r"^P2\[3\]: must be finite, got \[\[",
+            3,
+        ),
+        (
+            lambda a: {"z1": _with(a["z1"], (6, 1), np.inf)},
+            NonFiniteError,
+            r"^z1\[6\]: must be finite, got \[.*inf\]",
+            6,
+        ),
         (lambda a: {"z1": [np.nan, 0.0]}, NonFiniteError, r"^z1: must be finite", None),
-        (lambda a: {"P1": _with(a["P1"], (2, 0, 1), a["P1"][2, 0, 1] + 1.0)}, CovarianceError,
-         r"^P1\[2\]: is not symmetric: \[\[", 2),
-        (lambda a: {"P2": _with(a["P2"], (5, 1, 1), -1.0)}, CovarianceError,
-         r"^P2\[5\]: is not positive definite \(det = -", 5),
-        (lambda a: {"P1": np.array([[1.0, 2.0], [2.0, 1.0]])}, CovarianceError,
-         r"^P1: is not positive definite \(det = -3.0\): \[\[1.0, 2.0\], \[2.0, 1.0\]\]", None),
-        (lambda a: {"v_min": 600.0, "v_max": 500.0}, ParameterError,
-         r"^v_min: v_min \(600.0\) exceeds v_max \(500.0\)$", None),
-        (lambda a: {"v_min": -1.0}, ParameterError, r"^v_min: must be non-negative, got -1.0$",
-         None),
+        (
+            lambda a: {"P1": _with(a["P1"], (2, 0, 1), a["P1"][2, 0, 1] + 1.0)},
+            CovarianceError,
+            r"^P1\[2\]: is not symmetric: \[\[",
+            2,
+        ),
+        (
+            lambda a: {"P2": _with(a["P2"], (5, 1, 1), -1.0)},
+            CovarianceError,
+            r"^P2\[5\]: is not positive definite \(det = -",
+            5,
+        ),
+        (
+            lambda a: {"P1": np.array([[1.0, 2.0], [2.0, 1.0]])},
+            CovarianceError,
+            r"^P1: is not positive definite \(det = -3.0\): \[\[1.0, 2.0\], \[2.0, 1.0\]\]",
+            None,
+        ),
+        (
+            lambda a: {"v_min": 600.0, "v_max": 500.0},
+            ParameterError,
+            r"^v_min: v_min \(600.0\) exceeds v_max \(500.0\)$",
+            None,
+        ),
+        (
+            lambda a: {"v_min": -1.0},
+            ParameterError,
+            r"^v_min: must be non-negative, got -1.0$",
+            None,
+        ),
         (lambda a: {"tau": 0.0}, ParameterError, r"^tau: must be positive, got 0.0$", None),
         (lambda a: {"tau": -5.0}, ParameterError, r"^tau: must be positive, got -5.0$", None),
-        (lambda a: {"tau": np.ones(8)}, ParameterError, r"^tau: must be a scalar, got shape",
-         None),
+        (
+            lambda a: {"tau": np.ones(8)},
+            ParameterError,
+            r"^tau: must be a scalar, got shape",
+            None,
+        ),
         (lambda a: {"tau": np.nan}, NonFiniteError, r"^tau: must be finite", None),
-        (lambda a: {"P_G": 1.0}, ParameterError, r"^P_G: must lie in the open interval",
-         None),
-        (lambda a: {"P_G": np.nan}, ParameterError, r"^P_G: must lie in the open interval",
-         None),
-        (lambda a: {"P2": a["P2"][:4]}, ParameterError,
-         r"^P2: has batch length 4 but z2 has 8$", None),
-        (lambda a: {"z2": a["z2"][:1]}, ParameterError,
-         r"^z2: has batch length 1 but P1 has 8$", None),
-        (lambda a: {"z2": a["z2"][None]}, ParameterError,
-         r"^z2: has batch shape \(1, 8\); gates take one leading batch axis", None),
-        (lambda a: {"z1": np.zeros((8, 3))}, ParameterError,
-         r"^z1: must have shape \(\.\.\., 2\), got shape \(8, 3\)$", None),
-        (lambda a: {"P1": np.eye(3)}, ParameterError,
-         r"^P1: must have shape \(\.\.\., 2, 2\), got shape \(3, 3\)$", None),
+        (lambda a: {"P_G": 1.0}, ParameterError, r"^P_G: must lie in the open interval", None),
+        (lambda a: {"P_G": np.nan}, ParameterError, r"^P_G: must lie in the open interval", None),
+        (
+            lambda a: {"P2": a["P2"][:4]},
+            ParameterError,
+            r"^P2: has batch length 4 but z2 has 8$",
+            None,
+        ),
+        (
+            lambda a: {"z2": a["z2"][:1]},
+            ParameterError,
+            r"^z2: has batch length 1 but P1 has 8$",
+            None,
+        ),
+        (
+            lambda a: {"z2": a["z2"][None]},
+            ParameterError,
+            r"^z2: has batch shape \(1, 8\); gates take one leading batch axis",
+            None,
+        ),
+        (
+            lambda a: {"z1": np.zeros((8, 3))},
+            ParameterError,
+            r"^z1: must have shape \(\.\.\., 2\), got shape \(8, 3\)$",
+            None,
+        ),
+        (
+            lambda a: {"P1": np.eye(3)},
+            ParameterError,
+            r"^P1: must have shape \(\.\.\., 2, 2\), got shape \(3, 3\)$",
+            None,
+        ),
         (lambda a: {"z2": "north"}, ParameterError, r"^z2: must be real numbers", None),
     ],
-    ids=["nan-P2", "inf-z1", "nan-unbatched", "asymmetric-P1", "non-pd-P2", "non-pd-unbatched",
-         "v_min>v_max", "v_min<0", "tau=0", "tau<0", "tau-array", "tau-nan", "P_G=1", "P_G-nan",
-         "length-mismatch", "length-one", "two-batch-axes", "wrong-point-shape",
-         "wrong-cov-shape", "not-numbers"],
+    ids=[
+        "nan-P2",
+        "inf-z1",
+        "nan-unbatched",
+        "asymmetric-P1",
+        "non-pd-P2",
+        "non-pd-unbatched",
+        "v_min>v_max",
+        "v_min<0",
+        "tau=0",
+        "tau<0",
+        "tau-array",
+        "tau-nan",
+        "P_G=1",
+        "P_G-nan",
+        "length-mismatch",
+        "length-one",
+        "two-batch-axes",
+        "wrong-point-shape",
+        "wrong-cov-shape",
+        "not-numbers",
+    ],
 )
 def test_combined_gate_validation_errors(override, error, message, index):
     args = _combined_args()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy import integrate, optimize, special, stats
 
-from core import (
+from plotgate.core import (
     CombinedGate,
     EllipseGate,
     ExpandedGate,
@@ -52,8 +52,9 @@ def cartesian_covariance(r, az, sr, saz):
 
 
 def B_of(i):
-    return (cartesian_covariance(R[i], AZ[i], SR1[i], SAZ1[i])
-            + cartesian_covariance(R[i], AZ[i], SR2[i], SAZ2[i]))
+    return cartesian_covariance(R[i], AZ[i], SR1[i], SAZ1[i]) + cartesian_covariance(
+        R[i], AZ[i], SR2[i], SAZ2[i]
+    )
 
 
 def gamma(P_G):
@@ -73,8 +74,9 @@ def test_ring_area():
     area = gate_area(RingGate(100.0, 500.0), batch_geometry())
     assert area.shape == (len(R),)
     np.testing.assert_allclose(area, np.pi * TAU**2 * (500.0**2 - 100.0**2), rtol=1e-12)
-    np.testing.assert_allclose(gate_area(RingGate(0.0, 300.0), batch_geometry()),
-                               np.pi * (300.0 * TAU) ** 2, rtol=1e-12)
+    np.testing.assert_allclose(
+        gate_area(RingGate(0.0, 300.0), batch_geometry()), np.pi * (300.0 * TAU) ** 2, rtol=1e-12
+    )
 
 
 @pytest.mark.parametrize("P_G", [0.5, 0.9, 0.999])
@@ -84,13 +86,18 @@ def test_ellipse_area(P_G):
     area = gate_area(EllipseGate(P_G, offset=(300.0, -200.0)), g)
     np.testing.assert_allclose(area, expected, rtol=1e-12)
     S = np.array([[4e4, 1.5e4], [1.5e4, 9e3]])
-    np.testing.assert_allclose(gate_area(EllipseGate(P_G, S=S), g),
-                               np.pi * gamma(P_G) * math.sqrt(np.linalg.det(S)), rtol=1e-12)
+    np.testing.assert_allclose(
+        gate_area(EllipseGate(P_G, S=S), g),
+        np.pi * gamma(P_G) * math.sqrt(np.linalg.det(S)),
+        rtol=1e-12,
+    )
 
 
-@pytest.mark.parametrize(("r", "sigma_r", "sigma_az_deg"),
-                         [(30e3, 10.0, 0.5), (80e3, 5.0, 1.0), (50e3, 200.0, 0.5)],
-                         ids=["axes-26-to-1", "axes-279-to-1", "paper"])
+@pytest.mark.parametrize(
+    ("r", "sigma_r", "sigma_az_deg"),
+    [(30e3, 10.0, 0.5), (80e3, 5.0, 1.0), (50e3, 200.0, 0.5)],
+    ids=["axes-26-to-1", "axes-279-to-1", "paper"],
+)
 def test_ellipse_area_typical_radar(r, sigma_r, sigma_az_deg):
     # accurate range, poor azimuth: B's axes sqrt(2) sigma_r and sqrt(2) r sigma_az
     g = mark_geometry(r, 0.3, sigma_r, math.radians(sigma_az_deg), tau=TAU)
@@ -103,18 +110,23 @@ def test_expanded_area(p):
     K_g = math.sqrt(-2.0 * math.log(1.0 - p))
     a = 500.0 * TAU + K_g * SR1
     b = 500.0 * TAU + K_g * R * SAZ1
-    np.testing.assert_allclose(gate_area(ExpandedGate(500.0, p), batch_geometry()),
-                               np.pi * a * b, rtol=1e-12)
+    np.testing.assert_allclose(
+        gate_area(ExpandedGate(500.0, p), batch_geometry()), np.pi * a * b, rtol=1e-12
+    )
 
 
 def test_rectangular_area():
     g = batch_geometry()
     hx = np.array([2.5 * math.sqrt(B_of(i)[0, 0]) for i in range(len(R))])
     hy = np.array([2.5 * math.sqrt(B_of(i)[1, 1]) for i in range(len(R))])
-    np.testing.assert_allclose(gate_area(RectangularGate(2.5, offset=(100.0, 0.0)), g),
-                               4.0 * hx * hy, rtol=1e-12)
-    np.testing.assert_allclose(gate_area(RectangularGate(3.0, sigma_x=40.0, sigma_y=70.0), g),
-                               4.0 * 120.0 * 210.0, rtol=1e-12)
+    np.testing.assert_allclose(
+        gate_area(RectangularGate(2.5, offset=(100.0, 0.0)), g), 4.0 * hx * hy, rtol=1e-12
+    )
+    np.testing.assert_allclose(
+        gate_area(RectangularGate(3.0, sigma_x=40.0, sigma_y=70.0), g),
+        4.0 * 120.0 * 210.0,
+        rtol=1e-12,
+    )
 
 
 def test_sector_area():
@@ -127,8 +139,9 @@ def test_sector_area():
     area = gate_area(SectorGate(3.0, 2.0, offset=tuple(offset)), g)
     np.testing.assert_allclose(area, expected, rtol=1e-12)
     expected = annular_sector(r_pred, 3.0 * np.hypot(SR2, 50.0), 2.0 * np.hypot(SAZ2, 0.002))
-    area = gate_area(SectorGate(3.0, 2.0, offset=tuple(offset), sigma_r_pred=50.0,
-                                sigma_az_pred=0.002), g)
+    area = gate_area(
+        SectorGate(3.0, 2.0, offset=tuple(offset), sigma_r_pred=50.0, sigma_az_pred=0.002), g
+    )
     np.testing.assert_allclose(area, expected, rtol=1e-12)
 
 
@@ -149,8 +162,9 @@ def test_first_association_area():
     W_az = np.arcsin(np.minimum(1.0, R_max / R)) + 3.0 * np.hypot(SAZ1, SAZ2)
     expected = annular_sector(R, W_R, W_az)
     assert R[0] < W_R[0]  # the range window reaches the radar: an inner radius of 0
-    np.testing.assert_allclose(gate_area(FirstAssociationGate(300.0, 3.0, 3.0), g), expected,
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        gate_area(FirstAssociationGate(300.0, 3.0, 3.0), g), expected, rtol=1e-12
+    )
 
 
 def _combined_area_quad(B, R_min, R_max, P_G):
@@ -167,11 +181,26 @@ def _combined_area_quad(B, R_min, R_max, P_G):
     # split at the kinks, where h = R_min (found on a fine grid, refined by brentq)
     grid = np.linspace(0.0, 2.0 * math.pi, 4001)
     gap = [math.sqrt(g / (u @ Q @ u)) - R_min for u in np.stack([np.cos(grid), np.sin(grid)], 1)]
-    kinks = [optimize.brentq(lambda t: math.sqrt(g / (np.array([math.cos(t), math.sin(t)]) @ Q
-                                                      @ np.array([math.cos(t), math.sin(t)])))
-                             - R_min, a, b, xtol=1e-15)
-             for a, b, ga, gb in zip(grid[:-1], grid[1:], gap[:-1], gap[1:], strict=True)
-             if ga * gb < 0.0]
+    kinks = [
+        optimize.brentq(
+            lambda t: (
+                math.sqrt(
+                    g
+                    / (
+                        np.array([math.cos(t), math.sin(t)])
+                        @ Q
+                        @ np.array([math.cos(t), math.sin(t)])
+                    )
+                )
+                - R_min
+            ),
+            a,
+            b,
+            xtol=1e-15,
+        )
+        for a, b, ga, gb in zip(grid[:-1], grid[1:], gap[:-1], gap[1:], strict=True)
+        if ga * gb < 0.0
+    ]
     edges = [0.0, *kinks, 2.0 * math.pi]
     value = 0.0
     for a, b in zip(edges[:-1], edges[1:], strict=True):
@@ -221,27 +250,37 @@ def test_combined_area_without_hole_has_elliptic_integral_closed_form():
     gam = gamma(0.9)
     R_min, R_max = 500.0, 2500.0
     assert math.sqrt(gam) * b > R_min
-    expected = (np.pi * R_max**2 + R_max * math.sqrt(gam) * 4.0 * b
-                * special.ellipk(1.0 - b**2 / a**2) + np.pi * gam * a * b)
-    assert gate_area(CombinedGate(100.0, 500.0, 0.9), g)[0] == pytest.approx(expected,
-                                                                             rel=1e-12)
+    expected = (
+        np.pi * R_max**2
+        + R_max * math.sqrt(gam) * 4.0 * b * special.ellipk(1.0 - b**2 / a**2)
+        + np.pi * gam * a * b
+    )
+    assert gate_area(CombinedGate(100.0, 500.0, 0.9), g)[0] == pytest.approx(expected, rel=1e-12)
 
 
 def test_combined_area_approximation_formula():
     g = batch_geometry()
-    expected = [np.pi * (2500.0**2 - 500.0**2)
-                + 0.5 * np.pi * math.sqrt(np.linalg.det(gamma(0.9) * B_of(i)))
-                for i in range(len(R))]
-    np.testing.assert_allclose(combined_area_approximation(CombinedGate(100.0, 500.0, 0.9), g),
-                               expected, rtol=1e-12)
+    expected = [
+        np.pi * (2500.0**2 - 500.0**2)
+        + 0.5 * np.pi * math.sqrt(np.linalg.det(gamma(0.9) * B_of(i)))
+        for i in range(len(R))
+    ]
+    np.testing.assert_allclose(
+        combined_area_approximation(CombinedGate(100.0, 500.0, 0.9), g), expected, rtol=1e-12
+    )
 
 
 def test_gate_area_bad_gate_parameters_named():
     g = batch_geometry()
-    for gate, field in [(CombinedGate(100.0, 500.0, 1.0), "P_G"), (EllipseGate(0.0), "P_G"),
-                        (ExpandedGate(500.0, 1.2), "p"), (RingGate(600.0, 500.0), "v_min"),
-                        (RectangularGate(-1.0), "k"), (SectorGate(3.0, 0.0), "K_az"),
-                        (FirstAssociationGate(-5.0, 3.0, 3.0), "v_max")]:
+    for gate, field in [
+        (CombinedGate(100.0, 500.0, 1.0), "P_G"),
+        (EllipseGate(0.0), "P_G"),
+        (ExpandedGate(500.0, 1.2), "p"),
+        (RingGate(600.0, 500.0), "v_min"),
+        (RectangularGate(-1.0), "k"),
+        (SectorGate(3.0, 0.0), "K_az"),
+        (FirstAssociationGate(-5.0, 3.0, 3.0), "v_max"),
+    ]:
         with pytest.raises(ParameterError) as info:
             gate_area(gate, g)
         assert info.value.field == field, gate
@@ -261,8 +300,7 @@ def test_paper_expanded_against_combined_false_marks():
     # dR 500 m, dAz 1.5 deg, F 1e-4: 49 cells against 31, P(>= 1 false) 0.0049 against 0.0031
     g = mark_geometry(PAPER_R, 0.0, 200.0, math.radians(0.5), tau=TAU)
     expanded = paper_cells(gate_area(ExpandedGate(500.0, 0.9), g)).item()
-    combined = paper_cells(combined_area_approximation(CombinedGate(100.0, 500.0, 0.9),
-                                                       g)).item()
+    combined = paper_cells(combined_area_approximation(CombinedGate(100.0, 500.0, 0.9), g)).item()
     assert abs(expanded - 49.0) <= 1.0  # 48.32
     assert abs(combined - 31.0) <= 1.0  # 30.73
     assert abs(false_marks(expanded, PAPER_F).at_least_one - 0.0049) <= 2e-4
@@ -297,18 +335,28 @@ def test_resolution_cells_arithmetic():
     assert resolution_cells(1e6, 1e4, 100.0, 0.01) == pytest.approx(100.0, rel=1e-15)
     area = np.array([1e6, 2.5e7, 0.0])
     r = np.array([1e4, 5e4, 3e4])
-    np.testing.assert_allclose(resolution_cells(area, r, 500.0, math.radians(1.5)),
-                               area / (500.0 * r * math.radians(1.5)), rtol=1e-15)
-    np.testing.assert_allclose(resolution_cells(area, 5e4, 250.0, 0.02),
-                               area / (250.0 * 5e4 * 0.02), rtol=1e-15)
+    np.testing.assert_allclose(
+        resolution_cells(area, r, 500.0, math.radians(1.5)),
+        area / (500.0 * r * math.radians(1.5)),
+        rtol=1e-15,
+    )
+    np.testing.assert_allclose(
+        resolution_cells(area, 5e4, 250.0, 0.02), area / (250.0 * 5e4 * 0.02), rtol=1e-15
+    )
 
 
 @pytest.mark.parametrize(
     ("kwargs", "error", "field"),
-    [({"dR": 0.0}, ParameterError, "dR"), ({"dAz": -0.01}, ParameterError, "dAz"),
-     ({"r": 0.0}, ParameterError, "r"), ({"area": -1.0}, ParameterError, "area"),
-     ({"dR": [1.0, 2.0]}, ParameterError, "dR"), ({"area": np.nan}, NonFiniteError, "area"),
-     ({"dAz": np.inf}, NonFiniteError, "dAz")])
+    [
+        ({"dR": 0.0}, ParameterError, "dR"),
+        ({"dAz": -0.01}, ParameterError, "dAz"),
+        ({"r": 0.0}, ParameterError, "r"),
+        ({"area": -1.0}, ParameterError, "area"),
+        ({"dR": [1.0, 2.0]}, ParameterError, "dR"),
+        ({"area": np.nan}, NonFiniteError, "area"),
+        ({"dAz": np.inf}, NonFiniteError, "dAz"),
+    ],
+)
 def test_resolution_cells_bad_inputs(kwargs, error, field):
     args = {"area": 1e6, "r": 1e4, "dR": 100.0, "dAz": 0.01}
     args.update(kwargs)
@@ -324,9 +372,12 @@ def test_false_marks_against_scipy_poisson(F):
     mean = F * cells
     np.testing.assert_allclose(res.mean, mean, rtol=1e-15)
     assert res.probabilities.shape == (5, 8)
-    np.testing.assert_allclose(res.probabilities,
-                               stats.poisson.pmf(np.arange(8)[None, :], mean[:, None]),
-                               rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose(
+        res.probabilities,
+        stats.poisson.pmf(np.arange(8)[None, :], mean[:, None]),
+        rtol=1e-12,
+        atol=1e-300,
+    )
     np.testing.assert_allclose(res.at_least_one, stats.poisson.sf(0, mean), rtol=1e-12)
     assert res.at_least_one[0] == 0.0
 
@@ -340,11 +391,17 @@ def test_false_marks_scalar_and_default_m_max():
 
 @pytest.mark.parametrize(
     ("kwargs", "error", "field"),
-    [({"F": 0.0}, ParameterError, "F"), ({"F": 1.0}, ParameterError, "F"),
-     ({"F": [1e-4, 1e-3]}, ParameterError, "F"), ({"cells": -1.0}, ParameterError, "cells"),
-     ({"cells": [1.0, np.nan]}, NonFiniteError, "cells"),
-     ({"m_max": -1}, ParameterError, "m_max"), ({"m_max": 2.5}, ParameterError, "m_max"),
-     ({"m_max": True}, ParameterError, "m_max")])
+    [
+        ({"F": 0.0}, ParameterError, "F"),
+        ({"F": 1.0}, ParameterError, "F"),
+        ({"F": [1e-4, 1e-3]}, ParameterError, "F"),
+        ({"cells": -1.0}, ParameterError, "cells"),
+        ({"cells": [1.0, np.nan]}, NonFiniteError, "cells"),
+        ({"m_max": -1}, ParameterError, "m_max"),
+        ({"m_max": 2.5}, ParameterError, "m_max"),
+        ({"m_max": True}, ParameterError, "m_max"),
+    ],
+)
 def test_false_marks_bad_inputs(kwargs, error, field):
     args = {"cells": 10.0, "F": 1e-4, "m_max": 3}
     args.update(kwargs)
@@ -355,16 +412,23 @@ def test_false_marks_bad_inputs(kwargs, error, field):
 
 def test_capture_probability():
     assert capture_probability(0.9967, 0.9, 0.8) == pytest.approx(0.9967 * 0.72, rel=1e-15)
-    np.testing.assert_allclose(capture_probability([0.82, 0.9967], 0.9, [0.8, 1.0]),
-                               [0.82 * 0.9 * 0.8, 0.9967 * 0.9], rtol=1e-15)
+    np.testing.assert_allclose(
+        capture_probability([0.82, 0.9967], 0.9, [0.8, 1.0]),
+        [0.82 * 0.9 * 0.8, 0.9967 * 0.9],
+        rtol=1e-15,
+    )
     assert capture_probability(1.0, 1.0, 0.0) == 0.0
 
 
 @pytest.mark.parametrize(
     ("args", "error", "field"),
-    [((1.2, 0.9, 0.9), ParameterError, "P_gate"), ((0.9, -0.1, 0.9), ParameterError, "P_D1"),
-     ((0.9, 0.9, [0.5, 1.01]), ParameterError, "P_D2"),
-     ((0.9, 0.9, np.nan), NonFiniteError, "P_D2")])
+    [
+        ((1.2, 0.9, 0.9), ParameterError, "P_gate"),
+        ((0.9, -0.1, 0.9), ParameterError, "P_D1"),
+        ((0.9, 0.9, [0.5, 1.01]), ParameterError, "P_D2"),
+        ((0.9, 0.9, np.nan), NonFiniteError, "P_D2"),
+    ],
+)
 def test_capture_probability_bad_inputs(args, error, field):
     with pytest.raises(error) as info:
         capture_probability(*args)
@@ -406,8 +470,9 @@ def test_design_combined_gate_reaches_capture_and_grows_with_it():
 @pytest.mark.slow
 def test_design_with_detection_probabilities():
     g = paper_geometry()
-    design = design_gate(CombinedGate(100.0, 500.0, 0.9), g, 0.85, 100.0, 500.0, "speed",
-                         P_D1=0.9, P_D2=0.95)
+    design = design_gate(
+        CombinedGate(100.0, 500.0, 0.9), g, 0.85, 100.0, 500.0, "speed", P_D1=0.9, P_D2=0.95
+    )
     _check_design(design, g, 0.85, 100.0, 500.0, "speed", 0.9, 0.95)
     assert design.probability == pytest.approx(0.85 / 0.855, abs=1e-5)
 
@@ -428,12 +493,16 @@ def test_design_expanded_gate_reaches_capture_and_grows_with_it():
 
 @pytest.mark.parametrize(
     ("gate", "capture", "P_D"),
-    [(CombinedGate(100.0, 500.0, 0.9), 0.9, 0.9),  # above P_D1 P_D2 = 0.81
-     (CombinedGate(100.0, 500.0, 0.9), 0.81, 0.9),  # exactly P_D1 P_D2
-     (CombinedGate(100.0, 500.0, 0.9), 0.5, 1.0),  # the ring alone gives 0.82
-     (ExpandedGate(500.0, 0.9), 0.5, 1.0),  # the circle R_max alone gives 0.85
-     (CombinedGate(100.0, 500.0, 0.9), 1.0, 1.0), (CombinedGate(100.0, 500.0, 0.9), 0.0, 1.0)],
-    ids=["above-detection", "at-detection", "ring-suffices", "circle-suffices", "one", "zero"])
+    [
+        (CombinedGate(100.0, 500.0, 0.9), 0.9, 0.9),  # above P_D1 P_D2 = 0.81
+        (CombinedGate(100.0, 500.0, 0.9), 0.81, 0.9),  # exactly P_D1 P_D2
+        (CombinedGate(100.0, 500.0, 0.9), 0.5, 1.0),  # the ring alone gives 0.82
+        (ExpandedGate(500.0, 0.9), 0.5, 1.0),  # the circle R_max alone gives 0.85
+        (CombinedGate(100.0, 500.0, 0.9), 1.0, 1.0),
+        (CombinedGate(100.0, 500.0, 0.9), 0.0, 1.0),
+    ],
+    ids=["above-detection", "at-detection", "ring-suffices", "circle-suffices", "one", "zero"],
+)
 def test_design_unreachable_capture(gate, capture, P_D):
     with pytest.raises(ParameterError) as info:
         design_gate(gate, paper_geometry(), capture, 100.0, 500.0, "area", P_D1=P_D, P_D2=P_D)

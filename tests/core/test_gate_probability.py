@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-import core.gate_probability as gp
-from core import (
+import plotgate.core.gate_probability as gp
+from plotgate.core import (
     CombinedGate,
     EllipseGate,
     ExpandedGate,
@@ -54,8 +54,9 @@ def velocity(speed, course_deg):
 def test_paper_ring_gate_unconditional(r, expected):
     # prior "area" (the paper's eq. 4: the true position uniform over the ring);
     # v 100..500 m/s, tau 5 s, sigma_r 200 m, sigma_az 0.5 deg for both marks
-    res = unconditional_probability(RingGate(100.0, 500.0), paper_geometry(r), 100.0, 500.0,
-                                    "area")
+    res = unconditional_probability(
+        RingGate(100.0, 500.0), paper_geometry(r), 100.0, 500.0, "area"
+    )
     assert res.probability.shape == res.error.shape == (1,)
     assert abs(res.probability[0] - expected) <= 0.01
     assert res.error[0] < TARGET
@@ -126,8 +127,9 @@ def _interval(centre, half, mean, sigma):
 
 @pytest.mark.parametrize("k", [1.0, 2.0, 3.5])
 @pytest.mark.parametrize("az", [0.0, 0.5 * math.pi], ids=["north", "east"])
-@pytest.mark.parametrize(("sigma_r", "sigma_az_deg"), [(180.0, 0.3), (10.0, 0.5)],
-                         ids=["round", "eccentric"])
+@pytest.mark.parametrize(
+    ("sigma_r", "sigma_az_deg"), [(180.0, 0.3), (10.0, 0.5)], ids=["round", "eccentric"]
+)
 def test_rectangular_gate_centred_diagonal_B(sigma_r, sigma_az_deg, az, k):
     # az = 0 or pi/2: B is diagonal (to rounding, cos(pi/2) = 6e-17), so the mark's x and
     # y are independent normals
@@ -147,7 +149,7 @@ def test_rectangular_gate_off_centre_with_explicit_sigmas():
     gate = RectangularGate(2.0, offset=offset, sigma_x=250.0, sigma_y=400.0)
     v = velocity(180.0, 60.0)
     m = v * TAU
-    expected = (_interval(offset[0], 500.0, m[0], sx) * _interval(offset[1], 800.0, m[1], sy))
+    expected = _interval(offset[0], 500.0, m[0], sx) * _interval(offset[1], 800.0, m[1], sy)
     res = conditional_probability(gate, g, v)
     assert res.error[0] < TARGET
     assert abs(res.probability[0] - expected) <= 1e-9
@@ -178,26 +180,45 @@ def test_ring_gate_conditional_isotropic_is_rice(sigma_r, speed):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("prior", ["speed", "area"])
-@pytest.mark.parametrize(("sigma_r", "v_min", "v_max"), [(150.0, 100.0, 500.0),
-                                                         (40.0, 20.0, 100.0),
-                                                         (600.0, 0.0, 300.0),
-                                                         (400.0, 100.0, 200.0),
-                                                         (600.0, 0.0, 100.0)],
-                         ids=["paper-speeds", "slow-small", "from-zero-large",
-                              "ring-thinner-than-sigma", "disc-smaller-than-sigma"])
+@pytest.mark.parametrize(
+    ("sigma_r", "v_min", "v_max"),
+    [
+        (150.0, 100.0, 500.0),
+        (40.0, 20.0, 100.0),
+        (600.0, 0.0, 300.0),
+        (400.0, 100.0, 200.0),
+        (600.0, 0.0, 100.0),
+    ],
+    ids=[
+        "paper-speeds",
+        "slow-small",
+        "from-zero-large",
+        "ring-thinner-than-sigma",
+        "disc-smaller-than-sigma",
+    ],
+)
 def test_ring_gate_unconditional_isotropic_is_rice_average(sigma_r, v_min, v_max, prior):
     # heading is irrelevant for isotropic B; average the Rice ring probability over the
     # speed prior: density 1 / (v_max - v_min) ("speed") or 2 v / (v_max^2 - v_min^2) ("area")
     g, s = isotropic_geometry(30e3, 0.8, sigma_r)
     R_min, R_max = v_min * TAU, v_max * TAU
     if prior == "speed":
+
         def weight(v):
             return 1.0 / (v_max - v_min)
     else:
+
         def weight(v):
             return 2.0 * v / (v_max**2 - v_min**2)
-    ref, ref_err = integrate.quad(lambda v: weight(v) * rice_ring(v, R_min, R_max, s),
-                                  v_min, v_max, epsabs=1e-13, epsrel=1e-13, limit=200)
+
+    ref, ref_err = integrate.quad(
+        lambda v: weight(v) * rice_ring(v, R_min, R_max, s),
+        v_min,
+        v_max,
+        epsabs=1e-13,
+        epsrel=1e-13,
+        limit=200,
+    )
     assert ref_err < 1e-10
     res = unconditional_probability(RingGate(v_min, v_max), g, v_min, v_max, prior)
     assert res.error[0] < TARGET
@@ -209,18 +230,30 @@ def test_ring_gate_unconditional_isotropic_is_rice_average(sigma_r, v_min, v_max
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("gate", "speed"),
-    [(RingGate(100.0, 500.0), 480.0), (CombinedGate(100.0, 500.0, 0.9), 110.0),
-     (ExpandedGate(500.0, 0.9), 500.0)],
-    ids=["ring", "combined", "expanded"])
+    [
+        (RingGate(100.0, 500.0), 480.0),
+        (CombinedGate(100.0, 500.0, 0.9), 110.0),
+        (ExpandedGate(500.0, 0.9), 500.0),
+    ],
+    ids=["ring", "combined", "expanded"],
+)
 def test_point_prior_is_heading_average_of_conditional(gate, speed):
     # v_min = v_max: both priors reduce to a uniform heading at a fixed speed
     g = paper_geometry(50e3)
 
     def conditional(course):
-        return conditional_probability(gate, g, speed * np.array([math.cos(course),
-                                                                  math.sin(course)]))
-    ref, ref_err = integrate.quad(lambda c: conditional(c).probability[0], 0.0, 2.0 * math.pi,
-                                  epsabs=1e-11, epsrel=1e-11, limit=200)
+        return conditional_probability(
+            gate, g, speed * np.array([math.cos(course), math.sin(course)])
+        )
+
+    ref, ref_err = integrate.quad(
+        lambda c: conditional(c).probability[0],
+        0.0,
+        2.0 * math.pi,
+        epsabs=1e-11,
+        epsrel=1e-11,
+        limit=200,
+    )
     ref /= 2.0 * math.pi
     assert ref_err < 1e-8
     for prior in ("area", "speed"):
@@ -240,15 +273,16 @@ def test_vanishing_ring_gate_holds_its_area_times_the_density(tau, prior):
     s = math.sqrt(2.0) * 150.0
     R_min, R_max = 100.0 * tau, 500.0 * tau
     res = unconditional_probability(RingGate(100.0, 500.0), g, 100.0, 500.0, prior)
-    assert res.probability[0] == pytest.approx((R_max**2 - R_min**2) / (2.0 * s * s),
-                                               rel=1e-9)
+    assert res.probability[0] == pytest.approx((R_max**2 - R_min**2) / (2.0 * s * s), rel=1e-9)
 
 
 @pytest.mark.parametrize("prior", ["speed", "area"])
 @pytest.mark.parametrize("tau", [1e-9, 1e-160, 5e-324])
-@pytest.mark.parametrize("gate", [EllipseGate(0.9), SectorGate(3.0, 3.0),
-                                  CombinedGate(100.0, 500.0, 0.9)],
-                         ids=["ellipse", "sector", "combined"])
+@pytest.mark.parametrize(
+    "gate",
+    [EllipseGate(0.9), SectorGate(3.0, 3.0), CombinedGate(100.0, 500.0, 0.9)],
+    ids=["ellipse", "sector", "combined"],
+)
 def test_vanishing_prior_ring_is_the_target_at_rest(gate, tau, prior):
     # tau -> 0 shrinks the prior's ring onto z1: the probability tends to the conditional
     # one of a target at rest (P_G for the ellipse centred on z1 and for the combined
@@ -307,23 +341,48 @@ GATE_KINDS = {
 # prior for the unconditional probability (both priors for every kind) and with the
 # conditional probability; the full cross product would take many minutes.
 MC_PLAN = {
-    "ring": [("near-small-slow", "area"), ("near-large-fast", "speed"),
-             ("far-large-slow", "area")],
-    "combined": [("near-large-fast", "area"), ("far-small-fast", "speed"),
-                 ("far-large-slow", "speed")],
-    "expanded": [("near-small-slow", "speed"), ("near-large-fast", "area"),
-                 ("far-large-slow", "area")],
-    "ellipse": [("near-small-slow", "speed"), ("near-large-fast", "area"),
-                ("far-large-slow", "speed")],
-    "rectangular": [("near-large-fast", "speed"), ("far-small-fast", "area"),
-                    ("far-large-slow", "area")],
-    "sector": [("near-small-slow", "area"), ("far-small-fast", "speed"),
-               ("far-large-slow", "speed")],
-    "first-association": [("far-small-fast", "area"), ("near-large-fast", "speed"),
-                          ("far-large-slow", "area")],
+    "ring": [
+        ("near-small-slow", "area"),
+        ("near-large-fast", "speed"),
+        ("far-large-slow", "area"),
+    ],
+    "combined": [
+        ("near-large-fast", "area"),
+        ("far-small-fast", "speed"),
+        ("far-large-slow", "speed"),
+    ],
+    "expanded": [
+        ("near-small-slow", "speed"),
+        ("near-large-fast", "area"),
+        ("far-large-slow", "area"),
+    ],
+    "ellipse": [
+        ("near-small-slow", "speed"),
+        ("near-large-fast", "area"),
+        ("far-large-slow", "speed"),
+    ],
+    "rectangular": [
+        ("near-large-fast", "speed"),
+        ("far-small-fast", "area"),
+        ("far-large-slow", "area"),
+    ],
+    "sector": [
+        ("near-small-slow", "area"),
+        ("far-small-fast", "speed"),
+        ("far-large-slow", "speed"),
+    ],
+    "first-association": [
+        ("far-small-fast", "area"),
+        ("near-large-fast", "speed"),
+        ("far-large-slow", "area"),
+    ],
 }
-MC_CASES = [(kind, geo, mode) for kind, plan in MC_PLAN.items() for geo, prior in plan
-            for mode in (prior, "conditional")]
+MC_CASES = [
+    (kind, geo, mode)
+    for kind, plan in MC_PLAN.items()
+    for geo, prior in plan
+    for mode in (prior, "conditional")
+]
 # the eccentric geometry: conditional for every kind, unconditional where it is cheap
 MC_CASES += [(kind, "eccentric", "conditional") for kind in GATE_KINDS]
 MC_CASES += [("sector", "eccentric", "area")]
@@ -333,8 +392,14 @@ def _conditional_velocities(v_min, v_max):
     """Speeds at the ring's edges and in the middle, on several courses (deg from north)."""
     mid = 0.5 * (v_min + v_max)
     towards_offset = 90.0 - math.degrees(0.9)  # the course of the offset gates' prediction
-    return np.stack([velocity(v_min, 30.0), velocity(mid, towards_offset),
-                     velocity(v_max, 200.0), velocity(1.02 * v_max, 290.0)])
+    return np.stack(
+        [
+            velocity(v_min, 30.0),
+            velocity(mid, towards_offset),
+            velocity(v_max, 200.0),
+            velocity(1.02 * v_max, 290.0),
+        ]
+    )
 
 
 def _mc_tolerance(q, err, samples):
@@ -345,8 +410,9 @@ def _mc_tolerance(q, err, samples):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("kind", "geo", "mode"), MC_CASES,
-                         ids=[f"{k}-{g}-{m}" for k, g, m in MC_CASES])
+@pytest.mark.parametrize(
+    ("kind", "geo", "mode"), MC_CASES, ids=[f"{k}-{g}-{m}" for k, g, m in MC_CASES]
+)
 def test_quadrature_agrees_with_monte_carlo(kind, geo, mode):
     spec = MC_GEOMETRIES[geo]
     v_min, v_max = spec["v"]
@@ -355,16 +421,23 @@ def test_quadrature_agrees_with_monte_carlo(kind, geo, mode):
     if mode == "conditional":
         vel = _conditional_velocities(v_min, v_max)
         n = len(vel)
-        g = mark_geometry(np.full(n, spec["r"]), spec["az"], spec["sigma_r"],
-                          math.radians(spec["sigma_az_deg"]), tau=TAU)
+        g = mark_geometry(
+            np.full(n, spec["r"]),
+            spec["az"],
+            spec["sigma_r"],
+            math.radians(spec["sigma_az_deg"]),
+            tau=TAU,
+        )
         res = conditional_probability(gate, g, vel)
         p, se = monte_carlo_probability(gate, g, velocity=vel, samples=MC_SAMPLES, seed=seed)
     else:
-        g = mark_geometry(spec["r"], spec["az"], spec["sigma_r"],
-                          math.radians(spec["sigma_az_deg"]), tau=TAU)
+        g = mark_geometry(
+            spec["r"], spec["az"], spec["sigma_r"], math.radians(spec["sigma_az_deg"]), tau=TAU
+        )
         res = unconditional_probability(gate, g, v_min, v_max, mode)
-        p, se = monte_carlo_probability(gate, g, v_min=v_min, v_max=v_max, prior=mode,
-                                        samples=MC_SAMPLES, seed=seed)
+        p, se = monte_carlo_probability(
+            gate, g, v_min=v_min, v_max=v_max, prior=mode, samples=MC_SAMPLES, seed=seed
+        )
     q, err = res.probability, res.error
     assert q.shape == err.shape == p.shape == (g.n,)
     np.testing.assert_allclose(se, np.sqrt(p * (1.0 - p) / MC_SAMPLES), rtol=1e-12)
@@ -386,22 +459,51 @@ def test_monte_carlo_is_reproducible_for_a_seed():
 # ---------------------------------------------------------------- honest error estimates
 
 HONEST_CASES = [
-    ("paper-ring-50km", RingGate(100.0, 500.0), (50e3, 0.0, 200.0, math.radians(0.5)),
-     (100.0, 500.0), "area"),
+    (
+        "paper-ring-50km",
+        RingGate(100.0, 500.0),
+        (50e3, 0.0, 200.0, math.radians(0.5)),
+        (100.0, 500.0),
+        "area",
+    ),
     # B far wider than the ring (sigma across 1974 m against R_max 500 m)
-    ("combined-B-dwarfs-ring", CombinedGate(20.0, 100.0, 0.9),
-     (80e3, -0.4, 300.0, math.radians(1.0)), (20.0, 100.0), "area"),
+    (
+        "combined-B-dwarfs-ring",
+        CombinedGate(20.0, 100.0, 0.9),
+        (80e3, -0.4, 300.0, math.radians(1.0)),
+        (20.0, 100.0),
+        "area",
+    ),
     # small errors far out (the "far-small-fast" Monte Carlo geometry)
-    ("ring-far-small-errors", RingGate(300.0, 900.0), (80e3, 2.5, 20.0, math.radians(0.05)),
-     (300.0, 900.0), "area"),
+    (
+        "ring-far-small-errors",
+        RingGate(300.0, 900.0),
+        (80e3, 2.5, 20.0, math.radians(0.05)),
+        (300.0, 900.0),
+        "area",
+    ),
     # the paper's geometry, an ellipse gate about a prediction 1500 m away
-    ("ellipse-paper-offset",
-     EllipseGate(0.9, offset=(1500.0 * math.cos(0.9), 1500.0 * math.sin(0.9))),
-     (50e3, 0.0, 200.0, math.radians(0.5)), (100.0, 500.0), "area"),
-    ("rectangular-offset", RectangularGate(2.0, offset=(700.0, -400.0)),
-     (12e3, 2.0, 60.0, math.radians(0.4)), (50.0, 250.0), "area"),
-    ("sector-offset", SectorGate(3.0, 3.0, offset=(-900.0, 300.0)),
-     (30e3, 1.0, 100.0, math.radians(0.2)), (100.0, 300.0), "speed"),
+    (
+        "ellipse-paper-offset",
+        EllipseGate(0.9, offset=(1500.0 * math.cos(0.9), 1500.0 * math.sin(0.9))),
+        (50e3, 0.0, 200.0, math.radians(0.5)),
+        (100.0, 500.0),
+        "area",
+    ),
+    (
+        "rectangular-offset",
+        RectangularGate(2.0, offset=(700.0, -400.0)),
+        (12e3, 2.0, 60.0, math.radians(0.4)),
+        (50.0, 250.0),
+        "area",
+    ),
+    (
+        "sector-offset",
+        SectorGate(3.0, 3.0, offset=(-900.0, 300.0)),
+        (30e3, 1.0, 100.0, math.radians(0.2)),
+        (100.0, 300.0),
+        "speed",
+    ),
 ]
 
 
@@ -423,8 +525,11 @@ def finer_rules(monkeypatch, m):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("gate", "geo", "speeds", "prior"), [c[1:] for c in HONEST_CASES],
-                         ids=[c[0] for c in HONEST_CASES])
+@pytest.mark.parametrize(
+    ("gate", "geo", "speeds", "prior"),
+    [c[1:] for c in HONEST_CASES],
+    ids=[c[0] for c in HONEST_CASES],
+)
 def test_unconditional_error_estimate_is_honest(gate, geo, speeds, prior):
     g = mark_geometry(*geo, tau=TAU)
     res = unconditional_probability(gate, g, *speeds, prior)
@@ -447,16 +552,32 @@ def test_unconditional_error_estimate_is_honest_with_monkeypatched_orders(monkey
 
 @pytest.mark.parametrize(
     "gate",
-    [RingGate(100.0, 500.0), CombinedGate(100.0, 500.0, 0.99), ExpandedGate(500.0, 0.9),
-     RectangularGate(2.0, offset=(1200.0, 400.0)), SectorGate(2.0, 2.0, offset=(1500.0, 0.0)),
-     FirstAssociationGate(500.0, 3.0, 3.0)],
-    ids=["ring", "combined", "expanded", "rectangular", "sector", "first-association"])
+    [
+        RingGate(100.0, 500.0),
+        CombinedGate(100.0, 500.0, 0.99),
+        ExpandedGate(500.0, 0.9),
+        RectangularGate(2.0, offset=(1200.0, 400.0)),
+        SectorGate(2.0, 2.0, offset=(1500.0, 0.0)),
+        FirstAssociationGate(500.0, 3.0, 3.0),
+    ],
+    ids=["ring", "combined", "expanded", "rectangular", "sector", "first-association"],
+)
 def test_conditional_error_estimate_is_honest(gate, monkeypatch):
     n = 6
     g = mark_geometry(np.full(n, 25e3), 0.6, 200.0, math.radians(0.5), tau=TAU)
-    vel = np.stack([velocity(s, c) for s, c in
-                    [(100.0, 10.0), (105.0, 200.0), (300.0, 70.0), (495.0, 250.0),
-                     (500.0, 90.0), (520.0, 330.0)]])
+    vel = np.stack(
+        [
+            velocity(s, c)
+            for s, c in [
+                (100.0, 10.0),
+                (105.0, 200.0),
+                (300.0, 70.0),
+                (495.0, 250.0),
+                (500.0, 90.0),
+                (520.0, 330.0),
+            ]
+        ]
+    )
     res = conditional_probability(gate, g, vel)
     monkeypatch.setattr(gp, "M_CONDITIONAL", (32, 24))
     if hasattr(gp, "_CONDITIONAL_TOL"):  # the adaptive rule's target
@@ -471,43 +592,60 @@ def test_conditional_error_estimate_is_honest(gate, monkeypatch):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("gate", "r", "az"),
-                         [(CombinedGate(100.0, 500.0, 0.9), [20e3, 80e3], [-1.2, 0.0]),
-                          (SectorGate(3.0, 3.0, offset=(800.0, -600.0)), [5e3, 20e3, 50e3],
-                           [0.3, -1.2, 2.9])],
-                         ids=["combined", "sector"])
+@pytest.mark.parametrize(
+    ("gate", "r", "az"),
+    [
+        (CombinedGate(100.0, 500.0, 0.9), [20e3, 80e3], [-1.2, 0.0]),
+        (SectorGate(3.0, 3.0, offset=(800.0, -600.0)), [5e3, 20e3, 50e3], [0.3, -1.2, 2.9]),
+    ],
+    ids=["combined", "sector"],
+)
 def test_batched_unconditional_matches_one_call_per_range(gate, r, az):
     g = mark_geometry(r, az, 200.0, math.radians(0.5), tau=TAU)
     batch = unconditional_probability(gate, g, 100.0, 500.0, "area")
     assert batch.probability.shape == batch.error.shape == (len(r),)
     assert len(set(batch.probability.tolist())) == len(r)  # the problems do differ
     for i in range(len(r)):
-        one = unconditional_probability(gate, mark_geometry(r[i], az[i], 200.0,
-                                                            math.radians(0.5), tau=TAU),
-                                        100.0, 500.0, "area")
+        one = unconditional_probability(
+            gate,
+            mark_geometry(r[i], az[i], 200.0, math.radians(0.5), tau=TAU),
+            100.0,
+            500.0,
+            "area",
+        )
         # panels may differ with the batch (shared panel counts), results only within
         # the quadrature error
         assert abs(batch.probability[i] - one.probability[0]) <= (
-            batch.error[i] + one.error[0] + 1e-12)
+            batch.error[i] + one.error[0] + 1e-12
+        )
         assert abs(batch.probability[i] - one.probability[0]) <= 1e-8
 
 
-@pytest.mark.parametrize("gate", [RingGate(100.0, 500.0), CombinedGate(100.0, 500.0, 0.9),
-                                  EllipseGate(0.95, offset=(1000.0, 0.0))],
-                         ids=["ring", "combined", "ellipse"])
+@pytest.mark.parametrize(
+    "gate",
+    [
+        RingGate(100.0, 500.0),
+        CombinedGate(100.0, 500.0, 0.9),
+        EllipseGate(0.95, offset=(1000.0, 0.0)),
+    ],
+    ids=["ring", "combined", "ellipse"],
+)
 def test_batched_conditional_matches_one_call_per_range(gate):
     r = np.array([5e3, 20e3, 50e3, 80e3])
     az = np.array([0.3, -1.2, 2.9, 0.0])
     sigma_r = np.array([20.0, 100.0, 200.0, 300.0])
-    vel = np.stack([velocity(s, c) for s, c in [(100.0, 0.0), (250.0, 90.0), (480.0, 181.0),
-                                                (510.0, 300.0)]])
+    vel = np.stack(
+        [velocity(s, c) for s, c in [(100.0, 0.0), (250.0, 90.0), (480.0, 181.0), (510.0, 300.0)]]
+    )
     g = mark_geometry(r, az, sigma_r, math.radians(0.5), tau=TAU)
     batch = conditional_probability(gate, g, vel)
     for i in range(4):
-        one = conditional_probability(gate, mark_geometry(r[i], az[i], sigma_r[i],
-                                                          math.radians(0.5), tau=TAU), vel[i])
+        one = conditional_probability(
+            gate, mark_geometry(r[i], az[i], sigma_r[i], math.radians(0.5), tau=TAU), vel[i]
+        )
         assert abs(batch.probability[i] - one.probability[0]) <= (
-            batch.error[i] + one.error[0] + 1e-12)
+            batch.error[i] + one.error[0] + 1e-12
+        )
     # one velocity for every problem broadcasts
     shared = conditional_probability(gate, g, vel[1])
     each = conditional_probability(gate, g, np.broadcast_to(vel[1], (4, 2)))
@@ -515,8 +653,9 @@ def test_batched_conditional_matches_one_call_per_range(gate):
     # and one geometry takes many velocities (a curve against speed)
     one = mark_geometry(r[2], az[2], sigma_r[2], math.radians(0.5), tau=TAU)
     curve = conditional_probability(gate, one, vel)
-    same = conditional_probability(gate, mark_geometry(np.full(4, r[2]), az[2], sigma_r[2],
-                                                       math.radians(0.5), tau=TAU), vel)
+    same = conditional_probability(
+        gate, mark_geometry(np.full(4, r[2]), az[2], sigma_r[2], math.radians(0.5), tau=TAU), vel
+    )
     np.testing.assert_allclose(curve.probability, same.probability, rtol=0, atol=1e-15)
 
 
@@ -534,37 +673,72 @@ def _raises(error, field, call):
 
 def test_unconditional_v_min_above_v_max():
     g = paper_geometry(50e3)
-    err = _raises(ParameterError, "v_min",
-                  lambda: unconditional_probability(RingGate(100.0, 500.0), g, 600.0, 500.0))
+    err = _raises(
+        ParameterError,
+        "v_min",
+        lambda: unconditional_probability(RingGate(100.0, 500.0), g, 600.0, 500.0),
+    )
     assert "600" in err.reason and "500" in err.reason
-    _raises(ParameterError, "v_min",
-            lambda: unconditional_probability(RingGate(600.0, 500.0), g, 100.0, 500.0))
-    _raises(ParameterError, "v_min",
-            lambda: unconditional_probability(RingGate(100.0, 500.0), g, -1.0, 500.0))
-    _raises(ParameterError, "v_min",
-            lambda: monte_carlo_probability(RingGate(100.0, 500.0), g, v_min=600.0,
-                                            v_max=500.0, samples=10))
+    _raises(
+        ParameterError,
+        "v_min",
+        lambda: unconditional_probability(RingGate(600.0, 500.0), g, 100.0, 500.0),
+    )
+    _raises(
+        ParameterError,
+        "v_min",
+        lambda: unconditional_probability(RingGate(100.0, 500.0), g, -1.0, 500.0),
+    )
+    _raises(
+        ParameterError,
+        "v_min",
+        lambda: monte_carlo_probability(
+            RingGate(100.0, 500.0), g, v_min=600.0, v_max=500.0, samples=10
+        ),
+    )
 
 
 @pytest.mark.parametrize("P_G", [0.0, 1.0, -0.5, 1.5])
 def test_P_G_outside_open_unit_interval(P_G):
     g = paper_geometry(50e3)
-    _raises(ParameterError, "P_G",
-            lambda: unconditional_probability(CombinedGate(100.0, 500.0, P_G), g, 100.0, 500.0))
-    _raises(ParameterError, "P_G",
-            lambda: conditional_probability(EllipseGate(P_G), g, [100.0, 0.0]))
-    _raises(ParameterError, "p",
-            lambda: conditional_probability(ExpandedGate(500.0, P_G), g, [100.0, 0.0]))
+    _raises(
+        ParameterError,
+        "P_G",
+        lambda: unconditional_probability(CombinedGate(100.0, 500.0, P_G), g, 100.0, 500.0),
+    )
+    _raises(
+        ParameterError, "P_G", lambda: conditional_probability(EllipseGate(P_G), g, [100.0, 0.0])
+    )
+    _raises(
+        ParameterError,
+        "p",
+        lambda: conditional_probability(ExpandedGate(500.0, P_G), g, [100.0, 0.0]),
+    )
 
 
 @pytest.mark.parametrize(
     ("kwargs", "field"),
-    [({"sigma_r": 0.0}, "sigma_r"), ({"sigma_r": -200.0}, "sigma_r"),
-     ({"sigma_az": 0.0}, "sigma_az"), ({"sigma_az": -0.01}, "sigma_az"),
-     ({"sigma_r2": 0.0}, "sigma_r2"), ({"sigma_az2": -1e-3}, "sigma_az2"),
-     ({"tau": 0.0}, "tau"), ({"tau": -5.0}, "tau")],
-    ids=["sigma_r=0", "sigma_r<0", "sigma_az=0", "sigma_az<0", "sigma_r2=0", "sigma_az2<0",
-         "tau=0", "tau<0"])
+    [
+        ({"sigma_r": 0.0}, "sigma_r"),
+        ({"sigma_r": -200.0}, "sigma_r"),
+        ({"sigma_az": 0.0}, "sigma_az"),
+        ({"sigma_az": -0.01}, "sigma_az"),
+        ({"sigma_r2": 0.0}, "sigma_r2"),
+        ({"sigma_az2": -1e-3}, "sigma_az2"),
+        ({"tau": 0.0}, "tau"),
+        ({"tau": -5.0}, "tau"),
+    ],
+    ids=[
+        "sigma_r=0",
+        "sigma_r<0",
+        "sigma_az=0",
+        "sigma_az<0",
+        "sigma_r2=0",
+        "sigma_az2<0",
+        "tau=0",
+        "tau<0",
+    ],
+)
 def test_geometry_bad_sigmas_and_tau(kwargs, field):
     args = {"r": 50e3, "az": 0.0, "sigma_r": 200.0, "sigma_az": 0.01, "tau": TAU}
     args.update(kwargs)
@@ -573,39 +747,56 @@ def test_geometry_bad_sigmas_and_tau(kwargs, field):
 
 def test_geometry_mark_on_radar_and_batch_mismatch():
     _raises(GeometryError, "r", lambda: mark_geometry([1e3, 0.0], 0.0, 200.0, 0.01, tau=TAU))
-    _raises(ParameterError, "az",
-            lambda: mark_geometry([1e3, 2e3], [0.0, 0.1, 0.2], 200.0, 0.01, tau=TAU))
+    _raises(
+        ParameterError,
+        "az",
+        lambda: mark_geometry([1e3, 2e3], [0.0, 0.1, 0.2], 200.0, 0.01, tau=TAU),
+    )
 
 
 def test_gate_coefficients_refused():
     g = paper_geometry(50e3)
-    _raises(ParameterError, "k",
-            lambda: conditional_probability(RectangularGate(0.0), g, [100.0, 0.0]))
-    _raises(ParameterError, "K_R",
-            lambda: conditional_probability(SectorGate(-1.0, 3.0), g, [100.0, 0.0]))
-    _raises(ParameterError, "K_az",
-            lambda: conditional_probability(FirstAssociationGate(500.0, 3.0, 0.0), g,
-                                            [100.0, 0.0]))
+    _raises(
+        ParameterError, "k", lambda: conditional_probability(RectangularGate(0.0), g, [100.0, 0.0])
+    )
+    _raises(
+        ParameterError,
+        "K_R",
+        lambda: conditional_probability(SectorGate(-1.0, 3.0), g, [100.0, 0.0]),
+    )
+    _raises(
+        ParameterError,
+        "K_az",
+        lambda: conditional_probability(FirstAssociationGate(500.0, 3.0, 0.0), g, [100.0, 0.0]),
+    )
 
 
 @pytest.mark.parametrize("prior", ["uniform", "AREA", ""])
 def test_unknown_prior(prior):
     g = paper_geometry(50e3)
-    err = _raises(ParameterError, "prior",
-                  lambda: unconditional_probability(RingGate(100.0, 500.0), g, 100.0, 500.0,
-                                                    prior))
+    err = _raises(
+        ParameterError,
+        "prior",
+        lambda: unconditional_probability(RingGate(100.0, 500.0), g, 100.0, 500.0, prior),
+    )
     assert "area" in err.reason and "speed" in err.reason
-    _raises(ParameterError, "prior",
-            lambda: monte_carlo_probability(RingGate(100.0, 500.0), g, v_min=100.0,
-                                            v_max=500.0, prior=prior, samples=10))
+    _raises(
+        ParameterError,
+        "prior",
+        lambda: monte_carlo_probability(
+            RingGate(100.0, 500.0), g, v_min=100.0, v_max=500.0, prior=prior, samples=10
+        ),
+    )
 
 
 def test_velocity_of_wrong_batch_length():
     g = mark_geometry(np.array([20e3, 30e3, 40e3]), 0.0, 200.0, 0.01, tau=TAU)
     gate = RingGate(100.0, 500.0)
-    err = _raises(ParameterError, "velocity",
-                  lambda: conditional_probability(gate, g, np.zeros((2, 2))))
+    err = _raises(
+        ParameterError, "velocity", lambda: conditional_probability(gate, g, np.zeros((2, 2)))
+    )
     assert "2" in err.reason and "3" in err.reason
     _raises(ParameterError, "velocity", lambda: conditional_probability(gate, g, [1.0, 2.0, 3.0]))
-    _raises(ParameterError, "velocity",
-            lambda: conditional_probability(gate, g, np.zeros((1, 3, 2))))
+    _raises(
+        ParameterError, "velocity", lambda: conditional_probability(gate, g, np.zeros((1, 3, 2)))
+    )

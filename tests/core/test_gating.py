@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from gate_helpers import combined_inputs, random_spd
 
-from core import (
+from plotgate.core import (
     CovarianceError,
     GateResult,
     GeometryError,
@@ -22,7 +22,7 @@ from core import (
     ring_gate,
     sector_gate,
 )
-from core.gating import (
+from plotgate.core.gating import (
     _chi2_threshold_2d,
     _expansion_coefficient,
     _expansion_coefficient_of,
@@ -37,17 +37,20 @@ def test_one_first_mark_against_many_candidates_equals_tiled_input():
     _, _, z2, P2 = combined_inputs(rng, 200)
     z1 = z2[0] + 10.0
     P1 = random_spd(rng, 1, 40.0)[0]
-    tiled = combined_gate(np.tile(z1, (200, 1)), np.tile(P1, (200, 1, 1)), z2, P2,
-                          5.0, 30.0, 100.0, 0.9)
+    tiled = combined_gate(
+        np.tile(z1, (200, 1)), np.tile(P1, (200, 1, 1)), z2, P2, 5.0, 30.0, 100.0, 0.9
+    )
     broadcast = combined_gate(z1, P1, z2, P2, 5.0, 30.0, 100.0, 0.9)
     for field in ("inside", "statistic", "stage"):
         np.testing.assert_array_equal(getattr(broadcast, field), getattr(tiled, field))
     ring = ring_gate(z1, z2, 5.0, 30.0, 100.0)
-    np.testing.assert_array_equal(ring.inside, ring_gate(np.tile(z1, (200, 1)), z2, 5.0,
-                                                         30.0, 100.0).inside)
+    np.testing.assert_array_equal(
+        ring.inside, ring_gate(np.tile(z1, (200, 1)), z2, 5.0, 30.0, 100.0).inside
+    )
     ellipse = ellipse_gate(z2, z1, P1, 0.9)
-    np.testing.assert_array_equal(ellipse.statistic,
-                                  ellipse_gate(z2, np.tile(z1, (200, 1)), P1, 0.9).statistic)
+    np.testing.assert_array_equal(
+        ellipse.statistic, ellipse_gate(z2, np.tile(z1, (200, 1)), P1, 0.9).statistic
+    )
 
 
 @pytest.mark.parametrize(
@@ -59,8 +62,9 @@ def test_one_first_mark_against_many_candidates_equals_tiled_input():
         lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, 0.9),
         lambda: rectangular_gate([1.0, 1.0], [0.0, 0.0], 1.0, 1.0, 3.0),
         lambda: sector_gate(1e3, 0.1, 1e3, 0.1, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
-        lambda: first_association_gate(1e3, 0.1, 1e3, 0.1, 1.0, 5.0, 1.0, 1e-3, 1.0, 1e-3,
-                                       3.0, 3.0),
+        lambda: first_association_gate(
+            1e3, 0.1, 1e3, 0.1, 1.0, 5.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0
+        ),
     ],
     ids=["ring", "combined", "ellipse", "expanded", "rectangular", "sector", "first"],
 )
@@ -81,8 +85,9 @@ def test_unbatched_input_gives_one_pair(call):
         lambda e, E, o: expanded_gate([0.0, 1.0], e, 1.0, 1.0, 1.0, 0.1, 0.9),
         lambda e, E, o: rectangular_gate(e, [0.0, 0.0], 1.0, 1.0, 3.0),
         lambda e, E, o: sector_gate(o, o, 1.0, 0.0, 1.0, 0.1, 1.0, 0.1, 3.0, 3.0),
-        lambda e, E, o: first_association_gate(1.0, 0.0, o, o, 1.0, 1.0, 1.0, 0.1, 1.0, 0.1,
-                                               3.0, 3.0),
+        lambda e, E, o: first_association_gate(
+            1.0, 0.0, o, o, 1.0, 1.0, 1.0, 0.1, 1.0, 0.1, 3.0, 3.0
+        ),
     ],
     ids=["ring", "combined", "ellipse", "expanded", "rectangular", "sector", "first"],
 )
@@ -117,47 +122,129 @@ def test_gates_accept_read_only_inputs_and_leave_them_unchanged():
 @pytest.mark.parametrize(
     ("call", "error", "message"),
     [
-        (lambda: expanded_gate([0.0, 1e4], [[0.0, 1e4]] * 3, 5.0, 100.0, [10.0, -1.0, 2.0],
-                               0.001, 0.9), ParameterError, r"^sigma_r\[1\]: must be positive"),
-        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.0, 0.9),
-         ParameterError, r"^sigma_az: must be positive, got 0.0"),
-        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, -1.0, 10.0, 1e-3, 0.9),
-         ParameterError, r"^v_max: must be non-negative"),
-        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3, 1.2),
-         ParameterError, r"^p: must lie in the open interval"),
-        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3, [0.9, 0.9]),
-         ParameterError, r"^p: must be a scalar"),
-        (lambda: expanded_gate([[0.0, 1e4], [5.0, 5.0]], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3,
-                               0.9, sensor=[5.0, 5.0]),
-         GeometryError, r"^z1\[1\]: is at the sensor"),
-        (lambda: ellipse_gate([0.0, 1.0], [0.0, 0.0], np.zeros((2, 2)), 0.9),
-         CovarianceError, r"^S: is not positive definite"),
+        (
+            lambda: expanded_gate(
+                [0.0, 1e4], [[0.0, 1e4]] * 3, 5.0, 100.0, [10.0, -1.0, 2.0], 0.001, 0.9
+            ),
+            ParameterError,
+            r"^sigma_r\[1\]: must be positive",
+        ),
+        (
+            lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.0, 0.9),
+            ParameterError,
+            r"^sigma_az: must be positive, got 0.0",
+        ),
+        (
+            lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, -1.0, 10.0, 1e-3, 0.9),
+            ParameterError,
+            r"^v_max: must be non-negative",
+        ),
+        (
+            lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3, 1.2),
+            ParameterError,
+            r"^p: must lie in the open interval",
+        ),
+        (
+            lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 1e-3, [0.9, 0.9]),
+            ParameterError,
+            r"^p: must be a scalar",
+        ),
+        (
+            lambda: expanded_gate(
+                [[0.0, 1e4], [5.0, 5.0]],
+                [0.0, 1e4],
+                5.0,
+                100.0,
+                10.0,
+                1e-3,
+                0.9,
+                sensor=[5.0, 5.0],
+            ),
+            GeometryError,
+            r"^z1\[1\]: is at the sensor",
+        ),
+        (
+            lambda: ellipse_gate([0.0, 1.0], [0.0, 0.0], np.zeros((2, 2)), 0.9),
+            CovarianceError,
+            r"^S: is not positive definite",
+        ),
         # axis ratio 1e7 > 1e6: rotating it would lose the small axis to rounding
-        (lambda: ellipse_gate([[0.0, 1.0]] * 2, [0.0, 0.0],
-                              [np.eye(2), np.diag([1e14, 1.0])], 0.9),
-         CovarianceError, r"^S\[1\]: is numerically singular: eigenvalues 1 and 1e\+14"),
-        (lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, 1.0, 0.0),
-         ParameterError, r"^k: must be positive, got 0.0"),
-        (lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, [1.0, np.nan], 3.0),
-         NonFiniteError, r"^sigma_y\[1\]: must be finite, got nan"),
-        (lambda: sector_gate(-1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
-         ParameterError, r"^r: must be non-negative, got -1.0"),
-        (lambda: sector_gate(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, -1e-3, 3.0, 3.0),
-         ParameterError, r"^sigma_az_pred: must be positive"),
-        (lambda: sector_gate(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 0.0),
-         ParameterError, r"^K_az: must be positive"),
-        (lambda: sector_gate(np.ones(3), np.zeros(2), 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
-         ParameterError, r"^az: has batch length 2 but r has 3"),
-        (lambda: first_association_gate(1.0, 0.0, 1.0, 0.0, 0.0, 5.0, 1.0, 1e-3, 1.0, 1e-3,
-                                        3.0, 3.0), ParameterError, r"^tau: must be positive"),
-        (lambda: first_association_gate(1.0, 0.0, 1.0, 0.0, 1.0, 5.0, 1.0, 1e-3, 1.0, 1e-3,
-                                        -3.0, 3.0), ParameterError, r"^K_R: must be positive"),
-        (lambda: ring_gate([0.0, 0.0], [1.0, 1.0], 1.0, 3.0, 2.0),
-         ParameterError, r"^v_min: v_min \(3.0\) exceeds v_max \(2.0\)"),
+        (
+            lambda: ellipse_gate(
+                [[0.0, 1.0]] * 2, [0.0, 0.0], [np.eye(2), np.diag([1e14, 1.0])], 0.9
+            ),
+            CovarianceError,
+            r"^S\[1\]: is numerically singular: eigenvalues 1 and 1e\+14",
+        ),
+        (
+            lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, 1.0, 0.0),
+            ParameterError,
+            r"^k: must be positive, got 0.0",
+        ),
+        (
+            lambda: rectangular_gate([0.0, 1.0], [0.0, 0.0], 1.0, [1.0, np.nan], 3.0),
+            NonFiniteError,
+            r"^sigma_y\[1\]: must be finite, got nan",
+        ),
+        (
+            lambda: sector_gate(-1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
+            ParameterError,
+            r"^r: must be non-negative, got -1.0",
+        ),
+        (
+            lambda: sector_gate(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, -1e-3, 3.0, 3.0),
+            ParameterError,
+            r"^sigma_az_pred: must be positive",
+        ),
+        (
+            lambda: sector_gate(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 0.0),
+            ParameterError,
+            r"^K_az: must be positive",
+        ),
+        (
+            lambda: sector_gate(np.ones(3), np.zeros(2), 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0),
+            ParameterError,
+            r"^az: has batch length 2 but r has 3",
+        ),
+        (
+            lambda: first_association_gate(
+                1.0, 0.0, 1.0, 0.0, 0.0, 5.0, 1.0, 1e-3, 1.0, 1e-3, 3.0, 3.0
+            ),
+            ParameterError,
+            r"^tau: must be positive",
+        ),
+        (
+            lambda: first_association_gate(
+                1.0, 0.0, 1.0, 0.0, 1.0, 5.0, 1.0, 1e-3, 1.0, 1e-3, -3.0, 3.0
+            ),
+            ParameterError,
+            r"^K_R: must be positive",
+        ),
+        (
+            lambda: ring_gate([0.0, 0.0], [1.0, 1.0], 1.0, 3.0, 2.0),
+            ParameterError,
+            r"^v_min: v_min \(3.0\) exceeds v_max \(2.0\)",
+        ),
     ],
-    ids=["sigma_r-row", "sigma_az-zero", "v_max-negative", "p>1", "p-array", "z1-at-sensor",
-         "singular-S", "ill-conditioned-S", "k=0", "nan-sigma_y", "negative-range",
-         "sigma_az_pred", "K_az=0", "sector-lengths", "first-tau", "first-K_R", "ring-speeds"],
+    ids=[
+        "sigma_r-row",
+        "sigma_az-zero",
+        "v_max-negative",
+        "p>1",
+        "p-array",
+        "z1-at-sensor",
+        "singular-S",
+        "ill-conditioned-S",
+        "k=0",
+        "nan-sigma_y",
+        "negative-range",
+        "sigma_az_pred",
+        "K_az=0",
+        "sector-lengths",
+        "first-tau",
+        "first-K_R",
+        "ring-speeds",
+    ],
 )
 def test_gate_validation_errors(call, error, message):
     with pytest.raises(error, match=message):
@@ -191,14 +278,24 @@ def test_each_probability_is_computed_once():
 @pytest.mark.parametrize(
     ("call", "message"),
     [
-        (lambda: ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), 1.0),
-         r"^P_G: must lie in the open interval \(0, 1\), got 1.0$"),
-        (lambda: ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), np.array([0.9])),
-         r"^P_G: must be a scalar, got shape \(1,\)$"),
-        (lambda: combined_gate([0.0, 0.0], np.eye(2), [1.0, 0.0], np.eye(2), 1.0, 0.0, 9.0,
-                               None), r"^P_G: must lie in the open interval \(0, 1\), got nan$"),
-        (lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, True),
-         r"^p: must lie in the open interval \(0, 1\), got 1.0$"),
+        (
+            lambda: ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), 1.0),
+            r"^P_G: must lie in the open interval \(0, 1\), got 1.0$",
+        ),
+        (
+            lambda: ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), np.array([0.9])),
+            r"^P_G: must be a scalar, got shape \(1,\)$",
+        ),
+        (
+            lambda: combined_gate(
+                [0.0, 0.0], np.eye(2), [1.0, 0.0], np.eye(2), 1.0, 0.0, 9.0, None
+            ),
+            r"^P_G: must lie in the open interval \(0, 1\), got nan$",
+        ),
+        (
+            lambda: expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, True),
+            r"^p: must lie in the open interval \(0, 1\), got 1.0$",
+        ),
     ],
     ids=["P_G=1", "P_G-array", "P_G-None", "p-True"],
 )
@@ -217,5 +314,6 @@ def test_public_thresholds_stay_uncached_and_take_arrays():
     assert not hasattr(expansion_coefficient, "cache_info")
     P_G = np.array([0.9, 0.99])
     np.testing.assert_array_equal(gate_threshold(P_G), [_gate_threshold(p) for p in P_G])
-    np.testing.assert_array_equal(expansion_coefficient(P_G),
-                                  [_expansion_coefficient(p) for p in P_G])
+    np.testing.assert_array_equal(
+        expansion_coefficient(P_G), [_expansion_coefficient(p) for p in P_G]
+    )

@@ -4,7 +4,12 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from core import ParameterError, expansion_coefficient, gate_threshold, rectangular_coefficient
+from plotgate.core import (
+    ParameterError,
+    expansion_coefficient,
+    gate_threshold,
+    rectangular_coefficient,
+)
 
 
 @pytest.mark.parametrize(("p", "K_g"), [(0.9, 2.146), (0.95, 2.448)], ids=["p=0.9", "p=0.95"])
@@ -27,8 +32,7 @@ def test_gate_threshold_is_chi2_quantile(n):
 
 def test_expansion_coefficient_squared_is_two_dof_threshold():
     p = np.linspace(0.01, 0.999, 50)
-    np.testing.assert_allclose(expansion_coefficient(p) ** 2, gate_threshold(p, 2),
-                               rtol=1e-12)
+    np.testing.assert_allclose(expansion_coefficient(p) ** 2, gate_threshold(p, 2), rtol=1e-12)
 
 
 @pytest.mark.parametrize("n", [1, 2, 3])
@@ -52,7 +56,8 @@ def test_rectangular_coefficient_monte_carlo(n):
 
 def test_rectangular_coefficient_one_axis_three_sigma():
     assert rectangular_coefficient(stats.norm.cdf(3.0) - stats.norm.cdf(-3.0), 1) == (
-        pytest.approx(3.0, abs=1e-12))
+        pytest.approx(3.0, abs=1e-12)
+    )
 
 
 BAD_PROBABILITIES = [0.0, 1.0, -0.1, 1.5, np.nan, np.inf]

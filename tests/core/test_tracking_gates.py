@@ -5,7 +5,7 @@ import pytest
 from gate_helpers import N_RANDOM, assert_matches_reference, random_spd
 from scipy import stats
 
-from core import ParameterError, ellipse_gate, innovation_covariance, rectangular_gate
+from plotgate.core import ParameterError, ellipse_gate, innovation_covariance, rectangular_gate
 
 GAMMA_09 = stats.chi2.ppf(0.9, 2)
 
@@ -42,8 +42,7 @@ def test_innovation_covariance():
     R = np.diag([25.0, 25.0])
     H = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
     np.testing.assert_array_equal(innovation_covariance(P, R, H), np.diag([125.0, 125.0]))
-    np.testing.assert_array_equal(innovation_covariance(np.eye(2), 2 * np.eye(2)),
-                                  3 * np.eye(2))
+    np.testing.assert_array_equal(innovation_covariance(np.eye(2), 2 * np.eye(2)), 3 * np.eye(2))
     batch = innovation_covariance(np.stack([np.eye(2)] * 3), np.eye(2))
     assert batch.shape == (3, 2, 2)
 
@@ -60,8 +59,7 @@ def test_innovation_covariance_shape_errors():
 def test_rectangular_gate_hand_computed():
     # sigma_x = 10, sigma_y = 20, k = 3: (25, 50) -> max(2.5, 2.5); (31, 0) -> 3.1;
     # (30, -60) sits exactly on the corner (3, 3) and is inside
-    res = rectangular_gate([[25.0, 50.0], [31.0, 0.0], [30.0, -60.0]], [0.0, 0.0],
-                           10.0, 20.0, 3.0)
+    res = rectangular_gate([[25.0, 50.0], [31.0, 0.0], [30.0, -60.0]], [0.0, 0.0], 10.0, 20.0, 3.0)
     np.testing.assert_allclose(res.statistic, [2.5, 3.1, 3.0])
     np.testing.assert_array_equal(res.inside, [True, False, True])
     assert res.threshold == 3.0
@@ -109,9 +107,11 @@ def test_per_pair_covariance_with_one_candidate_broadcasts():
     S = random_spd(rng, 7, 10.0)
     res = ellipse_gate([1.0, 2.0], [0.0, 0.0], S, 0.9)
     assert res.statistic.shape == (7,)
-    np.testing.assert_allclose(res.statistic,
-                               [ellipse_ref(np.array([1.0, 2.0]), np.zeros(2), s, 0.9)[1]
-                                for s in S], rtol=1e-12)
+    np.testing.assert_allclose(
+        res.statistic,
+        [ellipse_ref(np.array([1.0, 2.0]), np.zeros(2), s, 0.9)[1] for s in S],
+        rtol=1e-12,
+    )
 
 
 def test_rounding_asymmetry_is_accepted_and_upper_element_read():

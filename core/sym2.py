@@ -53,6 +53,5 @@ def quadratic_form(nu_x: np.ndarray, nu_y: np.ndarray, S: Sym2) -> np.ndarray:
 def largest_eigenvalue(S: Sym2) -> np.ndarray:
     """Return lambda_max(S) = (S11 + S22)/2 + sqrt(((S11 - S22)/2)^2 + S12^2)."""
     half_diff = 0.5 * (S.xx - S.yy)
-    lambda_max: np.ndarray = 0.5 * (S.xx + S.yy) + np.sqrt(half_diff * half_diff
-                                                            + S.xy * S.xy)
+    lambda_max: np.ndarray = 0.5 * (S.xx + S.yy) + np.sqrt(half_diff * half_diff + S.xy * S.xy)
     return lambda_max

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core.errors import CovarianceError, NonFiniteError, ParameterError
+from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
 
 __all__ = [
     "as_array",
@@ -48,7 +48,7 @@ def _row(x: np.ndarray, index: int | None, core_ndim: int) -> np.ndarray:
     """The batch row at a flat index (the whole array when index is None)."""
     if index is None:
         return x
-    row: np.ndarray = x.reshape((-1, *x.shape[x.ndim - core_ndim:]))[index]
+    row: np.ndarray = x.reshape((-1, *x.shape[x.ndim - core_ndim :]))[index]
     return row
 
 
@@ -63,7 +63,7 @@ def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> n
     except (TypeError, ValueError) as exc:
         raise ParameterError(name, f"must be real numbers ({exc})") from None
     core_ndim = len(core_shape)
-    if x.ndim < core_ndim or x.shape[x.ndim - core_ndim:] != core_shape:
+    if x.ndim < core_ndim or x.shape[x.ndim - core_ndim :] != core_shape:
         inner = ", ".join(str(k) for k in core_shape)
         raise ParameterError(name, f"must have shape (..., {inner}), got shape {x.shape}")
     finite = np.isfinite(x)
@@ -71,7 +71,8 @@ def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> n
         bad = ~finite.all(axis=tuple(range(x.ndim - core_ndim, x.ndim)))
         index = first_index(bad)
         raise NonFiniteError(
-            name, f"must be finite, got {_row(x, index, core_ndim).tolist()}", index)
+            name, f"must be finite, got {_row(x, index, core_ndim).tolist()}", index
+        )
     return x
 
 
@@ -107,9 +108,11 @@ def as_covariance(name: str, value: ArrayLike) -> np.ndarray:
             reason = f"is not positive definite (det = {_row(det, index, 0).tolist()})"
         else:
             low, high = np.linalg.eigvalsh(_row(P, index, 2))
-            reason = (f"is numerically singular: eigenvalues {low:.3g} and {high:.3g}; "
-                      f"the error ellipse's axis ratio must stay below about "
-                      f"{np.sqrt(MAX_CONDITION):.0e}")
+            reason = (
+                f"is numerically singular: eigenvalues {low:.3g} and {high:.3g}; "
+                f"the error ellipse's axis ratio must stay below about "
+                f"{np.sqrt(MAX_CONDITION):.0e}"
+            )
         raise CovarianceError(name, f"{reason}: {_row(P, index, 2).tolist()}", index)
     return P
 
@@ -136,8 +139,8 @@ def as_probability(name: str, value: ArrayLike) -> np.ndarray:
     if not valid.all():
         index = first_index(~valid)
         raise ParameterError(
-            name, f"must lie in the open interval (0, 1), got {_row(p, index, 0).tolist()}",
-            index)
+            name, f"must lie in the open interval (0, 1), got {_row(p, index, 0).tolist()}", index
+        )
     return p
 
 
@@ -178,7 +181,8 @@ def broadcast_batch(**batch_shapes: tuple[int, ...]) -> tuple[int, ...]:
             shape = np.broadcast_shapes(shape, batch_shape)
         except ValueError:
             raise ParameterError(
-                name, f"batch shape {batch_shape} does not broadcast with {shape}") from None
+                name, f"batch shape {batch_shape} does not broadcast with {shape}"
+            ) from None
     return shape
 
 
@@ -194,11 +198,13 @@ def pair_count(**batch_shapes: tuple[int, ...]) -> int:
     for name, batch_shape in batch_shapes.items():
         if len(batch_shape) > 1:
             raise ParameterError(
-                name, f"has batch shape {batch_shape}; gates take one leading batch axis (N,)")
+                name, f"has batch shape {batch_shape}; gates take one leading batch axis (N,)"
+            )
         if batch_shape:
             if n is not None and batch_shape[0] != n:
                 raise ParameterError(
-                    name, f"has batch length {batch_shape[0]} but {owner} has {n}")
+                    name, f"has batch length {batch_shape[0]} but {owner} has {n}"
+                )
             n, owner = batch_shape[0], name
     return 1 if n is None else n
 
