@@ -15,6 +15,7 @@ import numpy as np
 
 from plotgate import core
 from plotgate.core import GeometryError, PlotgateError
+from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.plots import PlotError, plot_arrays
 from plotgate.service.schemas import (
@@ -27,7 +28,7 @@ from plotgate.service.schemas import (
 )
 from plotgate.service.schemas.gates import Gate, Stage
 
-__all__ = ["pairs", "pairs_field", "test", "test_field"]
+__all__ = ["PAIRS_FIELDS", "TEST_FIELDS", "pairs", "pairs_field", "test", "test_field"]
 
 _STAGES: tuple[Stage, ...] = ("none", "ring", "inner_ellipse", "outer_ellipse")
 _GATE_PARAMS = {"tau", "v_min", "v_max", "P_G", "p", "k", "K_R", "K_az"}
@@ -191,3 +192,10 @@ def pairs_field(request: GatePairsRequest, exc: PlotgateError) -> str:
         return f"pairs[{exc.index}]"
     plot = pair.first if side == "first" else pair.second
     return f"pairs[{exc.index}].{side}" + _covariance(plot, exc)
+
+
+TEST_FIELDS: FieldMap = {"*": test_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+PAIRS_FIELDS: FieldMap = {"*": pairs_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""

@@ -9,6 +9,7 @@ import numpy as np
 
 from plotgate.core import PlotgateError
 from plotgate.core.identification import experiment, identify_picture, sequential, z_test
+from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.schemas import (
     IdentifyPairRequest,
@@ -20,7 +21,17 @@ from plotgate.service.schemas import (
     SequentialHistory,
 )
 
-__all__ = ["pair", "pair_field", "picture", "picture_field", "simulate", "simulate_field"]
+__all__ = [
+    "SIMULATE_FIELDS",
+    "PICTURE_FIELDS",
+    "PAIR_FIELDS",
+    "pair",
+    "pair_field",
+    "picture",
+    "picture_field",
+    "simulate",
+    "simulate_field",
+]
 
 
 def _rad(value: list[float] | float | None) -> np.ndarray | float | None:
@@ -145,3 +156,13 @@ def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
 def simulate_field(request: IdentifySimulateRequest, exc: PlotgateError) -> str:
     """The request field of a core error."""
     return {"sigma": "sigma_deg", "width": "width_deg"}.get(exc.field, exc.field)
+
+
+PAIR_FIELDS: FieldMap = {"*": pair_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+PICTURE_FIELDS: FieldMap = {"*": picture_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+SIMULATE_FIELDS: FieldMap = {"*": simulate_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""

@@ -40,6 +40,7 @@ from plotgate.core.initiation.evaluate import evaluate as core_evaluate
 from plotgate.core.initiation.simulate import Scenario
 from plotgate.core.initiation.simulate import simulate as core_simulate
 from plotgate.core.initiation.state import PLOT_STRIDE
+from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.plots import PlotError, plot_arrays
 from plotgate.service.schemas import (
@@ -62,7 +63,16 @@ from plotgate.service.schemas.initiation_state import (
     MAX_STATE_TRACKS,
 )
 
-__all__ = ["evaluate", "initiate", "initiate_field", "scenario_field", "simulate"]
+__all__ = [
+    "EVALUATE_FIELDS",
+    "SIMULATE_FIELDS",
+    "INITIATE_FIELDS",
+    "evaluate",
+    "initiate",
+    "initiate_field",
+    "scenario_field",
+    "simulate",
+]
 
 
 class _ScanError(PlotgateError):
@@ -272,3 +282,13 @@ def scenario_field(request: SimulateRequest | EvaluateRequest, exc: PlotgateErro
     if exc.field in ("runs", "seed", "distance"):
         return exc.field
     return f"config.{exc.field}"
+
+
+INITIATE_FIELDS: FieldMap = {"*": initiate_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+SIMULATE_FIELDS: FieldMap = {"*": scenario_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+EVALUATE_FIELDS: FieldMap = {"*": scenario_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""

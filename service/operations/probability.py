@@ -19,6 +19,7 @@ import numpy as np
 
 from plotgate import core
 from plotgate.core import PlotgateError
+from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
 from plotgate.service.schemas import (
@@ -38,7 +39,18 @@ from plotgate.service.schemas import (
     SpeedPrior,
 )
 
-__all__ = ["analysis", "curve", "curve_field", "design", "field_of", "probability"]
+__all__ = [
+    "DESIGN_FIELDS",
+    "ANALYSIS_FIELDS",
+    "CURVE_FIELDS",
+    "PROBABILITY_FIELDS",
+    "analysis",
+    "curve",
+    "curve_field",
+    "design",
+    "field_of",
+    "probability",
+]
 
 DESIGN_M_MAX = 5
 """False-mark counts m = 0..5 reported by ``gates.design`` (its request has no m_max)."""
@@ -318,3 +330,16 @@ def curve_field(request: GateProbabilityCurveRequest, exc: PlotgateError) -> str
     if exc.field == "velocity":
         return "speed"
     return field_of(request, exc)
+
+
+PROBABILITY_FIELDS: FieldMap = {"*": field_of}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+CURVE_FIELDS: FieldMap = {"*": curve_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+ANALYSIS_FIELDS: FieldMap = {"*": field_of}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+DESIGN_FIELDS: FieldMap = {"*": field_of}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""

@@ -64,6 +64,9 @@ from plotgate.service.schemas import (
 )
 
 __all__ = [
+    "NOISE_FIELDS",
+    "CRLB_FIELDS",
+    "TRAJECTORY_FIELDS",
     "POSITION_FIELDS",
     "crlb",
     "crlb_field",
@@ -446,3 +449,13 @@ def noise_field(request: NoiseRequest, exc: PlotgateError) -> str:
     if exc.field == "t":
         return "sample_times" if exc.index is None else f"sample_times[{exc.index}]"
     return {"l": "range_sums", "x": "positions"}.get(exc.field, exc.field)
+
+
+TRAJECTORY_FIELDS: FieldMap = {"*": trajectory_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+CRLB_FIELDS: FieldMap = {"*": crlb_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+
+NOISE_FIELDS: FieldMap = {"*": noise_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""

@@ -17,11 +17,12 @@ import numpy as np
 
 from plotgate.core import PlotgateError
 from plotgate.core.multistatic.study import accuracy_study
+from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.solves import _platform, _samples
 from plotgate.service.schemas import StudyRequest, StudyResult, StudySample
 
-__all__ = ["study", "study_field"]
+__all__ = ["STUDY_FIELDS", "study", "study_field"]
 
 
 def _rows(a: np.ndarray) -> list[list[float] | None]:
@@ -111,3 +112,7 @@ def study_field(request: StudyRequest, exc: PlotgateError) -> str:
         "l": "receivers",
         "t": "sample_times",
     }.get(exc.field, exc.field)
+
+
+STUDY_FIELDS: FieldMap = {"*": study_field}
+"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
