@@ -30,6 +30,7 @@ from plotgate.core.validation import (
 )
 
 __all__ = [
+    "wrap_finite",
     "cartesian_covariance_to_polar",
     "cartesian_to_polar",
     "polar_covariance_to_cartesian",
@@ -40,8 +41,8 @@ __all__ = [
 _TWO_PI = 2.0 * np.pi
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Wrap finite angles to (-pi, pi] (no validation)."""
+def wrap_finite(a: np.ndarray) -> np.ndarray:
+    """Wrap angles known to be finite to (-pi, pi]: :func:`wrap_angle` without its check."""
     w = np.pi - np.mod(np.pi - a, _TWO_PI)
     # np.mod may round up to exactly 2 pi for arguments just below a multiple of it
     return np.where(w <= -np.pi, w + _TWO_PI, w)[()]  # [()]: 0-d array to scalar
@@ -80,7 +81,7 @@ def wrap_angle(a: ArrayLike) -> float | np.ndarray:
     >>> wrap_angle(np.array([np.pi, -np.pi, 0.0])).tolist() == [np.pi, np.pi, 0.0]
     True
     """
-    w = _wrap(as_array("a", a))
+    w = wrap_finite(as_array("a", a))
     return float(w) if w.ndim == 0 else w
 
 
@@ -164,7 +165,7 @@ def cartesian_to_polar(xy: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """
     xy = as_points("xy", xy)
     x, y = xy[..., 0], xy[..., 1]
-    return np.hypot(x, y), _wrap(np.arctan2(x, y))
+    return np.hypot(x, y), wrap_finite(np.arctan2(x, y))
 
 
 def polar_covariance_to_cartesian(

@@ -22,7 +22,7 @@ from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.frames import _wrap
+from plotgate.core.frames import wrap_finite
 from plotgate.core.identification.ztest import MIN_ESTIMATED_SIGMA, _sigma
 from plotgate.core.validation import as_array, as_probability
 
@@ -128,7 +128,7 @@ def identify_picture(
     aa, av = _tracks("active", active)
     mean_p, mean_a = _means(pa, pv), _means(aa, av)
     if sigma is None:
-        dev = _wrap(pa - mean_p[:, None]) * pv
+        dev = wrap_finite(pa - mean_p[:, None]) * pv
         s = np.sqrt((dev * dev).sum(1) / (pv.sum(1) - 1))
         if not (s >= MIN_ESTIMATED_SIGMA).all():
             raise ParameterError(
@@ -140,7 +140,7 @@ def identify_picture(
         s = np.broadcast_to(as_array("sigma", sigma), mean_p.shape).astype(float)
         if not (s > 0).all():
             raise ParameterError("sigma", "must be positive angles")
-    z = _wrap(mean_a[None, :] - mean_p[:, None]) * np.sqrt(av.sum(1))[None, :] / s[:, None]
+    z = wrap_finite(mean_a[None, :] - mean_p[:, None]) * np.sqrt(av.sum(1))[None, :] / s[:, None]
     crit = float(stats.norm.ppf(1.0 - alpha / 2.0))
     passes = np.abs(z) <= crit
     cost = np.where(passes, np.abs(z), 2.0 * crit * (1 + min(z.shape)) + 1.0)
@@ -201,7 +201,7 @@ def sequential(
     s = float(_sigma("sigma", sigma, pa[0]))
     m = np.arange(1, aa.shape[1] + 1)
     mean_a = np.arctan2(np.cumsum(np.sin(aa[0])), np.cumsum(np.cos(aa[0])))
-    z = (_wrap(mean_a - mean_p) * np.sqrt(m) / s)[1:]
+    z = (wrap_finite(mean_a - mean_p) * np.sqrt(m) / s)[1:]
     ident = np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)
     change = np.flatnonzero(ident != ident[-1])
     first = int(m[1:][change[-1] + 1]) if change.size else int(m[1])

@@ -21,7 +21,7 @@ import numpy as np
 from scipy import stats
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.frames import _wrap
+from plotgate.core.frames import wrap_finite
 from plotgate.core.identification.ztest import circular_mean, circular_sigma
 from plotgate.core.validation import as_probability
 
@@ -112,6 +112,7 @@ def experiment(
         active = centre + sigma * rng.standard_normal((runs, m))
 
     s = circular_sigma(passive, axis=1) if estimate_sigma else sigma
-    z = _wrap(circular_mean(active, axis=1) - circular_mean(passive, axis=1)) * np.sqrt(m) / s
+    difference = wrap_finite(circular_mean(active, axis=1) - circular_mean(passive, axis=1))
+    z = difference * np.sqrt(m) / s
     ident = float(np.mean(np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)))
     return ExperimentRates(runs, ident, 1.0 - ident, float(np.sqrt(ident * (1 - ident) / runs)))

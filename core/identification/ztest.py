@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 from scipy import stats
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.frames import _wrap
+from plotgate.core.frames import wrap_finite
 from plotgate.core.validation import as_array, as_probability
 
 __all__ = [
@@ -76,7 +76,7 @@ def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     1.414213562
     """
     theta = np.asarray(theta, dtype=float)
-    dev = _wrap(theta - np.expand_dims(circular_mean(theta, axis), axis))
+    dev = wrap_finite(theta - np.expand_dims(circular_mean(theta, axis), axis))
     return np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
 
 
@@ -332,11 +332,11 @@ def z_test(
             )
         n, m = p.size, a.size
         s = _sigma(s_name, s_val, p)
-        d = _wrap(circular_mean(a) - circular_mean(p))
+        d = wrap_finite(circular_mean(a) - circular_mean(p))
         z.append(d * np.sqrt(m) / s)
         diff.append(d)
         sig.append(s)
-        dev = _wrap(p - circular_mean(p))
+        dev = wrap_finite(p - circular_mean(p))
         normal_p.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
     z, normal_p = np.array(z, dtype=float), np.array(normal_p, dtype=float)
     beta = m_req = None

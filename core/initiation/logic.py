@@ -50,7 +50,7 @@ from scipy.spatial import cKDTree
 
 from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
 from plotgate.core.errors import ParameterError
-from plotgate.core.frames import _wrap
+from plotgate.core.frames import wrap_finite
 from plotgate.core.initiation.assignment import one_to_one
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.scan import Scan
@@ -323,7 +323,7 @@ def _track_pairs(
         scan.sigma_az[cols] ** 2 + tracks.sigma_az[rows] ** 2
     )
     d_r = np.abs(scan.r[cols] - r_pred[rows])
-    d_az = np.abs(_wrap(scan.az[cols] - tracks.az[rows]))
+    d_az = np.abs(wrap_finite(scan.az[cols] - tracks.az[rows]))
     keep = (d_r <= W_R) & (d_az <= W_az)
     s = (d_r / W_R) ** 2 + (d_az / W_az) ** 2
     return rows[keep], cols[keep], s[keep]
