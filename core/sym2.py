@@ -1,4 +1,4 @@
-"""Closed-form algebra of symmetric 2x2 matrices (private).
+"""Closed-form algebra of symmetric 2x2 matrices, shared by the gates and initiation.
 
 A symmetric matrix :math:`S = [[S_{11}, S_{12}], [S_{12}, S_{22}]]` is carried as its
 three distinct components plus its determinant, each a scalar or an (N,) array, so
@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Sym2", "largest_eigenvalue", "quadratic_form", "sym2"]
+__all__ = ["Sym2", "inverse", "inverse_matrix", "largest_eigenvalue", "quadratic_form", "sym2"]
 
 
 class Sym2(NamedTuple):
@@ -55,3 +55,22 @@ def largest_eigenvalue(S: Sym2) -> np.ndarray:
     half_diff = 0.5 * (S.xx - S.yy)
     lambda_max: np.ndarray = 0.5 * (S.xx + S.yy) + np.sqrt(half_diff * half_diff + S.xy * S.xy)
     return lambda_max
+
+
+def inverse(S: Sym2) -> Sym2:
+    """Return S^-1 = [[S22, -S12], [-S12, S11]] / |S|, with determinant 1 / |S|."""
+    return Sym2(S.yy / S.det, -S.xy / S.det, S.xx / S.det, 1.0 / S.det)
+
+
+def inverse_matrix(S: np.ndarray) -> np.ndarray:
+    """Return the inverses of (..., 2, 2) symmetric positive definite matrices.
+
+    >>> inverse_matrix(np.array([[4.0, 1.0], [1.0, 2.0]])) @ np.array([[4.0, 1.0], [1.0, 2.0]])
+    array([[1., 0.],
+           [0., 1.]])
+    """
+    a, b, d = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
+    det = a * d - b * b
+    adjugate = np.stack([np.stack([d, -b], -1), np.stack([-b, a], -1)], -2)
+    result: np.ndarray = adjugate / det[..., None, None]
+    return result
