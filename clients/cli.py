@@ -582,10 +582,10 @@ def _one_line(exc: Exception) -> str:
         return str(exc)
     if isinstance(exc, httpx.TransportError):
         try:
-            url = exc.request.url
+            where = str(exc.request.url)
         except RuntimeError:
-            url = "the server"
-        return f"cannot reach {url}: {exc}"
+            where = "the server"
+        return f"cannot reach {where}: {exc}"
     return f"internal error (a bug in plotgate, please report it): {type(exc).__name__}: {exc}"
 
 

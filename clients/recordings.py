@@ -255,7 +255,9 @@ def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
     status, duration = record.get("status"), record.get("duration_s")
     if not (type(status) is int and 100 <= status <= 599):
         raise ValueError("a response record without an HTTP status")
-    if type(duration) not in (int, float) or not 0 <= duration < float("inf"):
+    if not (isinstance(duration, int | float) and type(duration) is not bool):
+        raise ValueError("a response record without a duration")
+    if not 0 <= duration < float("inf"):
         raise ValueError("a response record without a duration")
     if status < 400 and "result" not in record:
         raise ValueError(f"a {status} response record without a result")

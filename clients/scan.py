@@ -32,7 +32,7 @@ import os
 import re
 import struct
 import zlib
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
@@ -206,7 +206,7 @@ class _Region(io.RawIOBase):
     def readable(self) -> bool:
         return True
 
-    def readinto(self, buffer) -> int:  # noqa: ANN001 - a writable buffer
+    def readinto(self, buffer: memoryview | bytearray) -> int:  # type: ignore[override]
         n = min(len(buffer), self.left)
         data = os.pread(self.fd, n, self.pos) if n else b""
         buffer[: len(data)] = data
@@ -220,7 +220,9 @@ def _decompressed(compression: str, source: io.RawIOBase) -> BinaryIO:
     if compression == "lz4":
         return lz4.frame.LZ4FrameFile(io.BufferedReader(source, PIECE_BYTES), mode="rb")
     if compression == "zstd":
-        return zstandard.ZstdDecompressor(max_window_size=2**27).stream_reader(source)
+        return zstandard.ZstdDecompressor(max_window_size=2**27).stream_reader(
+            io.BufferedReader(source, PIECE_BYTES)
+        )
     return io.BufferedReader(source, PIECE_BYTES)
 
 
@@ -354,7 +356,7 @@ class Scan:
         )
         return self.complete
 
-    def _resync(self, pos: int, reason: str | None) -> Iterator[Damage]:
+    def _resync(self, pos: int, reason: str | None) -> Generator[Damage, None, int]:
         """Report damage at ``pos`` and return where the next intact record starts (the
         file's end when there is none)."""
         found = self._next_record(pos + 1)
@@ -423,7 +425,7 @@ class Scan:
             raise _Malformed("its lengths do not add up to the record's")
         return size, crc, compression, pos + 9 + 32 + name_length + 8, records
 
-    def _chunk(self, pos: int, length: int) -> Iterator[Located | Damage]:
+    def _chunk(self, pos: int, length: int) -> Generator[Located | Damage, None, bool]:
         """Yield a chunk's records once the whole chunk has checked out; damage otherwise.
         Returns False when the chunk's own fields do not add up (its length is not to be
         believed), True otherwise."""

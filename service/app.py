@@ -14,7 +14,7 @@ Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 import asyncio
 import gc
 import logging
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Mapping
 from contextlib import asynccontextmanager
 from typing import Any
 
@@ -116,7 +116,7 @@ async def _watch(recorder: Recorder, interval_s: float) -> None:
 
 
 def _render(
-    err: ProblemError, request: Request, headers: dict[str, str] | None = None
+    err: ProblemError, request: Request, headers: Mapping[str, str] | None = None
 ) -> Response:
     return Response(
         problem_json(err, request.url.path, request_id_of(request)),

@@ -20,7 +20,7 @@
 import hmac
 import re
 import uuid
-from collections.abc import Awaitable, Callable, MutableMapping
+from collections.abc import Awaitable, Callable, MutableMapping, Sequence
 from typing import Any
 
 from starlette.datastructures import Headers
@@ -84,7 +84,7 @@ class RequestId:
 
 
 async def _problem(
-    send: Send, scope: Scope, err: ProblemError, extra: list[tuple[bytes, bytes]] = ()
+    send: Send, scope: Scope, err: ProblemError, extra: Sequence[tuple[bytes, bytes]] = ()
 ) -> None:
     body = problem_json(err, scope.get("path", ""), request_id(scope))
     headers = [

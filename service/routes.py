@@ -135,20 +135,20 @@ def _endpoint(op: Operation):
             body = await read_body(
                 request.receive, settings.body_timeout_s, ShapeScan(value_ceiling(op.request))
             )
-            parsed = None
+            refused: Parsed | None = None
         except ClientGone:
             return Response(status_code=499)  # nobody to answer, nothing acknowledged
         except BodyTimeout as exc:
-            body, parsed, close = exc.received, _timed_out(exc), True
+            body, refused, close = exc.received, _timed_out(exc), True
         except BodyRefused as exc:
-            body, parsed, close = exc.received, misshapen(exc.reason), not exc.drained
+            body, refused, close = exc.received, misshapen(exc.reason), not exc.drained
         large = len(body) > INLINE_BODY_BYTES
         if large:
             parsed, record = await run_in_threadpool(
-                _intake, op, body, parsed, rid, recorder is not None, replay
+                _intake, op, body, refused, rid, recorder is not None, replay
             )
         else:
-            parsed, record = _intake(op, body, parsed, rid, recorder is not None, replay)
+            parsed, record = _intake(op, body, refused, rid, recorder is not None, replay)
         del body  # the record holds it from here on
         try:
             if recorder is not None:
