@@ -8,10 +8,10 @@ answer; ``plotgate replay PATH...`` re-runs recorded sessions and exits 0 (uncha
 ``plotgate recover FILE`` writes a complete, indexed copy of every intact record of a
 damaged file; ``plotgate inspect PATH...`` prints each file's state and time range and
 per-operation counts and latencies; ``plotgate cat PATH...`` prints the exchanges as JSON
-lines; ``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability figures;
-``plotgate study`` runs seed 001's multistatic accuracy study (Fig. 3) and writes its table
+lines; ``plotgate plot {fig2,fig5,compare}`` draws Konovalov's gating-probability figures;
+``plotgate study`` runs Fadeev et al.'s multistatic accuracy study (Fig. 3) and writes its table
 and figure; ``plotgate scenario`` draws a simulated scenario and the tracks initiated in it
-(seed 002's figures).
+(Mu et al.'s figures).
 
 No command ends in a traceback: a missing file, a usage or connection error is one line on
 stderr and exit 2; a closed pipe (``| head``) ends the command quietly.
@@ -454,9 +454,9 @@ def _parser() -> argparse.ArgumentParser:
 
     plo = sub.add_parser(
         "plot",
-        help="draw seed 000's gating-probability figures (needs plotgate[plot])",
+        help="draw Konovalov's gating-probability figures (needs plotgate[plot])",
         description="fig2: ring gate, conditional probability against speed (20, 50 km) and "
-        "range (200, 300 m/s) for three sensor errors (seed 000 Fig. 2); fig5: the same for "
+        "range (200, 300 m/s) for three sensor errors (Konovalov, Fig. 2); fig5: the same for "
         "the combined gate, P_G 0.9 (Fig. 5); compare: unconditional probability against "
         "range for the ring, combined and expanded gates.",
     )
@@ -489,9 +489,9 @@ def _parser() -> argparse.ArgumentParser:
 
     stu = sub.add_parser(
         "study",
-        help="seed 001's multistatic accuracy study: table and PNG (Fig. 3)",
+        help="Fadeev et al.'s multistatic accuracy study: table and PNG (Fig. 3)",
         description="Monte Carlo of the multistatic solvers along a track (operation "
-        "solves.study): curves 1-6 of seed 001 Fig. 3 at every sample, checked against "
+        "solves.study): curves 1-6 of Fadeev et al., Fig. 3 at every sample, checked against "
         "the CRLB. Default: the built-in scenario (one transmitter, three receivers at "
         "10 m/s, a target at 80 m/s crossing the baselines, 1000 runs: a few minutes).",
     )
@@ -525,8 +525,8 @@ def _parser() -> argparse.ArgumentParser:
 
     sce = sub.add_parser(
         "scenario",
-        help="draw a simulated scenario and its initiated tracks (seed 002)",
-        description="Simulates seed 002's scenario (5 ground targets at 25 m/s, P_D 0.8, "
+        help="draw a simulated scenario and its initiated tracks (Mu et al.)",
+        description="Simulates Mu et al.'s scenario (5 ground targets at 25 m/s, P_D 0.8, "
         "Poisson clutter over a 15 km square) with initiation.simulate, initiates tracks "
         "with initiation.initiate and draws the plots and the confirmed tracks as a PNG.",
     )

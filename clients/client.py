@@ -221,7 +221,7 @@ class Client:
     def simulate_identification(
         self, request: IdentifySimulateRequest | Mapping[str, Any]
     ) -> IdentifySimulateResult:
-        """Seed 004's experiment by Monte Carlo (``identification.simulate``)."""
+        """Kvasnov's experiment by Monte Carlo (``identification.simulate``)."""
         return self.call("identification.simulate", _model("identification.simulate", request))
 
     def ready(self) -> bool:
@@ -355,7 +355,7 @@ class AsyncClient:
     async def simulate_identification(
         self, request: IdentifySimulateRequest | Mapping[str, Any]
     ) -> IdentifySimulateResult:
-        """Seed 004's experiment by Monte Carlo (``identification.simulate``)."""
+        """Kvasnov's experiment by Monte Carlo (``identification.simulate``)."""
         return await self.call(
             "identification.simulate", _model("identification.simulate", request)
         )

@@ -1,6 +1,6 @@
-"""Gating-probability figures of seed 000, drawn from the service's own answers.
+"""Konovalov's gating-probability figures, drawn from the service's own answers.
 
-``plotgate plot fig2`` redraws Fig. 2 of Konovalov (seed 000): the conditional probability
+``plotgate plot fig2`` redraws Fig. 2 of Konovalov: the conditional probability
 that the second mark falls in the ring gate, (a) against target speed at R = 20 km, (b) at
 R = 50 km, (c) against range at v = 200 m/s and (d) at v = 300 m/s, one curve per sensor
 error (sigma_R, sigma_az). ``fig5`` is the same for the combined two-stage gate with
@@ -57,7 +57,7 @@ RANGE_SPEEDS = (200.0, 300.0)
 CONDITIONAL_RANGE_KM = (5.0, 100.0)
 UNCONDITIONAL_RANGE_KM = (10.0, 80.0)
 DEFAULT_POINTS = {"speed": 81, "range": 96, "unconditional": 15}
-PAPER_VALUES = {  # seed 000, worked examples: (gate kind, range km, probability)
+PAPER_VALUES = {  # Konovalov's worked examples: (gate kind, range km, probability)
     "ring": ((20.0, 0.90), (50.0, 0.82)),
     "combined": ((50.0, 0.9967),),
 }
@@ -70,7 +70,7 @@ class MissingMatplotlib(ImportError):
 
 @dataclass(frozen=True)
 class Setup:
-    """The scenario of seed 000's figures (defaults: the paper's)."""
+    """The scenario of Konovalov's figures (defaults: the paper's)."""
 
     tau: float = 5.0
     v_min: float = 100.0
@@ -288,10 +288,10 @@ def matplotlib_classes() -> tuple[Any, Any]:
 
 
 _TITLES = {
-    "fig2": "Ring gate: conditional probability of gating the second mark (seed 000 Fig. 2)",
-    "fig5": "Combined gate, P_G = {P_G:g}: conditional probability (seed 000 Fig. 5)",
+    "fig2": "Ring gate: conditional probability of gating the second mark (Konovalov, Fig. 2)",
+    "fig5": "Combined gate, P_G = {P_G:g}: conditional probability (Konovalov, Fig. 5)",
     "compare": "Ring vs combined vs expanded gate: unconditional probability "
-    "(seed 000 eq. 3-6 and its worked values)",
+    "(Konovalov, eq. 3-6 and its worked values)",
 }
 
 
@@ -360,7 +360,7 @@ def plot(
     figure : ``fig2``, ``fig5`` or ``compare``.
     out : the PNG to write (default ``fig2_ring.png`` etc. in the current folder).
     server : base URL of a live plotgate; None computes in-process.
-    setup : the scenario (default seed 000's: tau 5 s, v 100-500 m/s, course 0).
+    setup : the scenario (default Konovalov's: tau 5 s, v 100-500 m/s, course 0).
     points : values per curve, to make quick (test) figures.
     runner : run the requests with this instead (overrides ``server``).
     """

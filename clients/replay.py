@@ -7,7 +7,7 @@ live server. Answers are compared field by field, floats with ``numpy.isclose(rt
 atol)``; a recorded failure must fail the same way again (same status, problem type and
 offending fields).
 
-The exit code is a contract (DESIGN section 10, :meth:`ReplayReport.exit_code`):
+The exit code is a contract (docs/architecture.md, :meth:`ReplayReport.exit_code`):
 
 - 0: every exchange compared was unchanged (and at least one was compared);
 - 1: something changed, a recorded failure that now succeeds or fails differently

@@ -1,6 +1,6 @@
 """``plotgate scenario``: a simulated scenario and its initiated tracks as a PNG.
 
-Like seed 002's figures 6-13: the left panel shows every plot of every scan (clutter
+Like Mu et al.'s figures 6-13: the left panel shows every plot of every scan (clutter
 marked per scan: *, x, star, diamond, ...; target detections as circles; the true
 positions as +), the right one the plots of the confirmed tracks, joined in time order,
 over the faded picture. The scans come from ``initiation.simulate`` and the tracks from
@@ -17,7 +17,7 @@ from plotgate.clients.runners import Runner, http_runner, in_process_runner
 __all__ = ["SCAN_MARKERS", "draw_scenario", "scenario_figure"]
 
 SCAN_MARKERS = ("*", "x", "p", "D", "v", "^", "s", "<", ">", "h")
-"""Clutter marker of scan i (seed 002: *, x, star, diamond for its four scans)."""
+"""Clutter marker of scan i (Mu et al.: *, x, star, diamond for its four scans)."""
 
 
 def _xy(plot: dict[str, Any]) -> tuple[float, float]:

@@ -71,8 +71,8 @@ def wrap_angle(a: ArrayLike) -> float | np.ndarray:
 
     References
     ----------
-    .. [1] DESIGN.md section 2: azimuth differences are wrapped to (-pi, pi];
-       the sector gates of seed 002 (eq. 2, 4) compare such differences.
+    .. [1] Mu et al., eq. 2 and 4: the sector gates compare azimuth differences, which
+       plotgate always wraps to (-pi, pi] (docs/architecture.md, core).
 
     Examples
     --------
@@ -111,8 +111,9 @@ def polar_to_cartesian(r: ArrayLike, az: ArrayLike) -> np.ndarray:
 
     References
     ----------
-    .. [1] DESIGN.md section 2 (frame convention); seed 000 works in the radar's
-       polar measurements (range and azimuth errors Delta R, Delta alpha).
+    .. [1] The frame convention of docs/architecture.md (x east, y north, azimuth
+       clockwise from north); Konovalov works in the radar's polar measurements (range
+       and azimuth errors Delta R, Delta alpha).
 
     Examples
     --------
@@ -155,7 +156,8 @@ def cartesian_to_polar(xy: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
 
     References
     ----------
-    .. [1] DESIGN.md section 2 (frame convention).
+    .. [1] The frame convention of docs/architecture.md (x east, y north, azimuth
+       clockwise from north).
 
     Examples
     --------
@@ -205,9 +207,9 @@ def polar_covariance_to_cartesian(
 
     References
     ----------
-    .. [1] Seed 000: the measurement errors are independent in the frame of the
-       line of sight (range and cross-range), which this maps to x, y;
-       DESIGN.md section 2 fixes J.
+    .. [1] Konovalov: the measurement errors are independent in the frame of the
+       line of sight (range and cross-range), which this maps to x, y through the
+       Jacobian J above.
 
     Examples
     --------
@@ -268,8 +270,8 @@ def cartesian_covariance_to_polar(xy: ArrayLike, P: ArrayLike) -> np.ndarray:
 
     References
     ----------
-    .. [1] DESIGN.md section 2 (J); seed 000 states measurement errors in range
-       and azimuth (Delta R, Delta alpha).
+    .. [1] The Jacobian J above; Konovalov states measurement errors in range and
+       azimuth (Delta R, Delta alpha).
 
     Examples
     --------

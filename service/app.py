@@ -106,7 +106,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
 async def _watch(recorder: Recorder, interval_s: float) -> None:
     """Probe the recorder's folder every ``interval_s``: a deleted folder is created again
-    and readiness comes back by itself, with no traffic (DESIGN section 10)."""
+    and readiness comes back by itself, with no traffic."""
     while True:
         await asyncio.sleep(interval_s)
         try:

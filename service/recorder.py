@@ -1,6 +1,6 @@
 """MCAP recorder: every exchange, durably, group-committed on the event loop.
 
-Design (DESIGN section 8):
+Design:
 
 - One file per process at a time, named ``plotgate-<UTC time>-pid<pid>-<seq>.mcap`` so
   names sort by time and workers of one server never share a file. A file is closed with
@@ -138,7 +138,7 @@ class Recorder:
     a worker thread, with the writer to itself meanwhile), or plain code (``request``,
     ``response``, ``close``).
 
-    Nothing is answered unrecorded (DESIGN section 10). Every flush checks that the file is
+    Nothing is answered unrecorded. Every flush checks that the file is
     still where it was written: a file whose folder was deleted (an operator's ``rm -rf``, a
     volume unmounted) takes every record written to it since it was opened, so the folder
     is created again, a new file opened, and the records of every exchange still in flight

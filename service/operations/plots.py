@@ -1,7 +1,7 @@
 """A request's plots as arrays, each plot's covariance checked on its own before any use.
 
 Cartesian plots carry their covariance; a polar plot (range, azimuth and their sigmas
-about its sensor) gets its covariance through the Jacobian of DESIGN section 2,
+about its sensor) gets its covariance through the Jacobian of docs/architecture.md (core),
 P = J diag(sigma_r^2, sigma_az^2) J^T, whose error ellipse has the axes sigma_r and
 r sigma_az. Every covariance passes :func:`plotgate.core.check_covariance` (symmetric positive
 definite, axis ratio below about 10^6) here, before an operation adds two of them
