@@ -24,7 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.conftest import serve  # noqa: E402
+from tests.servers import serve  # noqa: E402 - after the sys.path line
 
 LUA = """wrk.method = "POST"
 wrk.headers["Content-Type"] = "application/json"

@@ -45,7 +45,7 @@ class _Bytes:
 
 @pytest.mark.slow
 def test_call_on_a_live_server(tmp_path, capsys):
-    from tests.conftest import serve
+    from tests.servers import serve
 
     path = tmp_path / "request.json"
     path.write_text(json.dumps(REQUEST))

@@ -19,7 +19,7 @@ from plotgate.clients.plots import (
 )
 from plotgate.clients.runners import http_runner, in_process_runner
 from plotgate.service.schemas import ENDPOINTS
-from tests.conftest import serve
+from tests.servers import serve
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -13,7 +13,7 @@ import httpx
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import Reader, read_recording
 from plotgate.clients.replay import REPLAYED_ORIGINAL
-from tests.conftest import free_port, serve
+from tests.servers import free_port, serve
 from tests.service.test_recording import BAD_COV, GOOD
 
 ROOT = Path(__file__).resolve().parents[2]

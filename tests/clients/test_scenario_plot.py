@@ -1,7 +1,7 @@
 """``plotgate scenario``: simulate, initiate and draw a PNG, in-process or on a server."""
 
 from plotgate.clients.cli import main
-from tests.conftest import serve
+from tests.servers import serve
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -12,7 +12,7 @@ import httpx
 
 from plotgate.clients.recordings import read_recording
 from plotgate.service.registry import OPERATIONS, execute
-from tests.conftest import serve
+from tests.servers import serve
 
 SIZE = 60 * 2**20  # just under the 64 MiB default limit
 HEALTH_WITHIN_S = 0.1

@@ -9,7 +9,7 @@ import httpx
 from plotgate.clients import Client
 from plotgate.clients.recordings import read_recording
 from plotgate.service.schemas import CombinedGate, GateTestRequest
-from tests.conftest import serve
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 

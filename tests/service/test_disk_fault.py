@@ -13,7 +13,7 @@ from collections import Counter
 import httpx
 
 from plotgate.clients.recordings import read_recording
-from tests.conftest import serve
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 FILE_LIMIT = 256 * 1024  # bytes per file; a few hundred exchanges

@@ -22,7 +22,7 @@ from plotgate.clients.recordings import read_recording
 from plotgate.service.app import create_app
 from plotgate.service.recorder import Recorder, RecordingError
 from plotgate.service.registry import OPERATIONS
-from tests.conftest import serve
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 CLIENTS, EACH = 10, 60

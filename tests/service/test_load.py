@@ -7,7 +7,7 @@ from collections import Counter
 import httpx
 
 from plotgate.clients.recordings import read_recording
-from tests.conftest import serve
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 CLIENTS, EACH = 50, 12

@@ -15,7 +15,7 @@ import time
 import httpx
 
 from plotgate.clients.recordings import read_recording
-from tests.conftest import serve
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 HALF_SENT = 300
