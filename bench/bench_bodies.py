@@ -17,7 +17,6 @@ For each server (this checkout, and ``--before DIR``: another checkout of plotga
 
 import argparse
 import json
-import os
 import resource
 import socket
 import statistics
@@ -31,6 +30,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+from tests.servers import serve  # noqa: E402
 from tests.service.test_adversarial_bodies import SHAPES  # noqa: E402
 
 _WATCH = """
@@ -49,41 +49,6 @@ with httpx.Client(base_url=url, timeout=30) as http:
             time.sleep(0.005)
 print(" ".join(map(str, times)))
 """
-
-
-def _port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _serve(src: Path, folder: Path) -> tuple[subprocess.Popen, str]:
-    port = _port()
-    env = {**os.environ, "PYTHONPATH": str(src), "PLOTGATE_BODY_TIMEOUT_S": "2"}
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "plotgate.clients.cli",
-            "serve",
-            "--port",
-            str(port),
-            "--log-dir",
-            str(folder),
-        ],
-        cwd=src,
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    url = f"http://127.0.0.1:{port}"
-    for _ in range(300):
-        try:
-            if httpx.get(url + "/readyz", timeout=1).status_code == 200:
-                return proc, url
-        except httpx.TransportError:
-            time.sleep(0.1)
-    raise RuntimeError(f"the server in {src} did not start")
 
 
 def _peak_mib(pid: int) -> float:
@@ -157,40 +122,40 @@ def _legal_body() -> bytes:
 
 
 def _run(name: str, src: Path, half_sent: int) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        proc, url = _serve(src, Path(tmp) / "recordings")
-        try:
-            print(f"\n### {name} ({src})\n")
-            print("| body | MiB | status | answered in, s | /healthz worst, ms | p99, ms |")
-            print("|---|---:|---:|---:|---:|---:|")
-            sizes = []
-            for shape, (body, _) in SHAPES.items():
-                status, took, worst, p99 = _post_timed(url, body, Path(tmp))
-                sizes.append(len(body))
-                print(
-                    f"| {shape} | {len(body) / 2**20:.0f} | {status} | {took:.2f} | "
-                    f"{worst:.0f} | {p99:.0f} |"
-                )
-            peak = _peak_mib(proc.pid)
-            legal = _legal_body()
-            status, took, worst, p99 = _post_timed(url, legal, Path(tmp))
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        serve(
+            Path(tmp) / "recordings",
+            env={"PLOTGATE_BODY_TIMEOUT_S": "2"},
+            log=Path(tmp) / "server.log",
+            source=src,
+        ) as (proc, url),
+    ):
+        print(f"\n### {name} ({src})\n")
+        print("| body | MiB | status | answered in, s | /healthz worst, ms | p99, ms |")
+        print("|---|---:|---:|---:|---:|---:|")
+        sizes = []
+        for shape, (body, _) in SHAPES.items():
+            status, took, worst, p99 = _post_timed(url, body, Path(tmp))
+            sizes.append(len(body))
             print(
-                f"| legal: 100,000 candidates | {len(legal) / 2**20:.1f} | {status} | "
-                f"{took:.2f} | {worst:.0f} | {p99:.0f} |"
+                f"| {shape} | {len(body) / 2**20:.0f} | {status} | {took:.2f} | "
+                f"{worst:.0f} | {p99:.0f} |"
             )
-            print(
-                f"\npeak RSS over the absurd bodies: {peak:.0f} MiB = "
-                f"{peak * 2**20 / statistics.mean(sizes):.1f} x the body size"
-            )
-            print(f"peak RSS after the legal body too: {_peak_mib(proc.pid):.0f} MiB")
-            if half_sent:
-                print(
-                    f"half-sent bodies still held 5 s later: {_held(url, half_sent)} of "
-                    f"{half_sent}"
-                )
-        finally:
-            proc.terminate()
-            proc.wait(timeout=60)
+        peak = _peak_mib(proc.pid)
+        legal = _legal_body()
+        status, took, worst, p99 = _post_timed(url, legal, Path(tmp))
+        print(
+            f"| legal: 100,000 candidates | {len(legal) / 2**20:.1f} | {status} | "
+            f"{took:.2f} | {worst:.0f} | {p99:.0f} |"
+        )
+        print(
+            f"\npeak RSS over the absurd bodies: {peak:.0f} MiB = "
+            f"{peak * 2**20 / statistics.mean(sizes):.1f} x the body size"
+        )
+        print(f"peak RSS after the legal body too: {_peak_mib(proc.pid):.0f} MiB")
+        if half_sent:
+            print(f"half-sent bodies still held 5 s later: {_held(url, half_sent)} of {half_sent}")
 
 
 def main() -> None:

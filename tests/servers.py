@@ -28,12 +28,14 @@ def serve(
     preexec_fn: Callable[[], None] | None = None,
     env: dict[str, str] | None = None,
     log: Path | None = None,
+    source: Path | None = None,
 ) -> Iterator[tuple[subprocess.Popen, str]]:
     """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready.
 
     ``preexec_fn`` runs in the child before the server starts (e.g. to set rlimits); ``env``
     adds environment variables (``PLOTGATE_*`` settings); ``log`` keeps the server's
-    output (its logs, the access log included) in that file.
+    output (its logs, the access log included) in that file; ``source`` runs the server
+    from another checkout (its folder goes first on ``PYTHONPATH``), by default this one.
     """
     port = free_port()
     stderr = open(log, "wb") if log is not None else subprocess.PIPE  # noqa: SIM115
@@ -49,8 +51,8 @@ def serve(
             str(log_dir),
             *args,
         ],
-        cwd=Path(__file__).resolve().parents[1],
-        env={**os.environ, **(env or {})},
+        cwd=source or Path(__file__).resolve().parents[1],
+        env={**os.environ, **({"PYTHONPATH": str(source)} if source else {}), **(env or {})},
         stdout=stderr if log is not None else subprocess.DEVNULL,
         stderr=stderr,
         preexec_fn=preexec_fn,
