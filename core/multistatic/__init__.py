@@ -21,7 +21,6 @@ from plotgate.core.multistatic.crlb import (
     difference_crlb,
     trajectory_crlb,
 )
-from plotgate.core.multistatic.ml import MLSolution, TrajectorySolution, ml_solve, trajectory_solve
 from plotgate.core.multistatic.model import (
     Problem,
     platform_positions,
@@ -30,7 +29,9 @@ from plotgate.core.multistatic.model import (
     validate_problem,
 )
 from plotgate.core.multistatic.noise import NoiseEstimate, range_sum_noise, smooth_positions
+from plotgate.core.multistatic.position import MLSolution, ml_solve
 from plotgate.core.multistatic.study import AccuracyStudy, accuracy_study
+from plotgate.core.multistatic.trajectory import TrajectorySolution, trajectory_solve
 
 __all__ = [
     "CRLB",

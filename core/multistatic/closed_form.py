@@ -49,7 +49,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.multistatic.model import COINCIDENT_RTOL, _scale, range_sums, validate_problem
+from plotgate.core.multistatic.model import (
+    COINCIDENT_RTOL,
+    coordinate_scale,
+    range_sums,
+    validate_problem,
+)
 
 __all__ = [
     "RANK_RTOL",
@@ -132,7 +137,7 @@ def _intersect(
     must be >= 0 for the root to be consistent.
     """
     n, _, d = M.shape
-    tol = ROOT_RTOL * _scale(tx, rx)  # (N,)
+    tol = ROOT_RTOL * coordinate_scale(tx, rx)  # (N,)
 
     # Least squares s = a + R c through the SVD (batched pseudo-inverse).
     U, S, Vt = np.linalg.svd(M, full_matrices=False)  # (N,K,D), (N,D), (N,D,D)
@@ -301,7 +306,7 @@ def sum_range_solve(
     (array([[2000., 3000.]]), array([ True]), array([1463.]))
     """
     ls, tx, rx, _ = validate_problem(l, tx, rx, baseline_tol=baseline_tol)
-    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+    _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
     base = tx[:, 0]
     b = rx - base[:, None]
     norm_b = np.linalg.norm(b, axis=-1)
@@ -376,7 +381,7 @@ def difference_range_solve(
             f"has {p} measurements, giving {p - 1} differences for {d} unknowns; "
             f"the difference-range method needs at least {d + 1}",
         )
-    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+    _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
     base = rx[:, 0]
     e = rx[:, 1:] - base[:, None]
     dk = ls[:, 1:] - ls[:, :1]

@@ -36,10 +36,17 @@ __all__ = [
     "COINCIDENT_RTOL",
     "BASELINE_SIGMAS",
     "Problem",
+    "array_shape",
+    "coordinate_scale",
     "platform_positions",
     "range_sum_jacobian",
+    "range_sum_jacobian_unchecked",
     "range_sums",
+    "range_sums_unchecked",
     "validate_problem",
+    "validate_track",
+    "vector_norm",
+    "with_tx_axis",
 ]
 
 COINCIDENT_RTOL = 1e-9
@@ -71,22 +78,26 @@ class Problem(NamedTuple):
     sigma: np.ndarray | None
 
 
-def _shape(name: str, value: ArrayLike) -> tuple[int, ...]:
-    """Shape of an array_like; ParameterError (naming it) for ragged nesting."""
+def array_shape(name: str, value: ArrayLike) -> tuple[int, ...]:
+    """Shape of an array_like without coercing it; ParameterError naming ``name`` when
+    the nesting is ragged."""
     try:
         return np.shape(value)
     except (TypeError, ValueError) as exc:
         raise ParameterError(name, f"must be a regular array of real numbers ({exc})") from None
 
 
-def _with_tx_axis(tx: ArrayLike) -> ArrayLike:
-    """A single transmitter given as (D,) becomes (1, D), broadcast over the pairs."""
-    return np.asarray(tx)[None, :] if len(_shape("tx", tx)) == 1 else tx
+def with_tx_axis(tx: ArrayLike) -> ArrayLike:
+    """A single transmitter given as (D,) becomes (1, D), broadcast over the pairs.
+
+    Other shapes pass through unchanged for the solvers' shape checks.
+    """
+    return np.asarray(tx)[None, :] if len(array_shape("tx", tx)) == 1 else tx
 
 
 def _platforms(name: str, value: ArrayLike, max_ndim: int | None = 3) -> np.ndarray:
     """Coerce a (..., P, D) finite platform array with D in {2, 3}; index = batch row."""
-    shape = _shape(name, value)
+    shape = array_shape(name, value)
     if len(shape) < 2 or shape[-1] not in (2, 3) or (max_ndim and len(shape) > max_ndim):
         form = "(P, D) or (N, P, D)" if max_ndim == 3 else "(..., P, D)"
         raise ParameterError(name, f"must have shape {form} with D = 2 or 3, got {shape}")
@@ -95,7 +106,7 @@ def _platforms(name: str, value: ArrayLike, max_ndim: int | None = 3) -> np.ndar
 
 def _positions(name: str, value: ArrayLike) -> np.ndarray:
     """Coerce (..., D) finite positions with D in {2, 3}."""
-    shape = _shape(name, value)
+    shape = array_shape(name, value)
     if len(shape) < 1 or shape[-1] not in (2, 3):
         raise ParameterError(name, f"must have shape (..., D) with D = 2 or 3, got {shape}")
     return as_array(name, value, (shape[-1],))
@@ -106,7 +117,7 @@ def _model_inputs(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coerce x (..., D), tx/rx (..., P, D) and check that D and P agree."""
     x = _positions("x", x)
-    tx = _platforms("tx", _with_tx_axis(tx), max_ndim=None)
+    tx = _platforms("tx", with_tx_axis(tx), max_ndim=None)
     rx = _platforms("rx", rx, max_ndim=None)
     d = x.shape[-1]
     for name, arr in (("tx", tx), ("rx", rx)):
@@ -233,23 +244,24 @@ def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
     >>> range_sums([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
     array([10000.])
     """
-    return _range_sums(*_model_inputs(x, tx, rx))
+    return range_sums_unchecked(*_model_inputs(x, tx, rx))
 
 
-def _norm(v: np.ndarray) -> np.ndarray:
-    """|v| along the last axis (no checks)."""
+def vector_norm(v: np.ndarray) -> np.ndarray:
+    """Euclidean norm |v| along the last axis of checked arrays (no checks)."""
     return np.sqrt(np.einsum("...i,...i->...", v, v))
 
 
-def _range_sums(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
-    """:func:`range_sums` of checked arrays (the solvers' inner loop)."""
+def range_sums_unchecked(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """:func:`range_sums` without its checks: x (..., D), tx, rx (..., P, D) already
+    validated (the solvers' inner loop)."""
     xp = x[..., None, :]
-    return _norm(xp - rx) + _norm(xp - tx)
+    return vector_norm(xp - rx) + vector_norm(xp - tx)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
     """v / |v| along the last axis; 0 where v = 0 (the smallest subgradient of |v|)."""
-    norm = _norm(v)[..., None]
+    norm = vector_norm(v)[..., None]
     return np.divide(
         v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)), where=norm > 0
     )
@@ -294,11 +306,12 @@ def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray
     >>> range_sum_jacobian([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
     array([[0. , 1.6]])
     """
-    return _range_sum_jacobian(*_model_inputs(x, tx, rx))
+    return range_sum_jacobian_unchecked(*_model_inputs(x, tx, rx))
 
 
-def _range_sum_jacobian(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
-    """:func:`range_sum_jacobian` of checked arrays (the solvers' inner loop)."""
+def range_sum_jacobian_unchecked(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """:func:`range_sum_jacobian` without its checks: x (..., D), tx, rx (..., P, D)
+    already validated (the solvers' inner loop)."""
     xp = x[..., None, :]
     return _unit(xp - rx) + _unit(xp - tx)
 
@@ -314,10 +327,49 @@ def _batch_length(**shapes: tuple[int, ...]) -> int:
     return 1 if n is None else n
 
 
-def _scale(tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
-    """(N,) coordinate scale of each problem: largest |platform coordinate|, >= 1 m."""
+def coordinate_scale(tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """Coordinate scale (N,) of N problems: the largest |platform coordinate|, >= 1 m.
+
+    Platform tolerances (``COINCIDENT_RTOL``) are relative to it.
+    """
     big = np.maximum(np.abs(tx).max(axis=(-2, -1)), np.abs(rx).max(axis=(-2, -1)))
     return np.maximum(big, 1.0)
+
+
+def validate_track(
+    x0: ArrayLike, v: ArrayLike, t: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Check and coerce a constant-velocity track: position x0, velocity v, times t.
+
+    Parameters
+    ----------
+    x0 : (D,) array_like
+        Position at the first sample time, metres; D = 2 or 3.
+    v : (D,) array_like
+        Velocity, m/s.
+    t : (T,) array_like
+        Sample times, seconds; T >= 1.
+
+    Returns
+    -------
+    x0, v, t : ndarray
+        As float arrays.
+
+    Raises
+    ------
+    NonFiniteError, ParameterError
+        If a value is not finite or a shape is wrong (field ``"x0"``, ``"v"`` or ``"t"``).
+    """
+    t = as_array("t", t)
+    if t.ndim != 1 or t.size < 1:
+        raise ParameterError("t", f"must have shape (T,) with T >= 1, got {t.shape}")
+    x0 = as_array("x0", x0)
+    if x0.shape not in ((2,), (3,)):
+        raise ParameterError("x0", f"must have shape (D,) with D = 2 or 3, got {x0.shape}")
+    v = as_array("v", v)
+    if v.shape != x0.shape:
+        raise ParameterError("v", f"must have the shape of x0 {x0.shape}, got {v.shape}")
+    return x0, v, t
 
 
 def validate_problem(
@@ -381,7 +433,7 @@ def validate_problem(
     >>> p.l.shape, p.tx.shape, p.rx.shape, p.sigma
     ((1, 2), (1, 2, 2), (1, 2, 2), None)
     """
-    tx = _platforms("tx", _with_tx_axis(tx))
+    tx = _platforms("tx", with_tx_axis(tx))
     rx = _platforms("rx", rx)
     if rx.shape[-1] != tx.shape[-1]:
         raise ParameterError("rx", f"has D = {rx.shape[-1]} but tx has D = {tx.shape[-1]}")
@@ -389,7 +441,7 @@ def validate_problem(
     p = rx.shape[-2]
     if tx.shape[-2] not in (1, p):
         raise ParameterError("tx", f"has P = {tx.shape[-2]} measurements but rx has {p}")
-    l_shape = _shape("l", l)
+    l_shape = array_shape("l", l)
     if len(l_shape) not in (1, 2):
         raise ParameterError("l", f"must have shape (P,) or (N, P), got {l_shape}")
     ls = as_array("l", l, (l_shape[-1],))
@@ -427,7 +479,7 @@ def validate_problem(
     rx = np.array(np.broadcast_to(rx, (n, p, d)))
     if sig is not None:
         sig = np.array(np.broadcast_to(sig, (n, p)))
-    tol = COINCIDENT_RTOL * _scale(tx, rx)  # (N,)
+    tol = COINCIDENT_RTOL * coordinate_scale(tx, rx)  # (N,)
 
     baseline = np.linalg.norm(rx - tx, axis=-1)  # (N, P)
     coincident = baseline <= tol[:, None]

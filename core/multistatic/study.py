@@ -21,7 +21,7 @@ moving platforms, with the diagnostics that say whether a solver is efficient:
   time, against its own bound ``full_track_crlb``.
 
 Every solver runs batched over the runs; the noise is the same for every method.
-Curve 3 takes one batched :func:`plotgate.core.multistatic.ml.trajectory_solve` per prefix
+Curve 3 takes one batched :func:`plotgate.core.multistatic.trajectory.trajectory_solve` per prefix
 0..i, started from the information-weighted line through the consistent single-shot
 positions of that prefix (what ``trajectory_solve`` starts from itself, computed here
 once for all prefixes with cumulative sums).
@@ -36,21 +36,19 @@ from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.closed_form import difference_range_solve, sum_range_solve
-from plotgate.core.multistatic.crlb import (
-    _inverse_information,
-    _position_covariance,
-    _track_inputs,
-    crlb,
-    difference_crlb,
-)
-from plotgate.core.multistatic.ml import _line_terms, ml_solve, trajectory_solve
+from plotgate.core.multistatic.crlb import crlb, difference_crlb
+from plotgate.core.multistatic.information import inverse_information, position_covariance
 from plotgate.core.multistatic.model import (
     BASELINE_SIGMAS,
-    _with_tx_axis,
     range_sum_jacobian,
     range_sums,
+    validate_track,
+    with_tx_axis,
 )
 from plotgate.core.multistatic.noise import range_sum_noise
+from plotgate.core.multistatic.position import ml_solve
+from plotgate.core.multistatic.track_start import line_terms
+from plotgate.core.multistatic.trajectory import trajectory_solve
 from plotgate.core.validation import as_array, require_positive
 
 __all__ = ["CURVES", "NOISE_WINDOW", "AccuracyStudy", "accuracy_study"]
@@ -149,7 +147,7 @@ def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarra
     samples when at least two of them are in the prefix and all samples otherwise."""
 
     def sums(use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        M, b = _line_terms(x, W, tau, use)
+        M, b = line_terms(x, W, tau, use)
         return np.cumsum(M, axis=1), np.cumsum(b, axis=1)
 
     M_good, b_good = sums(good.astype(float))
@@ -157,7 +155,7 @@ def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarra
     enough = np.cumsum(good, axis=1) >= 2
     M = np.where(enough[..., None, None], M_good, M_all)
     b = np.where(enough[..., None], b_good, b_all)
-    return np.einsum("rtij,rtj->rti", _inverse_information(M), b)
+    return np.einsum("rtij,rtj->rti", inverse_information(M), b)
 
 
 def accuracy_study(
@@ -223,7 +221,7 @@ def accuracy_study(
     >>> bool(np.all(np.abs(s.rmse["ml_single"] / s.crlb - 1.0) < 0.25))
     True
     """
-    x0, v, t = _track_inputs(x0, v, t)
+    x0, v, t = validate_track(x0, v, t)
     if t.size < 2 or not np.all(np.diff(t) > 0.0):
         raise ParameterError("t", f"must be strictly increasing with T >= 2, got {t}")
     if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 2:
@@ -239,7 +237,7 @@ def accuracy_study(
     bd = difference_crlb(x, tx, rx, sigma)
     clean = range_sums(x, tx, rx)
     p = clean.shape[-1]
-    txb = np.broadcast_to(np.asarray(_with_tx_axis(tx), dtype=float), (n_t, p, d))
+    txb = np.broadcast_to(np.asarray(with_tx_axis(tx), dtype=float), (n_t, p, d))
     rxb = np.broadcast_to(np.asarray(rx, dtype=float), (n_t, p, d))
     noise = sigma * np.random.default_rng(seed).standard_normal((runs, n_t, p))
     L = clean + noise
@@ -268,7 +266,7 @@ def accuracy_study(
     # accumulated bound and linearised track estimator for every prefix 0..i
     Hs = np.concatenate([Hw, tau[:, None, None] * Hw], axis=-1)  # (T, P, 2D)
     J = np.cumsum(np.einsum("tpi,tpj->tij", Hs, Hs), axis=0)
-    cov = _inverse_information(J)
+    cov = inverse_information(J)
     P_xv, tau3 = cov[:, :d, d:], tau[:, None, None]  # position bound at t_i, prefix 0..i
     A_cov = cov[:, :d, :d] + tau3 * (P_xv + np.swapaxes(P_xv, 1, 2)) + tau3 * tau3 * cov[:, d:, d:]
     acc = np.sqrt(np.diagonal(A_cov, axis1=-2, axis2=-1)).copy()
@@ -300,7 +298,7 @@ def accuracy_study(
             track_ok[:, :, i] = fit.consistent, fit.converged
         full = state[:, -1]
         full_track = _rmse(full[:, None, :d] + tau[:, None] * full[:, None, d:] - x)
-        full_crlb = np.sqrt(np.diagonal(_position_covariance(cov[-1], tau), axis1=-2, axis2=-1))
+        full_crlb = np.sqrt(np.diagonal(position_covariance(cov[-1], tau), axis1=-2, axis2=-1))
     e["ml_track"] = state[..., :d] + tau[:, None] * state[..., d:] - x
     e["linearised_track"][:, 0] = np.nan
     if not tracks:

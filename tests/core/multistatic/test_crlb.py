@@ -21,8 +21,9 @@ from plotgate.core.multistatic.crlb import (
     difference_crlb,
     trajectory_crlb,
 )
-from plotgate.core.multistatic.ml import ml_solve
+from plotgate.core.multistatic.information import symmetric_eigh
 from plotgate.core.multistatic.model import range_sums
+from plotgate.core.multistatic.position import ml_solve
 
 SIGMA = 0.5
 TX = np.array([0.0, 0.0])
@@ -282,8 +283,6 @@ def test_trajectory_crlb_refuses_bad_input(kwargs, field):
 
 
 def test_closed_form_2x2_eigen_decomposition_matches_lapack():
-    from plotgate.core.multistatic.crlb import _symmetric_eigh
-
     rng = np.random.default_rng(21)
     A = rng.normal(size=(500, 2, 2))
     A = A + np.swapaxes(A, 1, 2)
@@ -294,7 +293,7 @@ def test_closed_form_2x2_eigen_decomposition_matches_lapack():
         [[0.0, 0.0], [0.0, 0.0]],
     ]  # repeated, ordered, reversed, zero
     A[4] = [[1.0, 1.0 - 1e-12], [1.0 - 1e-12, 1.0]]  # nearly singular
-    w, V = _symmetric_eigh(A)
+    w, V = symmetric_eigh(A)
     assert np.abs(w - np.linalg.eigvalsh(A)).max() < 1e-14 * 8
     assert np.abs(np.einsum("nik,nk,njk->nij", V, w, V) - A).max() < 1e-14 * 8
     assert np.abs(np.einsum("nki,nkj->nij", V, V) - np.eye(2)).max() < 1e-15 * 4

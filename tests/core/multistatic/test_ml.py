@@ -14,8 +14,9 @@ from scipy import optimize, stats
 from plotgate.core.errors import GeometryError, NonFiniteError, ParameterError, PlotgateError
 from plotgate.core.multistatic.closed_form import sum_range_solve
 from plotgate.core.multistatic.crlb import crlb, trajectory_crlb
-from plotgate.core.multistatic.ml import MLSolution, TrajectorySolution, ml_solve, trajectory_solve
 from plotgate.core.multistatic.model import platform_positions, range_sum_jacobian, range_sums
+from plotgate.core.multistatic.position import MLSolution, ml_solve
+from plotgate.core.multistatic.trajectory import TrajectorySolution, trajectory_solve
 
 SIGMA = 0.5
 TX = np.array([0.0, 0.0])
