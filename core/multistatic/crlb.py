@@ -34,6 +34,7 @@ Conventions and decisions
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -120,11 +121,13 @@ class TrajectoryCRLB:
 
 
 def _diag_sqrt(cov: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.maximum(np.diagonal(cov, axis1=-2, axis2=-1), 0.0))
+    sigma: np.ndarray = np.sqrt(np.maximum(np.diagonal(cov, axis1=-2, axis2=-1), 0.0))
+    return sigma
 
 
 def _sigma_ref(sigma: np.ndarray, axis: int | tuple[int, ...] = -1) -> np.ndarray:
-    return 1.0 / np.sqrt(np.mean(1.0 / (sigma * sigma), axis=axis))
+    ref: np.ndarray = 1.0 / np.sqrt(np.mean(1.0 / (sigma * sigma), axis=axis))
+    return ref
 
 
 def _single_tx(tx: ArrayLike) -> ArrayLike:
@@ -162,7 +165,7 @@ def _geometry(
             "rx",
             f"has {p} measurement pairs; this bound of {d} coordinates needs at least {min_pairs}",
         )
-    _, tx, rx, sigma = validate_problem(ls, tx, rx, sigma)
+    _, tx, rx, checked_sigma = validate_problem(ls, tx, rx, sigma)
     n = tx.shape[0]
     x = np.array(np.broadcast_to(x, (n, d)))
     # the gradient of |x - platform| is undefined on the platform
@@ -178,7 +181,7 @@ def _geometry(
             f"{x[index].tolist()} is at a platform, where the range-sum gradient is undefined",
             index if batched else None,
         )
-    return x, tx, rx, sigma
+    return x, tx, rx, cast(np.ndarray, checked_sigma)  # given, so checked: never None
 
 
 def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
@@ -308,7 +311,8 @@ def _difference_information(H: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     var = sigma * sigma
     # C = A diag(sigma^2) A^T: sigma_k^2 + sigma_1^2 on the diagonal, sigma_1^2 off it
     C = np.eye(var.shape[-1] - 1) * var[..., 1:, None] + var[..., :1, None]
-    return np.einsum("...ki,...kj->...ij", Hd, np.linalg.solve(C, Hd))
+    J: np.ndarray = np.einsum("...ki,...kj->...ij", Hd, np.linalg.solve(C, Hd))
+    return J
 
 
 def trajectory_crlb(

@@ -260,7 +260,7 @@ def consistency_threshold(alpha: float, dof: int) -> float:
     return float(gate_threshold(1.0 - alpha, dof))
 
 
-def start_points(x0: ArrayLike | None, n: int, d: int, name: str = "x0") -> np.ndarray:
+def start_points(x0: ArrayLike, n: int, d: int, name: str = "x0") -> np.ndarray:
     """A user start (K,) or (N, K) as an (N, K) array (``d`` = K parameters).
 
     Raises

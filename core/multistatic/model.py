@@ -208,7 +208,8 @@ def platform_positions(
         raise ParameterError("t", f"must have shape (T,), got {t.shape}")
     t0 = float(as_array("t0", t0))
     tau = (t - t0).reshape(t.shape + (1,) * len(batch))
-    return initial + tau * velocity
+    positions: np.ndarray = initial + tau * velocity
+    return positions
 
 
 def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
@@ -249,22 +250,25 @@ def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
 
 def vector_norm(v: np.ndarray) -> np.ndarray:
     """Euclidean norm |v| along the last axis of checked arrays (no checks)."""
-    return np.sqrt(np.einsum("...i,...i->...", v, v))
+    norm: np.ndarray = np.sqrt(np.einsum("...i,...i->...", v, v))
+    return norm
 
 
 def range_sums_unchecked(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
     """:func:`range_sums` without its checks: x (..., D), tx, rx (..., P, D) already
     validated (the solvers' inner loop)."""
     xp = x[..., None, :]
-    return vector_norm(xp - rx) + vector_norm(xp - tx)
+    ls: np.ndarray = vector_norm(xp - rx) + vector_norm(xp - tx)
+    return ls
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
     """v / |v| along the last axis; 0 where v = 0 (the smallest subgradient of |v|)."""
     norm = vector_norm(v)[..., None]
-    return np.divide(
+    unit: np.ndarray = np.divide(
         v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)), where=norm > 0
     )
+    return unit
 
 
 def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
@@ -313,7 +317,8 @@ def range_sum_jacobian_unchecked(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) 
     """:func:`range_sum_jacobian` without its checks: x (..., D), tx, rx (..., P, D)
     already validated (the solvers' inner loop)."""
     xp = x[..., None, :]
-    return _unit(xp - rx) + _unit(xp - tx)
+    H: np.ndarray = _unit(xp - rx) + _unit(xp - tx)
+    return H
 
 
 def _batch_length(**shapes: tuple[int, ...]) -> int:
@@ -333,7 +338,8 @@ def coordinate_scale(tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
     Platform tolerances (``COINCIDENT_RTOL``) are relative to it.
     """
     big = np.maximum(np.abs(tx).max(axis=(-2, -1)), np.abs(rx).max(axis=(-2, -1)))
-    return np.maximum(big, 1.0)
+    scale: np.ndarray = np.maximum(big, 1.0)
+    return scale
 
 
 def validate_track(
@@ -462,15 +468,14 @@ def validate_problem(
         raise ParameterError(
             "l", f"has {p} measurements but the position has {d} unknowns; at least {d} are needed"
         )
-    negative = ls < 0
+    negative: np.ndarray = ls < 0
     if negative.any():
-        bad = negative.any(axis=-1)
-        index = first_index(bad)
+        index = first_index(np.asarray(negative.any(axis=-1)))
         row = ls[index] if index is not None else ls
         raise ParameterError("l", f"must be non-negative, got {row.tolist()}", index)
     if sig is not None and not (sig > 0).all():
         bad = ~(sig > 0)
-        index = first_index(bad.any(axis=-1)) if sig.ndim == 2 else None
+        index = first_index(np.asarray(bad.any(axis=-1))) if sig.ndim == 2 else None
         row = sig[index] if index is not None else sig
         raise ParameterError("sigma", f"must be positive, got {row.tolist()}", index)
 

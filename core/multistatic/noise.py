@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.validation import as_array, first_index
+from plotgate.core.validation import as_array
 
 __all__ = ["NoiseEstimate", "range_sum_noise", "smooth_positions"]
 
@@ -82,7 +82,7 @@ def _as_times(t: ArrayLike, n_needed: int, what: str) -> np.ndarray:
         raise ParameterError("t", f"needs at least {n_needed} samples {what}, got {t.size}")
     step = np.diff(t)
     if not (step > 0.0).all():
-        index = first_index(~(step > 0.0)) + 1
+        index = int(np.argmax(~(step > 0.0))) + 1
         raise ParameterError(
             "t", f"must be strictly increasing, got {t[index - 1]} then {t[index]}", index
         )
@@ -261,4 +261,5 @@ def smooth_positions(t: ArrayLike, x: ArrayLike, window: int, degree: int = 2) -
     tau = (tw - t[:, None]) / half[:, None]
     V = _vandermonde(tau, degree)  # (T, window, q + 1)
     coef = np.linalg.pinv(V) @ y[rows]  # (T, q + 1, columns)
-    return coef[:, 0, :].reshape(x.shape)
+    smoothed: np.ndarray = coef[:, 0, :].reshape(x.shape)
+    return smoothed

@@ -45,6 +45,7 @@ nothing to test: consistent is True (as are all P <= D).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -182,7 +183,8 @@ def _worth_following(
 
     def cost(x: np.ndarray) -> np.ndarray:
         r = (ls - range_sums_unchecked(x, tx, rx)) / sigma
-        return np.einsum("np,np->n", r, r)
+        chi2: np.ndarray = np.einsum("np,np->n", r, r)
+        return chi2
 
     return (cost(start) > threshold) | (cost(alt_start) <= SECOND_ROOT_COST * threshold)
 
@@ -332,7 +334,8 @@ def ml_solve(
         raise ParameterError(
             "closed_form_starts", "False needs x0: without a start the closed form is the only one"
         )
-    ls, tx, rx, sigma = validate_problem(l, tx, rx, sigma)
+    ls, tx, rx, checked_sigma = validate_problem(l, tx, rx, sigma)
+    sigma = cast(np.ndarray, checked_sigma)  # given, so checked: never None
     n, p, d = tx.shape
     threshold = consistency_threshold(alpha, p - d)
     # the starts every problem has, in order of preference on a tie (x0, the closed

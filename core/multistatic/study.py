@@ -130,15 +130,18 @@ class AccuracyStudy:
 
 def _rmse(e: np.ndarray) -> np.ndarray:
     """(runs, T, D) errors -> (T, D) per-axis RMSE."""
-    return np.sqrt(np.mean(e * e, axis=0))
+    rmse: np.ndarray = np.sqrt(np.mean(e * e, axis=0))
+    return rmse
 
 
 def _mahalanobis(e: np.ndarray, J: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.maximum(np.einsum("...i,...ij,...j->...", e, J, e), 0.0))
+    distance: np.ndarray = np.sqrt(np.maximum(np.einsum("...i,...ij,...j->...", e, J, e), 0.0))
+    return distance
 
 
 def _count(mask: np.ndarray) -> np.ndarray:
-    return mask.sum(axis=0).astype(int)
+    count: np.ndarray = mask.sum(axis=0).astype(int)
+    return count
 
 
 def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarray) -> np.ndarray:
@@ -155,7 +158,8 @@ def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarra
     enough = np.cumsum(good, axis=1) >= 2
     M = np.where(enough[..., None, None], M_good, M_all)
     b = np.where(enough[..., None], b_good, b_all)
-    return np.einsum("rtij,rtj->rti", inverse_information(M), b)
+    lines: np.ndarray = np.einsum("rtij,rtj->rti", inverse_information(M), b)
+    return lines
 
 
 def accuracy_study(

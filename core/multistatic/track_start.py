@@ -50,7 +50,8 @@ def line_terms(
 def _line_fit(x: np.ndarray, W: np.ndarray, tau: np.ndarray, use: np.ndarray) -> np.ndarray:
     """Information-weighted straight lines x_i ~ x0 + tau_i v, one per track: (N, 2D)."""
     M, b = line_terms(x, W, tau, use)
-    return np.einsum("nij,nj->ni", inverse_information(M.sum(axis=1)), b.sum(axis=1))
+    theta: np.ndarray = np.einsum("nij,nj->ni", inverse_information(M.sum(axis=1)), b.sum(axis=1))
+    return theta
 
 
 def _chain(cand: np.ndarray, tau: np.ndarray, first: int) -> np.ndarray:
@@ -92,10 +93,19 @@ def track_starts(
     line fits when at least two distinct times remain.
     """
     n, n_t, p, d = tx.shape
-    flat = [a.reshape((n * n_t, *a.shape[2:])) for a in (ls, tx, rx, sigma)]
-    start, alternative, has_alternative = sum_range_starts(*flat)
+    flat_l, flat_tx, flat_rx, flat_sigma = (
+        a.reshape((n * n_t, *a.shape[2:])) for a in (ls, tx, rx, sigma)
+    )
+    start, alternative, has_alternative = sum_range_starts(flat_l, flat_tx, flat_rx, flat_sigma)
     sol = ml_solve(
-        *flat, x0=start, alpha=alpha, max_iter=START_ITERATIONS, closed_form_starts=False
+        flat_l,
+        flat_tx,
+        flat_rx,
+        flat_sigma,
+        x0=start,
+        alpha=alpha,
+        max_iter=START_ITERATIONS,
+        closed_form_starts=False,
     )
     has_alternative &= p == d
     cand = np.stack([sol.x, np.where(has_alternative[:, None], alternative, sol.x)], axis=1)

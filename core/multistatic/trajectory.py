@@ -10,6 +10,7 @@ eq. 2): parameters (x0, v) with x(t) = x0 + v (t - t_ref). Its default start is
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -230,9 +231,9 @@ def trajectory_solve(
     tx = _per_sample("tx", with_tx_axis(tx), n, n_t, 2)
     rx = _per_sample("rx", rx, n, n_t, 2)
     sigma = _per_sample("sigma", sigma, n, n_t, 1)
-    ls, tx, rx, sigma = validate_problem(np.reshape(l, (n * n_t, -1)), tx, rx, sigma)
+    ls, tx, rx, checked_sigma = validate_problem(np.reshape(l, (n * n_t, -1)), tx, rx, sigma)
     p, d = tx.shape[1:]
-    ls, sigma = ls.reshape(n, n_t, p), sigma.reshape(n, n_t, p)
+    ls, sigma = ls.reshape(n, n_t, p), cast(np.ndarray, checked_sigma).reshape(n, n_t, p)
     tx, rx = tx.reshape(n, n_t, p, d), rx.reshape(n, n_t, p, d)
     tau = t - t[0]
     if x0 is None:
@@ -285,9 +286,9 @@ def _single_track(sol: TrajectorySolution) -> TrajectorySolution:
         covariance=sol.covariance[0],
         t_ref=sol.t_ref,
         residuals=sol.residuals[0],
-        cost=float(sol.cost[0]),
-        normalized_cost=float(sol.normalized_cost[0]),
-        consistent=bool(sol.consistent[0]),
-        converged=bool(sol.converged[0]),
-        iterations=int(sol.iterations[0]),
+        cost=float(np.asarray(sol.cost)[0]),
+        normalized_cost=float(np.asarray(sol.normalized_cost)[0]),
+        consistent=bool(np.asarray(sol.consistent)[0]),
+        converged=bool(np.asarray(sol.converged)[0]),
+        iterations=int(np.asarray(sol.iterations)[0]),
     )

@@ -37,7 +37,7 @@ table (:mod:`plotgate.service.fields`) turns them into request paths such as
 
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -80,8 +80,22 @@ __all__ = [
 
 _CLOSED_FORMS = {"sum_range": ms.sum_range_solve, "difference_range": ms.difference_range_solve}
 
+T = TypeVar("T")
+
 _PER_PROBLEM = {"l", "tx", "rx", "sigma", "x0"}
 """Core arguments that belong to one problem (or one sample) of a batch."""
+
+
+def _per_pair(many: list[T] | None, one: T | None, n: int) -> list[T]:
+    """A per-pair field of the wire: ``many`` as sent, or ``one`` repeated for the n pairs.
+
+    The schema sends exactly one of the two (``transmitter`` or ``transmitters``,
+    ``sigma`` or ``sigmas``), and ``many`` never empty.
+    """
+    if many:
+        return many
+    assert one is not None  # the schema sends exactly one of the two
+    return [one] * n
 
 
 @contextmanager
@@ -134,9 +148,11 @@ def position(request: PositionSolveRequest) -> PositionSolveResult:
     for (n_pairs, guessed), rows in groups.items():
         group = [problems[i] for i in rows]
         ls = np.array([p.range_sums for p in group], dtype=float)
-        tx = np.array([p.transmitters or [p.transmitter] * n_pairs for p in group], dtype=float)
+        tx = np.array(
+            [_per_pair(p.transmitters, p.transmitter, n_pairs) for p in group], dtype=float
+        )
         rx = np.array([p.receivers for p in group], dtype=float)
-        sigma = np.array([p.sigmas or [p.sigma] * n_pairs for p in group], dtype=float)
+        sigma = np.array([_per_pair(p.sigmas, p.sigma, n_pairs) for p in group], dtype=float)
         x0 = np.array([p.initial for p in group], dtype=float) if guessed else None
         with _rows(rows):
             ml = ms.ml_solve(
@@ -272,7 +288,7 @@ def _platforms(
     is the one at t[0].
     """
     p = len(request.receivers)
-    transmitters = request.transmitters or [request.transmitter] * p
+    transmitters = _per_pair(request.transmitters, request.transmitter, p)
     samples = n if _moving(request) else None
     tx = np.stack([platform_array(q, t, samples) for q in transmitters], axis=-2)
     rx = np.stack([platform_array(q, t, samples) for q in request.receivers], axis=-2)
@@ -289,7 +305,10 @@ def _moving(request: TrajectorySolveRequest | CrlbRequest) -> bool:
 
 
 def _sigma(request: TrajectorySolveRequest | CrlbRequest) -> float | np.ndarray:
-    return request.sigma if request.sigmas is None else np.asarray(request.sigmas, dtype=float)
+    if request.sigmas is not None:
+        return np.asarray(request.sigmas, dtype=float)
+    assert request.sigma is not None  # the schema sends exactly one of sigma and sigmas
+    return request.sigma
 
 
 # --------------------------------------------------------------------------- solves.trajectory
@@ -321,11 +340,11 @@ def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
         state=FittedState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
         covariance=sol.covariance.tolist(),
         residuals=sol.residuals.tolist(),
-        cost=sol.cost,
-        normalized_cost=sol.normalized_cost,
-        consistent=sol.consistent,
-        converged=sol.converged,
-        iterations=sol.iterations,
+        cost=float(sol.cost),
+        normalized_cost=float(sol.normalized_cost),
+        consistent=bool(sol.consistent),
+        converged=bool(sol.converged),
+        iterations=int(sol.iterations),
         times=list(times),
         positions=positions.tolist(),
         covariances=covariances.tolist(),
@@ -365,6 +384,7 @@ def crlb(request: CrlbRequest) -> CrlbResult:
         single = bound(x, tx, rx, sigma)
         accumulated = None
         if request.track is not None:
+            assert t is not None  # as above: a track has sample times
             acc = ms.trajectory_crlb(
                 request.track.position,
                 request.track.velocity,

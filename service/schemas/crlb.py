@@ -9,7 +9,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from plotgate.service.schemas.common import Schema
+from plotgate.service.schemas.common import Loc, Schema
 from plotgate.service.schemas.solves import (
     MAX_MEASUREMENTS,
     MAX_PROBLEMS,
@@ -114,7 +114,9 @@ class CrlbRequest(Schema):
         errors += one_of(self, "sigma", "sigmas", "one sigma, or one per pair")
         errors += length(("sigmas",), self.sigmas, p, "pair")
         if not errors:
-            own = [(("targets", i), x) for i, x in enumerate(self.targets or ())]
+            own: list[tuple[Loc, list[float]]] = [
+                (("targets", i), x) for i, x in enumerate(self.targets or ())
+            ]
             if self.track is not None:
                 own += [
                     (("track", "position"), self.track.position),
