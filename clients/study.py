@@ -1,10 +1,10 @@
-"""``plotgate study``: the multistatic accuracy study of seed 001 Fig. 3, as a table and PNG.
+"""``plotgate study``: the multistatic accuracy study of Fadeev et al., Fig. 3, as a table and PNG.
 
 The operation ``solves.study`` does the Monte Carlo (in-process or on a server,
 :mod:`plotgate.clients.runners`); this module holds the default scenario, judges the answer
 against the accuracy requirements, and writes the markdown table and the figure.
 
-Default scenario (:data:`DEFAULT_REQUEST`; ours, in the spirit of seed 001's
+Default scenario (:data:`DEFAULT_REQUEST`; ours, in the spirit of Fadeev et al.'s
 forward-scatter system): one transmitter at (9900, 1000) m heading 120 degrees and three
 receivers at (150, 500), (600, 1000), (150, 1500) m heading 60 degrees, all at 10 m/s
 (as the paper's Fig. 2), baselines 9763, 9300 and 9763 m at t = 0; a target at 80 m/s
@@ -210,10 +210,10 @@ def table(answer: dict[str, Any], every: int = 1) -> str:
             for c in checks(answer)
         ),
         "",
-        "Total RMSE sqrt(sum of per-axis RMSE^2), m; curves of seed 001 Fig. 3: 1 single-shot "
-        "CRLB, 2 accumulated CRLB, 3 ML track, 4 ML single shot, 5 sum range, 6 difference "
-        "range; lin: the linearised efficient estimator on the same noise; dist: largest "
-        "Mahalanobis error of curve 4.",
+        "Total RMSE sqrt(sum of per-axis RMSE^2), m; curves of Fadeev et al., Fig. 3: 1 "
+        "single-shot CRLB, 2 accumulated CRLB, 3 ML track, 4 ML single shot, 5 sum range, 6 "
+        "difference range; lin: the linearised efficient estimator on the same noise; dist: "
+        "largest Mahalanobis error of curve 4.",
         "",
         "| i | t s | note | 1 CRLB | 2 CRLB acc. | 3 ML track | 4 ML single | 5 sum-range | "
         "6 diff-range | diff CRLB | 4/1 | 4/lin | 3/2 | 3/lin | 6/diff | dist 4 | "
@@ -253,7 +253,7 @@ def table(answer: dict[str, Any], every: int = 1) -> str:
 
 
 def draw(answer: dict[str, Any], out: Path) -> Path:
-    """Seed 001 Fig. 3 style: per-axis RMSE of curves 1-6 against the target's y, log scale."""
+    """Fadeev et al., Fig. 3 style: per-axis RMSE of curves 1-6 against the target's y (log)."""
     from plotgate.clients.plots import matplotlib_classes
 
     Figure, FigureCanvasAgg = matplotlib_classes()
@@ -292,7 +292,7 @@ def draw(answer: dict[str, Any], out: Path) -> Path:
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize="small")
     fig.suptitle(
-        f"Multistatic accuracy along the track (seed 001 Fig. 3 curves 1-6): "
+        f"Multistatic accuracy along the track (Fadeev et al., Fig. 3 curves 1-6): "
         f"{answer['runs']} runs, sigma {answer['sigma']} m"
     )
     out = Path(out)

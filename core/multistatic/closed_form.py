@@ -1,12 +1,12 @@
-"""Closed-form multistatic position solves of seed 001: sum-range and difference-range.
+"""Closed-form multistatic position solves of Fadeev et al.: sum-range and difference-range.
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov) compares the maximum-likelihood
-estimate with two analytic solutions of the position-line equations built on eq. (1)
-(its ref. [10]): the *sum-range* method intersects the ellipses of equal range sum
-(Fig. 3, curves 5), the *difference-range* method the hyperbolae of the receiver-pair
-differences of the range sums (curves 6). Both are solved here by spherical
-intersection (DESIGN section 6): squaring the range equation around a reference point
-makes it linear in the offset s and the reference range R,
+Fadeev, Myakinkov and Ogurtsov compare the maximum-likelihood estimate with two
+analytic solutions of the position-line equations built on eq. (1) (their ref. [10]):
+the *sum-range* method intersects the ellipses of equal range sum (Fig. 3, curves 5),
+the *difference-range* method the hyperbolae of the receiver-pair differences of the
+range sums (curves 6). Both are solved here by spherical intersection: squaring the
+range equation around a reference point makes it linear in the offset s and the
+reference range R,
 
 .. math:: \\mathbf{M} \\mathbf{s} = \\mathbf{h} + R \\, \\mathbf{g},
 
@@ -240,13 +240,13 @@ def _intersect(
 
 
 def sum_range_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     *,
     baseline_tol: ArrayLike | None = None,
 ) -> ClosedFormSolution:
-    """Sum-range method: intersect the ellipses of equal range sum (seed 001, curves 5).
+    """Sum-range method: intersect the ellipses of equal range sum (Fadeev et al., curves 5).
 
     With one transmitter per problem, s = x - tx, R_t = |s|, b_k = rx_k - tx, the
     range to receiver k is l_k - R_t; squaring it gives the linear equations
@@ -284,8 +284,8 @@ def sum_range_solve(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
-       sum-range method (Fig. 3, curves 5); DESIGN section 6.
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1) and the
+       sum-range method (Fig. 3, curves 5).
 
     Examples
     --------
@@ -317,7 +317,7 @@ def sum_range_solve(
 
 
 def difference_range_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     *,
@@ -362,8 +362,8 @@ def difference_range_solve(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
-       difference-range method (Fig. 3, curves 6); DESIGN section 6.
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1) and the
+       difference-range method (Fig. 3, curves 6).
 
     Examples
     --------

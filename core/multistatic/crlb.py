@@ -1,8 +1,8 @@
-"""Cramer-Rao lower bounds of multistatic range-sum positioning (seed 001, eq. 3).
+"""Cramer-Rao lower bounds of multistatic range-sum positioning (Fadeev et al., eq. 3).
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov) bounds the position error
-of a target seen by range sums l_p = |x - rx_p| + |x - tx_p| with independent
-N(0, sigma_p^2) noise by the inverse of the Fisher information
+Fadeev, Myakinkov and Ogurtsov bound the position error of a target seen by range sums
+l_p = |x - rx_p| + |x - tx_p| with independent N(0, sigma_p^2) noise by the inverse of
+the Fisher information
 
 .. math:: \\mathbf{J} = \\sum_{i}\\sum_{p} \\frac{1}{\\sigma_p^2}
           \\nabla l_{p,i} \\, \\nabla l_{p,i}^T = \\mathbf{H}^T \\mathbf{G} \\mathbf{H},
@@ -21,7 +21,7 @@ Conventions and decisions
   information of one measurement. With equal sigmas sigma_ref = sigma and the GDOP is
   the pure geometry factor sqrt(trace (H^T H)^-1); scaling every sigma by c leaves
   the GDOP unchanged.
-* Where the target sits on a baseline the row of that pair vanishes (seed 001: the
+* Where the target sits on a baseline the row of that pair vanishes (Fadeev et al.: the
   ellipse degenerates to the segment). With too few other pairs J is then singular;
   its eigenvalues are floored at ``INFORMATION_RTOL`` times the largest
   (:mod:`plotgate.core.multistatic.information`), so the bound in the unobservable
@@ -87,7 +87,7 @@ class CRLB:
 
 @dataclass(frozen=True)
 class TrajectoryCRLB:
-    """Cramer-Rao bound of a constant-velocity track from T samples (seed 001, eq. 3).
+    """Cramer-Rao bound of a constant-velocity track from T samples (Fadeev et al., eq. 3).
 
     Attributes
     ----------
@@ -101,7 +101,7 @@ class TrajectoryCRLB:
         sqrt of its diagonal: metres for x0, m/s for v.
     position_covariance : (T, D, D) ndarray
         Bound on the position at each sample time, A_i J^-1 A_i^T with
-        A_i = [I, (t_i - t_ref) I], m^2 (seed 001, Fig. 3 curves 2).
+        A_i = [I, (t_i - t_ref) I], m^2 (Fadeev et al., Fig. 3 curves 2).
     position_sigma : (T, D) ndarray
         sqrt of its diagonal, metres.
     gdop : (T,) ndarray
@@ -185,7 +185,7 @@ def _geometry(
 
 
 def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
-    """Single-shot Cramer-Rao bound of the position from P range sums (seed 001, eq. 3).
+    """Single-shot Cramer-Rao bound of the position from P range sums (Fadeev et al., eq. 3).
 
     .. math:: \\mathbf{J} = \\mathbf{H}^T \\mathrm{diag}(1/\\sigma_p^2) \\mathbf{H},
               \\quad \\mathbf{H}_{p} = \\frac{\\mathbf{x} - \\mathbf{rx}_p}
@@ -220,7 +220,7 @@ def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3): the Fisher
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (3): the Fisher
        information of the range sums, one sample (Fig. 3, curves 1).
 
     Examples
@@ -289,7 +289,7 @@ def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3) applied to
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (3) applied to
        the difference-range method's measurements (Fig. 3, curves 6).
 
     Examples
@@ -324,7 +324,7 @@ def trajectory_crlb(
     sigma: ArrayLike,
     measurements: str = "sum",
 ) -> TrajectoryCRLB:
-    """Accumulated Cramer-Rao bound of a constant-velocity track (seed 001, eq. 3, curves 2).
+    """Accumulated Cramer-Rao bound of a constant-velocity track (Fadeev et al., eq. 3, curves 2).
 
     The state theta = (x0, v) gives x_i = x0 + v (t_i - t_ref); the Jacobian of
     l_{p,i} is [H_{p,i}, (t_i - t_ref) H_{p,i}], and the information is summed over the
@@ -374,7 +374,7 @@ def trajectory_crlb(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3) with the sum
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (3) with the sum
        over the n accumulated samples (Fig. 3, curves 2).
 
     Examples

@@ -1,8 +1,8 @@
-"""Range-sum measurement model of seed 001 (multistatic radar, moving platforms).
+"""Range-sum measurement model of Fadeev et al. (multistatic radar, moving platforms).
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, coordinate accuracy of a
-multistatic forward-scattering radar with mobile positions), eq. (1): a transmitter at
-``tx`` and a receiver at ``rx`` measure the range sum
+Fadeev, Myakinkov and Ogurtsov (coordinate accuracy of a multistatic forward-scattering
+radar with mobile positions), eq. (1): a transmitter at ``tx`` and a receiver at ``rx``
+measure the range sum
 
 .. math:: l = |\\mathbf{x} - \\mathbf{rx}| + |\\mathbf{x} - \\mathbf{tx}|
 
@@ -19,7 +19,7 @@ x : (N, D) target positions. tx, rx : (N, P, D) or unbatched (P, D), broadcast.
 l : (N, P) or (P,) range sums. sigma : scalar, (P,) or (N, P) noise standard deviations.
 
 Platform positions are known at each time; moving platforms are either given per
-sample or generated with :func:`platform_positions` (constant velocity, seed 001 Fig. 2).
+sample or generated with :func:`platform_positions` (constant velocity, Fadeev et al., Fig. 2).
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ COINCIDENT_RTOL = 1e-9
 BASELINE_SIGMAS = 5.0
 """With a known sigma, a range sum may fall this many sigma below its baseline
 |tx - rx| before it is refused: noise alone puts about half the measurements of a
-target on a baseline below it (seed 001 studies exactly such baseline crossings)."""
+target on a baseline below it (Fadeev et al. study exactly such baseline crossings)."""
 
 
 class Problem(NamedTuple):
@@ -72,7 +72,7 @@ class Problem(NamedTuple):
         Noise standard deviations, metres; None when no sigma was given.
     """
 
-    l: np.ndarray  # noqa: E741 (the contract and seed 001 name the range sum l)
+    l: np.ndarray  # noqa: E741 (the contract and Fadeev et al. name the range sum l)
     tx: np.ndarray
     rx: np.ndarray
     sigma: np.ndarray | None
@@ -141,7 +141,7 @@ def _model_inputs(
 def platform_positions(
     initial: ArrayLike, velocity: ArrayLike, t: ArrayLike, t0: float = 0.0
 ) -> np.ndarray:
-    """Positions of platforms moving at constant velocity (seed 001, Fig. 2).
+    """Positions of platforms moving at constant velocity (Fadeev et al., Fig. 2).
 
     .. math:: \\mathbf{p}(t) = \\mathbf{p}_0 + \\mathbf{v} (t - t_0)
 
@@ -176,7 +176,7 @@ def platform_positions(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, Fig. 2: positions
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, Fig. 2: positions
        move on straight lines at constant speed (10 m/s in the paper's example).
 
     Examples
@@ -213,7 +213,7 @@ def platform_positions(
 
 
 def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
-    """Range sums l_p = |x - rx_p| + |x - tx_p| (seed 001, eq. 1).
+    """Range sums l_p = |x - rx_p| + |x - tx_p| (Fadeev et al., eq. 1).
 
     Parameters
     ----------
@@ -238,7 +238,7 @@ def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1).
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1).
 
     Examples
     --------
@@ -272,14 +272,14 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
-    """Jacobian H of the range sums: dl_p/dx (seed 001, the H_n of eq. 6).
+    """Jacobian H of the range sums: dl_p/dx (Fadeev et al., the H_n of eq. 6).
 
     .. math:: \\frac{\\partial l_p}{\\partial \\mathbf{x}} =
               \\frac{\\mathbf{x} - \\mathbf{rx}_p}{|\\mathbf{x} - \\mathbf{rx}_p|} +
               \\frac{\\mathbf{x} - \\mathbf{tx}_p}{|\\mathbf{x} - \\mathbf{tx}_p|}
 
     The row is the sum of the unit vectors from the two foci; it vanishes on the
-    baseline between them (seed 001: the ellipse degenerates to the segment and the
+    baseline between them (Fadeev et al.: the ellipse degenerates to the segment and the
     cross-baseline derivative is zero). Where x sits exactly on a platform the
     gradient of that distance is undefined; its term is taken as 0 (the smallest
     subgradient) so the result stays finite.
@@ -303,7 +303,7 @@ def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eqs. (1), (3), (6).
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eqs. (1), (3), (6).
 
     Examples
     --------
@@ -379,7 +379,7 @@ def validate_track(
 
 
 def validate_problem(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     sigma: ArrayLike | None = None,
@@ -430,7 +430,7 @@ def validate_problem(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1):
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1):
        l >= |tx - rx| by the triangle inequality.
 
     Examples

@@ -80,7 +80,7 @@ _TIE = 1e-9  # chi-square costs closer than this are a tie
 
 @dataclass(frozen=True)
 class MLSolution:
-    """Maximum-likelihood positions of N range-sum problems (seed 001, eqs. 4 and 6).
+    """Maximum-likelihood positions of N range-sum problems (Fadeev et al., eqs. 4 and 6).
 
     Attributes
     ----------
@@ -229,7 +229,7 @@ def _position_model(tx: np.ndarray, rx: np.ndarray) -> tuple[Predict, Predict]:
 
 
 def ml_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     sigma: ArrayLike,
@@ -240,7 +240,7 @@ def ml_solve(
     *,
     closed_form_starts: bool = True,
 ) -> MLSolution:
-    """Maximum-likelihood position from P range sums, N problems at once (seed 001, eq. 6).
+    """Maximum-likelihood position from P range sums, N problems at once (Fadeev et al., eq. 6).
 
     Minimises L(x) = sum_p (l_p - h_p(x))^2 / sigma_p^2 (eq. 4) by weighted Gauss-Newton
     with step halving and a Levenberg-Marquardt fallback (see the module notes), from
@@ -302,7 +302,7 @@ def ml_solve(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (4) (the
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (4) (the
        likelihood criterion) and eq. (6) (Gauss-Newton with the step factor k).
 
     Examples

@@ -1,6 +1,6 @@
-"""Monte Carlo accuracy study of the multistatic solvers (seed 001, Fig. 3, curves 1-6).
+"""Monte Carlo accuracy study of the multistatic solvers (Fadeev et al., Fig. 3, curves 1-6).
 
-Seed 001 judges its solvers along a target's track by six curves of the position error
+Fadeev et al. judge their solvers along a target's track by six curves of the position error
 against the target's position: 1, the single-shot CRLB; 2, the CRLB accumulated over the
 samples so far; 3, the ML trajectory (constant-velocity fit to the samples so far); 4,
 the ML single shot; 5, the sum-range closed form; 6, the difference-range closed form.
@@ -54,7 +54,7 @@ from plotgate.core.validation import as_array, require_positive
 __all__ = ["CURVES", "NOISE_WINDOW", "AccuracyStudy", "accuracy_study"]
 
 CURVES = ("ml_track", "ml_single", "sum_range", "difference_range")
-"""The solver curves of seed 001 Fig. 3: 3, 4, 5 and 6."""
+"""The solver curves of Fadeev et al., Fig. 3: 3, 4, 5 and 6."""
 
 NOISE_WINDOW = 50
 """Samples per window of the eq. 5 noise estimate (a quadratic fits a range-sum series
@@ -96,7 +96,7 @@ class AccuracyStudy:
     sum_range_unsolvable, difference_range_unsolvable : (T,) ndarray of int
         Closed-form runs with no consistent root.
     noise_sigma : tuple of float
-        Mean and standard deviation over the runs and pairs of the seed 001 eq. 5 noise
+        Mean and standard deviation over the runs and pairs of the Fadeev et al., eq. 5 noise
         estimate of each range-sum series (variances pooled over consecutive windows of
         NOISE_WINDOW samples).
     runs, seed : int
@@ -174,7 +174,7 @@ def accuracy_study(
     alpha: float = 0.01,
     tracks: bool = True,
 ) -> AccuracyStudy:
-    """Seed 001 Fig. 3 (curves 1-6) by Monte Carlo for one transmitter and its receivers.
+    """Fadeev et al., Fig. 3 (curves 1-6) by Monte Carlo for one transmitter and its receivers.
 
     Parameters
     ----------
@@ -213,7 +213,7 @@ def accuracy_study(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, Fig. 3: curves 1-6
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, Fig. 3: curves 1-6
        along the track of a target crossing the baselines of a multistatic system of
        moving platforms.
 

@@ -135,7 +135,7 @@ def _per_sample(name: str, value: ArrayLike, n: int, n_t: int, core_ndim: int) -
 
 
 def trajectory_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     t: ArrayLike,
     tx: ArrayLike,
     rx: ArrayLike,
@@ -145,7 +145,7 @@ def trajectory_solve(
     max_iter: int = 50,
     tol: float = 1e-9,
 ) -> TrajectorySolution:
-    """Maximum-likelihood constant-velocity tracks from T samples of range sums (seed 001).
+    """Maximum-likelihood constant-velocity tracks from T samples of range sums (Fadeev et al.).
 
     The accumulated measurement vector of eq. 2 (all T P range sums) is fitted by the
     Gauss-Newton solver of :func:`ml_solve` with parameters theta = (x0, v),
@@ -190,7 +190,7 @@ def trajectory_solve(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eqs. (2), (4), (6):
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eqs. (2), (4), (6):
        the n accumulated samples of a target on a straight line (Fig. 3, curves 2, 3).
 
     Examples

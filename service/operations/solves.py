@@ -1,4 +1,4 @@
-"""Multistatic position solves, bounds and noise estimates (seed 001; DESIGN section 6).
+"""Multistatic position solves, bounds and noise estimates (Fadeev et al.).
 
 The wire's problems, platforms and series become core's arrays: range sums l (N, P),
 transmitters and receivers (N, P, D) and sigmas (N, P). Core solves a batch whose
@@ -138,7 +138,7 @@ def sample_errors(t: np.ndarray | None, moving: bool) -> Iterator[None]:
 
 @checked
 def position(request: PositionSolveRequest) -> PositionSolveResult:
-    """Maximum-likelihood positions (seed 001 eq. 4, 6), and a closed form on request."""
+    """Maximum-likelihood positions (Fadeev et al., eq. 4, 6), and a closed form on request."""
     problems = request.problems
     d = len(problems[0].receivers[0])
     groups: dict[tuple[int, bool], list[int]] = {}
@@ -316,7 +316,7 @@ def _sigma(request: TrajectorySolveRequest | CrlbRequest) -> float | np.ndarray:
 
 @checked
 def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
-    """Constant-velocity track by maximum likelihood over all samples (seed 001)."""
+    """Constant-velocity track by maximum likelihood over all samples (Fadeev et al.)."""
     t = np.asarray(request.sample_times, dtype=float)
     tx, rx = _platforms(request, t, t.size)
     x0 = None
@@ -368,7 +368,7 @@ sample), ``sample_times``, ``initial``, the platform lists, ``sigma(s)``."""
 
 @checked
 def crlb(request: CrlbRequest) -> CrlbResult:
-    """Cramer-Rao bounds (seed 001 eq. 3): single shot per sample, accumulated on a track."""
+    """Cramer-Rao bounds (Fadeev et al., eq. 3): single shot per sample, accumulated on a track."""
     t = None if request.sample_times is None else np.asarray(request.sample_times, dtype=float)
     if request.track is not None:
         assert t is not None  # the schema requires sample times with a track
@@ -443,7 +443,7 @@ lists, ``sigma(s)``, ``sample_times``; too few pairs (core's ``l``) at ``receive
 
 @checked
 def noise(request: NoiseRequest) -> NoiseResult:
-    """Noise of each range-sum series (seed 001 eq. 5) and smoothed coordinates."""
+    """Noise of each range-sum series (Fadeev et al., eq. 5) and smoothed coordinates."""
     t = np.asarray(request.sample_times, dtype=float)
     out: dict[str, Any] = {}
     if request.range_sums is not None:

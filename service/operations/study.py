@@ -1,4 +1,4 @@
-"""The multistatic accuracy study of seed 001 Fig. 3 (``solves.study``).
+"""The multistatic accuracy study of Fadeev et al., Fig. 3 (``solves.study``).
 
 The wire's platforms become per-sample arrays (T, P, D) exactly as in
 :mod:`plotgate.service.operations.solves` (a moving platform's position is the one at
@@ -35,7 +35,7 @@ def _scalars(a: np.ndarray) -> list[float | None]:
 
 @checked
 def study(request: StudyRequest) -> StudyResult:
-    """Seed 001 Fig. 3 curves 1-6 and their diagnostics, by seeded Monte Carlo."""
+    """Fadeev et al., Fig. 3 curves 1-6 and their diagnostics, by seeded Monte Carlo."""
     t = np.asarray(request.sample_times, dtype=float)
     tx = platform_array(request.transmitter, t, t.size)[:, None, :]
     rx = np.stack([platform_array(q, t, t.size) for q in request.receivers], axis=-2)

@@ -35,7 +35,7 @@ __all__ = [
 
 
 class CrlbRequest(Schema):
-    """Cramer-Rao bound of the position error (seed 001, eq. 3).
+    """Cramer-Rao bound of the position error (Fadeev et al., eq. 3).
 
     Single shot for given ``targets`` (sample i is target i: per-sample platform
     positions give one position per target, and moving platforms are taken at

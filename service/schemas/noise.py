@@ -27,7 +27,7 @@ __all__ = [
 
 
 class NoiseRequest(Schema):
-    """Range-sum noise from polynomial fits (seed 001, eq. 5) and coordinate smoothing.
+    """Range-sum noise from polynomial fits (Fadeev et al., eq. 5) and coordinate smoothing.
 
     Give ``range_sums`` (noise estimate), ``positions`` (smoothing), or both.
     """

@@ -110,7 +110,7 @@ class PositionProblem(Schema):
 
 
 class PositionSolveRequest(Schema):
-    """A batch of independent single-shot position problems (seed 001, eq. 4 and 6).
+    """A batch of independent single-shot position problems (Fadeev et al., eq. 4 and 6).
 
     Every problem is solved by maximum likelihood. ``method`` = ``sum_range`` or
     ``difference_range`` also gives that closed-form solution of each problem (those
@@ -127,7 +127,7 @@ class PositionSolveRequest(Schema):
     method: Literal["ml", "sum_range", "difference_range"] = Field(
         default="ml",
         description="ml: maximum likelihood only. sum_range / difference_range: also the "
-        "closed-form solution of that method (seed 001 Fig. 3 curves 5 / 6) in closed_form.",
+        "closed-form solution of that method (Fadeev et al., Fig. 3 curves 5 / 6) in closed_form.",
     )
     alpha: Alpha = 0.01
     max_iter: MaxIter = 50

@@ -1,4 +1,4 @@
-"""Wire models of ``solves.study``: the Monte Carlo accuracy study of seed 001 Fig. 3.
+"""Wire models of ``solves.study``: the Monte Carlo accuracy study of Fadeev et al., Fig. 3.
 
 One transmitter and its receivers (fixed, or moving at constant velocity from their
 positions at ``sample_times[0]``, or given per sample) watch a constant-velocity target;
@@ -49,7 +49,7 @@ MAX_STUDY_TRACK_WORK = 120_000_000
 
 
 class StudyRequest(Schema):
-    """A seed 001 Fig. 3 accuracy study: geometry, target, noise and Monte Carlo size."""
+    """A Fadeev et al., Fig. 3 accuracy study: geometry, target, noise and Monte Carlo size."""
 
     transmitter: Platform = Field(description="The one transmitter of every pair.")
     receivers: list[Platform] = Field(

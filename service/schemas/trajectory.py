@@ -33,7 +33,7 @@ __all__ = [
 
 
 class TrajectorySolveRequest(Schema):
-    """One constant-velocity target observed through P pairs at T sample times (seed 001).
+    """One constant-velocity target observed through P pairs at T sample times (Fadeev et al.).
 
     The state is (x0, v) with x(t) = x0 + v (t - t_ref), t_ref = sample_times[0]; it is
     fitted by maximum likelihood to all T x P range sums (eq. 2, 4, 6).

@@ -1,4 +1,4 @@
-"""Multistatic position solves, bounds and noise estimates over HTTP (seed 001).
+"""Multistatic position solves, bounds and noise estimates over HTTP (Fadeev et al.).
 
 Happy paths use noise-free range sums, so every answer must equal the truth within
 1e-6 m; each is also checked against core called directly on the same arrays. Bad
