@@ -1,12 +1,12 @@
-"""Closed-form multistatic position solves of seed 001: sum-range and difference-range.
+"""Closed-form multistatic position solves of Fadeev et al.: sum-range and difference-range.
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov) compares the maximum-likelihood
-estimate with two analytic solutions of the position-line equations built on eq. (1)
-(its ref. [10]): the *sum-range* method intersects the ellipses of equal range sum
-(Fig. 3, curves 5), the *difference-range* method the hyperbolae of the receiver-pair
-differences of the range sums (curves 6). Both are solved here by spherical
-intersection (DESIGN section 6): squaring the range equation around a reference point
-makes it linear in the offset s and the reference range R,
+Fadeev, Myakinkov and Ogurtsov compare the maximum-likelihood estimate with two
+analytic solutions of the position-line equations built on eq. (1) (their ref. [10]):
+the *sum-range* method intersects the ellipses of equal range sum (Fig. 3, curves 5),
+the *difference-range* method the hyperbolae of the receiver-pair differences of the
+range sums (curves 6). Both are solved here by spherical intersection: squaring the
+range equation around a reference point makes it linear in the offset s and the
+reference range R,
 
 .. math:: \\mathbf{M} \\mathbf{s} = \\mathbf{h} + R \\, \\mathbf{g},
 
@@ -49,7 +49,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.multistatic.model import COINCIDENT_RTOL, _scale, range_sums, validate_problem
+from plotgate.core.multistatic.model import (
+    COINCIDENT_RTOL,
+    coordinate_scale,
+    range_sums,
+    validate_problem,
+)
 
 __all__ = [
     "RANK_RTOL",
@@ -132,7 +137,7 @@ def _intersect(
     must be >= 0 for the root to be consistent.
     """
     n, _, d = M.shape
-    tol = ROOT_RTOL * _scale(tx, rx)  # (N,)
+    tol = ROOT_RTOL * coordinate_scale(tx, rx)  # (N,)
 
     # Least squares s = a + R c through the SVD (batched pseudo-inverse).
     U, S, Vt = np.linalg.svd(M, full_matrices=False)  # (N,K,D), (N,D), (N,D,D)
@@ -235,13 +240,13 @@ def _intersect(
 
 
 def sum_range_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     *,
     baseline_tol: ArrayLike | None = None,
 ) -> ClosedFormSolution:
-    """Sum-range method: intersect the ellipses of equal range sum (seed 001, curves 5).
+    """Sum-range method: intersect the ellipses of equal range sum (Fadeev et al., curves 5).
 
     With one transmitter per problem, s = x - tx, R_t = |s|, b_k = rx_k - tx, the
     range to receiver k is l_k - R_t; squaring it gives the linear equations
@@ -279,8 +284,8 @@ def sum_range_solve(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
-       sum-range method (Fig. 3, curves 5); DESIGN section 6.
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1) and the
+       sum-range method (Fig. 3, curves 5).
 
     Examples
     --------
@@ -301,7 +306,7 @@ def sum_range_solve(
     (array([[2000., 3000.]]), array([ True]), array([1463.]))
     """
     ls, tx, rx, _ = validate_problem(l, tx, rx, baseline_tol=baseline_tol)
-    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+    _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
     base = tx[:, 0]
     b = rx - base[:, None]
     norm_b = np.linalg.norm(b, axis=-1)
@@ -312,7 +317,7 @@ def sum_range_solve(
 
 
 def difference_range_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     *,
@@ -357,8 +362,8 @@ def difference_range_solve(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
-       difference-range method (Fig. 3, curves 6); DESIGN section 6.
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1) and the
+       difference-range method (Fig. 3, curves 6).
 
     Examples
     --------
@@ -376,7 +381,7 @@ def difference_range_solve(
             f"has {p} measurements, giving {p - 1} differences for {d} unknowns; "
             f"the difference-range method needs at least {d + 1}",
         )
-    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+    _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
     base = rx[:, 0]
     e = rx[:, 1:] - base[:, None]
     dk = ls[:, 1:] - ls[:, :1]

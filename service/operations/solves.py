@@ -1,4 +1,4 @@
-"""Multistatic position solves, bounds and noise estimates (seed 001; DESIGN section 6).
+"""Multistatic position solves, bounds and noise estimates (Fadeev et al.).
 
 The wire's problems, platforms and series become core's arrays: range sums l (N, P),
 transmitters and receivers (N, P, D) and sigmas (N, P). Core solves a batch whose
@@ -26,24 +26,25 @@ Decisions:
 - A problem's ``initial`` goes to core as ``x0`` with the closed form's roots as further
   starts (core's default): with a guess the answer never ends at a higher cost than
   without one, and ``alternative`` reports the best other minimum (see the schema).
-- The chi-square quantile is scipy's (``scipy.stats.chi2``), the one direct scipy use
-  of the service; core's own threshold is private.
+- The chi-square quantile is core's one threshold function,
+  :func:`plotgate.core.thresholds.gate_threshold` of 1 - alpha.
 
 Core errors name core arguments (``l``, ``tx``, ``rx``, ``sigma``, ``x0``, ``t``, ``x``)
-with the batch index of the first bad problem or sample; the ``*_field`` functions turn
-them into request paths such as ``problems[3].receivers`` or ``range_sums[7]``.
+with the batch index of the first bad problem or sample; each operation's ``*_FIELDS``
+table (:mod:`plotgate.service.fields`) turns them into request paths such as
+``problems[3].receivers`` or ``range_sums[7]``.
 """
 
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
-from scipy import stats
 
 import plotgate.core.multistatic as ms
 from plotgate.core import PlotgateError
 from plotgate.core.multistatic.model import BASELINE_SIGMAS
+from plotgate.core.thresholds import gate_threshold
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.schemas import (
@@ -64,25 +65,37 @@ from plotgate.service.schemas import (
 )
 
 __all__ = [
-    "NOISE_FIELDS",
     "CRLB_FIELDS",
+    "NOISE_FIELDS",
+    "POSITION_FIELDS",
     "TRAJECTORY_FIELDS",
-    "POSITION_FIELDS",
     "crlb",
-    "crlb_field",
     "noise",
-    "noise_field",
+    "platform_array",
     "position",
-    "POSITION_FIELDS",
+    "sample_errors",
     "trajectory",
-    "trajectory_field",
 ]
 
 
 _CLOSED_FORMS = {"sum_range": ms.sum_range_solve, "difference_range": ms.difference_range_solve}
 
+T = TypeVar("T")
+
 _PER_PROBLEM = {"l", "tx", "rx", "sigma", "x0"}
 """Core arguments that belong to one problem (or one sample) of a batch."""
+
+
+def _per_pair(many: list[T] | None, one: T | None, n: int) -> list[T]:
+    """A per-pair field of the wire: ``many`` as sent, or ``one`` repeated for the n pairs.
+
+    The schema sends exactly one of the two (``transmitter`` or ``transmitters``,
+    ``sigma`` or ``sigmas``), and ``many`` never empty.
+    """
+    if many:
+        return many
+    assert one is not None  # the schema sends exactly one of the two
+    return [one] * n
 
 
 @contextmanager
@@ -102,11 +115,12 @@ def _rows(rows: Sequence[int]) -> Iterator[None]:
 
 
 @contextmanager
-def _samples(t: np.ndarray | None, moving: bool) -> Iterator[None]:
+def sample_errors(t: np.ndarray | None, moving: bool) -> Iterator[None]:
     """Say at which sample a platform error occurred when the platforms move.
 
-    The field of a platform error names the platform list, not the sample, so the
-    sample number and time go into the reason.
+    The field of a platform error (core's ``tx`` or ``rx`` with a sample index) names
+    the platform list, not the sample, so the sample number and its time t[index] go
+    into the reason of the re-raised error.
     """
     try:
         yield
@@ -119,17 +133,12 @@ def _samples(t: np.ndarray | None, moving: bool) -> Iterator[None]:
         raise
 
 
-def _threshold(alpha: float, dof: int) -> float:
-    """chi2.ppf(1 - alpha, dof)."""
-    return float(stats.chi2.ppf(1.0 - alpha, dof))
-
-
 # --------------------------------------------------------------------------- solves.position
 
 
 @checked
 def position(request: PositionSolveRequest) -> PositionSolveResult:
-    """Maximum-likelihood positions (seed 001 eq. 4, 6), and a closed form on request."""
+    """Maximum-likelihood positions (Fadeev et al., eq. 4, 6), and a closed form on request."""
     problems = request.problems
     d = len(problems[0].receivers[0])
     groups: dict[tuple[int, bool], list[int]] = {}
@@ -139,9 +148,11 @@ def position(request: PositionSolveRequest) -> PositionSolveResult:
     for (n_pairs, guessed), rows in groups.items():
         group = [problems[i] for i in rows]
         ls = np.array([p.range_sums for p in group], dtype=float)
-        tx = np.array([p.transmitters or [p.transmitter] * n_pairs for p in group], dtype=float)
+        tx = np.array(
+            [_per_pair(p.transmitters, p.transmitter, n_pairs) for p in group], dtype=float
+        )
         rx = np.array([p.receivers for p in group], dtype=float)
-        sigma = np.array([p.sigmas or [p.sigma] * n_pairs for p in group], dtype=float)
+        sigma = np.array([_per_pair(p.sigmas, p.sigma, n_pairs) for p in group], dtype=float)
         x0 = np.array([p.initial for p in group], dtype=float) if guessed else None
         with _rows(rows):
             ml = ms.ml_solve(
@@ -151,7 +162,7 @@ def position(request: PositionSolveRequest) -> PositionSolveResult:
             if request.method != "ml":
                 solve = _CLOSED_FORMS[request.method]
                 closed = solve(ls, tx, rx, baseline_tol=BASELINE_SIGMAS * sigma)
-        solvable = ml.cost <= _threshold(request.alpha, max(n_pairs - d, 1))
+        solvable = ml.cost <= gate_threshold(1.0 - request.alpha, max(n_pairs - d, 1))
         _require_finite(
             ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost, ml.alternative
         )
@@ -250,8 +261,13 @@ POSITION_FIELDS: FieldMap = {
 # --------------------------------------------------------------------------- platforms
 
 
-def _platform(platform: Platform, t: np.ndarray | None, n: int | None) -> np.ndarray:
-    """(D,) when no platform moves (n None), else (n, D): per sample, or at the times t."""
+def platform_array(platform: Platform, t: np.ndarray | None, n: int | None) -> np.ndarray:
+    """A wire platform as core's array: (D,) when no platform moves (n None), else (n, D).
+
+    Per-sample ``positions`` are used as given; a ``position`` with a ``velocity`` is
+    placed at the times t by :func:`plotgate.core.multistatic.platform_positions`, the
+    wire's position being the one at t[0]; a fixed position is repeated n times.
+    """
     if platform.positions is not None:
         return np.asarray(platform.positions, dtype=float)
     position = np.asarray(platform.position, dtype=float)
@@ -272,10 +288,10 @@ def _platforms(
     is the one at t[0].
     """
     p = len(request.receivers)
-    transmitters = request.transmitters or [request.transmitter] * p
+    transmitters = _per_pair(request.transmitters, request.transmitter, p)
     samples = n if _moving(request) else None
-    tx = np.stack([_platform(q, t, samples) for q in transmitters], axis=-2)
-    rx = np.stack([_platform(q, t, samples) for q in request.receivers], axis=-2)
+    tx = np.stack([platform_array(q, t, samples) for q in transmitters], axis=-2)
+    rx = np.stack([platform_array(q, t, samples) for q in request.receivers], axis=-2)
     return tx, rx
 
 
@@ -289,18 +305,10 @@ def _moving(request: TrajectorySolveRequest | CrlbRequest) -> bool:
 
 
 def _sigma(request: TrajectorySolveRequest | CrlbRequest) -> float | np.ndarray:
-    return request.sigma if request.sigmas is None else np.asarray(request.sigmas, dtype=float)
-
-
-def _platform_field(request: Any, field: str) -> str | None:
-    """The request field of a platform or sigma argument (tx, rx, sigma)."""
-    if field == "tx":
-        return "transmitter" if request.transmitter is not None else "transmitters"
-    if field == "rx":
-        return "receivers"
-    if field == "sigma":
-        return "sigma" if request.sigma is not None else "sigmas"
-    return None
+    if request.sigmas is not None:
+        return np.asarray(request.sigmas, dtype=float)
+    assert request.sigma is not None  # the schema sends exactly one of sigma and sigmas
+    return request.sigma
 
 
 # --------------------------------------------------------------------------- solves.trajectory
@@ -308,13 +316,13 @@ def _platform_field(request: Any, field: str) -> str | None:
 
 @checked
 def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
-    """Constant-velocity track by maximum likelihood over all samples (seed 001)."""
+    """Constant-velocity track by maximum likelihood over all samples (Fadeev et al.)."""
     t = np.asarray(request.sample_times, dtype=float)
     tx, rx = _platforms(request, t, t.size)
     x0 = None
     if request.initial is not None:
         x0 = np.concatenate([request.initial.position, request.initial.velocity])
-    with _samples(t, _moving(request)):
+    with sample_errors(t, _moving(request)):
         sol = ms.trajectory_solve(
             np.asarray(request.range_sums, dtype=float),
             t,
@@ -332,26 +340,27 @@ def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
         state=FittedState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
         covariance=sol.covariance.tolist(),
         residuals=sol.residuals.tolist(),
-        cost=sol.cost,
-        normalized_cost=sol.normalized_cost,
-        consistent=sol.consistent,
-        converged=sol.converged,
-        iterations=sol.iterations,
+        cost=float(sol.cost),
+        normalized_cost=float(sol.normalized_cost),
+        consistent=bool(sol.consistent),
+        converged=bool(sol.converged),
+        iterations=int(sol.iterations),
         times=list(times),
         positions=positions.tolist(),
         covariances=covariances.tolist(),
     )
 
 
-def trajectory_field(request: TrajectorySolveRequest, exc: PlotgateError) -> str:
-    """``range_sums[i]``, ``sample_times``, the platform lists, ``sigma(s)``, ``initial``."""
-    if exc.field == "l":
-        return "range_sums" if exc.index is None else f"range_sums[{exc.index}]"
-    if exc.field == "t":
-        return "sample_times"
-    if exc.field == "x0":
-        return "initial"
-    return _platform_field(request, exc.field) or exc.field
+TRAJECTORY_FIELDS: FieldMap = {
+    "l": "range_sums[{i}]",
+    "t": "sample_times",
+    "x0": "initial",
+    "tx": "transmitter|transmitters",
+    "rx": "receivers",
+    "sigma": "sigma|sigmas",
+}
+"""Where core's errors on a ``solves.trajectory`` request point: ``range_sums[i]`` (the
+sample), ``sample_times``, ``initial``, the platform lists, ``sigma(s)``."""
 
 
 # --------------------------------------------------------------------------- solves.crlb
@@ -359,7 +368,7 @@ def trajectory_field(request: TrajectorySolveRequest, exc: PlotgateError) -> str
 
 @checked
 def crlb(request: CrlbRequest) -> CrlbResult:
-    """Cramer-Rao bounds (seed 001 eq. 3): single shot per sample, accumulated on a track."""
+    """Cramer-Rao bounds (Fadeev et al., eq. 3): single shot per sample, accumulated on a track."""
     t = None if request.sample_times is None else np.asarray(request.sample_times, dtype=float)
     if request.track is not None:
         assert t is not None  # the schema requires sample times with a track
@@ -371,10 +380,11 @@ def crlb(request: CrlbRequest) -> CrlbResult:
     tx, rx = _platforms(request, t, len(x))
     sigma = _sigma(request)
     bound = ms.difference_crlb if request.measurements == "difference" else ms.crlb
-    with _samples(t, _moving(request)):
+    with sample_errors(t, _moving(request)):
         single = bound(x, tx, rx, sigma)
         accumulated = None
         if request.track is not None:
+            assert t is not None  # as above: a track has sample times
             acc = ms.trajectory_crlb(
                 request.track.position,
                 request.track.velocity,
@@ -406,17 +416,26 @@ def crlb(request: CrlbRequest) -> CrlbResult:
     )
 
 
-def crlb_field(request: CrlbRequest, exc: PlotgateError) -> str:
-    """``targets[i]`` (or ``track``), the platform lists, ``sigma(s)``, ``sample_times``."""
-    if exc.field in ("x", "x0", "v"):
-        if request.track is not None:
-            return {"x0": "track.position", "v": "track.velocity"}.get(exc.field, "track")
-        return "targets" if exc.index is None else f"targets[{exc.index}]"
-    if exc.field == "t":
-        return "sample_times"
-    if exc.field == "l":
-        return "receivers"
-    return _platform_field(request, exc.field) or exc.field
+def _crlb_target(request: CrlbRequest, exc: PlotgateError) -> str:
+    """A target position error: ``track`` for a track (any sample), else ``targets[i]``."""
+    if request.track is not None:
+        return "track"
+    return "targets" if exc.index is None else f"targets[{exc.index}]"
+
+
+CRLB_FIELDS: FieldMap = {
+    "x": _crlb_target,
+    "x0": "track.position",
+    "v": "track.velocity",
+    "t": "sample_times",
+    "l": "receivers",
+    "tx": "transmitter|transmitters",
+    "rx": "receivers",
+    "sigma": "sigma|sigmas",
+}
+"""Where core's errors on a ``solves.crlb`` request point: ``targets[i]`` or ``track``
+(which of the two a request holds is no template, hence the function), the platform
+lists, ``sigma(s)``, ``sample_times``; too few pairs (core's ``l``) at ``receivers``."""
 
 
 # --------------------------------------------------------------------------- solves.noise
@@ -424,7 +443,7 @@ def crlb_field(request: CrlbRequest, exc: PlotgateError) -> str:
 
 @checked
 def noise(request: NoiseRequest) -> NoiseResult:
-    """Noise of each range-sum series (seed 001 eq. 5) and smoothed coordinates."""
+    """Noise of each range-sum series (Fadeev et al., eq. 5) and smoothed coordinates."""
     t = np.asarray(request.sample_times, dtype=float)
     out: dict[str, Any] = {}
     if request.range_sums is not None:
@@ -444,18 +463,10 @@ def noise(request: NoiseRequest) -> NoiseResult:
     return NoiseResult(**out)
 
 
-def noise_field(request: NoiseRequest, exc: PlotgateError) -> str:
-    """``sample_times[i]``, ``range_sums``, ``positions``, ``window`` or a degree."""
-    if exc.field == "t":
-        return "sample_times" if exc.index is None else f"sample_times[{exc.index}]"
-    return {"l": "range_sums", "x": "positions"}.get(exc.field, exc.field)
-
-
-TRAJECTORY_FIELDS: FieldMap = {"*": trajectory_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
-
-CRLB_FIELDS: FieldMap = {"*": crlb_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
-
-NOISE_FIELDS: FieldMap = {"*": noise_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+NOISE_FIELDS: FieldMap = {
+    "t": "sample_times[{i}]",
+    "l": "range_sums",
+    "x": "positions",
+}
+"""Where core's errors on a ``solves.noise`` request point: ``sample_times[i]``,
+``range_sums``, ``positions``; ``window`` and the degrees by their own names."""

@@ -1,4 +1,4 @@
-"""The multistatic accuracy study of seed 001 Fig. 3 (``solves.study``).
+"""The multistatic accuracy study of Fadeev et al., Fig. 3 (``solves.study``).
 
 The wire's platforms become per-sample arrays (T, P, D) exactly as in
 :mod:`plotgate.service.operations.solves` (a moving platform's position is the one at
@@ -7,7 +7,7 @@ and its per-sample arrays become one :class:`~plotgate.service.schemas.StudySamp
 time. NaN entries (the track curves at sample 0, or without tracks) go on the wire as
 null.
 
-Core errors name core arguments; :func:`study_field` maps them to the request: ``x0``,
+Core errors name core arguments; :data:`STUDY_FIELDS` maps them to the request: ``x0``,
 ``v`` and ``x`` (a target passing through a platform) to ``target``, ``tx`` to
 ``transmitter``, ``rx`` and ``l`` (too few pairs) to ``receivers``, ``t`` to
 ``sample_times``.
@@ -15,14 +15,13 @@ Core errors name core arguments; :func:`study_field` maps them to the request: `
 
 import numpy as np
 
-from plotgate.core import PlotgateError
 from plotgate.core.multistatic.study import accuracy_study
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
-from plotgate.service.operations.solves import _platform, _samples
+from plotgate.service.operations.solves import platform_array, sample_errors
 from plotgate.service.schemas import StudyRequest, StudyResult, StudySample
 
-__all__ = ["STUDY_FIELDS", "study", "study_field"]
+__all__ = ["STUDY_FIELDS", "study"]
 
 
 def _rows(a: np.ndarray) -> list[list[float] | None]:
@@ -36,11 +35,11 @@ def _scalars(a: np.ndarray) -> list[float | None]:
 
 @checked
 def study(request: StudyRequest) -> StudyResult:
-    """Seed 001 Fig. 3 curves 1-6 and their diagnostics, by seeded Monte Carlo."""
+    """Fadeev et al., Fig. 3 curves 1-6 and their diagnostics, by seeded Monte Carlo."""
     t = np.asarray(request.sample_times, dtype=float)
-    tx = _platform(request.transmitter, t, t.size)[:, None, :]
-    rx = np.stack([_platform(q, t, t.size) for q in request.receivers], axis=-2)
-    with _samples(t, moving=True):
+    tx = platform_array(request.transmitter, t, t.size)[:, None, :]
+    rx = np.stack([platform_array(q, t, t.size) for q in request.receivers], axis=-2)
+    with sample_errors(t, moving=True):
         s = accuracy_study(
             t,
             tx,
@@ -101,18 +100,13 @@ def study(request: StudyRequest) -> StudyResult:
     )
 
 
-def study_field(request: StudyRequest, exc: PlotgateError) -> str:
-    """The request field of a core error raised by the study."""
-    return {
-        "x0": "target.position",
-        "v": "target.velocity",
-        "x": "target",
-        "tx": "transmitter",
-        "rx": "receivers",
-        "l": "receivers",
-        "t": "sample_times",
-    }.get(exc.field, exc.field)
-
-
-STUDY_FIELDS: FieldMap = {"*": study_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+STUDY_FIELDS: FieldMap = {
+    "x0": "target.position",
+    "v": "target.velocity",
+    "x": "target",
+    "tx": "transmitter",
+    "rx": "receivers",
+    "l": "receivers",
+    "t": "sample_times",
+}
+"""Where core's errors on a ``solves.study`` request point (:mod:`plotgate.service.fields`)."""

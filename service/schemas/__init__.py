@@ -12,6 +12,12 @@ from plotgate.service.schemas.common import (
     Problem,
     Schema,
 )
+from plotgate.service.schemas.crlb import (
+    AccumulatedBound,
+    CrlbRequest,
+    CrlbResult,
+    SingleShotBound,
+)
 from plotgate.service.schemas.endpoints import ENDPOINTS, Endpoint
 from plotgate.service.schemas.gates import (
     CombinedGate,
@@ -62,6 +68,14 @@ from plotgate.service.schemas.initiation_state import (
     SessionState,
     SessionTracks,
 )
+from plotgate.service.schemas.noise import NoiseRequest, NoiseResult
+from plotgate.service.schemas.position import (
+    ClosedFormResult,
+    PositionProblem,
+    PositionSolution,
+    PositionSolveRequest,
+    PositionSolveResult,
+)
 from plotgate.service.schemas.probability import (
     MAX_CURVE_POINTS,
     MAX_UNCONDITIONAL_POINTS,
@@ -101,22 +115,9 @@ from plotgate.service.schemas.solves import (
     MAX_PROBLEMS,
     MAX_RANGE_SUMS,
     MAX_SAMPLES,
-    AccumulatedBound,
-    ClosedFormResult,
-    CrlbRequest,
-    CrlbResult,
     FittedState,
-    NoiseRequest,
-    NoiseResult,
     Platform,
-    PositionProblem,
-    PositionSolution,
-    PositionSolveRequest,
-    PositionSolveResult,
-    SingleShotBound,
     TargetState,
-    TrajectorySolveRequest,
-    TrajectorySolveResult,
 )
 from plotgate.service.schemas.study import (
     MAX_STUDY_RANGE_SUMS,
@@ -127,6 +128,7 @@ from plotgate.service.schemas.study import (
     StudyResult,
     StudySample,
 )
+from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
 __all__ = [
     "ENDPOINTS",

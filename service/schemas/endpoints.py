@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
+from plotgate.service.schemas.crlb import CrlbRequest, CrlbResult
 from plotgate.service.schemas.examples import EXAMPLES
 from plotgate.service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
 from plotgate.service.schemas.identification import (
@@ -30,6 +31,8 @@ from plotgate.service.schemas.initiation import (
     SimulateRequest,
     SimulateResult,
 )
+from plotgate.service.schemas.noise import NoiseRequest, NoiseResult
+from plotgate.service.schemas.position import PositionSolveRequest, PositionSolveResult
 from plotgate.service.schemas.probability import (
     GateAnalysisRequest,
     GateAnalysisResult,
@@ -41,17 +44,8 @@ from plotgate.service.schemas.probability import (
     GateProbabilityResult,
     unconditional_axis_ratio,
 )
-from plotgate.service.schemas.solves import (
-    CrlbRequest,
-    CrlbResult,
-    NoiseRequest,
-    NoiseResult,
-    PositionSolveRequest,
-    PositionSolveResult,
-    TrajectorySolveRequest,
-    TrajectorySolveResult,
-)
 from plotgate.service.schemas.study import StudyRequest, StudyResult
+from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
 __all__ = ["ENDPOINTS", "Endpoint"]
 

@@ -1,4 +1,4 @@
-"""Wire models of ``solves.study``: the Monte Carlo accuracy study of seed 001 Fig. 3.
+"""Wire models of ``solves.study``: the Monte Carlo accuracy study of Fadeev et al., Fig. 3.
 
 One transmitter and its receivers (fixed, or moving at constant velocity from their
 positions at ``sample_times[0]``, or given per sample) watch a constant-velocity target;
@@ -24,10 +24,8 @@ from plotgate.service.schemas.solves import (
     Sigma,
     TargetState,
     Time,
-    _dimension,
-    _length,
-    _raise,
 )
+from plotgate.service.schemas.validation import dimension, length, raise_errors
 
 __all__ = [
     "MAX_STUDY_RANGE_SUMS",
@@ -51,7 +49,7 @@ MAX_STUDY_TRACK_WORK = 120_000_000
 
 
 class StudyRequest(Schema):
-    """A seed 001 Fig. 3 accuracy study: geometry, target, noise and Monte Carlo size."""
+    """A Fadeev et al., Fig. 3 accuracy study: geometry, target, noise and Monte Carlo size."""
 
     transmitter: Platform = Field(description="The one transmitter of every pair.")
     receivers: list[Platform] = Field(
@@ -87,7 +85,7 @@ class StudyRequest(Schema):
             *((("receivers", k), q) for k, q in enumerate(self.receivers)),
         ]:
             if platform.positions is not None:
-                errors += _length((*loc, "positions"), platform.positions, t, "sample time")
+                errors += length((*loc, "positions"), platform.positions, t, "sample time")
         work = self.runs * t * p
         if work > MAX_STUDY_RANGE_SUMS:
             errors.append(
@@ -122,8 +120,8 @@ class StudyRequest(Schema):
                 self.transmitter.sizes(),
                 *(q.sizes() for q in self.receivers),
             ]
-            errors += _dimension(sizes, lambda: iter([*own, *platforms]))
-        _raise(self, errors)
+            errors += dimension(sizes, lambda: iter([*own, *platforms]))
+        raise_errors(self, errors)
         return self
 
 

@@ -1,4 +1,4 @@
-"""Multistatic position solves, bounds and noise estimates over HTTP (seed 001).
+"""Multistatic position solves, bounds and noise estimates over HTTP (Fadeev et al.).
 
 Happy paths use noise-free range sums, so every answer must equal the truth within
 1e-6 m; each is also checked against core called directly on the same arrays. Bad
@@ -79,14 +79,14 @@ def _position(*problems, **changes) -> dict:
     return {"problems": list(problems), **changes}
 
 
-def _finite(value) -> None:
+def assert_finite(value) -> None:
     """Every number in a JSON answer is finite."""
     if isinstance(value, dict):
         for v in value.values():
-            _finite(v)
+            assert_finite(v)
     elif isinstance(value, list):
         for v in value:
-            _finite(v)
+            assert_finite(v)
     elif isinstance(value, float):
         assert math.isfinite(value)
 
@@ -211,7 +211,7 @@ def test_no_real_solution_is_reported_not_refused(client):
         body = answer(
             client.post("/v1/solves/position", json=_position(_p(X2[0]), nowhere, method=method))
         )
-        _finite(body)
+        assert_finite(body)
         good, bad = body["solutions"]
         assert good["solvable"] and not bad["solvable"]
         assert body["count_solvable"] == 1
@@ -232,7 +232,7 @@ def test_position_on_a_baseline_is_finite(client):
     body = answer(
         client.post("/v1/solves/position", json=_position(_p([5000.0, 0.0], TX2, RX2[:2])))
     )
-    _finite(body)
+    assert_finite(body)
 
 
 # --- solves.position from an initial guess at a baseline crossing ---------------------
@@ -384,7 +384,7 @@ def test_trajectory_fit_outside_the_request_bounds_is_answered(client):
     example = ENDPOINTS["solves.trajectory"].example
     example["range_sums"][0][0] = 1e10
     body = answer(client.post("/v1/solves/trajectory", json=example))
-    _finite(body)
+    assert_finite(body)
     assert not body["consistent"]
     assert (
         max(

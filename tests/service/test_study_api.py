@@ -18,7 +18,7 @@ from plotgate.core.multistatic import accuracy_study, platform_positions
 from plotgate.service.app import create_app
 from plotgate.service.schemas import MAX_STUDY_RUNS, StudyRequest
 from tests.conftest import answer, invalid_input
-from tests.service.test_solves_api import _finite
+from tests.service.test_solves_api import assert_finite
 
 TIMES = [0.0, 0.5, 1.0, 1.5, 2.0, 2.5]
 BODY = {
@@ -38,7 +38,7 @@ BODY = {
 
 def test_study_is_cores_study(client):
     body = answer(client.post("/v1/solves/study", json=BODY))
-    _finite(body)
+    assert_finite(body)
     t = np.array(BODY["sample_times"])
     tx = platform_positions([9900.0, 1000.0], [-5.0, 8.66], t, t0=t[0])[:, None]
     rx = np.stack(

@@ -1,4 +1,4 @@
-"""Tests of core.multistatic.closed_form (seed 001): sum-range and difference-range solves."""
+"""Tests of core.multistatic.closed_form (Fadeev et al.): sum-range and difference-range solves."""
 
 import dataclasses
 

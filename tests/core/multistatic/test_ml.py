@@ -1,8 +1,8 @@
-"""Tests of core.multistatic.ml (seed 001, eqs. 4 and 6): ML position and track solves.
+"""Tests of plotgate.core.multistatic.position and .trajectory (Fadeev et al., eqs. 4, 6).
 
 Geometries: a well-conditioned one (a transmitter at the centre of three receivers
-10 km out) and a seed-001-like one (Fig. 2: a transmitter about 9.7 km east of three
-receivers, all moving at 10 m/s, and a target flying north at 80 m/s across the three
+10 km out) and one like the paper's (Fadeev et al., Fig. 2: a transmitter about 9.7 km
+east of three receivers, all moving at 10 m/s, and a target flying north at 80 m/s across the three
 baselines, where a plain least-squares fit started 500 m off can land in a false
 minimum). Every random draw is seeded.
 """
@@ -14,8 +14,9 @@ from scipy import optimize, stats
 from plotgate.core.errors import GeometryError, NonFiniteError, ParameterError, PlotgateError
 from plotgate.core.multistatic.closed_form import sum_range_solve
 from plotgate.core.multistatic.crlb import crlb, trajectory_crlb
-from plotgate.core.multistatic.ml import MLSolution, TrajectorySolution, ml_solve, trajectory_solve
 from plotgate.core.multistatic.model import platform_positions, range_sum_jacobian, range_sums
+from plotgate.core.multistatic.position import MLSolution, ml_solve
+from plotgate.core.multistatic.trajectory import TrajectorySolution, trajectory_solve
 
 SIGMA = 0.5
 TX = np.array([0.0, 0.0])
@@ -23,7 +24,7 @@ RX = np.array([[10000.0, 0.0], [-5000.0, 8660.0], [-5000.0, -8660.0]])
 
 
 def seed_geometry(n_samples=200, dt=0.2):
-    """Seed 001 Fig. 2-like platforms and target: (t, x_true (T, 2), tx, rx (T, 3, 2))."""
+    """Fadeev et al., Fig. 2-like platforms and target: (t, x_true (T, 2), tx, rx (T, 3, 2))."""
     t = dt * np.arange(n_samples)
     heading_rx, heading_tx = np.pi / 3, 2 * np.pi / 3  # 60 and 120 degrees
     rx = platform_positions(
@@ -417,7 +418,7 @@ def test_trajectory_with_crossing_mirror_tracks():
 
 
 def test_trajectory_monte_carlo_covariance_matches_trajectory_crlb():
-    # 10 samples of the seed-like crossing, 2000 draws: a variance from 2000 draws has
+    # 10 samples of the paper-like crossing, 2000 draws: a variance from 2000 draws has
     # a 3.2 % standard error, so the 10 % tolerance is about 3 standard errors
     t, x, tx, rx = seed_geometry(n_samples=10, dt=1.0)
     state = np.array([5000.0, 200.0, 0.0, 80.0])
@@ -436,7 +437,7 @@ def test_trajectory_monte_carlo_covariance_matches_trajectory_crlb():
 
 
 def test_a_batch_of_tracks_equals_the_tracks_solved_one_by_one():
-    # 40 noisy draws of the seed-like crossing: each batch answer is the single answer
+    # 40 noisy draws of the paper-like crossing: each batch answer is the single answer
     t, x, tx, rx = seed_geometry(n_samples=40, dt=0.5)
     rng = np.random.default_rng(17)
     ls = range_sums(x, tx, rx) + rng.normal(0.0, SIGMA, (40, 40, 3))

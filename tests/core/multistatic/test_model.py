@@ -1,4 +1,4 @@
-"""Tests of core.multistatic.model (seed 001, eq. 1): range sums, Jacobian, input checks."""
+"""Tests of core.multistatic.model (Fadeev et al., eq. 1): range sums, Jacobian, input checks."""
 
 import numpy as np
 import pytest
@@ -144,7 +144,7 @@ def test_jacobian_unbatched_and_on_baseline():
     np.testing.assert_allclose(
         H, central_difference([3000.0, 4000.0], TX2, RX2), rtol=1e-6, atol=1e-9
     )
-    # On the tx-rx segment the two unit vectors cancel (seed 001: the ellipse of equal
+    # On the tx-rx segment the two unit vectors cancel (Fadeev et al.: the ellipse of equal
     # range sum degenerates to the baseline).
     H = range_sum_jacobian([2500.0, 0.0], TX2, [[6000.0, 0.0]])
     np.testing.assert_allclose(H, [[0.0, 0.0]], atol=1e-15)

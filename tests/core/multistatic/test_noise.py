@@ -1,4 +1,4 @@
-"""Tests of core.multistatic.noise (seed 001, eq. 5): noise estimation and smoothing."""
+"""Tests of core.multistatic.noise (Fadeev et al., eq. 5): noise estimation and smoothing."""
 
 import numpy as np
 import pytest
@@ -55,7 +55,7 @@ def test_noise_free_quadratic_gives_zero():
 
 
 def test_seed_like_range_sum_series_give_the_noise():
-    # 10 s of a target at 80 m/s seen by moving platforms (seed 001 Fig. 2): the range
+    # 10 s of a target at 80 m/s seen by moving platforms (Fadeev et al., Fig. 2): the range
     # sums are nearly quadratic (model error about 0.05 m against sigma = 0.5 m). Mean
     # of sigma^2 / 0.25 over 400 draws of three series: standard error 0.6 %.
     t = 0.2 * np.arange(50)
