@@ -24,7 +24,7 @@ import time
 import numpy as np
 import scipy
 
-import plotgate.core.gate_probability as gp
+import plotgate.core.gates.probability as gp
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import Mark
 

@@ -19,7 +19,6 @@ r, az : range (m) and azimuth, clockwise from north: x = r sin az, y = r cos az.
 K_R, K_az : window coefficients of the polar sector gates.
 """
 
-from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
 from plotgate.core.covariance import MAX_CONDITION, check_covariance
 from plotgate.core.errors import (
     CovarianceError,
@@ -35,39 +34,44 @@ from plotgate.core.frames import (
     polar_to_cartesian,
     wrap_angle,
 )
-from plotgate.core.gate_analysis import (
-    FalseMarks,
-    GateDesign,
-    capture_probability,
-    combined_area_approximation,
-    design_gate,
-    false_marks,
-    gate_area,
-    resolution_cells,
-)
-from plotgate.core.gate_probability import (
-    GateProbability,
-    conditional_probability,
-    monte_carlo_probability,
-    unconditional_probability,
-)
-from plotgate.core.gate_regions import (
+from plotgate.core.gates import (
     CombinedGate,
     EllipseGate,
     ExpandedGate,
+    FalseMarks,
     FirstAssociationGate,
     Gate,
+    GateDesign,
+    GateProbability,
+    GateResult,
+    GateStage,
     MarkGeometry,
     RectangularGate,
     RingGate,
     SectorGate,
     StarRegion,
+    capture_probability,
+    combined_area_approximation,
+    combined_gate,
+    conditional_probability,
+    design_gate,
+    ellipse_gate,
+    expanded_gate,
+    expansion_coefficient,
+    false_marks,
+    first_association_gate,
+    gate_area,
+    gate_threshold,
+    innovation_covariance,
     mark_geometry,
+    monte_carlo_probability,
+    rectangular_coefficient,
+    rectangular_gate,
+    resolution_cells,
+    ring_gate,
+    sector_gate,
+    unconditional_probability,
 )
-from plotgate.core.gating import GateResult, GateStage
-from plotgate.core.polar_gates import first_association_gate, sector_gate
-from plotgate.core.thresholds import expansion_coefficient, gate_threshold, rectangular_coefficient
-from plotgate.core.tracking_gates import ellipse_gate, innovation_covariance, rectangular_gate
 
 __all__ = [
     "MAX_CONDITION",

@@ -48,9 +48,11 @@ import numpy as np
 from scipy import stats
 from scipy.spatial import cKDTree
 
-from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
 from plotgate.core.errors import ParameterError
 from plotgate.core.frames import wrap_finite
+from plotgate.core.gates.capture import combined_gate, expanded_gate, ring_gate
+from plotgate.core.gates.polar import first_association_gate
+from plotgate.core.gates.thresholds import expansion_coefficient
 from plotgate.core.initiation.assignment import one_to_one
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.scan import Scan
@@ -63,8 +65,6 @@ from plotgate.core.initiation.state import (
     Tracks,
     empty_state,
 )
-from plotgate.core.polar_gates import first_association_gate
-from plotgate.core.thresholds import expansion_coefficient
 
 __all__ = ["DROP_REASONS", "MAX_CANDIDATES", "ScanReport", "initiate"]
 

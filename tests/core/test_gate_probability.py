@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-import plotgate.core.gate_probability as gp
+import plotgate.core.gates.probability as gp
 from plotgate.core import (
     CombinedGate,
     EllipseGate,
@@ -512,7 +512,7 @@ def fine_unconditional(gate, g, speeds, prior, m):
     has named its rules both M_HIGH / M_LOW with an order m and RULES with (m, scale))."""
     R_min, R_max = speeds[0] * TAU, speeds[1] * TAU
     rule = (m, 1.0) if hasattr(gp, "RULES") else m
-    return gp._unconditional(gate, g, R_min, R_max, prior, rule)
+    return gp.unconditional_quadrature(gate, g, R_min, R_max, prior, rule)
 
 
 def finer_rules(monkeypatch, m):

@@ -1,6 +1,8 @@
-"""Tests of what every gate shares (core.gating): GateResult, batching, purity, errors."""
+"""Tests of what every gate shares (core.gates): GateResult, batching, purity, errors."""
 
+import contextlib
 import dataclasses
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -22,12 +24,7 @@ from plotgate.core import (
     ring_gate,
     sector_gate,
 )
-from plotgate.core.gating import (
-    _chi2_threshold_2d,
-    _expansion_coefficient,
-    _expansion_coefficient_of,
-    _gate_threshold,
-)
+from plotgate.core.gates import thresholds
 
 # ---------------------------------------------------------------- broadcasting and purity
 
@@ -254,25 +251,44 @@ def test_gate_validation_errors(call, error, message):
 # ---------------------------------------------------------------- cached scalar thresholds
 
 
+@contextlib.contextmanager
+def computations():
+    """Count the chi-square quantiles and the expansion coefficients actually computed."""
+    counts = {"chi2": 0, "expansion": 0}
+    ppf, log1p = thresholds.stats.chi2.ppf, thresholds.np.log1p
+
+    def counted_ppf(*args, **kwargs):
+        counts["chi2"] += 1
+        return ppf(*args, **kwargs)
+
+    def counted_log1p(*args, **kwargs):
+        counts["expansion"] += 1
+        return log1p(*args, **kwargs)
+
+    with (
+        mock.patch.object(thresholds.stats.chi2, "ppf", counted_ppf),
+        mock.patch.object(thresholds.np, "log1p", counted_log1p),
+    ):
+        yield counts
+
+
 @pytest.mark.parametrize("P_G", [1e-9, 0.5, 0.9, 0.95, 0.99, 1.0 - 1e-12])
-def test_cached_thresholds_equal_the_public_functions_exactly(P_G):
+def test_cached_thresholds_equal_the_uncached_array_values_exactly(P_G):
     for _ in range(2):  # computed, then looked up
-        assert _gate_threshold(P_G) == gate_threshold(P_G, 2)
-        assert _expansion_coefficient(P_G) == expansion_coefficient(P_G)
+        assert gate_threshold(P_G, 2) == gate_threshold(np.array([P_G]), 2)[0]
+        assert expansion_coefficient(P_G) == expansion_coefficient(np.array([P_G]))[0]
         combined = combined_gate([0.0, 0.0], np.eye(2), [1.0, 0.0], np.eye(2), 1.0, 0.0, 9.0, P_G)
         ellipse = ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), P_G)
         assert combined.threshold == ellipse.threshold == gate_threshold(P_G)
 
 
 def test_each_probability_is_computed_once():
-    _chi2_threshold_2d.cache_clear()
-    _expansion_coefficient_of.cache_clear()
-    for P_G in (0.9, np.float64(0.9), np.array(0.9), 0.9):
-        ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), P_G)
-        expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, P_G)
-    for cached in (_chi2_threshold_2d, _expansion_coefficient_of):
-        info = cached.cache_info()
-        assert (info.misses, info.hits, info.currsize) == (1, 3, 1)
+    P_G = 0.9012345  # a value no other test uses, so its first call computes it
+    with computations() as counts:
+        for value in (P_G, np.float64(P_G), np.array(P_G), P_G):
+            ellipse_gate([1.0, 0.0], [0.0, 0.0], np.eye(2), value)
+            expanded_gate([0.0, 1e4], [0.0, 1e4], 5.0, 100.0, 10.0, 0.001, value)
+    assert counts == {"chi2": 1, "expansion": 1}
 
 
 @pytest.mark.parametrize(
@@ -300,20 +316,23 @@ def test_each_probability_is_computed_once():
     ids=["P_G=1", "P_G-array", "P_G-None", "p-True"],
 )
 def test_probabilities_are_validated_before_the_cache(call, message):
-    _chi2_threshold_2d.cache_clear()
-    _expansion_coefficient_of.cache_clear()
-    for _ in range(2):
-        with pytest.raises(ParameterError, match=message):
-            call()
-    assert _chi2_threshold_2d.cache_info().currsize == 0
-    assert _expansion_coefficient_of.cache_info().currsize == 0
+    with computations() as counts:
+        for _ in range(2):
+            with pytest.raises(ParameterError, match=message):
+                call()
+    assert counts == {"chi2": 0, "expansion": 0}
 
 
-def test_public_thresholds_stay_uncached_and_take_arrays():
+def test_public_thresholds_take_arrays_uncached():
     assert not hasattr(gate_threshold, "cache_info")
     assert not hasattr(expansion_coefficient, "cache_info")
     P_G = np.array([0.9, 0.99])
-    np.testing.assert_array_equal(gate_threshold(P_G), [_gate_threshold(p) for p in P_G])
-    np.testing.assert_array_equal(
-        expansion_coefficient(P_G), [_expansion_coefficient(p) for p in P_G]
-    )
+    for p in P_G:  # the scalars are looked up below
+        gate_threshold(p), expansion_coefficient(p)
+    with computations() as counts:
+        for _ in range(2):
+            np.testing.assert_array_equal(gate_threshold(P_G), [gate_threshold(p) for p in P_G])
+            np.testing.assert_array_equal(
+                expansion_coefficient(P_G), [expansion_coefficient(p) for p in P_G]
+            )
+    assert counts["chi2"] == counts["expansion"] == 2  # the arrays, each time; scalars cached

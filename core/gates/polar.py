@@ -5,7 +5,7 @@ section 3.1: the sector gate about a prediction, eq. (1) (range) and eq. (2)
 (azimuth), and the first-association windows before any velocity is known, eq. (3)
 (range, grown by v_max tau) and eq. (4) (azimuth, grown by the largest bearing
 change). Seed 003, the polar gate of Fig. 3.6 a. Azimuth differences are wrapped
-to (-pi, pi]. Symbols and batching as in :mod:`plotgate.core.gating`.
+to (-pi, pi]. Symbols and batching as in :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations
@@ -14,14 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.frames import wrap_angle
-from plotgate.core.gating import (
-    GateResult,
-    _positive_coefficient,
-    _result,
-    _ring_radii,
-    _sigma,
-    _window_statistic,
-)
+from plotgate.core.gates.parameters import positive_coefficient, ring_radii, standard_deviation
+from plotgate.core.gates.results import GateResult, gate_result, window_statistic
 from plotgate.core.validation import as_array, pair_count, require_nonnegative
 
 __all__ = ["first_association_gate", "sector_gate"]
@@ -98,12 +92,12 @@ def sector_gate(
     r_pred = as_array("r_pred", r_pred)
     az_pred = as_array("az_pred", az_pred)
     require_nonnegative("r", r)
-    sigma_r = _sigma("sigma_r", sigma_r)
-    sigma_az = _sigma("sigma_az", sigma_az)
-    sigma_r_pred = _sigma("sigma_r_pred", sigma_r_pred)
-    sigma_az_pred = _sigma("sigma_az_pred", sigma_az_pred)
-    K_R = _positive_coefficient("K_R", K_R)
-    K_az = _positive_coefficient("K_az", K_az)
+    sigma_r = standard_deviation("sigma_r", sigma_r)
+    sigma_az = standard_deviation("sigma_az", sigma_az)
+    sigma_r_pred = standard_deviation("sigma_r_pred", sigma_r_pred)
+    sigma_az_pred = standard_deviation("sigma_az_pred", sigma_az_pred)
+    K_R = positive_coefficient("K_R", K_R)
+    K_az = positive_coefficient("K_az", K_az)
     n = pair_count(
         r=r.shape,
         az=az.shape,
@@ -116,8 +110,8 @@ def sector_gate(
     )
     W_R = K_R * np.hypot(sigma_r, sigma_r_pred)
     W_az = K_az * np.hypot(sigma_az, sigma_az_pred)
-    statistic = _window_statistic(r - r_pred, wrap_angle(az - az_pred), W_R, W_az)
-    return _result(n, statistic <= 1.0, statistic, 1.0)
+    statistic = window_statistic(r - r_pred, wrap_angle(az - az_pred), W_R, W_az)
+    return gate_result(n, statistic <= 1.0, statistic, 1.0)
 
 
 def first_association_gate(
@@ -197,13 +191,13 @@ def first_association_gate(
     az2 = as_array("az2", az2)
     require_nonnegative("r1", r1)
     require_nonnegative("r2", r2)
-    _, R_max = _ring_radii(tau, 0.0, v_max)
-    sigma_r1 = _sigma("sigma_r1", sigma_r1)
-    sigma_az1 = _sigma("sigma_az1", sigma_az1)
-    sigma_r2 = _sigma("sigma_r2", sigma_r2)
-    sigma_az2 = _sigma("sigma_az2", sigma_az2)
-    K_R = _positive_coefficient("K_R", K_R)
-    K_az = _positive_coefficient("K_az", K_az)
+    _, R_max = ring_radii(tau, 0.0, v_max)
+    sigma_r1 = standard_deviation("sigma_r1", sigma_r1)
+    sigma_az1 = standard_deviation("sigma_az1", sigma_az1)
+    sigma_r2 = standard_deviation("sigma_r2", sigma_r2)
+    sigma_az2 = standard_deviation("sigma_az2", sigma_az2)
+    K_R = positive_coefficient("K_R", K_R)
+    K_az = positive_coefficient("K_az", K_az)
     n = pair_count(
         r1=r1.shape,
         az1=az1.shape,
@@ -218,5 +212,5 @@ def first_association_gate(
     far = r1 > R_max
     sin_turn = np.divide(R_max, r1, out=np.ones(np.shape(r1)), where=far)
     W_az = np.arcsin(sin_turn) + K_az * np.hypot(sigma_az1, sigma_az2)
-    statistic = _window_statistic(r2 - r1, wrap_angle(az2 - az1), W_R, W_az)
-    return _result(n, statistic <= 1.0, statistic, 1.0)
+    statistic = window_statistic(r2 - r1, wrap_angle(az2 - az1), W_R, W_az)
+    return gate_result(n, statistic <= 1.0, statistic, 1.0)

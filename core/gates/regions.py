@@ -7,10 +7,10 @@ likely the second mark, taken tau seconds later, falls in a gate built about z1.
 range is N geometries). Each gate kind is a small frozen dataclass with
 
 - ``region(geometry)``: the gate as a :class:`StarRegion`, the form the quadrature of
-  :mod:`plotgate.core.gate_probability` integrates over, and
+  :mod:`plotgate.core.gates.probability` integrates over, and
 - ``contains(geometry, z2)``: the gate test itself, delegating to the gate functions
-  of :mod:`plotgate.core.capture_gates`, :mod:`plotgate.core.tracking_gates` and
-  :mod:`plotgate.core.polar_gates`,
+  of :mod:`plotgate.core.gates.capture`, :mod:`plotgate.core.gates.tracking` and
+  :mod:`plotgate.core.gates.polar`,
   which is what the Monte Carlo check samples.
 
 Every gate is, seen from some origin o, a radial interval per direction: rays from o
@@ -35,23 +35,18 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
 from plotgate.core.errors import GeometryError
 from plotgate.core.frames import (
     cartesian_to_polar,
     polar_covariance_to_cartesian,
     polar_to_cartesian,
 )
-from plotgate.core.gating import (
-    _expansion_coefficient,
-    _gate_threshold,
-    _positive_coefficient,
-    _ring_radii,
-    _sigma,
-)
-from plotgate.core.polar_gates import first_association_gate, sector_gate
+from plotgate.core.gates.capture import combined_gate, expanded_gate, ring_gate
+from plotgate.core.gates.parameters import positive_coefficient, ring_radii, standard_deviation
+from plotgate.core.gates.polar import first_association_gate, sector_gate
+from plotgate.core.gates.thresholds import expansion_coefficient, gate_threshold
+from plotgate.core.gates.tracking import ellipse_gate, rectangular_gate
 from plotgate.core.sym2 import Sym2, sym2
-from plotgate.core.tracking_gates import ellipse_gate, rectangular_gate
 from plotgate.core.validation import (
     as_array,
     as_covariance,
@@ -60,6 +55,7 @@ from plotgate.core.validation import (
     first_index,
     pair_count,
     require_positive,
+    require_scalar,
     to_pairs,
 )
 
@@ -171,10 +167,10 @@ def mark_geometry(
     """
     r = as_array("r", r)
     az = as_array("az", az)
-    s_r1 = _sigma("sigma_r", sigma_r)
-    s_az1 = _sigma("sigma_az", sigma_az)
-    s_r2 = s_r1 if sigma_r2 is None else _sigma("sigma_r2", sigma_r2)
-    s_az2 = s_az1 if sigma_az2 is None else _sigma("sigma_az2", sigma_az2)
+    s_r1 = standard_deviation("sigma_r", sigma_r)
+    s_az1 = standard_deviation("sigma_az", sigma_az)
+    s_r2 = s_r1 if sigma_r2 is None else standard_deviation("sigma_r2", sigma_r2)
+    s_az2 = s_az1 if sigma_az2 is None else standard_deviation("sigma_az2", sigma_az2)
     tau = as_scalar("tau", tau)
     require_positive("tau", tau)
     n = pair_count(
@@ -267,7 +263,7 @@ class RingGate:
     v_max: float
 
     def region(self, g: MarkGeometry) -> StarRegion:
-        R_min, R_max = _ring_radii(g.tau, self.v_min, self.v_max)
+        R_min, R_max = ring_radii(g.tau, self.v_min, self.v_max)
         n = g.n
 
         def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
@@ -289,8 +285,9 @@ class CombinedGate:
 
     def region(self, g: MarkGeometry) -> StarRegion:
         """Direction u: [max(0, R_min - h), R_max + h], h = sqrt(gamma / u^T B^-1 u)."""
-        R_min, R_max = _ring_radii(g.tau, self.v_min, self.v_max)
-        gamma = _gate_threshold(self.P_G)
+        R_min, R_max = ring_radii(g.tau, self.v_min, self.v_max)
+        require_scalar("P_G", self.P_G)
+        gamma = float(gate_threshold(self.P_G))
         n = g.n
         B = _column_sym2(g.B)
 
@@ -325,8 +322,9 @@ class ExpandedGate:
 
     def semi_axes(self, g: MarkGeometry) -> tuple[np.ndarray, np.ndarray]:
         """a (along the line of sight) and b (across it), m, from the first mark's sigmas."""
-        _, R_max = _ring_radii(g.tau, 0.0, self.v_max)
-        K_g = _expansion_coefficient(self.p)
+        _, R_max = ring_radii(g.tau, 0.0, self.v_max)
+        require_scalar("p", self.p)
+        K_g = float(expansion_coefficient(self.p))
         return R_max + K_g * g.sigma_r1, R_max + K_g * g.r * g.sigma_az1
 
     def region(self, g: MarkGeometry) -> StarRegion:
@@ -363,7 +361,8 @@ class EllipseGate:
         return np.broadcast_to(as_covariance("S", self.S), (g.n, 2, 2))
 
     def region(self, g: MarkGeometry) -> StarRegion:
-        gamma = _gate_threshold(self.P_G)
+        require_scalar("P_G", self.P_G)
+        gamma = float(gate_threshold(self.P_G))
         S = _column_sym2(sym2(self._S(g)))
 
         def radii(theta: np.ndarray, rows: Rows = _ALL) -> tuple[np.ndarray, np.ndarray]:
@@ -389,9 +388,17 @@ class RectangularGate:
     sigma_y: float | None = None
 
     def half_sizes(self, g: MarkGeometry) -> tuple[np.ndarray, np.ndarray]:
-        k = _positive_coefficient("k", self.k)
-        s_x = np.sqrt(g.B.xx) if self.sigma_x is None else _sigma("sigma_x", self.sigma_x)
-        s_y = np.sqrt(g.B.yy) if self.sigma_y is None else _sigma("sigma_y", self.sigma_y)
+        k = positive_coefficient("k", self.k)
+        s_x = (
+            np.sqrt(g.B.xx)
+            if self.sigma_x is None
+            else standard_deviation("sigma_x", self.sigma_x)
+        )
+        s_y = (
+            np.sqrt(g.B.yy)
+            if self.sigma_y is None
+            else standard_deviation("sigma_y", self.sigma_y)
+        )
         return to_pairs(k * s_x, g.n), to_pairs(k * s_y, g.n)
 
     def region(self, g: MarkGeometry) -> StarRegion:
@@ -446,18 +453,20 @@ class SectorGate:
     def _prediction(self, g: MarkGeometry) -> tuple[np.ndarray, ...]:
         r_p, az_p = cartesian_to_polar(g.z1 + as_points("offset", self.offset))
         s_r = (
-            g.sigma_r1 if self.sigma_r_pred is None else _sigma("sigma_r_pred", self.sigma_r_pred)
+            g.sigma_r1
+            if self.sigma_r_pred is None
+            else standard_deviation("sigma_r_pred", self.sigma_r_pred)
         )
         s_az = (
             g.sigma_az1
             if self.sigma_az_pred is None
-            else _sigma("sigma_az_pred", self.sigma_az_pred)
+            else standard_deviation("sigma_az_pred", self.sigma_az_pred)
         )
         return r_p, az_p, to_pairs(s_r, g.n), to_pairs(s_az, g.n)
 
     def region(self, g: MarkGeometry) -> StarRegion:
-        K_R = _positive_coefficient("K_R", self.K_R)
-        K_az = _positive_coefficient("K_az", self.K_az)
+        K_R = positive_coefficient("K_R", self.K_R)
+        K_az = positive_coefficient("K_az", self.K_az)
         r_p, az_p, s_r, s_az = self._prediction(g)
         return _sector(
             g, r_p, az_p, K_R * np.hypot(g.sigma_r2, s_r), K_az * np.hypot(g.sigma_az2, s_az)
@@ -489,9 +498,9 @@ class FirstAssociationGate:
     K_az: float
 
     def region(self, g: MarkGeometry) -> StarRegion:
-        _, R_max = _ring_radii(g.tau, 0.0, self.v_max)
-        K_R = _positive_coefficient("K_R", self.K_R)
-        K_az = _positive_coefficient("K_az", self.K_az)
+        _, R_max = ring_radii(g.tau, 0.0, self.v_max)
+        K_R = positive_coefficient("K_R", self.K_R)
+        K_az = positive_coefficient("K_az", self.K_az)
         W_R = R_max + K_R * np.hypot(g.sigma_r1, g.sigma_r2)
         turn = np.arcsin(np.minimum(1.0, R_max / g.r))
         return _sector(g, g.r, g.az, W_R, turn + K_az * np.hypot(g.sigma_az1, g.sigma_az2))

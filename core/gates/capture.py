@@ -5,7 +5,7 @@ the ring gate of Fig. 1 (R_min = v_min tau, R_max = v_max tau, area eq. 5), the
 expanded ellipse gate of its ref. [4] (Fig. 3, delta X(Y) = K_g sigma_X(Y)) and the
 two-stage combined gate of Fig. 4 (ring, else the chi-square ellipse of eq. 1 with
 B = P1 + P2 centred on the nearest circle). Symbols and batching as in
-:mod:`plotgate.core.gating`.
+:mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations
@@ -14,18 +14,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import GeometryError
-from plotgate.core.gating import (
-    GateResult,
-    GateStage,
-    _difference,
-    _expansion_coefficient,
-    _gate_threshold,
-    _result,
-    _ring_radii,
-    _sigma,
-)
+from plotgate.core.gates.parameters import ring_radii, standard_deviation
+from plotgate.core.gates.results import GateResult, GateStage, difference, gate_result
+from plotgate.core.gates.thresholds import expansion_coefficient, gate_threshold
 from plotgate.core.sym2 import largest_eigenvalue, quadratic_form, sym2
-from plotgate.core.validation import as_covariance, as_points, first_index, pair_count
+from plotgate.core.validation import (
+    as_covariance,
+    as_points,
+    first_index,
+    pair_count,
+    require_scalar,
+)
 
 __all__ = ["combined_gate", "expanded_gate", "ring_gate"]
 
@@ -76,12 +75,12 @@ def ring_gate(z1: ArrayLike, z2: ArrayLike, tau: float, v_min: float, v_max: flo
     """
     z1 = as_points("z1", z1)
     z2 = as_points("z2", z2)
-    R_min, R_max = _ring_radii(tau, v_min, v_max)
+    R_min, R_max = ring_radii(tau, v_min, v_max)
     n = pair_count(z1=z1.shape[:-1], z2=z2.shape[:-1])
-    dx, dy = _difference(z1, z2)
+    dx, dy = difference(z1, z2)
     dist = np.sqrt(dx * dx + dy * dy)
     inside = (dist >= R_min) & (dist <= R_max)
-    return _result(n, inside, dist, R_max)
+    return gate_result(n, inside, dist, R_max)
 
 
 def expanded_gate(
@@ -103,7 +102,8 @@ def expanded_gate(
 
     with :math:`\\sigma_X = \\sigma_r`, :math:`\\sigma_Y = r_1\\sigma_{az}`,
     :math:`r_1 = |\\mathbf{z}_1 - \\mathbf{s}|` and
-    :math:`K_g = \\sqrt{-2\\ln(1-p)}` (:func:`plotgate.core.thresholds.expansion_coefficient`).
+    :math:`K_g = \\sqrt{-2\\ln(1-p)}`
+    (:func:`plotgate.core.gates.thresholds.expansion_coefficient`).
 
     Parameters
     ----------
@@ -160,10 +160,11 @@ def expanded_gate(
     z1 = as_points("z1", z1)
     z2 = as_points("z2", z2)
     sensor = as_points("sensor", sensor)
-    _, R_max = _ring_radii(tau, 0.0, v_max)
-    sigma_r = _sigma("sigma_r", sigma_r)
-    sigma_az = _sigma("sigma_az", sigma_az)
-    K_g = _expansion_coefficient(p)
+    _, R_max = ring_radii(tau, 0.0, v_max)
+    sigma_r = standard_deviation("sigma_r", sigma_r)
+    sigma_az = standard_deviation("sigma_az", sigma_az)
+    require_scalar("p", p)
+    K_g = float(expansion_coefficient(p))
     n = pair_count(
         z1=z1.shape[:-1],
         z2=z2.shape[:-1],
@@ -171,7 +172,7 @@ def expanded_gate(
         sigma_r=sigma_r.shape,
         sigma_az=sigma_az.shape,
     )
-    los_x, los_y = _difference(sensor, z1)
+    los_x, los_y = difference(sensor, z1)
     r1 = np.sqrt(los_x * los_x + los_y * los_y)
     at_sensor = r1 == 0.0
     if at_sensor.any():
@@ -179,11 +180,11 @@ def expanded_gate(
             "z1", "is at the sensor, so the line of sight is undefined", first_index(at_sensor)
         )
     e_x, e_y = los_x / r1, los_y / r1
-    dx, dy = _difference(z1, z2)
+    dx, dy = difference(z1, z2)
     d_X = (dx * e_x + dy * e_y) / (R_max + K_g * sigma_r)
     d_Y = (dy * e_x - dx * e_y) / (R_max + K_g * r1 * sigma_az)
     statistic = d_X * d_X + d_Y * d_Y
-    return _result(n, statistic <= 1.0, statistic, 1.0)
+    return gate_result(n, statistic <= 1.0, statistic, 1.0)
 
 
 def combined_gate(
@@ -278,11 +279,12 @@ def combined_gate(
     z2 = as_points("z2", z2)
     P1 = as_covariance("P1", P1)
     P2 = as_covariance("P2", P2)
-    R_min, R_max = _ring_radii(tau, v_min, v_max)
-    gamma = _gate_threshold(P_G)
+    R_min, R_max = ring_radii(tau, v_min, v_max)
+    require_scalar("P_G", P_G)
+    gamma = float(gate_threshold(P_G))
     n = pair_count(z1=z1.shape[:-1], P1=P1.shape[:-2], z2=z2.shape[:-1], P2=P2.shape[:-2])
     B = sym2(P1 + P2)
-    dx, dy = _difference(z1, z2, n)
+    dx, dy = difference(z1, z2, n)
     dist2 = dx * dx + dy * dy
     dist = np.sqrt(dist2)
     inner = dist < R_min
@@ -308,4 +310,4 @@ def combined_gate(
     stage += inner
     stage += GateStage.RING
     stage *= inside
-    return _result(n, inside, rho, gamma, stage)
+    return gate_result(n, inside, rho, gamma, stage)

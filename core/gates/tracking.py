@@ -4,7 +4,7 @@ The chi-square ellipse gate rho = nu^T S^-1 nu <= gamma "used for gating during
 tracking" (seed 000, its ref. [6]; gamma from P_G, seed 000's two-stage procedure),
 the innovation covariance S = H P H^T + R it needs (seed 000, refs. [6]/[7]), and
 the rectangular gate |d_i| <= k sigma_i of seed 003 (Fig. 3.6 b). Symbols and
-batching as in :mod:`plotgate.core.gating`.
+batching as in :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations
@@ -13,17 +13,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.gating import (
-    GateResult,
-    _difference,
-    _gate_threshold,
-    _positive_coefficient,
-    _result,
-    _sigma,
-    _window_statistic,
-)
+from plotgate.core.gates.parameters import positive_coefficient, standard_deviation
+from plotgate.core.gates.results import GateResult, difference, gate_result, window_statistic
+from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.sym2 import quadratic_form, sym2
-from plotgate.core.validation import as_array, as_covariance, as_points, pair_count
+from plotgate.core.validation import as_array, as_covariance, as_points, pair_count, require_scalar
 
 __all__ = ["ellipse_gate", "innovation_covariance", "rectangular_gate"]
 
@@ -77,11 +71,12 @@ def ellipse_gate(z: ArrayLike, z_pred: ArrayLike, S: ArrayLike, P_G: float) -> G
     z = as_points("z", z)
     z_pred = as_points("z_pred", z_pred)
     S = as_covariance("S", S)
-    gamma = _gate_threshold(P_G)
+    require_scalar("P_G", P_G)
+    gamma = float(gate_threshold(P_G))
     n = pair_count(z=z.shape[:-1], z_pred=z_pred.shape[:-1], S=S.shape[:-2])
-    nu_x, nu_y = _difference(z_pred, z)
+    nu_x, nu_y = difference(z_pred, z)
     rho = quadratic_form(nu_x, nu_y, sym2(S))
-    return _result(n, rho <= gamma, rho, gamma)
+    return gate_result(n, rho <= gamma, rho, gamma)
 
 
 def innovation_covariance(
@@ -176,7 +171,7 @@ def rectangular_gate(
         prediction along x and y, metres, > 0.
     k : float
         Half-width in sigmas, > 0 (see
-        :func:`plotgate.core.thresholds.rectangular_coefficient`).
+        :func:`plotgate.core.gates.thresholds.rectangular_coefficient`).
 
     Returns
     -------
@@ -205,12 +200,12 @@ def rectangular_gate(
     """
     z = as_points("z", z)
     z_pred = as_points("z_pred", z_pred)
-    sigma_x = _sigma("sigma_x", sigma_x)
-    sigma_y = _sigma("sigma_y", sigma_y)
-    k = _positive_coefficient("k", k)
+    sigma_x = standard_deviation("sigma_x", sigma_x)
+    sigma_y = standard_deviation("sigma_y", sigma_y)
+    k = positive_coefficient("k", k)
     n = pair_count(
         z=z.shape[:-1], z_pred=z_pred.shape[:-1], sigma_x=sigma_x.shape, sigma_y=sigma_y.shape
     )
-    dx, dy = _difference(z_pred, z)
-    statistic = _window_statistic(dx, dy, sigma_x, sigma_y)
-    return _result(n, statistic <= k, statistic, k)
+    dx, dy = difference(z_pred, z)
+    statistic = window_statistic(dx, dy, sigma_x, sigma_y)
+    return gate_result(n, statistic <= k, statistic, k)

@@ -21,10 +21,15 @@ from numpy.typing import ArrayLike
 from scipy import optimize, stats
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.gate_probability import Prior, _unconditional, unconditional_probability
-from plotgate.core.gate_regions import CombinedGate, ExpandedGate, Gate, MarkGeometry
-from plotgate.core.gating import _gate_threshold, _ring_radii
-from plotgate.core.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.gates.parameters import ring_radii
+from plotgate.core.gates.probability import (
+    Prior,
+    unconditional_probability,
+    unconditional_quadrature,
+)
+from plotgate.core.gates.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.gates.regions import CombinedGate, ExpandedGate, Gate, MarkGeometry
+from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.validation import (
     as_array,
     as_probability,
@@ -52,14 +57,14 @@ def gate_area(gate: Gate, geometry: MarkGeometry) -> np.ndarray:
     """Area of the gate, m^2, for each of N problems.
 
     The half integral of hi^2 - lo^2 over the gate's directions (its
-    :class:`~plotgate.core.gate_regions.StarRegion`), on Gauss-Legendre panels split at the
+    :class:`~plotgate.core.gates.regions.StarRegion`), on Gauss-Legendre panels split at the
     boundary's kinks and bisected until two rules agree to 1e-12 of the area; exact to
     rounding for every gate kind (the ring, ellipse, expanded, rectangular and sector
     areas have closed forms the tests compare with).
 
     Examples
     --------
-    >>> from plotgate.core.gate_regions import RingGate, mark_geometry
+    >>> from plotgate.core.gates.regions import RingGate, mark_geometry
     >>> g = mark_geometry(50e3, 0.0, 200.0, np.radians(0.5), tau=5.0)
     >>> bool(np.isclose(gate_area(RingGate(100.0, 500.0), g)[0], np.pi * (2500**2 - 500**2)))
     True
@@ -75,20 +80,21 @@ def gate_area(gate: Gate, geometry: MarkGeometry) -> np.ndarray:
         uniform=16,
     )
 
-    def half_difference(rows: np.ndarray | slice, theta: np.ndarray) -> np.ndarray:
+    def halfdifference(rows: np.ndarray | slice, theta: np.ndarray) -> np.ndarray:
         lo, hi = region.radii(theta, rows)
         return 0.5 * (hi * hi - lo * lo)
 
     theta, weight = panel_rule(edges, 8)
-    rough = np.einsum("nt,nt->n", weight, half_difference(slice(None), theta))
-    area, _ = adaptive_panels(half_difference, edges, 1e-12 * np.maximum(rough, 1e-300))
+    rough = np.einsum("nt,nt->n", weight, halfdifference(slice(None), theta))
+    area, _ = adaptive_panels(halfdifference, edges, 1e-12 * np.maximum(rough, 1e-300))
     return area
 
 
 def combined_area_approximation(gate: CombinedGate, geometry: MarkGeometry) -> np.ndarray:
     """The paper's S_Sigma ~ S_ring + S_ellipse / 2, S_ellipse = pi sqrt(|gamma B|), m^2."""
-    R_min, R_max = _ring_radii(geometry.tau, gate.v_min, gate.v_max)
-    gamma = _gate_threshold(gate.P_G)
+    R_min, R_max = ring_radii(geometry.tau, gate.v_min, gate.v_max)
+    require_scalar("P_G", gate.P_G)
+    gamma = float(gate_threshold(gate.P_G))
     ring: np.ndarray = np.pi * (R_max * R_max - R_min * R_min) + np.zeros(geometry.n)
     return ring + 0.5 * np.pi * gamma * np.sqrt(geometry.B.det)
 
@@ -225,12 +231,12 @@ def design_gate(
         raise ParameterError("capture", f"{capture} is not reachable: P_D1 P_D2 = {detection}")
     field = "P_G" if isinstance(gate, CombinedGate) else "p"
 
-    R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
+    R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
 
     def gated(x: float) -> float:
         # the search runs on a cheaper rule (error ~1e-7); the answer is re-evaluated fully
         return float(
-            _unconditional(
+            unconditional_quadrature(
                 replace(gate, **{field: x}), geometry, R_min, R_max, prior, _SEARCH_RULE
             )[0]
         )
