@@ -1,8 +1,8 @@
 """plotgate core: stateless gating mathematics for radar track initiation.
 
 Pure functions over numpy arrays (numpy and scipy only; no I/O, no state): frame
-conversions, gate thresholds and the gates of the seed papers, each vectorized
-over a leading batch axis of N plots or pairs. Bad input raises a
+conversions, gate thresholds and the gates of the papers (:mod:`plotgate.core.gates`),
+vectorized over a leading batch axis of N plots or pairs. Bad input raises a
 :class:`PlotgateError` subclass naming the argument.
 
 Symbols (SI units; angles in radians)
@@ -52,24 +52,17 @@ from plotgate.core.gates import (
     StarRegion,
     capture_probability,
     combined_area_approximation,
-    combined_gate,
     conditional_probability,
     design_gate,
-    ellipse_gate,
-    expanded_gate,
     expansion_coefficient,
     false_marks,
-    first_association_gate,
     gate_area,
     gate_threshold,
     innovation_covariance,
     mark_geometry,
     monte_carlo_probability,
     rectangular_coefficient,
-    rectangular_gate,
     resolution_cells,
-    ring_gate,
-    sector_gate,
     unconditional_probability,
 )
 
@@ -108,18 +101,11 @@ __all__ = [
     "PlotgateError",
     "cartesian_covariance_to_polar",
     "cartesian_to_polar",
-    "combined_gate",
-    "ellipse_gate",
-    "expanded_gate",
     "expansion_coefficient",
-    "first_association_gate",
     "gate_threshold",
     "innovation_covariance",
     "polar_covariance_to_cartesian",
     "polar_to_cartesian",
     "rectangular_coefficient",
-    "rectangular_gate",
-    "ring_gate",
-    "sector_gate",
     "wrap_angle",
 ]

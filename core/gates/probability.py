@@ -1,6 +1,6 @@
-"""Probability that the second mark falls in a gate (seed 000, eq. 1-6).
+"""Probability that the second mark falls in a gate (Konovalov, eq. 1-6).
 
-The second mark is d = z2 - z1 ~ N(v tau, B) about the first (seed 000, eq. 1), so
+The second mark is d = z2 - z1 ~ N(v tau, B) about the first (Konovalov, eq. 1), so
 
 - the conditional probability for a known velocity v is the integral of that
   density over the gate (eq. 2);
@@ -11,7 +11,7 @@ The second mark is d = z2 - z1 ~ N(v tau, B) about the first (seed 000, eq. 1), 
 
 Both are computed by deterministic quadrature in the gate's polar coordinates
 (:class:`plotgate.core.gates.regions.StarRegion`). Along a ray o + t u the Gaussian has a
-closed-form integral (DESIGN section 4),
+closed-form integral,
 
 .. math:: \\int_{t_1}^{t_2} t^k e^{-q(t)/2} dt, \\quad
           q(t) = (t\\mathbf{u} - \\mathbf{m})^T \\mathbf{B}^{-1} (t\\mathbf{u} - \\mathbf{m}),
@@ -38,16 +38,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import ndtr
 
 from plotgate.core.errors import ParameterError
+from plotgate.core.gates.kinds import Gate
 from plotgate.core.gates.parameters import ring_radii
 from plotgate.core.gates.quadrature import adaptive_panels, breakpoints, panel_rule
-from plotgate.core.gates.regions import Gate, MarkGeometry, StarRegion
+from plotgate.core.gates.regions import MarkGeometry, StarRegion
 from plotgate.core.sym2 import Sym2, inverse
 from plotgate.core.validation import as_points, pair_count
 
@@ -125,8 +126,8 @@ def _ray_moments(
     mx: np.ndarray,
     my: np.ndarray,
     Q: Sym2,
-    t1: np.ndarray,
-    t2: np.ndarray,
+    t1: np.ndarray | np.float64,
+    t2: np.ndarray | np.float64,
 ) -> tuple[np.ndarray, np.ndarray]:
     """M_k = integral over t in [t1, t2] of t^k exp(-q(t)/2), k = 0, 1.
 
@@ -194,7 +195,9 @@ def _angle_breaks(
     )
 
 
-def _conditional_integrand(region: StarRegion, Q: Sym2, rel: np.ndarray) -> Callable:
+def _conditional_integrand(
+    region: StarRegion, Q: Sym2, rel: np.ndarray
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Closed-form radial integral M1 over the gate along rays theta, for given problems."""
 
     def integrand(rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -219,7 +222,7 @@ def conditional_probability(
     Parameters
     ----------
     gate : Gate
-        A gate of :mod:`plotgate.core.gates.regions`.
+        A gate of :mod:`plotgate.core.gates.kinds`.
     geometry : MarkGeometry
         N problems (first mark, sigmas, tau).
     velocity : (2,) or (N, 2) array_like
@@ -232,14 +235,14 @@ def conditional_probability(
 
     References
     ----------
-    .. [1] A. A. Konovalov, seed 000, eq. (1)-(2) (ring gate), and the combined
+    .. [1] A. A. Konovalov, eq. (1)-(2) (ring gate), and the combined
        gate's P_Sigma "by the same formulas" over the union of ring and ellipse.
 
     Examples
     --------
     The chi-square ellipse centred on the mean holds exactly P_G:
 
-    >>> from plotgate.core.gates.regions import EllipseGate, mark_geometry
+    >>> from plotgate.core.gates import EllipseGate, mark_geometry
     >>> g = mark_geometry(20e3, 0.3, 150.0, 0.004, tau=4.0)
     >>> res = conditional_probability(EllipseGate(0.9, offset=(800.0, 0.0)), g, [200.0, 0.0])
     >>> round(float(res.probability[0]), 10), bool(res.error[0] < 1e-6)
@@ -367,7 +370,8 @@ def _unconditional_chunk(
         )
     radial = np.einsum("ntr,ntr->nt", w_rho * rho, density.reshape(n, T, R))
     total = np.einsum("nt,nt->n", w_theta, radial)
-    return total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
+    probability: np.ndarray = total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
+    return probability
 
 
 def _prior_density(
@@ -471,7 +475,7 @@ def unconditional_probability(
 
     The true displacement x = v tau has a uniform heading and a length s on
     [v_min tau, v_max tau] with density 2 s / (R_max^2 - R_min^2) (``"area"``: x
-    uniform over the ring, seed 000 eq. 4-5) or 1 / (R_max - R_min) (``"speed"``);
+    uniform over the ring, Konovalov, eq. 4-5) or 1 / (R_max - R_min) (``"speed"``);
     the second mark is d = x + w, w ~ N(0, B) (eq. 3), and
 
     .. math:: P = \\iint_{gate} g(\\mathbf d)\\, d\\mathbf d, \\quad
@@ -484,7 +488,7 @@ def unconditional_probability(
     Parameters
     ----------
     gate : Gate
-        A gate of :mod:`plotgate.core.gates.regions`.
+        A gate of :mod:`plotgate.core.gates.kinds`.
     geometry : MarkGeometry
         N problems.
     v_min, v_max : float
@@ -499,7 +503,7 @@ def unconditional_probability(
 
     References
     ----------
-    .. [1] A. A. Konovalov, seed 000, eq. (3)-(6); worked values 0.82 (50 km) and
+    .. [1] A. A. Konovalov, eq. (3)-(6); worked values 0.82 (50 km) and
        0.90 (20 km) for the ring gate, P'_Sigma = 0.9967 for the combined gate.
     """
     _validate_prior(prior)
@@ -567,7 +571,8 @@ def monte_carlo_probability(
     v = None if velocity is None else np.broadcast_to(as_points("velocity", velocity), (n, 2))
     if v is None:
         _validate_prior(prior)
-        R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
+        # unchecked here: ring_radii refuses a missing bound, naming it
+        R_min, R_max = ring_radii(geometry.tau, cast(float, v_min), cast(float, v_max))
     p = np.empty(n)
     for i in range(n):
         if v is not None:

@@ -1,28 +1,52 @@
 """Tracking gates: does a mark fall in the gate around a prediction?
 
 The chi-square ellipse gate rho = nu^T S^-1 nu <= gamma "used for gating during
-tracking" (seed 000, its ref. [6]; gamma from P_G, seed 000's two-stage procedure),
-the innovation covariance S = H P H^T + R it needs (seed 000, refs. [6]/[7]), and
-the rectangular gate |d_i| <= k sigma_i of seed 003 (Fig. 3.6 b). Symbols and
-batching as in :mod:`plotgate.core.gates.results`.
+tracking" (Konovalov, his ref. [6]; gamma from P_G as in his two-stage procedure),
+the innovation covariance S = H P H^T + R it needs (Konovalov, refs. [6]/[7]), and
+the rectangular gate |d_i| <= k sigma_i of the secondary-processing textbook
+(Fig. 3.6 b). Each gate kind is a frozen dataclass of its parameters with its
+vectorized ``test``, its ``region`` and ``contains`` on a gating problem (as in
+:mod:`plotgate.core.gates.capture`). Symbols and batching as in
+:mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
 from plotgate.core.gates.parameters import positive_coefficient, standard_deviation
+from plotgate.core.gates.regions import (
+    ALL_ROWS,
+    MarkGeometry,
+    Rows,
+    StarRegion,
+    column_sym2,
+    full_turn,
+    inverse_form,
+    no_kinks,
+    rows_of,
+)
 from plotgate.core.gates.results import GateResult, difference, gate_result, window_statistic
 from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.sym2 import quadratic_form, sym2
-from plotgate.core.validation import as_array, as_covariance, as_points, pair_count, require_scalar
+from plotgate.core.validation import (
+    as_array,
+    as_covariance,
+    as_points,
+    pair_count,
+    require_scalar,
+    to_pairs,
+)
 
-__all__ = ["ellipse_gate", "innovation_covariance", "rectangular_gate"]
+__all__ = ["EllipseGate", "RectangularGate", "innovation_covariance"]
 
 
-def ellipse_gate(z: ArrayLike, z_pred: ArrayLike, S: ArrayLike, P_G: float) -> GateResult:
+@dataclass(frozen=True)
+class EllipseGate:
     """Chi-square ellipse gate around a predicted mark.
 
     .. math:: \\boldsymbol{\\nu} = \\mathbf{z} - \\hat{\\mathbf{z}}, \\quad
@@ -30,53 +54,207 @@ def ellipse_gate(z: ArrayLike, z_pred: ArrayLike, S: ArrayLike, P_G: float) -> G
 
     rho is evaluated in closed form (LDL^T of the 2x2 S), with no inverse or solve.
 
-    Parameters
+    Attributes
     ----------
-    z : (2,) or (N, 2) array_like
-        Mark, metres.
-    z_pred : (2,) or (N, 2) array_like
-        Predicted mark (gate centre), metres.
-    S : (2, 2) or (N, 2, 2) array_like
-        Innovation covariance in m^2, symmetric positive definite
-        (see :func:`innovation_covariance`).
     P_G : float
         Gating probability, in (0, 1); gamma = ``gate_threshold(P_G, 2)``.
-
-    Returns
-    -------
-    result : GateResult
-        ``statistic`` is rho (dimensionless) and ``threshold`` is gamma.
-
-    Raises
-    ------
-    NonFiniteError
-        If an input contains NaN or infinity.
-    CovarianceError
-        If S is not symmetric positive definite.
-    ParameterError
-        If P_G is not in (0, 1) or the shapes do not fit.
+    offset : (2,) tuple of float
+        In a gating problem (``region``, ``contains``): the predicted displacement
+        z_pred - z1, m. Default none.
+    S : (2, 2) or (N, 2, 2) ndarray or None
+        In a gating problem: the innovation covariance, m^2; default B = P1 + P2.
 
     References
     ----------
-    .. [1] A. A. Konovalov, seed 000, two-stage procedure, ellipse test "in the
-       known way used for gating during tracking" (its ref. [6]): residual, its
-       covariance, :math:`\\rho = \\nu^T B^{-1} \\nu` compared with gamma.
-
-    Examples
-    --------
-    >>> res = ellipse_gate([[2.0, 1.0], [4.0, 2.0]], [0.0, 0.0], np.diag([4.0, 1.0]), 0.9)
-    >>> res.inside, res.statistic
-    (array([ True, False]), array([2., 8.]))
+    .. [1] A. A. Konovalov, two-stage procedure, ellipse test "in the known way used
+       for gating during tracking" (his ref. [6]): residual, its covariance,
+       :math:`\\rho = \\nu^T B^{-1} \\nu` compared with gamma.
     """
-    z = as_points("z", z)
-    z_pred = as_points("z_pred", z_pred)
-    S = as_covariance("S", S)
-    require_scalar("P_G", P_G)
-    gamma = float(gate_threshold(P_G))
-    n = pair_count(z=z.shape[:-1], z_pred=z_pred.shape[:-1], S=S.shape[:-2])
-    nu_x, nu_y = difference(z_pred, z)
-    rho = quadratic_form(nu_x, nu_y, sym2(S))
-    return gate_result(n, rho <= gamma, rho, gamma)
+
+    P_G: float
+    offset: tuple[float, float] = (0.0, 0.0)
+    S: np.ndarray | None = None
+
+    def test(self, z: ArrayLike, z_pred: ArrayLike, S: ArrayLike) -> GateResult:
+        """Test marks z against predictions z_pred with innovation covariance S.
+
+        Parameters
+        ----------
+        z : (2,) or (N, 2) array_like
+            Mark, metres.
+        z_pred : (2,) or (N, 2) array_like
+            Predicted mark (gate centre), metres.
+        S : (2, 2) or (N, 2, 2) array_like
+            Innovation covariance in m^2, symmetric positive definite
+            (see :func:`innovation_covariance`).
+
+        Returns
+        -------
+        result : GateResult
+            ``statistic`` is rho (dimensionless) and ``threshold`` is gamma.
+
+        Raises
+        ------
+        NonFiniteError
+            If an input contains NaN or infinity.
+        CovarianceError
+            If S is not symmetric positive definite.
+        ParameterError
+            If P_G is not in (0, 1) or the shapes do not fit.
+
+        Examples
+        --------
+        >>> res = EllipseGate(0.9).test([[2.0, 1.0], [4.0, 2.0]], [0.0, 0.0], np.diag([4.0, 1.0]))
+        >>> res.inside, res.statistic
+        (array([ True, False]), array([2., 8.]))
+        """
+        P_G = self.P_G
+        z = as_points("z", z)
+        z_pred = as_points("z_pred", z_pred)
+        S = as_covariance("S", S)
+        require_scalar("P_G", P_G)
+        gamma = float(gate_threshold(P_G))
+        n = pair_count(z=z.shape[:-1], z_pred=z_pred.shape[:-1], S=S.shape[:-2])
+        nu_x, nu_y = difference(z_pred, z)
+        rho = quadratic_form(nu_x, nu_y, sym2(S))
+        return gate_result(n, rho <= gamma, rho, gamma)
+
+    def _S(self, g: MarkGeometry) -> np.ndarray:
+        """The innovation covariance of each problem of g, (N, 2, 2)."""
+        if self.S is None:
+            B: np.ndarray = g.P1 + g.P2
+            return B
+        return np.broadcast_to(as_covariance("S", self.S), (g.n, 2, 2))
+
+    def region(self, g: MarkGeometry) -> StarRegion:
+        """Direction u from z1 + offset: [0, sqrt(gamma / u^T S^-1 u)]."""
+        require_scalar("P_G", self.P_G)
+        gamma = float(gate_threshold(self.P_G))
+        S = column_sym2(sym2(self._S(g)))
+
+        def radii(theta: np.ndarray, rows: Rows = ALL_ROWS) -> tuple[np.ndarray, np.ndarray]:
+            return np.zeros(theta.shape), np.sqrt(gamma / inverse_form(rows_of(S, rows), theta))
+
+        return full_turn(g.n, as_points("offset", self.offset), no_kinks(g.n), radii)
+
+    def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
+        """The test of second marks z2 (M, 2) in problem i of g: (M,) bool."""
+        z_pred = g.z1[i] + as_points("offset", self.offset)
+        return self.test(z2, z_pred, self._S(g)[i]).inside
+
+
+@dataclass(frozen=True)
+class RectangularGate:
+    """Rectangular gate: each Cartesian coordinate within k sigmas of the prediction.
+
+    .. math:: |z_x - \\hat z_x| \\le k\\sigma_x \\;\\wedge\\; |z_y - \\hat z_y| \\le k\\sigma_y
+              \\iff \\max\\left(\\frac{|d_x|}{\\sigma_x}, \\frac{|d_y|}{\\sigma_y}\\right) \\le k
+
+    Attributes
+    ----------
+    k : float
+        Half-width in sigmas, > 0 (see
+        :func:`plotgate.core.gates.thresholds.rectangular_coefficient`).
+    offset : (2,) tuple of float
+        In a gating problem (``region``, ``contains``): the predicted displacement
+        z_pred - z1, m. Default none.
+    sigma_x, sigma_y : float or None
+        In a gating problem: the sigmas, m; default sqrt(B_xx), sqrt(B_yy).
+
+    References
+    ----------
+    .. [1] The secondary-processing textbook, the rectangular gate of Fig. 3.6 b:
+       centre x, y and half-sizes :math:`\\Delta x_{str}, \\Delta y_{str}`, sized in
+       summed sigmas.
+    """
+
+    k: float
+    offset: tuple[float, float] = (0.0, 0.0)
+    sigma_x: float | None = None
+    sigma_y: float | None = None
+
+    def test(
+        self, z: ArrayLike, z_pred: ArrayLike, sigma_x: ArrayLike, sigma_y: ArrayLike
+    ) -> GateResult:
+        """Test marks z against predictions z_pred, k sigmas wide per axis.
+
+        Parameters
+        ----------
+        z : (2,) or (N, 2) array_like
+            Mark, metres.
+        z_pred : (2,) or (N, 2) array_like
+            Gate centre (prediction), metres.
+        sigma_x, sigma_y : float or (N,) array_like
+            Standard deviations of the summed deviation of a true mark from the
+            prediction along x and y, metres, > 0.
+
+        Returns
+        -------
+        result : GateResult
+            ``statistic`` is :math:`\\max(|d_x|/\\sigma_x, |d_y|/\\sigma_y)` (sigmas)
+            and ``threshold`` is k.
+
+        Raises
+        ------
+        NonFiniteError
+            If an input contains NaN or infinity.
+        ParameterError
+            If a sigma or k is <= 0, or the shapes do not fit.
+
+        Examples
+        --------
+        >>> res = RectangularGate(k=3.0).test([[25.0, 50.0], [31.0, 0.0]], [0.0, 0.0], 10.0, 20.0)
+        >>> res.inside, res.statistic
+        (array([ True, False]), array([2.5, 3.1]))
+        """
+        k = self.k
+        z = as_points("z", z)
+        z_pred = as_points("z_pred", z_pred)
+        sigma_x = standard_deviation("sigma_x", sigma_x)
+        sigma_y = standard_deviation("sigma_y", sigma_y)
+        k = positive_coefficient("k", k)
+        n = pair_count(
+            z=z.shape[:-1], z_pred=z_pred.shape[:-1], sigma_x=sigma_x.shape, sigma_y=sigma_y.shape
+        )
+        dx, dy = difference(z_pred, z)
+        statistic = window_statistic(dx, dy, sigma_x, sigma_y)
+        return gate_result(n, statistic <= k, statistic, k)
+
+    def half_sizes(self, g: MarkGeometry) -> tuple[np.ndarray, np.ndarray]:
+        """k sigma_x and k sigma_y of each problem of g, m."""
+        k = positive_coefficient("k", self.k)
+        s_x = (
+            np.sqrt(g.B.xx)
+            if self.sigma_x is None
+            else standard_deviation("sigma_x", self.sigma_x)
+        )
+        s_y = (
+            np.sqrt(g.B.yy)
+            if self.sigma_y is None
+            else standard_deviation("sigma_y", self.sigma_y)
+        )
+        return to_pairs(k * s_x, g.n), to_pairs(k * s_y, g.n)
+
+    def region(self, g: MarkGeometry) -> StarRegion:
+        """Direction u from z1 + offset: [0, the distance to the rectangle's edge]."""
+        hx, hy = self.half_sizes(g)
+        corner = np.arctan2(hy, hx)[:, None]
+        hx, hy = hx[:, None], hy[:, None]
+
+        def radii(theta: np.ndarray, rows: Rows = ALL_ROWS) -> tuple[np.ndarray, np.ndarray]:
+            c, s = np.abs(np.cos(theta)), np.abs(np.sin(theta))
+            with np.errstate(divide="ignore"):
+                hi = np.minimum(hx[rows] / c, hy[rows] / s)
+            return np.zeros(theta.shape), hi
+
+        kinks = np.concatenate([corner, np.pi - corner, np.pi + corner, -corner], axis=-1)
+        return full_turn(g.n, as_points("offset", self.offset), kinks, radii)
+
+    def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
+        """The test of second marks z2 (M, 2) in problem i of g: (M,) bool."""
+        hx, hy = self.half_sizes(g)
+        z_pred = g.z1[i] + as_points("offset", self.offset)
+        return self.test(z2, z_pred, hx[i] / self.k, hy[i] / self.k).inside
 
 
 def innovation_covariance(
@@ -109,7 +287,7 @@ def innovation_covariance(
 
     References
     ----------
-    .. [1] A. A. Konovalov, seed 000, its ref. [6]/[7]: the residual covariance of
+    .. [1] A. A. Konovalov, his refs. [6]/[7]: the residual covariance of
        the ellipse gate; for two marks it is B = P1 + P2 (before eq. 1).
 
     Examples
@@ -146,66 +324,3 @@ def innovation_covariance(
             "R", f"batch shape {R.shape[:-2]} does not broadcast with {H_P_Ht.shape[:-2]}"
         ) from None
     return S
-
-
-def rectangular_gate(
-    z: ArrayLike,
-    z_pred: ArrayLike,
-    sigma_x: ArrayLike,
-    sigma_y: ArrayLike,
-    k: float,
-) -> GateResult:
-    """Rectangular gate: each Cartesian coordinate within k sigmas of the prediction.
-
-    .. math:: |z_x - \\hat z_x| \\le k\\sigma_x \\;\\wedge\\; |z_y - \\hat z_y| \\le k\\sigma_y
-              \\iff \\max\\left(\\frac{|d_x|}{\\sigma_x}, \\frac{|d_y|}{\\sigma_y}\\right) \\le k
-
-    Parameters
-    ----------
-    z : (2,) or (N, 2) array_like
-        Mark, metres.
-    z_pred : (2,) or (N, 2) array_like
-        Gate centre (prediction), metres.
-    sigma_x, sigma_y : float or (N,) array_like
-        Standard deviations of the summed deviation of a true mark from the
-        prediction along x and y, metres, > 0.
-    k : float
-        Half-width in sigmas, > 0 (see
-        :func:`plotgate.core.gates.thresholds.rectangular_coefficient`).
-
-    Returns
-    -------
-    result : GateResult
-        ``statistic`` is :math:`\\max(|d_x|/\\sigma_x, |d_y|/\\sigma_y)` (sigmas)
-        and ``threshold`` is k.
-
-    Raises
-    ------
-    NonFiniteError
-        If an input contains NaN or infinity.
-    ParameterError
-        If a sigma or k is <= 0, or the shapes do not fit.
-
-    References
-    ----------
-    .. [1] Seed 003 (textbook chapter on secondary radar processing), the
-       rectangular gate of Fig. 3.6 b: centre x, y and half-sizes
-       :math:`\\Delta x_{str}, \\Delta y_{str}`, sized in summed sigmas.
-
-    Examples
-    --------
-    >>> res = rectangular_gate([[25.0, 50.0], [31.0, 0.0]], [0.0, 0.0], 10.0, 20.0, k=3.0)
-    >>> res.inside, res.statistic
-    (array([ True, False]), array([2.5, 3.1]))
-    """
-    z = as_points("z", z)
-    z_pred = as_points("z_pred", z_pred)
-    sigma_x = standard_deviation("sigma_x", sigma_x)
-    sigma_y = standard_deviation("sigma_y", sigma_y)
-    k = positive_coefficient("k", k)
-    n = pair_count(
-        z=z.shape[:-1], z_pred=z_pred.shape[:-1], sigma_x=sigma_x.shape, sigma_y=sigma_y.shape
-    )
-    dx, dy = difference(z_pred, z)
-    statistic = window_statistic(dx, dy, sigma_x, sigma_y)
-    return gate_result(n, statistic <= k, statistic, k)

@@ -1,4 +1,4 @@
-"""Gate tests (seed 000 section on capture gates; DESIGN section 3).
+"""Gate tests (Konovalov; Mu et al.; the secondary-processing textbook).
 
 Plots arrive Cartesian or polar; both become positions z (m) and covariances P (m^2) in
 the common frame (:func:`plotgate.service.operations.plots.plot_arrays`, which checks each plot's
@@ -7,9 +7,11 @@ and names the plot's own field: ``first.covariance``, ``candidates[2].covariance
 ``pairs[3].second.covariance``, or the polar plot ``candidates[2]`` with its sigmas). The
 capture and tracking gates run on those. The polar gates (sector, first association) take
 range, azimuth and their sigmas about the *first* plot's sensor, from the same (z, P)
-through the Jacobian of DESIGN section 2, so a polar plot from that sensor keeps its own
+through the polar-to-Cartesian Jacobian, so a polar plot from that sensor keeps its own
 sigmas exactly.
 """
+
+import math
 
 import numpy as np
 
@@ -17,6 +19,7 @@ from plotgate import core
 from plotgate.core import GeometryError, PlotgateError
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
+from plotgate.service.operations.gate_conversion import core_gate
 from plotgate.service.operations.plots import PlotError, plot_arrays
 from plotgate.service.schemas import (
     MIN_RANGE,
@@ -58,7 +61,9 @@ _STATISTICS = {
 }
 
 
-def _polar(z: np.ndarray, P: np.ndarray, sensor: np.ndarray, side: str):
+def _polar(
+    z: np.ndarray, P: np.ndarray, sensor: np.ndarray, side: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Range, azimuth (rad) and their sigmas about ``sensor``.
 
     ``side`` ("1" or "2") names the plots in errors: ``z1``/``P1`` are the first plots,
@@ -85,35 +90,43 @@ def _polar(z: np.ndarray, P: np.ndarray, sensor: np.ndarray, side: str):
     return r, az, np.sqrt(C[..., 0, 0]), np.sqrt(C[..., 1, 1])
 
 
-def _gate(gate: Gate, z1, P1, s1, z2, P2) -> core.GateResult:
-    """Run the gate of ``gate.kind`` on first marks (z1, P1, sensor s1) and second marks."""
-    match gate.kind:
-        case "ring":
-            return core.ring_gate(z1, z2, gate.tau, gate.v_min, gate.v_max)
-        case "expanded":
+def _gate(
+    gate: Gate,
+    z1: np.ndarray,
+    P1: np.ndarray,
+    s1: np.ndarray,
+    z2: np.ndarray,
+    P2: np.ndarray,
+) -> core.GateResult:
+    """Test second marks (z2, P2) against first marks (z1, P1, sensor s1) in the wire gate.
+
+    The gate is core's (:func:`~plotgate.service.operations.gate_conversion.core_gate`);
+    what differs by kind is only the marks its ``test`` takes: positions, covariances
+    and, for the tracking gates, S = P1 + P2 about the first plot; the polar gates take
+    range, azimuth and their sigmas about the first plot's sensor.
+    """
+    tau: float = getattr(gate, "tau", math.nan)  # the gates that take tau have it
+    match core_gate(gate):
+        case core.RingGate() as ring:
+            return ring.test(z1, z2, tau)
+        case core.ExpandedGate() as expanded:
             _, _, sigma_r, sigma_az = _polar(z1, P1, s1, "1")
-            return core.expanded_gate(
-                z1, z2, gate.tau, gate.v_max, sigma_r, sigma_az, gate.p, sensor=s1
-            )
-        case "combined":
-            return core.combined_gate(z1, P1, z2, P2, gate.tau, gate.v_min, gate.v_max, gate.P_G)
-        case "ellipse":
-            return core.ellipse_gate(z2, z1, P1 + P2, gate.P_G)
-        case "rectangular":
+            return expanded.test(z1, z2, tau, sigma_r, sigma_az, sensor=s1)
+        case core.CombinedGate() as combined:
+            return combined.test(z1, P1, z2, P2, tau)
+        case core.EllipseGate() as ellipse:
+            return ellipse.test(z2, z1, P1 + P2)
+        case core.RectangularGate() as rectangular:
             S = P1 + P2
-            return core.rectangular_gate(
-                z2, z1, np.sqrt(S[..., 0, 0]), np.sqrt(S[..., 1, 1]), gate.k
-            )
-        case "sector":
+            return rectangular.test(z2, z1, np.sqrt(S[..., 0, 0]), np.sqrt(S[..., 1, 1]))
+        case core.SectorGate() as sector:
             r1, az1, sr1, saz1 = _polar(z1, P1, s1, "1")
             r2, az2, sr2, saz2 = _polar(z2, P2, s1, "2")
-            return core.sector_gate(r2, az2, r1, az1, sr2, saz2, sr1, saz1, gate.K_R, gate.K_az)
-        case "first_association":
+            return sector.test(r2, az2, r1, az1, sr2, saz2, sr1, saz1)
+        case core.FirstAssociationGate() as first:
             r1, az1, sr1, saz1 = _polar(z1, P1, s1, "1")
             r2, az2, sr2, saz2 = _polar(z2, P2, s1, "2")
-            return core.first_association_gate(
-                r1, az1, r2, az2, gate.tau, gate.v_max, sr1, saz1, sr2, saz2, gate.K_R, gate.K_az
-            )
+            return first.test(r1, az1, r2, az2, tau, sr1, saz1, sr2, saz2)
     raise AssertionError(gate.kind)
 
 

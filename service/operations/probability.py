@@ -1,4 +1,4 @@
-"""Gating probabilities, areas, false marks and gate design (seed 000; DESIGN section 4).
+"""Gating probabilities, areas, false marks and gate design (Konovalov).
 
 The wire's gate, mark and tau become core's gate region and :class:`plotgate.core.MarkGeometry`;
 angles arrive in degrees and go to core in radians. A velocity is speed (sin course,
@@ -14,6 +14,7 @@ prior when both are, as core checks the prior first).
 
 import math
 from collections.abc import Callable
+from typing import Literal
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from plotgate import core
 from plotgate.core import PlotgateError
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
+from plotgate.service.operations.gate_conversion import core_gate
 from plotgate.service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
 from plotgate.service.schemas import (
     AreaApproximation,
@@ -33,7 +35,6 @@ from plotgate.service.schemas import (
     GateProbabilityCurveRequest,
     GateProbabilityRequest,
     GateProbabilityResult,
-    GateRegion,
     Mark,
     Resolution,
     SpeedPrior,
@@ -83,26 +84,6 @@ _FIELDS = {
     "cells": "resolution",
 }
 """Core argument -> request path, for every argument a request feeds core."""
-
-
-def _gate(gate: GateRegion) -> core.Gate:
-    """The core gate region of a wire gate."""
-    match gate.kind:
-        case "ring":
-            return core.RingGate(gate.v_min, gate.v_max)
-        case "combined":
-            return core.CombinedGate(gate.v_min, gate.v_max, gate.P_G)
-        case "expanded":
-            return core.ExpandedGate(gate.v_max, gate.p)
-        case "ellipse":
-            return core.EllipseGate(gate.P_G, gate.offset)
-        case "rectangular":
-            return core.RectangularGate(gate.k, gate.offset)
-        case "sector":
-            return core.SectorGate(gate.K_R, gate.K_az, gate.offset)
-        case "first_association":
-            return core.FirstAssociationGate(gate.v_max, gate.K_R, gate.K_az)
-    raise AssertionError(gate.kind)
 
 
 def _own_covariances(mark: Mark, r: np.ndarray, where: Callable[[int], str]) -> None:
@@ -161,14 +142,14 @@ def _velocity(speed: float | np.ndarray, course_deg: float) -> np.ndarray:
 def _unconditional(
     gate: core.Gate, geometry: core.MarkGeometry, prior: SpeedPrior
 ) -> core.GateProbability:
-    """Seed 000 eq. (3)-(6) over the prior's speeds and a uniform heading."""
+    """Konovalov, eq. 3-6, over the prior's speeds and a uniform heading."""
     return core.unconditional_probability(gate, geometry, prior.v_min, prior.v_max, prior.kind)
 
 
 def _false_marks(
     area: np.ndarray, r: float, resolution: Resolution, F: float, m_max: int
 ) -> tuple[float, FalseMarks]:
-    """Cells S' = S / (dR R dAz) and the Poisson false marks in them (seed 000)."""
+    """Cells S' = S / (dR R dAz) and the Poisson false marks in them (Konovalov)."""
     cells = core.resolution_cells(area, r, resolution.range, math.radians(resolution.azimuth_deg))
     marks = core.false_marks(cells, F, m_max)
     return float(cells[0]), FalseMarks(
@@ -180,8 +161,8 @@ def _false_marks(
 
 @checked
 def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
-    """Conditional (seed 000 eq. 2) or unconditional (eq. 3-6) gating probability."""
-    gate = _gate(request.gate)
+    """Conditional (Konovalov, eq. 2) or unconditional (eq. 3-6) gating probability."""
+    gate = core_gate(request.gate)
     geometry = _geometry(request.mark, request.tau)
     if request.velocity is not None:
         v = request.velocity
@@ -198,8 +179,8 @@ def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
 
 @checked
 def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
-    """The probability at every value, in one vectorized core call (seed 000, Fig. 2 and 5)."""
-    gate = _gate(request.gate)
+    """The probability at every value, in one vectorized core call (Konovalov, Fig. 2 and 5)."""
+    gate = core_gate(request.gate)
     values = np.asarray(request.values, dtype=float)
     if request.against == "speed":
         geometry = _geometry(request.mark, request.tau, np.full(values.size, request.mark.r))
@@ -226,11 +207,11 @@ def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
 
 @checked
 def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
-    """Area, cells, false marks and capture probability P_gate P_D1 P_D2 (seed 000).
+    """Area, cells, false marks and capture probability P_gate P_D1 P_D2 (Konovalov).
 
     For the combined gate the paper's approximation S_ring + S_ellipse / 2 is given too.
     """
-    gate = _gate(request.gate)
+    gate = core_gate(request.gate)
     geometry = _geometry(request.mark, request.tau)
     gated = None if request.prior is None else _unconditional(gate, geometry, request.prior)
     area = core.gate_area(gate, geometry)
@@ -267,8 +248,10 @@ def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
 def design(request: GateDesignRequest) -> GateDesignResult:
     """The combined gate's P_G or the expanded gate's p reaching the wanted capture."""
     prior = request.prior
+    gate = core_gate(request.gate)
+    assert isinstance(gate, core.CombinedGate | core.ExpandedGate)  # DesignGate's kinds
     found = core.design_gate(
-        _gate(request.gate),
+        gate,
         _geometry(request.mark, request.tau),
         request.capture,
         prior.v_min,
@@ -277,6 +260,7 @@ def design(request: GateDesignRequest) -> GateDesignResult:
         request.P_D1,
         request.P_D2,
     )
+    parameter: Literal["P_G", "p"]
     if request.gate.kind == "combined":
         parameter, threshold = "P_G", core.gate_threshold(found.parameter, 2)
     else:

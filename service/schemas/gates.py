@@ -1,11 +1,11 @@
-"""Wire models of the gate-test operations (seed 000; DESIGN section 3).
+"""Wire models of the gate-test operations (Konovalov).
 
 A gate is chosen by ``kind``. For the capture gates (``ring``, ``expanded``,
 ``combined``) the first plot is the initiator z1 and the candidates are second marks
 z2 taken ``tau`` seconds later. For the tracking gates (``ellipse``, ``rectangular``,
 ``sector``) the first plot is the predicted position with its predicted covariance
 H P H^T, and S = P_first + P_candidate. ``first_association`` is the polar window for
-the first association of seed 002, before a velocity is known.
+the first association of Mu et al., before a velocity is known.
 """
 
 from typing import Annotated, Literal
@@ -31,7 +31,7 @@ __all__ = [
 ]
 
 Stage = Literal["none", "ring", "inner_ellipse", "outer_ellipse"]
-"""Combined-gate stage that accepted a mark (seed 000): GateStage values 0..3 by name."""
+"""Combined-gate stage that accepted a mark (Konovalov): GateStage values 0..3 by name."""
 
 Probability = Annotated[float, Field(gt=0, lt=1)]
 Seconds = Annotated[float, Field(gt=0, le=1e6, description="Interval tau between the marks, s.")]
@@ -40,7 +40,7 @@ Coefficient = Annotated[float, Field(ge=0.01, le=100, description="Window width 
 
 
 class RingGate(Schema):
-    """Ring v_min tau <= |z2 - z1| <= v_max tau (seed 000, Fig. 1)."""
+    """Ring v_min tau <= |z2 - z1| <= v_max tau (Konovalov, Fig. 1)."""
 
     kind: Literal["ring"]
     tau: Seconds
@@ -64,7 +64,7 @@ class ExpandedGate(Schema):
 
 
 class CombinedGate(Schema):
-    """Two-stage gate of seed 000: the ring, else a chi-square ellipse at the ring's edge."""
+    """Two-stage gate of Konovalov: the ring, else a chi-square ellipse at the ring's edge."""
 
     kind: Literal["combined"]
     tau: Seconds
@@ -81,7 +81,7 @@ class EllipseGate(Schema):
 
 
 class RectangularGate(Schema):
-    """|dx| <= k sigma_x and |dy| <= k sigma_y with sigma from S (seed 003)."""
+    """|dx| <= k sigma_x and |dy| <= k sigma_y, sigmas from S (secondary-processing textbook)."""
 
     kind: Literal["rectangular"]
     k: Coefficient = 3.0
@@ -96,7 +96,7 @@ class SectorGate(Schema):
 
 
 class FirstAssociationGate(Schema):
-    """Seed 002's first-association window: v_max tau plus the errors, in range and azimuth."""
+    """Mu et al.'s first-association window: v_max tau plus the errors, in range and azimuth."""
 
     kind: Literal["first_association"]
     tau: Seconds

@@ -1,4 +1,4 @@
-"""Wire models of the gating-probability operations (seed 000, eq. 1-6; DESIGN section 4).
+"""Wire models of the gating-probability operations (Konovalov, eq. 1-6).
 
 A problem is a first mark at range r and azimuth az from the radar, both marks' range
 and azimuth errors, the interval ``tau`` between the marks, and a gate built about the
@@ -73,7 +73,7 @@ CurveValue = Annotated[float, Field(ge=0, le=MAX_DISTANCE)]
 
 
 class RingRegion(Schema):
-    """Ring v_min tau <= |z2 - z1| <= v_max tau (seed 000, Fig. 1)."""
+    """Ring v_min tau <= |z2 - z1| <= v_max tau (Konovalov, Fig. 1)."""
 
     kind: Literal["ring"] = Field(description="Discriminator: ring gate.")
     v_min: Speed = Field(default=0.0, description="Smallest target speed, m/s.")
@@ -81,7 +81,7 @@ class RingRegion(Schema):
 
 
 class CombinedRegion(Schema):
-    """Two-stage gate of seed 000 (Fig. 4): the ring, else the P_G ellipse of B at its edge."""
+    """Two-stage gate of Konovalov (Fig. 4): the ring, else the P_G ellipse of B at its edge."""
 
     kind: Literal["combined"] = Field(description="Discriminator: combined two-stage gate.")
     v_min: Speed = Field(default=0.0, description="Smallest target speed, m/s.")
@@ -100,7 +100,7 @@ class ExpandedRegion(Schema):
         default=0.9,
         ge=1e-6,
         lt=1,
-        description="Probability p giving K_g = sqrt(-2 ln(1-p)) (seed 000 ref. [4]).",
+        description="Probability p giving K_g = sqrt(-2 ln(1-p)) (Konovalov, his ref. [4]).",
     )
 
 
@@ -113,7 +113,7 @@ class EllipseRegion(Schema):
 
 
 class RectangularRegion(Schema):
-    """|dx| <= k sigma_x and |dy| <= k sigma_y about z1 + offset, sigmas from B (seed 003)."""
+    """|dx| <= k sigma_x, |dy| <= k sigma_y about z1 + offset, sigmas from B (Fig. 3.6 b)."""
 
     kind: Literal["rectangular"] = Field(description="Discriminator: rectangular gate.")
     k: Coefficient = Field(default=3.0, description="Half-width in sigmas.")
@@ -121,7 +121,7 @@ class RectangularRegion(Schema):
 
 
 class SectorRegion(Schema):
-    """Polar sector about the prediction z1 + offset (seed 002 eq. 1-2, seed 003)."""
+    """Polar sector about the prediction z1 + offset (Mu et al., eq. 1-2; textbook Fig. 3.6 a)."""
 
     kind: Literal["sector"] = Field(description="Discriminator: polar sector gate.")
     K_R: Coefficient = Field(default=3.0, description="Range window in summed sigmas.")
@@ -130,7 +130,7 @@ class SectorRegion(Schema):
 
 
 class FirstAssociationRegion(Schema):
-    """Seed 002's first-association windows (eq. 3-4): v_max tau plus the errors."""
+    """Mu et al.'s first-association windows (eq. 3-4): v_max tau plus the errors."""
 
     kind: Literal["first_association"] = Field(
         description="Discriminator: first-association polar window."
@@ -186,7 +186,7 @@ class Mark(Schema):
 
         Both marks are seen at range ``r`` (default the mark's own), so B has
         sigma_r^2 + sigma_r2^2 along the line of sight and r^2 (sigma_az^2 + sigma_az2^2)
-        across it (DESIGN section 2's Jacobian): those are its eigenvalues.
+        across it (the polar-to-Cartesian Jacobian): those are its eigenvalues.
         """
         r = self.r if r is None else r
         along = self.sigma_r**2 + (self.sigma_r if self.sigma_r2 is None else self.sigma_r2) ** 2
@@ -203,7 +203,7 @@ class Velocity(Schema):
 
 
 class SpeedPrior(Schema):
-    """Uniform heading and a speed on [v_min, v_max] (seed 000, eq. 3-6)."""
+    """Uniform heading and a speed on [v_min, v_max] (Konovalov, eq. 3-6)."""
 
     kind: Literal["area", "speed"] = Field(
         default="area",
@@ -345,7 +345,7 @@ class GateProbabilityCurve(Schema):
 
 
 class FalseMarks(Schema):
-    """Poisson false marks in a gate of S' cells: mean F S' (seed 000)."""
+    """Poisson false marks in a gate of S' cells: mean F S' (Konovalov)."""
 
     mean: float = Field(description="Expected number F S' of false marks in the gate.")
     probabilities: list[float] = Field(
