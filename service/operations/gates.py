@@ -12,15 +12,16 @@ sigmas exactly.
 """
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from plotgate import core
 from plotgate.core import GeometryError, PlotgateError
-from plotgate.service.fields import FieldMap
+from plotgate.service.fields import FieldMap, resolve
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.gate_conversion import core_gate
-from plotgate.service.operations.plots import PlotError, plot_arrays
+from plotgate.service.operations.plots import plot_arrays
 from plotgate.service.schemas import (
     MIN_RANGE,
     GatePairsRequest,
@@ -31,25 +32,9 @@ from plotgate.service.schemas import (
 )
 from plotgate.service.schemas.gates import Gate, Stage
 
-__all__ = ["PAIRS_FIELDS", "TEST_FIELDS", "pairs", "pairs_field", "test", "test_field"]
+__all__ = ["PAIRS_FIELDS", "TEST_FIELDS", "pairs", "test"]
 
 _STAGES: tuple[Stage, ...] = ("none", "ring", "inner_ellipse", "outer_ellipse")
-_GATE_PARAMS = {"tau", "v_min", "v_max", "P_G", "p", "k", "K_R", "K_az"}
-_FIRST = {
-    "z1",
-    "P1",
-    "z_pred",
-    "r_pred",
-    "az_pred",
-    "sigma_r_pred",
-    "sigma_az_pred",
-    "r1",
-    "az1",
-    "sigma_r1",
-    "sigma_az1",
-    "sensor",
-}
-_SECOND = {"z2", "P2", "z", "r", "az", "sigma_r2", "sigma_az2"}
 _STATISTICS = {
     "ring": "distance |z2 - z1|, m",
     "expanded": "(dX/a)^2 + (dY/b)^2, dimensionless",
@@ -160,55 +145,87 @@ def pairs(request: GatePairsRequest) -> GateResults:
     return _results(request.gate, _gate(request.gate, z1, P1, s1, z2, P2))
 
 
-def _side(gate: Gate, exc: PlotgateError) -> str | None:
-    """Which plot a core argument came from: "first", "second", "both" or a gate parameter."""
-    if exc.field in _GATE_PARAMS:
-        return None
-    if exc.field in {"sigma_r", "sigma_az"}:
-        return "first" if gate.kind == "expanded" else "second"
-    if exc.field in _FIRST:
-        return "first"
-    if exc.field in _SECOND:
-        return "second"
-    return "both"
+def _with_covariance(path: str, plot: Plot) -> str:
+    """A plot's path, down to the ``covariance`` a Cartesian plot sends (a polar plot sends
+    sigmas, and is named itself)."""
+    return path if isinstance(plot, PolarPlot) else f"{path}.covariance"
 
 
-def _covariance(plot: Plot, exc: PlotgateError) -> str:
-    return ".covariance" if exc.field in {"P1", "P2"} and not isinstance(plot, PolarPlot) else ""
+def _test_P1(request: GateTestRequest, exc: PlotgateError) -> str:
+    return _with_covariance("first", request.first)
 
 
-def test_field(request: GateTestRequest, exc: PlotgateError) -> str:
-    """The request field a core error on a ``gates.test`` request concerns."""
-    if isinstance(exc, PlotError):
-        return exc.field
-    side = _side(request.gate, exc)
-    if side is None:
-        return f"gate.{exc.field}"
-    if side == "first":
-        return "first" + _covariance(request.first, exc)
+def _test_P2(request: GateTestRequest, exc: PlotgateError) -> str:
     if exc.index is None:
         return "candidates"
-    return f"candidates[{exc.index}]" + _covariance(request.candidates[exc.index], exc)
+    return _with_covariance(f"candidates[{exc.index}]", request.candidates[exc.index])
 
 
-def pairs_field(request: GatePairsRequest, exc: PlotgateError) -> str:
-    """The request field a core error on a ``gates.pairs`` request concerns."""
-    if isinstance(exc, PlotError):
-        return exc.field
-    side = _side(request.gate, exc)
-    if side is None:
-        return f"gate.{exc.field}"
-    if exc.index is None:
-        return "pairs"
-    pair = request.pairs[exc.index]
-    if side == "both":
-        return f"pairs[{exc.index}]"
-    plot = pair.first if side == "first" else pair.second
-    return f"pairs[{exc.index}].{side}" + _covariance(plot, exc)
+def _pairs_P(side: str) -> Callable[[GatePairsRequest, PlotgateError], str]:
+    def field(request: GatePairsRequest, exc: PlotgateError) -> str:
+        if exc.index is None:
+            return "pairs"
+        pair = request.pairs[exc.index]
+        return _with_covariance(f"pairs[{exc.index}].{side}", getattr(pair, side))
+
+    return field
 
 
-TEST_FIELDS: FieldMap = {"*": test_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+def _sigma(
+    first: str, second: str
+) -> Callable[[GateTestRequest | GatePairsRequest, PlotgateError], str]:
+    """sigma_r and sigma_az: the first plot's in the expanded gate, the second's in the sector."""
 
-PAIRS_FIELDS: FieldMap = {"*": pairs_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+    def field(request: GateTestRequest | GatePairsRequest, exc: PlotgateError) -> str:
+        path = first if request.gate.kind == "expanded" else second
+        return resolve({exc.field: path}, request, exc)
+
+    return field
+
+
+_GATE = ("tau", "v_min", "v_max", "P_G", "p", "k", "K_R", "K_az")
+"""Core arguments that are the gate's own parameters."""
+_FIRST = (
+    "z1",
+    "z_pred",
+    "r_pred",
+    "az_pred",
+    "sigma_r_pred",
+    "sigma_az_pred",
+    "r1",
+    "az1",
+    "sigma_r1",
+    "sigma_az1",
+    "sensor",
+)
+"""Core arguments taken from the first plot (the gate's centre or prediction)."""
+_SECOND = ("z2", "z", "r", "az", "sigma_r2", "sigma_az2")
+"""Core arguments taken from the second plot (the candidate)."""
+_BOTH = ("S", "sigma_x", "sigma_y")
+"""Core arguments summed over both plots of a pair: S = P1 + P2 and its sigmas."""
+
+TEST_FIELDS: FieldMap = {
+    **{name: f"gate.{name}" for name in _GATE},
+    **dict.fromkeys(_FIRST, "first"),
+    **dict.fromkeys(_SECOND + _BOTH, "candidates[{i}]"),
+    "P1": _test_P1,
+    "P2": _test_P2,
+    "sigma_r": _sigma("first", "candidates[{i}]"),
+    "sigma_az": _sigma("first", "candidates[{i}]"),
+}
+"""Where core's errors on a ``gates.test`` request point (:mod:`plotgate.service.fields`).
+
+A plot refused for its own covariance (:class:`~plotgate.service.operations.plots.PlotError`)
+already names its path, which no entry matches, so it is kept as it is."""
+
+PAIRS_FIELDS: FieldMap = {
+    **{name: f"gate.{name}" for name in _GATE},
+    **dict.fromkeys(_FIRST, "pairs[{i}].first"),
+    **dict.fromkeys(_SECOND, "pairs[{i}].second"),
+    **dict.fromkeys(_BOTH, "pairs[{i}]"),
+    "P1": _pairs_P("first"),
+    "P2": _pairs_P("second"),
+    "sigma_r": _sigma("pairs[{i}].first", "pairs[{i}].second"),
+    "sigma_az": _sigma("pairs[{i}].first", "pairs[{i}].second"),
+}
+"""Where core's errors on a ``gates.pairs`` request point, as :data:`TEST_FIELDS`."""

@@ -6,10 +6,8 @@ cos course), course clockwise from north. A curve is one vectorized core call: t
 geometry batched over the ranges, or one geometry repeated and the velocity batched over
 the speeds.
 
-Core errors name core arguments; :func:`field_of` and :func:`curve_field` turn them into
-request paths. Core checks v_min <= v_max with ``ParameterError("v_min", ...)`` both for
-a gate and for the prior; the error names the one whose bounds are inconsistent (the
-prior when both are, as core checks the prior first).
+Core errors name core arguments; :data:`PROBABILITY_FIELDS` and its variants map them to
+request paths.
 """
 
 import math
@@ -20,7 +18,7 @@ import numpy as np
 
 from plotgate import core
 from plotgate.core import PlotgateError
-from plotgate.service.fields import FieldMap
+from plotgate.service.fields import FieldMap, resolve
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.gate_conversion import core_gate
 from plotgate.service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
@@ -47,43 +45,12 @@ __all__ = [
     "PROBABILITY_FIELDS",
     "analysis",
     "curve",
-    "curve_field",
     "design",
-    "field_of",
     "probability",
 ]
 
 DESIGN_M_MAX = 5
 """False-mark counts m = 0..5 reported by ``gates.design`` (its request has no m_max)."""
-
-_FIELDS = {
-    "tau": "tau",
-    "r": "mark.r",
-    "az": "mark.az_deg",
-    "sigma_r": "mark.sigma_r",
-    "sigma_az": "mark.sigma_az_deg",
-    "sigma_r2": "mark.sigma_r2",
-    "sigma_az2": "mark.sigma_az2_deg",
-    "B": "mark",
-    "geometry": "mark",
-    "P_G": "gate.P_G",
-    "p": "gate.p",
-    "k": "gate.k",
-    "K_R": "gate.K_R",
-    "K_az": "gate.K_az",
-    "offset": "gate.offset",
-    "velocity": "velocity",
-    "prior": "prior.kind",
-    "capture": "capture",
-    "P_D1": "P_D1",
-    "P_D2": "P_D2",
-    "F": "false_alarm",
-    "m_max": "m_max",
-    "dR": "resolution.range",
-    "dAz": "resolution.azimuth_deg",
-    "cells": "resolution",
-}
-"""Core argument -> request path, for every argument a request feeds core."""
 
 
 def _own_covariances(mark: Mark, r: np.ndarray, where: Callable[[int], str]) -> None:
@@ -285,45 +252,74 @@ def design(request: GateDesignRequest) -> GateDesignResult:
     )
 
 
-def field_of(
-    request: GateProbabilityRequest
-    | GateProbabilityCurveRequest
-    | GateAnalysisRequest
-    | GateDesignRequest,
-    exc: PlotgateError,
-) -> str:
-    """The request field a core error concerns (``gate.v_min``, ``mark.sigma_r``, ``tau`` ...)."""
-    if isinstance(exc, PlotError):
-        return exc.field
-    if exc.field in ("v_min", "v_max"):
-        prior = getattr(request, "prior", None)
-        inconsistent = prior is not None and prior.v_min > prior.v_max
-        return ("prior." if inconsistent else "gate.") + exc.field
-    return _FIELDS.get(exc.field, exc.field)
+def _speed_bound(request: GateProbabilityRequest | GateAnalysisRequest, exc: PlotgateError) -> str:
+    """v_min or v_max: the prior's when its bounds are inconsistent, else the gate's."""
+    prior = getattr(request, "prior", None)
+    inconsistent = prior is not None and prior.v_min > prior.v_max
+    return ("prior." if inconsistent else "gate.") + exc.field
 
 
-def curve_field(request: GateProbabilityCurveRequest, exc: PlotgateError) -> str:
-    """As :func:`field_of`, with the per-value errors named ``values[i]``.
+def _against(
+    range_path: str, speed_path: str
+) -> Callable[[GateProbabilityCurveRequest, PlotgateError], str]:
+    """A curve argument's path: one when the values are ranges, another when speeds."""
 
-    Against range the geometry (``r``, ``B``) is per value; against speed the velocity
-    is; against range a conditional curve's velocity comes from ``speed``.
-    """
-    per_value = {"r", "B"} if request.against == "range" else {"velocity"}
-    if exc.field in per_value:
-        return "values" if exc.index is None else f"values[{exc.index}]"
-    if exc.field == "velocity":
-        return "speed"
-    return field_of(request, exc)
+    def field(request: GateProbabilityCurveRequest, exc: PlotgateError) -> str:
+        path = range_path if request.against == "range" else speed_path
+        return resolve({exc.field: path}, request, exc)
+
+    return field
 
 
-PROBABILITY_FIELDS: FieldMap = {"*": field_of}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+PROBABILITY_FIELDS: FieldMap = {
+    "tau": "tau",
+    "r": "mark.r",
+    "az": "mark.az_deg",
+    "sigma_r": "mark.sigma_r",
+    "sigma_az": "mark.sigma_az_deg",
+    "sigma_r2": "mark.sigma_r2",
+    "sigma_az2": "mark.sigma_az2_deg",
+    "B": "mark",
+    "geometry": "mark",
+    "P_G": "gate.P_G",
+    "p": "gate.p",
+    "k": "gate.k",
+    "K_R": "gate.K_R",
+    "K_az": "gate.K_az",
+    "offset": "gate.offset",
+    "velocity": "velocity",
+    "prior": "prior.kind",
+    "capture": "capture",
+    "P_D1": "P_D1",
+    "P_D2": "P_D2",
+    "F": "false_alarm",
+    "m_max": "m_max",
+    "dR": "resolution.range",
+    "dAz": "resolution.azimuth_deg",
+    "cells": "resolution",
+    "v_min": _speed_bound,
+    "v_max": _speed_bound,
+}
+"""Where core's errors point in a ``gates.probability`` request
+(:mod:`plotgate.service.fields`); every other request of the gating probabilities feeds
+core the same arguments. Core checks v_min <= v_max with ``ParameterError("v_min", ...)``
+both for a gate and for the prior; the error names the one whose bounds are inconsistent
+(the prior when both are, as core checks the prior first). A mark refused for its own
+covariance (:class:`~plotgate.service.operations.plots.PlotError`) already names its
+path, which no entry matches, so it is kept as it is."""
 
-CURVE_FIELDS: FieldMap = {"*": curve_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+CURVE_FIELDS: FieldMap = {
+    **PROBABILITY_FIELDS,
+    "r": _against("values[{i}]", "mark.r"),
+    "B": _against("values[{i}]", "mark"),
+    "velocity": _against("speed", "values[{i}]"),
+}
+"""As :data:`PROBABILITY_FIELDS`, with the per-value errors named ``values[i]``: against
+range the geometry (``r``, ``B``) is per value, against speed the velocity is; against
+range a conditional curve's velocity comes from ``speed``."""
 
-ANALYSIS_FIELDS: FieldMap = {"*": field_of}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+ANALYSIS_FIELDS: FieldMap = PROBABILITY_FIELDS
+"""Where core's errors point in a ``gates.analysis`` request (as :data:`PROBABILITY_FIELDS`)."""
 
-DESIGN_FIELDS: FieldMap = {"*": field_of}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+DESIGN_FIELDS: FieldMap = PROBABILITY_FIELDS
+"""Where core's errors point in a ``gates.design`` request (as :data:`PROBABILITY_FIELDS`)."""
