@@ -76,23 +76,23 @@ def main() -> None:
 
     baseline_inside = solve_baseline(z2, z1, S, 0.9)
     if not np.array_equal(EllipseGate(0.9).test(z2, z1, S).inside, baseline_inside):
-        sys.exit("ellipse_gate and the solve baseline disagree")
+        sys.exit("EllipseGate and the solve baseline disagree")
 
     cases: list[tuple[str, Callable[[], object]]] = [
         ("baseline: ellipse rho via np.linalg.solve", lambda: solve_baseline(z2, z1, S, 0.9)),
-        ("ellipse_gate", lambda: EllipseGate(0.9).test(z2, z1, S)),
-        ("combined_gate", lambda: CombinedGate(100.0, 500.0, 0.9).test(z1, P1, z2, P2, 5.0)),
-        ("ring_gate", lambda: RingGate(100.0, 500.0).test(z1, z2, 5.0)),
-        ("expanded_gate", lambda: ExpandedGate(500.0, 0.9).test(z1, z2, 5.0, sigma_r, sigma_az)),
-        ("rectangular_gate", lambda: RectangularGate(2.0).test(z2, z1, sigma_r, sigma_r)),
+        ("EllipseGate", lambda: EllipseGate(0.9).test(z2, z1, S)),
+        ("CombinedGate", lambda: CombinedGate(100.0, 500.0, 0.9).test(z1, P1, z2, P2, 5.0)),
+        ("RingGate", lambda: RingGate(100.0, 500.0).test(z1, z2, 5.0)),
+        ("ExpandedGate", lambda: ExpandedGate(500.0, 0.9).test(z1, z2, 5.0, sigma_r, sigma_az)),
+        ("RectangularGate", lambda: RectangularGate(2.0).test(z2, z1, sigma_r, sigma_r)),
         (
-            "sector_gate",
+            "SectorGate",
             lambda: SectorGate(3.0, 3.0).test(
                 r2, az2, r1, az1, sigma_r, sigma_az, sigma_r, sigma_az
             ),
         ),
         (
-            "first_association_gate",
+            "FirstAssociationGate",
             lambda: FirstAssociationGate(500.0, 3.0, 3.0).test(
                 r1, az1, r2, az2, 5.0, sigma_r, sigma_az, sigma_r, sigma_az
             ),
