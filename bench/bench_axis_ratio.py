@@ -4,7 +4,7 @@ Run from the repository root::
 
     python bench/bench_axis_ratio.py
 
-Seed 000's example (ring gate 100..500 m/s, tau 5 s, first mark 50 km north, sigma_az
+Konovalov's example (ring gate 100..500 m/s, tau 5 s, first mark 50 km north, sigma_az
 0.5 deg, the area prior) with the range sigma swept from 200 m (B's axis ratio
 sqrt(lambda_max / lambda_min) about 2, the paper's case) down to 1 mm (about 4 x 10^5),
 then the azimuth sigma down to 1e-6 degrees; each probability through the service's
@@ -24,7 +24,7 @@ import time
 import numpy as np
 import scipy
 
-import plotgate.core.gate_probability as gp
+import plotgate.core.gates.probability as gp
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import Mark
 

@@ -4,7 +4,7 @@ Run from the repository root::
 
     python bench/bench_probability.py
 
-The set-up is seed 000's example (first mark at 50 km, sigma_r 200 m, sigma_az 0.5
+The set-up is Konovalov's example (first mark at 50 km, sigma_r 200 m, sigma_az 0.5
 deg, tau 5 s, speeds 100..500 m/s). Each quadrature is timed end to end (validation
 included) as the best of several runs with time.perf_counter.
 

@@ -48,9 +48,11 @@ import numpy as np
 from scipy import stats
 from scipy.spatial import cKDTree
 
-from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
 from plotgate.core.errors import ParameterError
 from plotgate.core.frames import wrap_finite
+from plotgate.core.gates.capture import CombinedGate, ExpandedGate, RingGate
+from plotgate.core.gates.polar import FirstAssociationGate
+from plotgate.core.gates.thresholds import expansion_coefficient
 from plotgate.core.initiation.assignment import one_to_one
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.scan import Scan
@@ -63,8 +65,6 @@ from plotgate.core.initiation.state import (
     Tracks,
     empty_state,
 )
-from plotgate.core.polar_gates import first_association_gate
-from plotgate.core.thresholds import expansion_coefficient
 
 __all__ = ["DROP_REASONS", "MAX_CANDIDATES", "ScanReport", "initiate"]
 
@@ -374,43 +374,26 @@ def _capture_pairs(
         g = np.flatnonzero(tau[rows] == t)
         i, c = rows[g], cols[g]
         if config.mode == "polar":
-            res = first_association_gate(
+            res = FirstAssociationGate(config.v_max, K_R, K_az).test(
                 ini.r[i],
                 ini.az[i],
                 scan.r[c],
                 scan.az[c],
                 t,
-                config.v_max,
                 ini.sigma_r[i],
                 ini.sigma_az[i],
                 scan.sigma_r[c],
                 scan.sigma_az[c],
-                K_R,
-                K_az,
             )
         elif config.capture_gate == "ring":
-            res = ring_gate(ini.z[i], scan.z[c], t, config.v_min, config.v_max)
+            res = RingGate(config.v_min, config.v_max).test(ini.z[i], scan.z[c], t)
         elif config.capture_gate == "expanded":
-            res = expanded_gate(
-                ini.z[i],
-                scan.z[c],
-                t,
-                config.v_max,
-                ini.sigma_r[i],
-                ini.sigma_az[i],
-                config.capture_p,
-                sensor=ini.sensor[i],
+            res = ExpandedGate(config.v_max, config.capture_p).test(
+                ini.z[i], scan.z[c], t, ini.sigma_r[i], ini.sigma_az[i], sensor=ini.sensor[i]
             )
         else:
-            res = combined_gate(
-                ini.z[i],
-                ini.R[i],
-                scan.z[c],
-                scan.R[c],
-                t,
-                config.v_min,
-                config.v_max,
-                config.capture_P_G,
+            res = CombinedGate(config.v_min, config.v_max, config.capture_P_G).test(
+                ini.z[i], ini.R[i], scan.z[c], scan.R[c], t
             )
         inside[g] = res.inside
     rows, cols = rows[inside], cols[inside]

@@ -1,4 +1,4 @@
-"""Tests of core.capture_gates (seed 000): ring, expanded and combined gates."""
+"""Tests of core.gates.capture (Konovalov): ring, expanded and combined gates."""
 
 import math
 
@@ -8,14 +8,14 @@ from gate_helpers import N_RANDOM, assert_matches_reference, combined_inputs
 from scipy import stats
 
 from plotgate.core import (
+    CombinedGate,
     CovarianceError,
+    ExpandedGate,
     GateStage,
     NonFiniteError,
     ParameterError,
     PlotgateError,
-    combined_gate,
-    expanded_gate,
-    ring_gate,
+    RingGate,
 )
 
 K_G_09 = math.sqrt(-2.0 * math.log(1.0 - 0.9))
@@ -68,7 +68,7 @@ def combined_ref(z1, P1, z2, P2, tau, v_min, v_max, P_G):
 def test_ring_gate_hand_computed():
     # R_min = 20 * 5 = 100 m, R_max = 500 * 5 = 2500 m; both bounds inclusive
     z2 = [[300.0, 400.0], [30.0, 40.0], [3000.0, 4000.0], [60.0, 80.0], [1500.0, 2000.0]]
-    res = ring_gate([0.0, 0.0], z2, tau=5.0, v_min=20.0, v_max=500.0)
+    res = RingGate(20.0, 500.0).test([0.0, 0.0], z2, tau=5.0)
     np.testing.assert_array_equal(res.inside, [True, False, False, True, True])
     np.testing.assert_allclose(res.statistic, [500.0, 50.0, 5000.0, 100.0, 2500.0])
     assert res.threshold == 2500.0 and res.stage is None
@@ -86,7 +86,7 @@ def test_combined_gate_hand_computed_with_correlated_B():
             [0.0, 0.0],  # d = 0: rho = R_min^2 / lambda_max(B)
         ]
     )
-    res = combined_gate([0.0, 0.0], P, z2, P, tau=10.0, v_min=10.0, v_max=50.0, P_G=0.9)
+    res = CombinedGate(10.0, 50.0, 0.9).test([0.0, 0.0], P, z2, P, tau=10.0)
     lambda_max = 8000.0 + math.sqrt(2000.0**2 + 4000.0**2)
     np.testing.assert_allclose(
         res.statistic, [0.0, 15 / 11, 100 / 11, 59 / 220, 100.0**2 / lambda_max], rtol=1e-12
@@ -105,29 +105,27 @@ def test_combined_gate_hand_computed_with_correlated_B():
 
 def test_combined_gate_ring_bounds_are_inclusive_and_d_zero_with_v_min_zero_is_ring():
     P = np.eye(2)
-    res = combined_gate([0.0, 0.0], P, [[100.0, 0.0], [0.0, 500.0]], P, 10.0, 10.0, 50.0, 0.9)
+    res = CombinedGate(10.0, 50.0, 0.9).test([0.0, 0.0], P, [[100.0, 0.0], [0.0, 500.0]], P, 10.0)
     assert res.stage.tolist() == [GateStage.RING, GateStage.RING]
-    res = combined_gate([5.0, 5.0], P, [5.0, 5.0], P, 10.0, 0.0, 50.0, 0.9)
+    res = CombinedGate(0.0, 50.0, 0.9).test([5.0, 5.0], P, [5.0, 5.0], P, 10.0)
     assert res.stage.tolist() == [GateStage.RING] and res.statistic.tolist() == [0.0]
 
 
 def test_combined_gate_d_zero_far_inside_inner_circle_is_rejected():
     # rho = R_min^2 / lambda_max(B) = 1000^2 / 2 is far above gamma
-    res = combined_gate([0.0, 0.0], np.eye(2), [0.0, 0.0], np.eye(2), 10.0, 100.0, 500.0, 0.9)
+    res = CombinedGate(100.0, 500.0, 0.9).test([0.0, 0.0], np.eye(2), [0.0, 0.0], np.eye(2), 10.0)
     assert res.stage.tolist() == [GateStage.NONE]
     assert res.statistic[0] == pytest.approx(1000.0**2 / 2.0)
 
 
 def test_expanded_gate_hand_computed_north():
     # LOS due north: a = 500 + K_g 200 = 929.19 m along it (y), b = 500 + K_g 100 = 714.60 m
-    res = expanded_gate(
+    res = ExpandedGate(100.0, 0.9).test(
         [0.0, 10_000.0],
         [[0.0, 10_900.0], [900.0, 10_000.0]],
         tau=5.0,
-        v_max=100.0,
         sigma_r=200.0,
         sigma_az=0.01,
-        p=0.9,
     )
     expected = [(900.0 / (500.0 + K_G_09 * 200.0)) ** 2, (900.0 / (500.0 + K_G_09 * 100.0)) ** 2]
     np.testing.assert_allclose(res.statistic, expected, rtol=1e-12)
@@ -143,7 +141,7 @@ def test_expanded_gate_aligns_with_line_of_sight(bearing_deg):
     along, across = np.array([math.sin(b), math.cos(b)]), np.array([math.cos(b), -math.sin(b)])
     z1 = sensor + 8000.0 * along
     z2 = np.stack([z1 + 800.0 * along, z1 + 800.0 * across, z1 - 800.0 * along])
-    res = expanded_gate(z1, z2, 5.0, 100.0, 200.0, 0.005, 0.9, sensor=sensor)
+    res = ExpandedGate(100.0, 0.9).test(z1, z2, 5.0, 200.0, 0.005, sensor=sensor)
     a, b_axis = 500.0 + K_G_09 * 200.0, 500.0 + K_G_09 * 40.0
     expected = [(800.0 / a) ** 2, (800.0 / b_axis) ** 2, (800.0 / a) ** 2]
     np.testing.assert_allclose(res.statistic, expected, rtol=1e-9)
@@ -157,7 +155,7 @@ def test_ring_gate_matches_reference():
     rng = np.random.default_rng(101)
     z1 = rng.uniform(-1e4, 1e4, (N_RANDOM, 2))
     z2 = z1 + rng.uniform(-3000.0, 3000.0, (N_RANDOM, 2))
-    res = ring_gate(z1, z2, 5.0, 100.0, 500.0)
+    res = RingGate(100.0, 500.0).test(z1, z2, 5.0)
     ref = [ring_ref(a, b, 5.0, 100.0, 500.0) for a, b in zip(z1, z2, strict=True)]
     assert_matches_reference(res, ref, N_RANDOM)
 
@@ -169,7 +167,7 @@ def test_expanded_gate_matches_reference():
     z2 = z1 + rng.uniform(-1500.0, 1500.0, (N_RANDOM, 2))
     sigma_r = rng.uniform(10.0, 300.0, N_RANDOM)
     sigma_az = rng.uniform(1e-3, 2e-2, N_RANDOM)
-    res = expanded_gate(z1, z2, 5.0, 200.0, sigma_r, sigma_az, 0.95, sensor=sensor)
+    res = ExpandedGate(200.0, 0.95).test(z1, z2, 5.0, sigma_r, sigma_az, sensor=sensor)
     ref = [
         expanded_ref(*row, 5.0, 200.0, sr, saz, 0.95, s)
         for *row, sr, saz, s in zip(z1, z2, sigma_r, sigma_az, sensor, strict=True)
@@ -180,7 +178,7 @@ def test_expanded_gate_matches_reference():
 def test_combined_gate_matches_reference():
     rng = np.random.default_rng(103)
     z1, P1, z2, P2 = combined_inputs(rng, N_RANDOM)
-    res = combined_gate(z1, P1, z2, P2, 5.0, 30.0, 100.0, 0.9)
+    res = CombinedGate(30.0, 100.0, 0.9).test(z1, P1, z2, P2, 5.0)
     ref = [combined_ref(*row, 5.0, 30.0, 100.0, 0.9) for row in zip(z1, P1, z2, P2, strict=True)]
     assert_matches_reference(res, ref, N_RANDOM)
     np.testing.assert_array_equal(res.stage, [row[2] for row in ref])
@@ -329,7 +327,8 @@ def _with(array, index, value):
 def test_combined_gate_validation_errors(override, error, message, index):
     args = _combined_args()
     args.update(override(args))
+    gate = CombinedGate(args.pop("v_min"), args.pop("v_max"), args.pop("P_G"))
     with pytest.raises(error, match=message) as info:
-        combined_gate(**args)
+        gate.test(**args)
     assert info.value.index == index
     assert isinstance(info.value, PlotgateError) and isinstance(info.value, ValueError)

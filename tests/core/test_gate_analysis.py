@@ -1,4 +1,4 @@
-"""Tests of core.gate_analysis (seed 000): gate areas, resolution cells, false marks,
+"""Tests of core.gates.analysis (Konovalov): gate areas, resolution cells, false marks,
 capture probability and gate design, each against an independent computation."""
 
 import math
@@ -20,7 +20,6 @@ from plotgate.core import (
     SectorGate,
     capture_probability,
     combined_area_approximation,
-    combined_gate,
     design_gate,
     false_marks,
     gate_area,
@@ -45,7 +44,7 @@ def batch_geometry():
 
 
 def cartesian_covariance(r, az, sr, saz):
-    """DESIGN section 2: P = J diag(sr^2, saz^2) J^T,
+    """the polar-to-Cartesian Jacobian J: P = J diag(sr^2, saz^2) J^T,
     J = [[sin az, r cos az], [cos az, -r sin az]]."""
     J = np.array([[math.sin(az), r * math.cos(az)], [math.cos(az), -r * math.sin(az)]])
     return J @ np.diag([sr**2, saz**2]) @ J.T
@@ -169,7 +168,7 @@ def test_first_association_area():
 
 def _combined_area_quad(B, R_min, R_max, P_G):
     """Half the integral over direction of hi^2 - lo^2, hi = R_max + h, lo = max(0, R_min - h),
-    h = sqrt(gamma / u^T B^-1 u) (DESIGN section 3), by scipy quad."""
+    h = sqrt(gamma / u^T B^-1 u), by scipy quad."""
     Q = np.linalg.inv(B)
     g = gamma(P_G)
 
@@ -234,7 +233,7 @@ def test_combined_area_against_quad_and_monte_carlo(case):
     half = R_max + math.sqrt(gamma(P_G) * np.linalg.eigvalsh(B)[-1]) + 1.0
     n = 2_000_000
     pts = g.z1[0] + rng.uniform(-half, half, (n, 2))
-    inside = combined_gate(g.z1[0], g.P1[0], pts, g.P2[0], TAU, v_min, v_max, P_G).inside
+    inside = CombinedGate(v_min, v_max, P_G).test(g.z1[0], g.P1[0], pts, g.P2[0], TAU).inside
     p = inside.mean()
     box = (2.0 * half) ** 2
     assert abs(exact - box * p) <= 4.0 * box * math.sqrt(p * (1.0 - p) / n)
@@ -296,7 +295,7 @@ def paper_cells(area):
 
 
 def test_paper_expanded_against_combined_false_marks():
-    # seed 000: tau 5 s, v 100..500 m/s, sigma_r 200 m, sigma_az 0.5 deg, r 50 km,
+    # Konovalov: tau 5 s, v 100..500 m/s, sigma_r 200 m, sigma_az 0.5 deg, r 50 km,
     # dR 500 m, dAz 1.5 deg, F 1e-4: 49 cells against 31, P(>= 1 false) 0.0049 against 0.0031
     g = mark_geometry(PAPER_R, 0.0, 200.0, math.radians(0.5), tau=TAU)
     expanded = paper_cells(gate_area(ExpandedGate(500.0, 0.9), g)).item()

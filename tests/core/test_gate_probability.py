@@ -1,4 +1,4 @@
-"""Tests of core.gate_probability (seed 000, eq. 1-6): gating probabilities by quadrature.
+"""Tests of core.gates.probability (Konovalov, eq. 1-6): gating probabilities by quadrature.
 
 Every number is checked against an independent computation with a stated tolerance:
 the paper's worked values, closed forms (chi-square, normal and Rice distributions of
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-import plotgate.core.gate_probability as gp
+import plotgate.core.gates.probability as gp
 from plotgate.core import (
     CombinedGate,
     EllipseGate,
@@ -31,12 +31,12 @@ from plotgate.core import (
 )
 
 TAU = 5.0
-TARGET = 1e-6  # DESIGN section 4: absolute quadrature error below 1e-6, reported
+TARGET = 1e-6  # the target: absolute quadrature error below 1e-6, reported
 MC_SAMPLES = 10**6
 
 
 def paper_geometry(r):
-    """Seed 000's example: sigma_r 200 m, sigma_az 0.5 deg for both marks, tau 5 s."""
+    """Konovalov's example: sigma_r 200 m, sigma_az 0.5 deg for both marks, tau 5 s."""
     return mark_geometry(r, 0.0, 200.0, math.radians(0.5), tau=TAU)
 
 
@@ -512,7 +512,7 @@ def fine_unconditional(gate, g, speeds, prior, m):
     has named its rules both M_HIGH / M_LOW with an order m and RULES with (m, scale))."""
     R_min, R_max = speeds[0] * TAU, speeds[1] * TAU
     rule = (m, 1.0) if hasattr(gp, "RULES") else m
-    return gp._unconditional(gate, g, R_min, R_max, prior, rule)
+    return gp.unconditional_quadrature(gate, g, R_min, R_max, prior, rule)
 
 
 def finer_rules(monkeypatch, m):

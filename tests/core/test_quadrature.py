@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from plotgate.core.quadrature import RATIO, adaptive_panels, breakpoints, panel_rule
+from plotgate.core.gates.quadrature import RATIO, adaptive_panels, breakpoints, panel_rule
 
 TWO_PI = 2.0 * math.pi
 

@@ -1,4 +1,4 @@
-"""Tests of core.thresholds against seed 000's constants and scipy.stats oracles."""
+"""Tests of core.gates.thresholds against Konovalov's constants and scipy.stats oracles."""
 
 import numpy as np
 import pytest

@@ -1,11 +1,11 @@
-"""Tests of core.tracking_gates: ellipse gate, innovation covariance, rectangular gate."""
+"""Tests of core.gates.tracking: ellipse gate, innovation covariance, rectangular gate."""
 
 import numpy as np
 import pytest
 from gate_helpers import N_RANDOM, assert_matches_reference, random_spd
 from scipy import stats
 
-from plotgate.core import ParameterError, ellipse_gate, innovation_covariance, rectangular_gate
+from plotgate.core import EllipseGate, ParameterError, RectangularGate, innovation_covariance
 
 GAMMA_09 = stats.chi2.ppf(0.9, 2)
 
@@ -31,7 +31,7 @@ def test_ellipse_gate_hand_computed():
     # S = [[4, 1], [1, 2]], |S| = 7: nu = (2, 1) gives (2*4 - 2*1*2 + 4*1)/7 = 8/7,
     # nu = (0, 3) gives 4 * 9 / 7 = 36/7 > gamma(0.9) = 4.605
     S = np.array([[4.0, 1.0], [1.0, 2.0]])
-    res = ellipse_gate([[12.0, 21.0], [10.0, 23.0]], [10.0, 20.0], S, 0.9)
+    res = EllipseGate(0.9).test([[12.0, 21.0], [10.0, 23.0]], [10.0, 20.0], S)
     np.testing.assert_allclose(res.statistic, [8 / 7, 36 / 7], rtol=1e-14)
     np.testing.assert_array_equal(res.inside, [True, False])
     assert res.threshold == pytest.approx(GAMMA_09, rel=1e-15)
@@ -59,7 +59,9 @@ def test_innovation_covariance_shape_errors():
 def test_rectangular_gate_hand_computed():
     # sigma_x = 10, sigma_y = 20, k = 3: (25, 50) -> max(2.5, 2.5); (31, 0) -> 3.1;
     # (30, -60) sits exactly on the corner (3, 3) and is inside
-    res = rectangular_gate([[25.0, 50.0], [31.0, 0.0], [30.0, -60.0]], [0.0, 0.0], 10.0, 20.0, 3.0)
+    res = RectangularGate(3.0).test(
+        [[25.0, 50.0], [31.0, 0.0], [30.0, -60.0]], [0.0, 0.0], 10.0, 20.0
+    )
     np.testing.assert_allclose(res.statistic, [2.5, 3.1, 3.0])
     np.testing.assert_array_equal(res.inside, [True, False, True])
     assert res.threshold == 3.0
@@ -73,7 +75,7 @@ def test_ellipse_gate_matches_reference():
     z_pred = rng.uniform(-1e4, 1e4, (N_RANDOM, 2))
     z = z_pred + rng.normal(0.0, 150.0, (N_RANDOM, 2))
     S = random_spd(rng, N_RANDOM, 60.0)
-    res = ellipse_gate(z, z_pred, S, 0.99)
+    res = EllipseGate(0.99).test(z, z_pred, S)
     ref = [ellipse_ref(*row, 0.99) for row in zip(z, z_pred, S, strict=True)]
     assert_matches_reference(res, ref, N_RANDOM)
     np.testing.assert_array_equal(res.inside, res.statistic <= res.threshold)
@@ -86,7 +88,7 @@ def test_ellipse_gate_matches_ill_conditioned_reference():
     R = R.reshape(-1, 2, 2)
     S = R @ (np.eye(2) * [1e6, 1.0]) @ R.transpose(0, 2, 1)
     z = rng.normal(0.0, 30.0, (N_RANDOM, 2))
-    res = ellipse_gate(z, [0.0, 0.0], S, 0.9)
+    res = EllipseGate(0.9).test(z, [0.0, 0.0], S)
     ref = [ellipse_ref(row, np.zeros(2), s, 0.9) for row, s in zip(z, S, strict=True)]
     np.testing.assert_allclose(res.statistic, [r[1] for r in ref], rtol=1e-6)
     assert np.all(res.statistic >= 0.0)
@@ -97,7 +99,7 @@ def test_rectangular_gate_matches_reference():
     z_pred = rng.uniform(-1e4, 1e4, (N_RANDOM, 2))
     z = z_pred + rng.normal(0.0, 40.0, (N_RANDOM, 2))
     sigma_x, sigma_y = rng.uniform(5.0, 30.0, (2, N_RANDOM))
-    res = rectangular_gate(z, z_pred, sigma_x, sigma_y, 2.5)
+    res = RectangularGate(2.5).test(z, z_pred, sigma_x, sigma_y)
     ref = [rectangular_ref(*row, 2.5) for row in zip(z, z_pred, sigma_x, sigma_y, strict=True)]
     assert_matches_reference(res, ref, N_RANDOM)
 
@@ -105,7 +107,7 @@ def test_rectangular_gate_matches_reference():
 def test_per_pair_covariance_with_one_candidate_broadcasts():
     rng = np.random.default_rng(110)
     S = random_spd(rng, 7, 10.0)
-    res = ellipse_gate([1.0, 2.0], [0.0, 0.0], S, 0.9)
+    res = EllipseGate(0.9).test([1.0, 2.0], [0.0, 0.0], S)
     assert res.statistic.shape == (7,)
     np.testing.assert_allclose(
         res.statistic,
@@ -116,7 +118,7 @@ def test_per_pair_covariance_with_one_candidate_broadcasts():
 
 def test_rounding_asymmetry_is_accepted_and_upper_element_read():
     P = np.array([[4.0, 1.0], [1.0 + 1e-12, 3.0]])
-    res = ellipse_gate([1.0, 1.0], [0.0, 0.0], P, 0.9)
+    res = EllipseGate(0.9).test([1.0, 1.0], [0.0, 0.0], P)
     S = np.array([[4.0, 1.0], [1.0, 3.0]])
     expected = ellipse_ref(np.ones(2), np.zeros(2), S, 0.9)[1]
     assert res.statistic[0] == pytest.approx(expected, rel=1e-14)

@@ -45,7 +45,7 @@ def test_pairs_match_core(client):
     r = client.post("/v1/gates/pairs", json={"gate": COMBINED, "pairs": pairs})
     assert r.status_code == 200, r.text
     P = np.diag([1e4, 1e4])
-    expected = core.combined_gate(z1, P, z2, P, 5.0, 100.0, 500.0, 0.9)
+    expected = core.CombinedGate(100.0, 500.0, 0.9).test(z1, P, z2, P, 5.0)
     assert r.json()["inside"] == expected.inside.tolist()
     np.testing.assert_allclose(r.json()["statistic"], expected.statistic, rtol=1e-12)
 

@@ -1,4 +1,4 @@
-"""Gating probabilities, curves, analysis and design over HTTP (seed 000, eq. 1-6).
+"""Gating probabilities, curves, analysis and design over HTTP (Konovalov, eq. 1-6).
 
 Numbers are checked against core called directly and against the paper's worked
 example (tau 5 s, v 100..500 m/s, sigma_r 200 m, sigma_az 0.5 deg); bad input answers a
@@ -47,7 +47,7 @@ def _probability(**changes) -> dict:
 
 
 def test_paper_ring_gate_unconditional(client):
-    # seed 000: ring gate, area prior, R = 50 km -> 0.82
+    # Konovalov: ring gate, area prior, R = 50 km -> 0.82
     body = answer(
         client.post(
             "/v1/gates/probability", json={"gate": RING, "mark": MARK, "tau": TAU, "prior": AREA}
@@ -175,7 +175,7 @@ def test_range_curve_conditional_matches_core(client):
 
 
 def test_range_curve_unconditional_paper_values(client):
-    # seed 000: ring gate, area prior: 0.90 at 20 km, 0.82 at 50 km
+    # Konovalov: ring gate, area prior: 0.90 at 20 km, 0.82 at 50 km
     body = answer(
         client.post(
             "/v1/gates/probability/curve",
@@ -225,7 +225,7 @@ def test_analysis_combined_gate(client):
 
 
 def test_analysis_expanded_gate_paper_cells(client):
-    # seed 000: the expanded gate (p = 0.9) covers about 49 cells, P(>= 1) = 0.0049
+    # Konovalov: the expanded gate (p = 0.9) covers about 49 cells, P(>= 1) = 0.0049
     gate = {"kind": "expanded", "v_max": 500.0, "p": 0.9}
     body = answer(client.post("/v1/gates/analysis", json=_analysis(gate=gate)))
     assert body["cells"] == pytest.approx(49.0, abs=1.0)

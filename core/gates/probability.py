@@ -1,6 +1,6 @@
-"""Probability that the second mark falls in a gate (seed 000, eq. 1-6).
+"""Probability that the second mark falls in a gate (Konovalov, eq. 1-6).
 
-The second mark is d = z2 - z1 ~ N(v tau, B) about the first (seed 000, eq. 1), so
+The second mark is d = z2 - z1 ~ N(v tau, B) about the first (Konovalov, eq. 1), so
 
 - the conditional probability for a known velocity v is the integral of that
   density over the gate (eq. 2);
@@ -10,8 +10,8 @@ The second mark is d = z2 - z1 ~ N(v tau, B) about the first (seed 000, eq. 1), 
   ``prior="speed"`` makes the speed uniform.
 
 Both are computed by deterministic quadrature in the gate's polar coordinates
-(:class:`plotgate.core.gate_regions.StarRegion`). Along a ray o + t u the Gaussian has a
-closed-form integral (DESIGN section 4),
+(:class:`plotgate.core.gates.regions.StarRegion`). Along a ray o + t u the Gaussian has a
+closed-form integral,
 
 .. math:: \\int_{t_1}^{t_2} t^k e^{-q(t)/2} dt, \\quad
           q(t) = (t\\mathbf{u} - \\mathbf{m})^T \\mathbf{B}^{-1} (t\\mathbf{u} - \\mathbf{m}),
@@ -21,7 +21,7 @@ with erf and exp only (:func:`_ray_moments`). The conditional probability is the
 a 1-D integral over direction; the unconditional one integrates the gate's
 directions and radii and the prior's heading, with the prior's speed in closed form.
 Every integral uses composite Gauss-Legendre panels graded towards its thin features
-(:mod:`plotgate.core.quadrature`): the Gaussian's angular peak, the kinks of the gate's
+(:mod:`plotgate.core.gates.quadrature`): the Gaussian's angular peak, the kinks of the gate's
 boundary, and the edges of the prior's ring. The conditional probability bisects its
 panels until a 10-point and a 5-point rule agree to 1e-10 and reports the sum of their
 differences (the error of the lower order: a bound in practice). The unconditional
@@ -38,17 +38,18 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import ndtr
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.gate_regions import Gate, MarkGeometry, StarRegion
-from plotgate.core.gating import _ring_radii
-from plotgate.core.quadrature import adaptive_panels, breakpoints, panel_rule
-from plotgate.core.sym2 import Sym2
+from plotgate.core.gates.kinds import Gate
+from plotgate.core.gates.parameters import ring_radii
+from plotgate.core.gates.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.gates.regions import MarkGeometry, StarRegion
+from plotgate.core.sym2 import Sym2, inverse
 from plotgate.core.validation import as_points, pair_count
 
 __all__ = [
@@ -57,6 +58,7 @@ __all__ = [
     "conditional_probability",
     "monte_carlo_probability",
     "unconditional_probability",
+    "unconditional_quadrature",
 ]
 
 Prior = Literal["area", "speed"]
@@ -105,10 +107,6 @@ class GateProbability:
     error: np.ndarray
 
 
-def _inverse(B: Sym2) -> Sym2:
-    return Sym2(B.yy / B.det, -B.xy / B.det, B.xx / B.det, 1.0 / B.det)
-
-
 def _column(S: Sym2, ndim: int) -> Sym2:
     return Sym2(*(np.reshape(x, (-1,) + (1,) * (ndim - 1)) for x in S))
 
@@ -128,8 +126,8 @@ def _ray_moments(
     mx: np.ndarray,
     my: np.ndarray,
     Q: Sym2,
-    t1: np.ndarray,
-    t2: np.ndarray,
+    t1: np.ndarray | np.float64,
+    t2: np.ndarray | np.float64,
 ) -> tuple[np.ndarray, np.ndarray]:
     """M_k = integral over t in [t1, t2] of t^k exp(-q(t)/2), k = 0, 1.
 
@@ -197,7 +195,9 @@ def _angle_breaks(
     )
 
 
-def _conditional_integrand(region: StarRegion, Q: Sym2, rel: np.ndarray) -> Callable:
+def _conditional_integrand(
+    region: StarRegion, Q: Sym2, rel: np.ndarray
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Closed-form radial integral M1 over the gate along rays theta, for given problems."""
 
     def integrand(rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -222,7 +222,7 @@ def conditional_probability(
     Parameters
     ----------
     gate : Gate
-        A gate of :mod:`plotgate.core.gate_regions`.
+        A gate of :mod:`plotgate.core.gates.kinds`.
     geometry : MarkGeometry
         N problems (first mark, sigmas, tau).
     velocity : (2,) or (N, 2) array_like
@@ -235,14 +235,14 @@ def conditional_probability(
 
     References
     ----------
-    .. [1] A. A. Konovalov, seed 000, eq. (1)-(2) (ring gate), and the combined
+    .. [1] A. A. Konovalov, eq. (1)-(2) (ring gate), and the combined
        gate's P_Sigma "by the same formulas" over the union of ring and ellipse.
 
     Examples
     --------
     The chi-square ellipse centred on the mean holds exactly P_G:
 
-    >>> from plotgate.core.gate_regions import EllipseGate, mark_geometry
+    >>> from plotgate.core.gates import EllipseGate, mark_geometry
     >>> g = mark_geometry(20e3, 0.3, 150.0, 0.004, tau=4.0)
     >>> res = conditional_probability(EllipseGate(0.9, offset=(800.0, 0.0)), g, [200.0, 0.0])
     >>> round(float(res.probability[0]), 10), bool(res.error[0] < 1e-6)
@@ -267,7 +267,7 @@ def conditional_probability(
     edges = _angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
     norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
     integral, error = adaptive_panels(
-        _conditional_integrand(region, _inverse(geometry.B), rel),
+        _conditional_integrand(region, inverse(geometry.B), rel),
         edges,
         _CONDITIONAL_TOL * norm,
         orders=M_CONDITIONAL,
@@ -370,7 +370,8 @@ def _unconditional_chunk(
         )
     radial = np.einsum("ntr,ntr->nt", w_rho * rho, density.reshape(n, T, R))
     total = np.einsum("nt,nt->n", w_theta, radial)
-    return total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
+    probability: np.ndarray = total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
+    return probability
 
 
 def _prior_density(
@@ -413,7 +414,7 @@ def _prior_density(
                 widths.append(np.broadcast_to(scale * sigma / max(R, 1e-300), t.shape))
     phi_edges = _angle_breaks(centres[0] - half, 2.0 * half, centres, widths, None, uniform=2)
     phi, w_phi = panel_rule(phi_edges, m)
-    Q = _column(_inverse(B), 3)
+    Q = _column(inverse(B), 3)
     ex, ey = np.cos(phi), np.sin(phi)
     mx, my = dx[..., None], dy[..., None]
     if R_max - R_min > float(sigma.min()):
@@ -474,7 +475,7 @@ def unconditional_probability(
 
     The true displacement x = v tau has a uniform heading and a length s on
     [v_min tau, v_max tau] with density 2 s / (R_max^2 - R_min^2) (``"area"``: x
-    uniform over the ring, seed 000 eq. 4-5) or 1 / (R_max - R_min) (``"speed"``);
+    uniform over the ring, Konovalov, eq. 4-5) or 1 / (R_max - R_min) (``"speed"``);
     the second mark is d = x + w, w ~ N(0, B) (eq. 3), and
 
     .. math:: P = \\iint_{gate} g(\\mathbf d)\\, d\\mathbf d, \\quad
@@ -487,7 +488,7 @@ def unconditional_probability(
     Parameters
     ----------
     gate : Gate
-        A gate of :mod:`plotgate.core.gate_regions`.
+        A gate of :mod:`plotgate.core.gates.kinds`.
     geometry : MarkGeometry
         N problems.
     v_min, v_max : float
@@ -502,16 +503,18 @@ def unconditional_probability(
 
     References
     ----------
-    .. [1] A. A. Konovalov, seed 000, eq. (3)-(6); worked values 0.82 (50 km) and
+    .. [1] A. A. Konovalov, eq. (3)-(6); worked values 0.82 (50 km) and
        0.90 (20 km) for the ring gate, P'_Sigma = 0.9967 for the combined gate.
     """
     _validate_prior(prior)
-    R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
-    high, low = (_unconditional(gate, geometry, R_min, R_max, prior, rule) for rule in RULES)
+    R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
+    high, low = (
+        unconditional_quadrature(gate, geometry, R_min, R_max, prior, rule) for rule in RULES
+    )
     return GateProbability(high, np.abs(high - low))
 
 
-def _unconditional(
+def unconditional_quadrature(
     gate: Gate,
     geometry: MarkGeometry,
     R_min: float,
@@ -519,7 +522,14 @@ def _unconditional(
     prior: str,
     rule: tuple[int, float],
 ) -> np.ndarray:
-    """The unconditional probability with one rule of :data:`RULES`, problem by problem.
+    """The unconditional probability with one rule, problem by problem.
+
+    ``rule`` is (Gauss-Legendre order per panel, scale of the grading widths), as in
+    :data:`RULES`; R_min and R_max are the prior ring's radii (m) and ``prior`` is
+    ``"area"`` or ``"speed"``, all validated by the caller
+    (:func:`unconditional_probability`). :func:`plotgate.core.gates.analysis.design_gate`
+    searches with a cheaper rule, and the tests check the error estimate against
+    higher-order rules.
 
     Each problem is one vectorized 3-D quadrature of 10^5-10^6 nodes. Problems are not
     stacked into one array: their features lie in different places, and a common array
@@ -561,7 +571,8 @@ def monte_carlo_probability(
     v = None if velocity is None else np.broadcast_to(as_points("velocity", velocity), (n, 2))
     if v is None:
         _validate_prior(prior)
-        R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
+        # unchecked here: ring_radii refuses a missing bound, naming it
+        R_min, R_max = ring_radii(geometry.tau, cast(float, v_min), cast(float, v_max))
     p = np.empty(n)
     for i in range(n):
         if v is not None:

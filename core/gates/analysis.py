@@ -1,6 +1,6 @@
-"""Gate areas, resolution cells, false marks, capture probability and gate design (seed 000).
+"""Gate areas, resolution cells, false marks, capture probability and gate design (Konovalov).
 
-Seed 000 compares gates by the false marks they admit: a gate of area S covers
+Konovalov compares gates by the false marks they admit: a gate of area S covers
 S' = S / (dR R dAz) resolution cells (R the first mark's range, dR and dAz the
 radar's range and azimuth resolution); false marks uniform over the picture fall in
 it as a Poisson count with mean F S' (F the false-alarm probability per cell), so
@@ -21,10 +21,17 @@ from numpy.typing import ArrayLike
 from scipy import optimize, stats
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.gate_probability import Prior, _unconditional, unconditional_probability
-from plotgate.core.gate_regions import CombinedGate, ExpandedGate, Gate, MarkGeometry
-from plotgate.core.gating import _gate_threshold, _ring_radii
-from plotgate.core.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.gates.capture import CombinedGate, ExpandedGate
+from plotgate.core.gates.kinds import Gate
+from plotgate.core.gates.parameters import ring_radii
+from plotgate.core.gates.probability import (
+    Prior,
+    unconditional_probability,
+    unconditional_quadrature,
+)
+from plotgate.core.gates.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.gates.regions import MarkGeometry
+from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.validation import (
     as_array,
     as_probability,
@@ -52,14 +59,14 @@ def gate_area(gate: Gate, geometry: MarkGeometry) -> np.ndarray:
     """Area of the gate, m^2, for each of N problems.
 
     The half integral of hi^2 - lo^2 over the gate's directions (its
-    :class:`~plotgate.core.gate_regions.StarRegion`), on Gauss-Legendre panels split at the
+    :class:`~plotgate.core.gates.regions.StarRegion`), on Gauss-Legendre panels split at the
     boundary's kinks and bisected until two rules agree to 1e-12 of the area; exact to
     rounding for every gate kind (the ring, ellipse, expanded, rectangular and sector
     areas have closed forms the tests compare with).
 
     Examples
     --------
-    >>> from plotgate.core.gate_regions import RingGate, mark_geometry
+    >>> from plotgate.core.gates import RingGate, mark_geometry
     >>> g = mark_geometry(50e3, 0.0, 200.0, np.radians(0.5), tau=5.0)
     >>> bool(np.isclose(gate_area(RingGate(100.0, 500.0), g)[0], np.pi * (2500**2 - 500**2)))
     True
@@ -77,7 +84,8 @@ def gate_area(gate: Gate, geometry: MarkGeometry) -> np.ndarray:
 
     def half_difference(rows: np.ndarray | slice, theta: np.ndarray) -> np.ndarray:
         lo, hi = region.radii(theta, rows)
-        return 0.5 * (hi * hi - lo * lo)
+        half: np.ndarray = 0.5 * (hi * hi - lo * lo)
+        return half
 
     theta, weight = panel_rule(edges, 8)
     rough = np.einsum("nt,nt->n", weight, half_difference(slice(None), theta))
@@ -87,14 +95,16 @@ def gate_area(gate: Gate, geometry: MarkGeometry) -> np.ndarray:
 
 def combined_area_approximation(gate: CombinedGate, geometry: MarkGeometry) -> np.ndarray:
     """The paper's S_Sigma ~ S_ring + S_ellipse / 2, S_ellipse = pi sqrt(|gamma B|), m^2."""
-    R_min, R_max = _ring_radii(geometry.tau, gate.v_min, gate.v_max)
-    gamma = _gate_threshold(gate.P_G)
+    R_min, R_max = ring_radii(geometry.tau, gate.v_min, gate.v_max)
+    require_scalar("P_G", gate.P_G)
+    gamma = float(gate_threshold(gate.P_G))
     ring: np.ndarray = np.pi * (R_max * R_max - R_min * R_min) + np.zeros(geometry.n)
-    return ring + 0.5 * np.pi * gamma * np.sqrt(geometry.B.det)
+    area: np.ndarray = ring + 0.5 * np.pi * gamma * np.sqrt(geometry.B.det)
+    return area
 
 
 def resolution_cells(area: ArrayLike, r: ArrayLike, dR: float, dAz: float) -> np.ndarray:
-    """S' = S / (dR r dAz): the gate area in resolution cells (seed 000).
+    """S' = S / (dR r dAz): the gate area in resolution cells (Konovalov).
 
     Parameters
     ----------
@@ -125,7 +135,7 @@ class FalseMarks:
 
 
 def false_marks(cells: ArrayLike, F: float, m_max: int = 5) -> FalseMarks:
-    """False-mark statistics for gates of ``cells`` resolution cells (seed 000).
+    """False-mark statistics for gates of ``cells`` resolution cells (Konovalov).
 
     mu_F(m) = exp(-F S') (F S')^m / m! for m = 0..m_max and
     P(at least one) = 1 - exp(-F S').
@@ -149,7 +159,7 @@ def false_marks(cells: ArrayLike, F: float, m_max: int = 5) -> FalseMarks:
 
 
 def capture_probability(P_gate: ArrayLike, P_D1: ArrayLike, P_D2: ArrayLike) -> np.ndarray:
-    """P = P_gate P_D1 P_D2: both marks detected and the second gated (seed 000)."""
+    """P = P_gate P_D1 P_D2: both marks detected and the second gated (Konovalov)."""
     probs = [
         as_array(name, value)
         for name, value in (("P_gate", P_gate), ("P_D1", P_D1), ("P_D2", P_D2))
@@ -213,7 +223,7 @@ def design_gate(
 
     References
     ----------
-    .. [1] Seed 000 sizes the combined gate by P_G and the expanded gate by p; this
+    .. [1] Konovalov sizes the combined gate by P_G and the expanded gate by p; this
        inverts its probability (eq. 3-6) for a wanted capture probability.
     """
     if geometry.n != 1:
@@ -225,14 +235,15 @@ def design_gate(
         raise ParameterError("capture", f"{capture} is not reachable: P_D1 P_D2 = {detection}")
     field = "P_G" if isinstance(gate, CombinedGate) else "p"
 
-    R_min, R_max = _ring_radii(geometry.tau, v_min, v_max)
+    R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
+
+    def sized(x: float) -> CombinedGate | ExpandedGate:
+        return replace(gate, P_G=x) if isinstance(gate, CombinedGate) else replace(gate, p=x)
 
     def gated(x: float) -> float:
         # the search runs on a cheaper rule (error ~1e-7); the answer is re-evaluated fully
         return float(
-            _unconditional(
-                replace(gate, **{field: x}), geometry, R_min, R_max, prior, _SEARCH_RULE
-            )[0]
+            unconditional_quadrature(sized(x), geometry, R_min, R_max, prior, _SEARCH_RULE)[0]
         )
 
     wanted = capture / detection
@@ -247,7 +258,7 @@ def design_gate(
     if gated(hi) <= wanted:
         raise ParameterError("capture", f"{capture} needs {field} above {hi}")
     x = float(optimize.brentq(lambda t: gated(t) - wanted, lo, hi, xtol=tol))
-    designed = replace(gate, **{field: x})
+    designed = sized(x)
     result = unconditional_probability(designed, geometry, v_min, v_max, prior)
     p = float(result.probability[0])
     return GateDesign(
