@@ -47,9 +47,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
+from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.multistatic.information import inverse_information, symmetric_eigh
 from plotgate.core.multistatic.model import vector_norm
-from plotgate.core.thresholds import gate_threshold
 from plotgate.core.validation import as_array, as_probability, as_scalar, require_positive
 
 __all__ = [
@@ -251,7 +251,7 @@ def solver_options(alpha: float, max_iter: int, tol: float) -> tuple[float, int,
 def consistency_threshold(alpha: float, dof: int) -> float:
     """Chi-square threshold of the consistency test: F^-1(1 - alpha) with dof degrees.
 
-    :func:`plotgate.core.thresholds.gate_threshold` of 1 - alpha; +inf (every fit
+    :func:`plotgate.core.gates.thresholds.gate_threshold` of 1 - alpha; +inf (every fit
     consistent) without redundancy (dof <= 0), and when alpha is below the float
     spacing at 1, where 1 - alpha rounds to 1.
     """

@@ -27,7 +27,7 @@ Decisions:
   starts (core's default): with a guess the answer never ends at a higher cost than
   without one, and ``alternative`` reports the best other minimum (see the schema).
 - The chi-square quantile is core's one threshold function,
-  :func:`plotgate.core.thresholds.gate_threshold` of 1 - alpha.
+  :func:`plotgate.core.gates.thresholds.gate_threshold` of 1 - alpha.
 
 Core errors name core arguments (``l``, ``tx``, ``rx``, ``sigma``, ``x0``, ``t``, ``x``)
 with the batch index of the first bad problem or sample; each operation's ``*_FIELDS``
@@ -43,8 +43,8 @@ import numpy as np
 
 import plotgate.core.multistatic as ms
 from plotgate.core import PlotgateError
+from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.multistatic.model import BASELINE_SIGMAS
-from plotgate.core.thresholds import gate_threshold
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.schemas import (
