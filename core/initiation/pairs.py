@@ -13,7 +13,6 @@ expanded or combined gate; Mu et al.'s first-association windows, eq. 3-4).
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
 from plotgate.core.capture_gates import combined_gate, expanded_gate, ring_gate
 from plotgate.core.frames import wrap_finite
@@ -22,15 +21,15 @@ from plotgate.core.initiation.scan import Scan
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.state import Initiators, Tracks
 from plotgate.core.polar_gates import first_association_gate
-from plotgate.core.sym2 import inverse_matrix
-from plotgate.core.thresholds import expansion_coefficient
+from plotgate.core.sym2 import quadratic_form, sym2
+from plotgate.core.thresholds import expansion_coefficient, gate_threshold
 
 __all__ = ["capture_pairs", "nearest", "track_pairs", "widening", "window_coefficients"]
 
 
 def window_coefficients(config: InitiationConfig) -> tuple[float, float]:
     """Polar window coefficients (K_R, K_az): the config's, or sqrt(gamma) of gate_P_G."""
-    k = float(np.sqrt(stats.chi2.ppf(config.gate_P_G, 2)))
+    k = float(np.sqrt(gate_threshold(config.gate_P_G, 2)))
     return (
         config.K_R if config.K_R is not None else k,
         config.K_az if config.K_az is not None else k,
@@ -52,16 +51,32 @@ def track_pairs(
     index: PlotIndex,
     config: InitiationConfig,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(track, plot, statistic) of the plots inside each track's gate."""
+    """(track, plot, statistic) of the plots inside each track's gate.
+
+    Cartesian: the chi-square ellipse rho = nu^T S^-1 nu, S = P_xy + R, compared with
+    gamma times the track's widening; rho is the closed form
+    :func:`~plotgate.core.tracking_gates.ellipse_gate` evaluates
+    (:func:`~plotgate.core.sym2.quadratic_form`), called here without the gate's input
+    checks: those refuse an S whose condition number passes 10^12, and a session's
+    state may hold covariances (up to 1e100) that initiation gates and answers.
+
+    Polar: the windows of Mu et al. about the range extrapolated from the last two
+    ranges (its variance carried through the extrapolation) and the last azimuth, the
+    azimuth window grown by the tangential speed bound asin(v_max dt / r) (Mu et al.,
+    eq. 4), and the statistic (d_r / W_R)^2 + (d_az / W_az)^2 that ranks the plots of one
+    gate. This test stays here, not in :func:`~plotgate.core.polar_gates.sector_gate`:
+    the sector gate's azimuth window is K_az sigma alone (Mu et al., eq. 2), with no
+    tangential term to add, and its statistic is the larger of the two ratios, which
+    would rank plots differently.
+    """
     w = widening(tracks.misses, config)
     if config.mode == "cartesian":
-        gamma = stats.chi2.ppf(config.gate_P_G, 2) * w
+        gamma = gate_threshold(config.gate_P_G, 2) * w
         r_max = np.trace(scan.R, axis1=1, axis2=2).max() if scan.size else 0.0
         radius = np.sqrt(gamma * (np.trace(Pp[:, :2, :2], axis1=1, axis2=2) + r_max))
         rows, cols = index.ball(xp[:, :2], radius)
         nu = scan.z[cols] - xp[rows, :2]
-        Si = inverse_matrix(Pp[rows, :2, :2] + scan.R[cols])
-        s = np.einsum("ni,nij,nj->n", nu, Si, nu)
+        s = quadratic_form(nu[:, 0], nu[:, 1], sym2(Pp[rows, :2, :2] + scan.R[cols]))
         keep = s <= gamma[rows]
         return rows[keep], cols[keep], s[keep]
     K_R, K_az = window_coefficients(config)
@@ -101,7 +116,13 @@ def capture_pairs(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(initiator, plot, distance) of the plots inside each initiator's capture gate.
 
-    Only initiators within the 2/N (or 2/T) window of scan number k take part.
+    Only initiators within the 2/N (or 2/T) window of scan number k take part. The
+    search radii only bound each gate (the polar windows at the scan's largest sigmas);
+    the gates decide: :func:`~plotgate.core.polar_gates.first_association_gate` (polar),
+    or :func:`~plotgate.core.capture_gates.ring_gate`,
+    :func:`~plotgate.core.capture_gates.expanded_gate` or
+    :func:`~plotgate.core.capture_gates.combined_gate`, each called once per initiator
+    time on all its candidate pairs.
     """
     tau = scan.t - ini.t
     if config.capture_time is None:
@@ -123,7 +144,7 @@ def capture_pairs(
         K_g = float(expansion_coefficient(config.capture_p))
         radius = R_max + K_g * np.maximum(ini.sigma_r, ini.r * ini.sigma_az)
     else:
-        gamma = stats.chi2.ppf(config.capture_P_G, 2)
+        gamma = gate_threshold(config.capture_P_G, 2)
         big = np.trace(scan.R, axis1=1, axis2=2).max(initial=0.0)
         radius = R_max + np.sqrt(gamma * (np.trace(ini.R, axis1=1, axis2=2) + big))
     if config.mode == "cartesian":
