@@ -16,14 +16,15 @@ from dataclasses import asdict, dataclass, field
 
 from plotgate.core.errors import ParameterError
 
-__all__ = ["InitiationConfig"]
+__all__ = ["CHOICES", "InitiationConfig"]
 
-_CHOICES = {
+CHOICES = {
     "mode": ("cartesian", "polar"),
     "capture_gate": ("ring", "expanded", "combined"),
     "association": ("branch", "nearest"),
     "filter": ("kalman", "alpha_beta"),
 }
+"""The settings that name a choice, and their options."""
 
 
 @dataclass(frozen=True)
@@ -107,7 +108,7 @@ class InitiationConfig:
     history: int = 8
 
     def __post_init__(self) -> None:
-        for name, options in _CHOICES.items():
+        for name, options in CHOICES.items():
             if getattr(self, name) not in options:
                 raise ParameterError(
                     name, f"must be one of {', '.join(options)}, got {getattr(self, name)!r}"

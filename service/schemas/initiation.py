@@ -59,7 +59,18 @@ MAX_SPEED = 1e6
 
 
 class InitiationSettings(Schema):
-    """The rules of initiation (defaults: Cartesian logic, ring capture 2/2, 3/4, l = 2)."""
+    """The rules of initiation (defaults: Cartesian logic, ring capture 2/2, 3/4, l = 2).
+
+    Field for field core's ``InitiationConfig``, and the service passes them to it by
+    name. The two are written out, not derived from each other: this model adds what
+    only the wire has (descriptions, each setting's ceiling on the work of one request,
+    JSON types) and schemas do not import core, while core's config is a plain frozen
+    dataclass with no pydantic in it. A test
+    (``tests/service/test_initiation_api.py``) holds them equal: the same names in the
+    same order, the same defaults, the same choices, and every lower bound (and the
+    probabilities' upper bounds) the same, listing the ceilings and floors only the wire
+    has.
+    """
 
     mode: Literal["cartesian", "polar"] = Field(
         default="cartesian",

@@ -3,6 +3,8 @@ wire, bad input is named, and a session records and replays."""
 
 import asyncio
 import json
+from dataclasses import fields
+from typing import get_args
 
 import httpx
 import numpy as np
@@ -11,10 +13,12 @@ from fastapi.testclient import TestClient
 from plotgate.clients import AsyncClient
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
+from plotgate.core.errors import ParameterError
 from plotgate.core.initiation import InitiationConfig, initiate
+from plotgate.core.initiation.config import CHOICES
 from plotgate.core.initiation.simulate import Scenario, seed_002_scenario, simulate
 from plotgate.service.app import create_app
-from plotgate.service.schemas import ENDPOINTS, MAX_PLOTS
+from plotgate.service.schemas import ENDPOINTS, MAX_PLOTS, InitiationSettings
 from tests.conftest import answer, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0, "a_max": 10.0, "K_A": 3.0}
@@ -240,3 +244,88 @@ def test_every_field_is_described():
             for sub in (schema, *schema.get("$defs", {}).values()):
                 for field, prop in sub.get("properties", {}).items():
                     assert prop.get("description"), f"{sub['title']}.{field}: no description"
+
+
+# ------------------------------------------------------------- the settings and core's config
+
+WIRE_CEILINGS = {
+    "v_min",
+    "v_max",
+    "capture_scans",
+    "capture_time",
+    "q",
+    "confirm_k",
+    "confirm_m",
+    "drop_misses",
+    "K_R",
+    "K_az",
+    "a_max",
+    "K_A",
+    "history",
+}
+"""Settings whose upper bound is the wire's alone: a limit on the work of one request, which
+core (a library with no request) does not have."""
+WIRE_FLOORS = {"K_R", "K_az"}
+"""Settings whose lower bound is narrower on the wire (0.01) than in core (> 0)."""
+
+
+def _core_config(name, value):
+    """InitiationConfig with ``name = value`` and the other settings made to fit it."""
+    values = {name: value}
+    if name == "v_min":
+        values["v_max"] = max(50.0, value)
+    if name == "confirm_k":
+        values = {"confirm_m": max(4, value), "history": max(8, value), **values}
+    if name == "confirm_m":
+        values = {"confirm_k": max(1, min(3, value)), "history": max(8, value), **values}
+    if name == "history":
+        k, m = max(1, min(3, value)), max(1, min(4, value))
+        values = {"confirm_k": k, "confirm_m": m, **values}
+    return InitiationConfig(**values)
+
+
+def _refused(name, value):
+    try:
+        _core_config(name, value)
+    except ParameterError as exc:
+        assert exc.field == name, (name, value, exc.field)
+        return True
+    return False
+
+
+def test_the_settings_are_cores_config_field_for_field():
+    wire = InitiationSettings.model_fields
+    assert list(wire) == [f.name for f in fields(InitiationConfig)]
+    # defaults: the wire's settings as they are make core's default config
+    assert InitiationConfig(**InitiationSettings().model_dump()) == InitiationConfig()
+    for name, options in CHOICES.items():
+        assert get_args(wire[name].annotation) == options, name
+    for name, info in wire.items():
+        bounds = {type(m).__name__: m for m in info.metadata}
+        if name in CHOICES:
+            continue
+        if name == "gate_widening":  # at least one factor, on the wire as in core
+            assert bounds["MinLen"].min_length == 1 and _refused(name, ())
+            continue
+        step = 1 if info.annotation is int else None
+        # the lower bound is core's: the bound itself (ge) or just above it (gt) passes,
+        # just below it (ge) or the bound itself (gt) is refused
+        if "Ge" in bounds:
+            low = bounds["Ge"].ge
+            below = low - 1 if step else np.nextafter(low, -np.inf)
+            _core_config(name, low)
+            assert _refused(name, below) != (name in WIRE_FLOORS), name
+        else:
+            low = bounds["Gt"].gt
+            _core_config(name, np.nextafter(float(low), np.inf))
+            assert _refused(name, low), name
+        # the upper bound: core's (lt, or le 1 for a gain floor), or the wire's own ceiling
+        if "Lt" in bounds:
+            high = bounds["Lt"].lt
+            _core_config(name, np.nextafter(float(high), -np.inf))
+            assert _refused(name, high), name
+        else:
+            high = bounds["Le"].le
+            above = high + 1 if step else np.nextafter(float(high), np.inf)
+            _core_config(name, high)
+            assert _refused(name, above) != (name in WIRE_CEILINGS), name
