@@ -16,9 +16,11 @@ from plotgate.clients.recordings import read_recording
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation import InitiationConfig, initiate
 from plotgate.core.initiation.config import CHOICES
+from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
 from plotgate.core.initiation.simulate import Scenario, seed_002_scenario, simulate
 from plotgate.service.app import create_app
 from plotgate.service.schemas import ENDPOINTS, MAX_PLOTS, InitiationSettings
+from plotgate.service.schemas.common import MIN_RANGE
 from tests.conftest import answer, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0, "a_max": 10.0, "K_A": 3.0}
@@ -58,6 +60,34 @@ def test_simulate_and_initiate_are_cores(client):
     # the plots of a confirmed track point back into the request's scans
     scan, index = confirmed[0]["plots"][-1]
     assert body["scans"][scan]["associated"][index] == confirmed[0]["id"]
+
+
+def test_polar_plots_reach_core_as_measured(client):
+    # a polar plot's range, azimuth and sigmas are core's as sent (no round trip through
+    # Cartesian coordinates), an azimuth beyond 180 degrees wrapped; a Cartesian plot
+    # among them keeps its place and gets its range and azimuth from its position
+    polar = {"frame": "polar", "sigma_r": 5.0, "sigma_az_deg": 0.2, "sensor": [10.0, -20.0]}
+    plots = [
+        {**polar, "r": 12345.678, "az_deg": -170.25},
+        {"frame": "cartesian", "x": 3000.0, "y": 4000.0, "covariance": [[4.0, 0.0], [0.0, 4.0]]},
+        {**polar, "r": 9000.5, "az_deg": 350.0},
+    ]
+    body = answer(
+        client.post("/v1/initiation/initiate", json={"scans": [{"t": 0.0, "plots": plots}]})
+    )
+    ini = body["state"]["initiators"]
+    assert ini["r"][0] == 12345.678 and ini["r"][2] == 9000.5 and ini["r"][1] == 5000.0
+    assert ini["az"][0] == np.radians(-170.25)
+    assert abs(ini["az"][2] - np.radians(-10.0)) < 1e-15
+    assert ini["sigma_r"][0] == ini["sigma_r"][2] == 5.0
+    assert ini["sigma_az"][0] == ini["sigma_az"][2] == np.radians(0.2)
+    assert ini["sensor"] == [[10.0, -20.0], [0.0, 0.0], [10.0, -20.0]]
+
+
+def test_a_polar_plots_least_range_is_cores():
+    # the wire refuses the ranges core would refuse, and no more: one value, held here
+    # (schemas do not import core)
+    assert MIN_RANGE == MIN_SENSOR_RANGE
 
 
 def test_state_round_trips_through_the_wire(client):
