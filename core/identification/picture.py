@@ -23,7 +23,7 @@ from scipy.optimize import linear_sum_assignment
 
 from plotgate.core.errors import ParameterError
 from plotgate.core.frames import wrap_finite
-from plotgate.core.identification.ztest import MIN_ESTIMATED_SIGMA, _sigma
+from plotgate.core.identification.ztest import MIN_ESTIMATED_SIGMA, bearing_sigma
 from plotgate.core.validation import as_array, as_probability
 
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
@@ -198,7 +198,7 @@ def sequential(
     pa, pv = _tracks("passive", [passive])
     aa, _ = _tracks("active", [active])
     mean_p = _means(pa, pv)[0]
-    s = float(_sigma("sigma", sigma, pa[0]))
+    s = float(bearing_sigma("sigma", sigma, pa[0]))
     m = np.arange(1, aa.shape[1] + 1)
     mean_a = np.arctan2(np.cumsum(np.sin(aa[0])), np.cumsum(np.cos(aa[0])))
     z = (wrap_finite(mean_a - mean_p) * np.sqrt(m) / s)[1:]

@@ -42,6 +42,7 @@ from plotgate.core.validation import as_array, as_probability
 __all__ = [
     "MIN_ESTIMATED_SIGMA",
     "ZTest",
+    "bearing_sigma",
     "circular_mean",
     "circular_sigma",
     "required_samples",
@@ -215,7 +216,30 @@ def _samples(name: str, value: ArrayLike) -> np.ndarray:
     return a
 
 
-def _sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarray:
+def bearing_sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarray:
+    """The passive track's bearing sigma (rad): ``value`` checked, or estimated when None.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for the error.
+    value : float or None
+        A given sigma, rad, > 0; None estimates it from ``passive``
+        (:func:`circular_sigma`).
+    passive : (n,) ndarray
+        The passive track's bearings, rad.
+
+    Raises
+    ------
+    ParameterError
+        ``name`` for a sigma that is not a positive scalar, or that cannot be estimated
+        (all bearings equal to rounding, below :data:`MIN_ESTIMATED_SIGMA`).
+
+    Examples
+    --------
+    >>> float(bearing_sigma("sigma", 0.01, np.zeros(3)))
+    0.01
+    """
     if value is None:
         s = circular_sigma(passive)
         if not s >= MIN_ESTIMATED_SIGMA:
@@ -331,7 +355,7 @@ def z_test(
                 f"must have as many samples as the bearings ({n}, {m})",
             )
         n, m = p.size, a.size
-        s = _sigma(s_name, s_val, p)
+        s = bearing_sigma(s_name, s_val, p)
         d = wrap_finite(circular_mean(a) - circular_mean(p))
         z.append(d * np.sqrt(m) / s)
         diff.append(d)
