@@ -14,7 +14,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -29,12 +31,13 @@ from plotgate.core.validation import as_array, as_probability
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
 
 
-def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def _tracks(name: str, value: ArrayLike | list[ArrayLike]) -> tuple[np.ndarray, np.ndarray]:
     """Padded (T, K) angles and the (T, K) mask of valid samples (NaN pads a short track)."""
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        rows = [np.asarray(as_array(f"{name}[{i}]", r), float) for i, r in enumerate(value)]
+        tracks = cast(Iterable[ArrayLike], value)  # ragged: a list of tracks
+        rows = [np.asarray(as_array(f"{name}[{i}]", r), float) for i, r in enumerate(tracks)]
         width = max((r.size for r in rows), default=0)
         a = np.full((len(rows), width), np.nan)
         for i, r in enumerate(rows):  # one copy per ragged track
@@ -55,7 +58,8 @@ def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _means(a: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    return np.arctan2((np.sin(a) * valid).sum(1), (np.cos(a) * valid).sum(1))
+    means: np.ndarray = np.arctan2((np.sin(a) * valid).sum(1), (np.cos(a) * valid).sum(1))
+    return means
 
 
 @dataclass(frozen=True)
@@ -169,15 +173,15 @@ class Sequence:
         Active samples used: 2, 3, ..., m.
     z, p_value : (m - 1,) ndarray
     identified : (m - 1,) ndarray of bool
-    first_decision : int or None
-        The m at which the decision took its final value and kept it (None if m < 2).
+    first_decision : int
+        The m at which the decision took its final value and kept it.
     """
 
     m: np.ndarray
     z: np.ndarray
     p_value: np.ndarray
     identified: np.ndarray
-    first_decision: int | None
+    first_decision: int
 
 
 def sequential(

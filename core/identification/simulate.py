@@ -99,9 +99,9 @@ def experiment(
             raise ParameterError(name, f"must be an integer >= {low}, got {value!r}")
     if law not in ("uniform", "normal"):
         raise ParameterError("law", f"must be 'uniform' or 'normal', got {law!r}")
-    for name, value in (("sigma", sigma), ("width", width)):
-        if not value > 0:
-            raise ParameterError(name, f"must be > 0, got {value!r}")
+    for name, angle in (("sigma", sigma), ("width", width)):
+        if not angle > 0:
+            raise ParameterError(name, f"must be > 0, got {angle!r}")
     alpha = float(as_probability("alpha", alpha))
     rng = np.random.default_rng(seed)
     passive = bearing + sigma * rng.standard_normal((runs, n))

@@ -65,7 +65,8 @@ def circular_mean(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     0.0
     """
     theta = np.asarray(theta, dtype=float)
-    return np.arctan2(np.sin(theta).mean(axis=axis), np.cos(theta).mean(axis=axis))
+    mean: np.ndarray = np.arctan2(np.sin(theta).mean(axis=axis), np.cos(theta).mean(axis=axis))
+    return mean
 
 
 def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
@@ -78,7 +79,8 @@ def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     """
     theta = np.asarray(theta, dtype=float)
     dev = wrap_finite(theta - np.expand_dims(circular_mean(theta, axis), axis))
-    return np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
+    sigma: np.ndarray = np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
+    return sigma
 
 
 def type_two_error(
@@ -108,7 +110,8 @@ def type_two_error(
     m = np.asarray(m, dtype=float)
     c = 1.0 if n is None else np.sqrt(1.0 + m / np.asarray(n, dtype=float))
     shift = np.abs(np.asarray(delta, dtype=float)) * np.sqrt(m) / np.asarray(sigma, float)
-    return stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
+    beta: np.ndarray = stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
+    return beta
 
 
 def required_samples(
@@ -326,13 +329,15 @@ def z_test(
     normality_alpha = float(as_probability("normality_alpha", normality_alpha))
     if not ratio > 1:
         raise ParameterError("ratio", f"must be > 1, got {ratio!r}")
-    coords = [("passive", "active", "sigma", passive, active, sigma)]
+    coords: list[tuple[str, str, str, ArrayLike, ArrayLike, float | None]] = [
+        ("passive", "active", "sigma", passive, active, sigma)
+    ]
     if (passive_elevation is None) != (active_elevation is None):
         raise ParameterError(
             "active_elevation" if active_elevation is None else "passive_elevation",
             "give elevations on both sides or none",
         )
-    if passive_elevation is not None:
+    if passive_elevation is not None and active_elevation is not None:
         coords.append(
             (
                 "passive_elevation",
@@ -345,7 +350,7 @@ def z_test(
         )
     k = len(coords)
     z_crit = float(stats.norm.ppf(1.0 - alpha / (2 * k)))
-    z, diff, sig, normal_p = [], [], [], []
+    zs, diff, sig, normality = [], [], [], []
     n = m = 0
     for p_name, a_name, s_name, p_val, a_val, s_val in coords:
         p, a = _samples(p_name, p_val), _samples(a_name, a_val)
@@ -357,12 +362,12 @@ def z_test(
         n, m = p.size, a.size
         s = bearing_sigma(s_name, s_val, p)
         d = wrap_finite(circular_mean(a) - circular_mean(p))
-        z.append(d * np.sqrt(m) / s)
+        zs.append(d * np.sqrt(m) / s)
         diff.append(d)
         sig.append(s)
         dev = wrap_finite(p - circular_mean(p))
-        normal_p.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
-    z, normal_p = np.array(z, dtype=float), np.array(normal_p, dtype=float)
+        normality.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
+    z, normal_p = np.array(zs, dtype=float), np.array(normality, dtype=float)
     beta = m_req = None
     if beta_max is not None and delta is None:
         raise ParameterError("beta_max", "needs delta, the separation to detect")

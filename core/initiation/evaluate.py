@@ -79,8 +79,8 @@ def score_run(
     config: InitiationConfig,
     seed: np.random.SeedSequence | int,
     distance: float,
-) -> tuple[RunScore, bool]:
-    """Simulate and initiate one run; its score, and whether it was confirmable.
+) -> tuple[RunScore, int]:
+    """Simulate and initiate one run; its score, and how many targets were confirmable.
 
     Returns the score and the number of targets that were detected in k of the m
     scans from their first detection (the ceiling of this run) as a second element.

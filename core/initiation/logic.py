@@ -129,7 +129,8 @@ def _acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         dd = 2.0 * ((r3 - r2) / (t3 - t2) - (r2 - r1) / (t2 - t1)) / (t3 - t1)
     bad = np.isfinite(dd) & (np.abs(dd) > config.K_A * config.a_max)
-    return ~bad.any(axis=1)
+    ok: np.ndarray = ~bad.any(axis=1)
+    return ok
 
 
 def _new_tracks(

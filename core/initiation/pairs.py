@@ -39,7 +39,8 @@ def window_coefficients(config: InitiationConfig) -> tuple[float, float]:
 def widening(misses: np.ndarray, config: InitiationConfig) -> np.ndarray:
     """Factor of each track's gate threshold after its misses in a row."""
     w = np.asarray(config.gate_widening)
-    return w[np.minimum(misses, w.size - 1)]
+    factor: np.ndarray = w[np.minimum(misses, w.size - 1)]
+    return factor
 
 
 def track_pairs(

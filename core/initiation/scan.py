@@ -68,10 +68,10 @@ class Scan:
 
 
 def _time(t: float) -> float:
-    t = as_array("t", t)
-    if t.ndim:
-        raise ParameterError("t", f"must be a scalar time in seconds, got shape {t.shape}")
-    return float(t)
+    a = as_array("t", t)
+    if a.ndim:
+        raise ParameterError("t", f"must be a scalar time in seconds, got shape {a.shape}")
+    return float(a)
 
 
 def _sensors(sensor: ArrayLike, n: int) -> np.ndarray:

@@ -90,7 +90,8 @@ class Scenario:
     def truth(self) -> np.ndarray:
         """(scans, k, 2) true target positions at every scan, m."""
         t = self.interval * np.arange(self.scans)
-        return self.x0[None] + t[:, None, None] * self.v[None]
+        truth: np.ndarray = self.x0[None] + t[:, None, None] * self.v[None]
+        return truth
 
 
 def seed_002_scenario(clutter: float, scans: int = 4) -> Scenario:

@@ -31,8 +31,20 @@ __all__ = [
 ]
 
 
-def _rad(value: list[float] | float | None) -> np.ndarray | float | None:
-    return None if value is None else np.radians(np.asarray(value, dtype=float))
+def _rad(value: list[float] | float) -> np.ndarray:
+    """Angles in degrees as radians."""
+    radians: np.ndarray = np.radians(np.asarray(value, dtype=float))
+    return radians
+
+
+def _optional(value: list[float] | float | None) -> np.ndarray | None:
+    """Angles in degrees as radians, None staying None."""
+    return None if value is None else _rad(value)
+
+
+def _angle(value: float | None) -> float | None:
+    """An angle in degrees as radians (None stays None)."""
+    return None if value is None else float(np.radians(value))
 
 
 @checked
@@ -43,19 +55,19 @@ def pair(request: IdentifyPairRequest) -> IdentifyPairResult:
     t = z_test(
         passive,
         active,
-        _rad(r.sigma_deg),
+        _angle(r.sigma_deg),
         r.alpha,
-        passive_elevation=_rad(r.passive_elevations_deg),
-        active_elevation=_rad(r.active_elevations_deg),
-        sigma_elevation=_rad(r.sigma_elevation_deg),
-        delta=_rad(r.delta_deg),
+        passive_elevation=_optional(r.passive_elevations_deg),
+        active_elevation=_optional(r.active_elevations_deg),
+        sigma_elevation=_angle(r.sigma_elevation_deg),
+        delta=_angle(r.delta_deg),
         beta_max=r.beta_max,
         ratio=r.ratio,
         normality_alpha=r.normality_alpha,
     )
     history = None
     if r.sequential:
-        s = sequential(passive, active, _rad(r.sigma_deg), r.alpha)
+        s = sequential(passive, active, _angle(r.sigma_deg), r.alpha)
         history = SequentialHistory(
             m=s.m.tolist(),
             z=s.z.tolist(),
@@ -87,7 +99,7 @@ def picture(request: IdentifyPictureRequest) -> IdentifyPictureResult:
     pic = identify_picture(
         [np.radians(t) for t in request.passive_deg],
         [np.radians(t) for t in request.active_deg],
-        _rad(request.sigma_deg),
+        _optional(request.sigma_deg),
         request.alpha,
     )
     return IdentifyPictureResult(

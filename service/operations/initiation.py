@@ -20,6 +20,8 @@ them to the request. A plot's own covariance is checked before the scan is built
 ``scans[i].plots[j].covariance`` (a polar plot: ``scans[i].plots[j]``).
 """
 
+from typing import Any
+
 import numpy as np
 from pydantic import ValidationError
 
@@ -121,7 +123,7 @@ def _outcome(report: ScanReport) -> ScanOutcome:
     )
 
 
-def _tracks(state: InitiationState) -> list[dict]:
+def _tracks(state: InitiationState) -> list[dict[str, Any]]:
     """The live tracks as wire objects (:class:`TrackOut`), validated with the answer."""
     tr = state.tracks
     plots = [
@@ -215,7 +217,8 @@ def _azimuth_deg(az: np.ndarray) -> np.ndarray:
     """Azimuths in degrees, those beyond +-360 (noise of a sigma_az up to 180 degrees
     added to atan2's (-180, 180]) wrapped to [-180, 180), as a plot takes them."""
     deg = np.degrees(az)
-    return np.where(np.abs(deg) <= 360.0, deg, np.mod(deg + 180.0, 360.0) - 180.0)
+    wrapped: np.ndarray = np.where(np.abs(deg) <= 360.0, deg, np.mod(deg + 180.0, 360.0) - 180.0)
+    return wrapped
 
 
 @checked
