@@ -1,11 +1,11 @@
-"""Seed 002's track initiation run through Stone Soup's MultiMeasurementInitiator.
+"""Mu et al.'s track initiation run through Stone Soup's MultiMeasurementInitiator.
 
 Run from the repository root (needs ``pip install -e ".[bench]"``, i.e. stonesoup)::
 
     python bench/stonesoup_initiation.py --runs 500
 
-For comparison with plotgate's initiation (DESIGN section 5, "Comparing with Stone
-Soup"): the same scans our ``evaluate()`` sees (run r simulates ``seed_002_scenario``
+For comparison with plotgate's initiation ("Comparing with Stone
+Soup"): the same scans our ``evaluate()`` sees (run r simulates ``mu_scenario``
 with ``default_rng(SeedSequence(seed).spawn(runs)[r])``), the same scoring by labels (a
 returned track is true when more than half of its plots come from one target, each target
 once; every other returned track is false), and the time per scan. Prints a markdown
@@ -64,7 +64,7 @@ from stonesoup.types.update import Update
 from stonesoup.updater.kalman import KalmanUpdater
 
 from plotgate.core.initiation.scan import Scan
-from plotgate.core.initiation.simulate import seed_002_scenario, simulate
+from plotgate.core.initiation.simulate import mu_scenario, simulate
 
 EPOCH = datetime(2026, 1, 1)
 
@@ -168,11 +168,11 @@ def stonesoup_initiation(
     miss_steps: int = 2,
     prefilter: bool = True,
 ) -> dict:
-    """Monte Carlo of MultiMeasurementInitiator on seed 002's scenario, scored like ours.
+    """Monte Carlo of MultiMeasurementInitiator on Mu et al.'s scenario, scored like ours.
 
     Returns {"mean_true", "mean_false", "seconds_per_scan", "runs"}.
     """
-    scenario = seed_002_scenario(clutter)
+    scenario = mu_scenario(clutter)
     targets = scenario.x0.shape[0]
     true, false = [], []
     elapsed, scans = 0.0, 0
@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     print(
-        f"Stone Soup MultiMeasurementInitiator, seed 002 scenario, {args.runs} runs, "
+        f"Stone Soup MultiMeasurementInitiator, Mu et al. scenario, {args.runs} runs, "
         f"seed {args.seed}, prefilter {'off' if args.no_prefilter else 'on'}\n"
     )
     print("| clutter / scan | mean true (of 5) | mean false | ms / scan |")

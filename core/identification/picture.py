@@ -1,4 +1,4 @@
-"""Whole pictures and sequential identification with the Z-test of seed 004.
+"""Whole pictures and sequential identification with the Z-test of Kvasnov.
 
 * :func:`identify_picture`: P passive and A active tracks at once. The Z matrix
   Z[i, j] = wrap(mean_act_j - mean_pas_i) sqrt(m_j) / sigma_i comes from per-track
@@ -7,7 +7,7 @@
   identified, and ``scipy.optimize.linear_sum_assignment`` on |Z| picks a one-to-one
   identification among them (each passive track to at most one active track). The rest
   are unassigned on both sides.
-* :func:`sequential`: the test repeated as active samples accumulate (seed 004's third
+* :func:`sequential`: the test repeated as active samples accumulate (Kvasnov's third
   condition: identification repeats every 2-20 s). Stateless: the samples in, the
   decision after each new active sample out, from cumulative sums.
 """
@@ -96,7 +96,7 @@ class Picture:
 def identify_picture(
     passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | None = None, alpha: float = 0.05
 ) -> Picture:
-    """Z matrix and one-to-one identification of many passive and active tracks (seed 004).
+    """Z matrix and one-to-one identification of many passive and active tracks (Kvasnov).
 
     Parameters
     ----------

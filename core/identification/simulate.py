@@ -1,4 +1,4 @@
-"""Seed 004's experiment by Monte Carlo: the realized type I and type II errors.
+"""Kvasnov's experiment by Monte Carlo: the realized type I and type II errors.
 
 The paper's simulation (MatLab): the passive station has accumulated n = 50 bearings,
 normal N(theta_0, sigma); the active station's m bearings are uniform over a sector
@@ -62,7 +62,7 @@ def experiment(
     estimate_sigma: bool = False,
     bearing: float = np.radians(1.5),
 ) -> ExperimentRates:
-    """Run seed 004's identification experiment ``runs`` times (angles in radians).
+    """Run Kvasnov's identification experiment ``runs`` times (angles in radians).
 
     Parameters
     ----------

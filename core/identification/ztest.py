@@ -1,6 +1,6 @@
-"""Fisher's Z-test identifying a passive (ESM) track with an active radar track (seed 004).
+"""Fisher's Z-test identifying a passive (ESM) track with an active radar track (Kvasnov).
 
-Seed 004 (A. V. Kvasnov, identifying radar target marks from active and passive stations
+Kvasnov (A. V. Kvasnov, identifying radar target marks from active and passive stations
 by Fisher's Z-test) treats the n bearings of the passive station as the population and
 the m << n bearings of the active station as a sample, and tests H0 "one object"
 against H1 "two objects" by (eq. 5)
@@ -9,7 +9,7 @@ against H1 "two objects" by (eq. 5)
 
 two-sided at level alpha: |Z| <= z_{1 - alpha/2} identifies the marks. Bearings are
 angles: the means are circular (atan2 of the mean sine and cosine) and the difference is
-wrapped to (-pi, pi], so 359 and 1 degree are 2 degrees apart (DESIGN section 7).
+wrapped to (-pi, pi], so 359 and 1 degree are 2 degrees apart.
 
 Beyond the paper:
 
@@ -92,7 +92,7 @@ def type_two_error(
               - \\Phi\\left(\\frac{-z - \\delta\\sqrt{m}/\\sigma}{c}\\right),
               \\quad z = z_{1-\\alpha/2}, \\quad c = \\sqrt{1 + m/n}
 
-    With n None, c = 1: the passive mean is the population's (seed 004's assumption).
+    With n None, c = 1: the passive mean is the population's (Kvasnov's assumption).
     With n passive samples their mean has its own error, and Z ~ N(delta sqrt(m)/sigma,
     1 + m/n) (the active and passive bearings normal with the same sigma).
 
@@ -272,7 +272,7 @@ def z_test(
     ratio: float = 10.0,
     normality_alpha: float = 0.05,
 ) -> ZTest:
-    """Fisher's Z-test of seed 004 (eq. 5): are a passive and an active track one object?
+    """Fisher's Z-test of Kvasnov (eq. 5): are a passive and an active track one object?
 
     Parameters
     ----------
@@ -311,7 +311,7 @@ def z_test(
 
     References
     ----------
-    .. [1] A. V. Kvasnov, seed 004, eq. (5) and the conditions of the Z-test (n >> m,
+    .. [1] A. V. Kvasnov, eq. (5) and the conditions of the Z-test (n >> m,
        a normal population, repeated identification every 2-20 s).
 
     Examples

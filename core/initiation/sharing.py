@@ -1,4 +1,4 @@
-"""Which tracks share plots: the plot-reuse rules of track initiation (DESIGN section 5).
+"""Which tracks share plots: the plot-reuse rules of track initiation.
 
 "A plot used by a confirmed track is not reused to start new tracks; tentative tracks
 sharing two or more plots with a confirmed one are pruned", and of newly confirmed tracks

@@ -22,7 +22,7 @@ from plotgate.core.initiation.evaluate import evaluate
 from plotgate.core.initiation.filter import predict
 from plotgate.core.initiation.pairs import track_pairs, window_coefficients
 from plotgate.core.initiation.search import PlotIndex
-from plotgate.core.initiation.simulate import Scenario, seed_002_scenario, simulate
+from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
 
 R4 = np.eye(2) * 4.0  # plot covariance, m^2 (2 m sigma)
 
@@ -263,7 +263,7 @@ def test_kalman_track_is_the_textbook_filter():
     np.testing.assert_allclose(state.tracks.P[0], P, rtol=1e-9)
 
 
-def test_alpha_beta_gains_of_seed_003():
+def test_alpha_beta_gains_of_the_secondary_processing_textbook():
     zs = [(1000.0, 2000.0), (1010.0, 2000.0), (1026.0, 2006.0)]
     config = InitiationConfig(v_max=20.0, filter="alpha_beta")
     state, _ = run(config, *[scan(t, z) for t, z in enumerate(zs)])
@@ -326,7 +326,7 @@ def test_polar_acceleration_check_drops_jerky_tracks():
 
 
 def _clutter_session(seed=3):
-    sim = simulate(seed_002_scenario(250.0, scans=6), seed)
+    sim = simulate(mu_scenario(250.0, scans=6), seed)
     return sim.scans
 
 
@@ -436,7 +436,7 @@ def test_simulator_draws_detections_and_clutter_at_their_rates():
 
 
 def test_evaluation_without_clutter_initiates_every_target():
-    s = seed_002_scenario(0.0)
+    s = mu_scenario(0.0)
     s = Scenario(**{**s.__dict__, "P_D": 1.0})
     ev = evaluate(
         s, InitiationConfig(mode="polar", v_max=30.0, a_max=10.0, K_A=3.0), runs=5, seed=1

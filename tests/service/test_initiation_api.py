@@ -17,7 +17,7 @@ from plotgate.core.errors import ParameterError
 from plotgate.core.initiation import InitiationConfig, initiate
 from plotgate.core.initiation.config import CHOICES
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
-from plotgate.core.initiation.simulate import Scenario, seed_002_scenario, simulate
+from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
 from plotgate.service.app import create_app
 from plotgate.service.schemas import ENDPOINTS, MAX_PLOTS, InitiationSettings
 from plotgate.service.schemas.common import MIN_RANGE
@@ -41,7 +41,7 @@ def _simulated(client, clutter=250.0, seed=3, scans=4) -> dict:
 
 def test_simulate_and_initiate_are_cores(client):
     sim = _simulated(client)
-    core_sim = simulate(seed_002_scenario(250.0), 3)
+    core_sim = simulate(mu_scenario(250.0), 3)
     assert sim["labels"] == [lab.tolist() for lab in core_sim.labels]
     body = answer(
         client.post("/v1/initiation/initiate", json={"config": POLAR, "scans": sim["scans"]})
@@ -205,9 +205,7 @@ def test_simulated_azimuths_are_wrapped_into_a_plots_range(client):
     plots = [p for scan in sim["scans"] for p in scan["plots"]]
     assert all(-360.0 <= p["az_deg"] <= 360.0 for p in plots)
     core_sim = simulate(
-        Scenario(
-            **{**vars(seed_002_scenario(0.0, 50)), "P_D": 1.0, "sigma_az": np.radians(180.0)}
-        ),
+        Scenario(**{**vars(mu_scenario(0.0, 50)), "P_D": 1.0, "sigma_az": np.radians(180.0)}),
         5,
     )
     az = np.concatenate([s.az for s in core_sim.scans])
