@@ -22,7 +22,7 @@ Choices, as close as Stone Soup allows to plotgate's polar 3-of-4 logic:
   velocity zero with std 30 m/s per axis, since targets move at up to 30 m/s;
 * motion: two ``ConstantVelocity(q=1.0)``, Kalman predictor and updater;
 * gate: ``DistanceHypothesiser`` with ``Mahalanobis`` and missed distance
-  sqrt(chi2.ppf(0.99, 2)) = 3.03 (P_G 0.99, like our gate), then ``GNNWith2DAssignment``.
+  sqrt(gate_threshold(0.99, 2)) = 3.03 (P_G 0.99, like our gate), then ``GNNWith2DAssignment``.
   Plain, Stone Soup computes the distance of every tentative track to every detection in
   Python (about 24 s per scan at 250 clutter plots, some 13 hours for 500 runs), so by
   default a kd-tree prefilter (:class:`PrefilteredGNN`, exact: same tracks, checked)
@@ -46,7 +46,6 @@ from datetime import datetime, timedelta
 
 import numpy as np
 from scipy.spatial import KDTree
-from scipy.stats import chi2
 from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
 from stonesoup.deleter.time import UpdateTimeStepsDeleter
 from stonesoup.hypothesiser.distance import DistanceHypothesiser
@@ -65,6 +64,7 @@ from stonesoup.updater.kalman import KalmanUpdater
 
 from plotgate.core.initiation.scan import Scan
 from plotgate.core.initiation.simulate import mu_scenario, simulate
+from plotgate.core.thresholds import gate_threshold
 
 EPOCH = datetime(2026, 1, 1)
 
@@ -110,7 +110,7 @@ def make_initiator(
     predictor = KalmanPredictor(transition)
     updater = KalmanUpdater(measurement_model=None)  # every detection carries its own
     hypothesiser = DistanceHypothesiser(
-        predictor, updater, Mahalanobis(), missed_distance=float(np.sqrt(chi2.ppf(P_G, 2)))
+        predictor, updater, Mahalanobis(), missed_distance=float(np.sqrt(gate_threshold(P_G, 2)))
     )
     # position entries are replaced by each first detection; velocity is the prior
     prior = GaussianState(
