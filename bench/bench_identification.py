@@ -1,4 +1,4 @@
-"""Passive/active identification: seed 004's experiment by Monte Carlo, and picture timing.
+"""Passive/active identification: Kvasnov's experiment by Monte Carlo, and picture timing.
 
 Run from the repository root::
 
@@ -113,7 +113,7 @@ def figure(alpha: dict, beta: dict, out: Path) -> Path:
     ax.set_title("alpha = 0.05, n = 50")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="x-small", ncol=2)
-    fig.suptitle("Seed 004's Z-test by Monte Carlo")
+    fig.suptitle("Kvasnov's Z-test by Monte Carlo")
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
     return out

@@ -1,20 +1,20 @@
-"""Track initiation: the seed-002 study (with Stone Soup alongside) and time per scan.
+"""Track initiation: Mu et al.'s study (with Stone Soup alongside) and time per scan.
 
 Run from the repository root::
 
     python bench/bench_initiation.py                    # 500 runs, Stone Soup too (~4 min)
     python bench/bench_initiation.py --runs 50 --no-stonesoup --max-plots 10000   # quick
 
-1. Seed 002's evaluation (DESIGN section 5): 5 ground targets at 25 m/s, radar at the
+1. Mu et al.'s evaluation: 5 ground targets at 25 m/s, radar at the
    origin, a 15 km square, P_D 0.8, sigma_r 5 m, sigma_az 0.2 deg, 1 s scans, Poisson
    clutter 20 or 250 per scan, 3/4 over 4 scans, 500 seeded runs (the same scans for
    every method: run r is seeded by ``SeedSequence(seed).spawn(runs)[r]``). Methods: the
-   Cartesian logic method (:data:`LOGIC`) and seed 002's polar method (:data:`POLAR`),
+   Cartesian logic method (:data:`LOGIC`) and Mu et al.'s polar method (:data:`POLAR`),
    both through ``core.initiation.evaluate``, with 99% and with 95% gates; and Stone Soup's
    ``MultiMeasurementInitiator`` on the same scans (``bench/stonesoup_initiation.py``,
    needs ``pip install -e ".[bench]"``). Scored by labels (a confirmed track is true when
    most of its plots come from one target, each target once) and by distance (100 m).
-2. Time per scan against clutter plots per scan, 10^2 to 10^5, at the seed's clutter
+2. Time per scan against clutter plots per scan, 10^2 to 10^5, at the paper's clutter
    density (250 per 15 km square): the square grows with the plot count, so the plots
    near each gate stay the same and the growth shows the cost of the machinery itself
    (a cKDTree per scan, candidate pairs, capture gates). Cartesian plots with a fixed 20 m
@@ -37,7 +37,7 @@ import scipy
 
 from plotgate.core.initiation import InitiationConfig, cartesian_scan, initiate
 from plotgate.core.initiation.evaluate import evaluate
-from plotgate.core.initiation.simulate import Scenario, seed_002_scenario, simulate
+from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
 
 SEED = 2026
 LOGIC = InitiationConfig(
@@ -49,7 +49,7 @@ LOGIC = InitiationConfig(
     confirm_m=4,
     drop_misses=2,
 )
-"""Capture by seed 000's combined gate (ring 0-30 m/s, else the 99% ellipse of the two
+"""Capture by Konovalov's combined gate (ring 0-30 m/s, else the 99% ellipse of the two
 plots' errors), a Kalman filter, 99% chi-square gates widening after a miss."""
 POLAR = InitiationConfig(
     mode="polar",
@@ -71,12 +71,12 @@ def study(runs: int, seed: int, stonesoup: bool) -> list[str]:
     rows = []
     methods = (
         ("logic (Cartesian), 99% gates", LOGIC),
-        ("polar (seed 002), 99% gates", POLAR),
+        ("polar (Mu et al.), 99% gates", POLAR),
         ("logic (Cartesian), 95% gates", replace(LOGIC, capture_P_G=0.95, gate_P_G=0.95)),
-        ("polar (seed 002), 95% gates", replace(POLAR, gate_P_G=0.95)),
+        ("polar (Mu et al.), 95% gates", replace(POLAR, gate_P_G=0.95)),
     )
     for clutter in (20.0, 250.0):
-        scenario = seed_002_scenario(clutter)
+        scenario = mu_scenario(clutter)
         for name, config in methods:
             start = time.perf_counter()
             ev = evaluate(scenario, config, runs, seed)
@@ -137,7 +137,7 @@ def scaling(max_plots: int, repeats: int, seed: int) -> list[str]:
     base = {}
     for name, config, make in (
         ("logic (Cartesian)", LOGIC, _cartesian_scans),
-        ("polar (seed 002)", POLAR, _polar_scans),
+        ("polar (Mu et al.)", POLAR, _polar_scans),
     ):
         for n in sizes:
             scans = make(n, np.random.default_rng(seed))
@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{scipy.__version__}, {platform.machine()}"
     )
     if args.study:
-        print(f"\n## Seed 002's study: {args.runs} runs, seed {args.seed}\n")
+        print(f"\n## Mu et al.'s study: {args.runs} runs, seed {args.seed}\n")
         print(
             "| clutter | method | targets initiated | false tracks | initiated (100 m) | "
             "false (100 m) | confirmable | time to confirm s | ms per scan |\n"

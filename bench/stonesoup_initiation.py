@@ -1,11 +1,11 @@
-"""Seed 002's track initiation run through Stone Soup's MultiMeasurementInitiator.
+"""Mu et al.'s track initiation run through Stone Soup's MultiMeasurementInitiator.
 
 Run from the repository root (needs ``pip install -e ".[bench]"``, i.e. stonesoup)::
 
     python bench/stonesoup_initiation.py --runs 500
 
-For comparison with plotgate's initiation (DESIGN section 5, "Comparing with Stone
-Soup"): the same scans our ``evaluate()`` sees (run r simulates ``seed_002_scenario``
+For comparison with plotgate's initiation ("Comparing with Stone
+Soup"): the same scans our ``evaluate()`` sees (run r simulates ``mu_scenario``
 with ``default_rng(SeedSequence(seed).spawn(runs)[r])``), the same scoring by labels (a
 returned track is true when more than half of its plots come from one target, each target
 once; every other returned track is false), and the time per scan. Prints a markdown
@@ -22,7 +22,7 @@ Choices, as close as Stone Soup allows to plotgate's polar 3-of-4 logic:
   velocity zero with std 30 m/s per axis, since targets move at up to 30 m/s;
 * motion: two ``ConstantVelocity(q=1.0)``, Kalman predictor and updater;
 * gate: ``DistanceHypothesiser`` with ``Mahalanobis`` and missed distance
-  sqrt(chi2.ppf(0.99, 2)) = 3.03 (P_G 0.99, like our gate), then ``GNNWith2DAssignment``.
+  sqrt(gate_threshold(0.99, 2)) = 3.03 (P_G 0.99, like our gate), then ``GNNWith2DAssignment``.
   Plain, Stone Soup computes the distance of every tentative track to every detection in
   Python (about 24 s per scan at 250 clutter plots, some 13 hours for 500 runs), so by
   default a kd-tree prefilter (:class:`PrefilteredGNN`, exact: same tracks, checked)
@@ -46,7 +46,6 @@ from datetime import datetime, timedelta
 
 import numpy as np
 from scipy.spatial import KDTree
-from scipy.stats import chi2
 from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
 from stonesoup.deleter.time import UpdateTimeStepsDeleter
 from stonesoup.hypothesiser.distance import DistanceHypothesiser
@@ -63,8 +62,9 @@ from stonesoup.types.state import GaussianState
 from stonesoup.types.update import Update
 from stonesoup.updater.kalman import KalmanUpdater
 
+from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.initiation.scan import Scan
-from plotgate.core.initiation.simulate import seed_002_scenario, simulate
+from plotgate.core.initiation.simulate import mu_scenario, simulate
 
 EPOCH = datetime(2026, 1, 1)
 
@@ -110,7 +110,7 @@ def make_initiator(
     predictor = KalmanPredictor(transition)
     updater = KalmanUpdater(measurement_model=None)  # every detection carries its own
     hypothesiser = DistanceHypothesiser(
-        predictor, updater, Mahalanobis(), missed_distance=float(np.sqrt(chi2.ppf(P_G, 2)))
+        predictor, updater, Mahalanobis(), missed_distance=float(np.sqrt(gate_threshold(P_G, 2)))
     )
     # position entries are replaced by each first detection; velocity is the prior
     prior = GaussianState(
@@ -168,11 +168,11 @@ def stonesoup_initiation(
     miss_steps: int = 2,
     prefilter: bool = True,
 ) -> dict:
-    """Monte Carlo of MultiMeasurementInitiator on seed 002's scenario, scored like ours.
+    """Monte Carlo of MultiMeasurementInitiator on Mu et al.'s scenario, scored like ours.
 
     Returns {"mean_true", "mean_false", "seconds_per_scan", "runs"}.
     """
-    scenario = seed_002_scenario(clutter)
+    scenario = mu_scenario(clutter)
     targets = scenario.x0.shape[0]
     true, false = [], []
     elapsed, scans = 0.0, 0
@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     print(
-        f"Stone Soup MultiMeasurementInitiator, seed 002 scenario, {args.runs} runs, "
+        f"Stone Soup MultiMeasurementInitiator, Mu et al. scenario, {args.runs} runs, "
         f"seed {args.seed}, prefilter {'off' if args.no_prefilter else 'on'}\n"
     )
     print("| clutter / scan | mean true (of 5) | mean false | ms / scan |")

@@ -24,7 +24,26 @@ from plotgate.core.gates.regions import MarkGeometry, StarRegion, sector_region
 from plotgate.core.gates.results import GateResult, gate_result, window_statistic
 from plotgate.core.validation import as_array, as_points, pair_count, require_nonnegative, to_pairs
 
-__all__ = ["FirstAssociationGate", "SectorGate"]
+__all__ = ["FirstAssociationGate", "SectorGate", "bearing_turn"]
+
+
+def bearing_turn(R_max: ArrayLike, r: ArrayLike) -> np.ndarray:
+    """Largest bearing change, rad, of a target at range r (m) that moves at most R_max m.
+
+    .. math:: \\arcsin\\left(\\min\\left(1, \\frac{R_{max}}{r}\\right)\\right)
+
+    pi/2 within R_max of the sensor (r = 0 included). The tangential term of the
+    azimuth window of Mu et al., eq. (4), with R_max = v_max tau: the first-association
+    windows here, and initiation's track windows about an extrapolated range.
+
+    >>> bearing_turn([100.0, 100.0], [200.0, 50.0]).round(4)
+    array([0.5236, 1.5708])
+    """
+    R_max, r = np.asarray(R_max, dtype=float), np.asarray(r, dtype=float)
+    far = r > R_max
+    ratio = np.divide(R_max, r, out=np.ones(np.broadcast(R_max, r).shape), where=far)
+    turn: np.ndarray = np.arcsin(ratio)
+    return turn
 
 
 @dataclass(frozen=True)
@@ -278,9 +297,7 @@ class FirstAssociationGate:
             sigma_az2=sigma_az2.shape,
         )
         W_R = R_max + K_R * np.hypot(sigma_r1, sigma_r2)
-        far = r1 > R_max
-        sin_turn = np.divide(R_max, r1, out=np.ones(np.shape(r1)), where=far)
-        W_az = np.arcsin(sin_turn) + K_az * np.hypot(sigma_az1, sigma_az2)
+        W_az = bearing_turn(R_max, r1) + K_az * np.hypot(sigma_az1, sigma_az2)
         statistic = window_statistic(r2 - r1, wrap_angle(az2 - az1), W_R, W_az)
         return gate_result(n, statistic <= 1.0, statistic, 1.0)
 
@@ -290,8 +307,8 @@ class FirstAssociationGate:
         K_R = positive_coefficient("K_R", self.K_R)
         K_az = positive_coefficient("K_az", self.K_az)
         W_R = R_max + K_R * np.hypot(g.sigma_r1, g.sigma_r2)
-        turn = np.arcsin(np.minimum(1.0, R_max / g.r))
-        return sector_region(g, g.r, g.az, W_R, turn + K_az * np.hypot(g.sigma_az1, g.sigma_az2))
+        W_az = bearing_turn(R_max, g.r) + K_az * np.hypot(g.sigma_az1, g.sigma_az2)
+        return sector_region(g, g.r, g.az, W_R, W_az)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
         """The test of second marks z2 (M, 2) in problem i of g: (M,) bool."""

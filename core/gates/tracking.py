@@ -32,7 +32,7 @@ from plotgate.core.gates.regions import (
 )
 from plotgate.core.gates.results import GateResult, difference, gate_result, window_statistic
 from plotgate.core.gates.thresholds import gate_threshold
-from plotgate.core.sym2 import quadratic_form, sym2
+from plotgate.core.sym2 import Sym2, quadratic_form, sym2
 from plotgate.core.validation import (
     as_array,
     as_covariance,
@@ -108,16 +108,32 @@ class EllipseGate:
         >>> res.inside, res.statistic
         (array([ True, False]), array([2., 8.]))
         """
-        P_G = self.P_G
         z = as_points("z", z)
         z_pred = as_points("z_pred", z_pred)
         S = as_covariance("S", S)
-        require_scalar("P_G", P_G)
-        gamma = float(gate_threshold(P_G))
+        gamma = self.threshold
         n = pair_count(z=z.shape[:-1], z_pred=z_pred.shape[:-1], S=S.shape[:-2])
         nu_x, nu_y = difference(z_pred, z)
-        rho = quadratic_form(nu_x, nu_y, sym2(S))
+        rho = self.statistic(nu_x, nu_y, sym2(S))
         return gate_result(n, rho <= gamma, rho, gamma)
+
+    @property
+    def threshold(self) -> float:
+        """gamma = ``gate_threshold(P_G, 2)``, the bound on rho (P_G checked)."""
+        require_scalar("P_G", self.P_G)
+        return float(gate_threshold(self.P_G))
+
+    @staticmethod
+    def statistic(nu_x: np.ndarray, nu_y: np.ndarray, S: Sym2) -> np.ndarray:
+        """rho = nu^T S^-1 nu of innovations (nu_x, nu_y), m, and covariances S, m^2.
+
+        The gate's statistic without its input checks, in closed form
+        (:func:`~plotgate.core.sym2.quadratic_form`): for callers whose innovations and
+        positive definite S are already checked or built, such as initiation's track
+        gates, whose session state may carry covariances far beyond the condition number
+        :meth:`test` accepts.
+        """
+        return quadratic_form(nu_x, nu_y, S)
 
     def _S(self, g: MarkGeometry) -> np.ndarray:
         """The innovation covariance of each problem of g, (N, 2, 2)."""

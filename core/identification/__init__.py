@@ -1,4 +1,4 @@
-"""Passive/active mark identification by Fisher's Z-test (seed 004; DESIGN section 7).
+"""Passive/active mark identification by Fisher's Z-test (Kvasnov).
 
 :mod:`.ztest` tests one passive against one active track (bearings, optionally
 elevations; beta, the required m, the paper's conditions), :mod:`.picture` whole

@@ -1,4 +1,4 @@
-"""Whole pictures and sequential identification with the Z-test of seed 004.
+"""Whole pictures and sequential identification with the Z-test of Kvasnov.
 
 * :func:`identify_picture`: P passive and A active tracks at once. The Z matrix
   Z[i, j] = wrap(mean_act_j - mean_pas_i) sqrt(m_j) / sigma_i comes from per-track
@@ -7,14 +7,16 @@
   identified, and ``scipy.optimize.linear_sum_assignment`` on |Z| picks a one-to-one
   identification among them (each passive track to at most one active track). The rest
   are unassigned on both sides.
-* :func:`sequential`: the test repeated as active samples accumulate (seed 004's third
+* :func:`sequential`: the test repeated as active samples accumulate (Kvasnov's third
   condition: identification repeats every 2-20 s). Stateless: the samples in, the
   decision after each new active sample out, from cumulative sums.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -23,18 +25,19 @@ from scipy.optimize import linear_sum_assignment
 
 from plotgate.core.errors import ParameterError
 from plotgate.core.frames import wrap_finite
-from plotgate.core.identification.ztest import MIN_ESTIMATED_SIGMA, _sigma
+from plotgate.core.identification.ztest import MIN_ESTIMATED_SIGMA, bearing_sigma
 from plotgate.core.validation import as_array, as_probability
 
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
 
 
-def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def _tracks(name: str, value: ArrayLike | list[ArrayLike]) -> tuple[np.ndarray, np.ndarray]:
     """Padded (T, K) angles and the (T, K) mask of valid samples (NaN pads a short track)."""
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        rows = [np.asarray(as_array(f"{name}[{i}]", r), float) for i, r in enumerate(value)]
+        tracks = cast(Iterable[ArrayLike], value)  # ragged: a list of tracks
+        rows = [np.asarray(as_array(f"{name}[{i}]", r), float) for i, r in enumerate(tracks)]
         width = max((r.size for r in rows), default=0)
         a = np.full((len(rows), width), np.nan)
         for i, r in enumerate(rows):  # one copy per ragged track
@@ -55,7 +58,8 @@ def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _means(a: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    return np.arctan2((np.sin(a) * valid).sum(1), (np.cos(a) * valid).sum(1))
+    means: np.ndarray = np.arctan2((np.sin(a) * valid).sum(1), (np.cos(a) * valid).sum(1))
+    return means
 
 
 @dataclass(frozen=True)
@@ -92,7 +96,7 @@ class Picture:
 def identify_picture(
     passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | None = None, alpha: float = 0.05
 ) -> Picture:
-    """Z matrix and one-to-one identification of many passive and active tracks (seed 004).
+    """Z matrix and one-to-one identification of many passive and active tracks (Kvasnov).
 
     Parameters
     ----------
@@ -169,15 +173,15 @@ class Sequence:
         Active samples used: 2, 3, ..., m.
     z, p_value : (m - 1,) ndarray
     identified : (m - 1,) ndarray of bool
-    first_decision : int or None
-        The m at which the decision took its final value and kept it (None if m < 2).
+    first_decision : int
+        The m at which the decision took its final value and kept it.
     """
 
     m: np.ndarray
     z: np.ndarray
     p_value: np.ndarray
     identified: np.ndarray
-    first_decision: int | None
+    first_decision: int
 
 
 def sequential(
@@ -198,7 +202,7 @@ def sequential(
     pa, pv = _tracks("passive", [passive])
     aa, _ = _tracks("active", [active])
     mean_p = _means(pa, pv)[0]
-    s = float(_sigma("sigma", sigma, pa[0]))
+    s = float(bearing_sigma("sigma", sigma, pa[0]))
     m = np.arange(1, aa.shape[1] + 1)
     mean_a = np.arctan2(np.cumsum(np.sin(aa[0])), np.cumsum(np.cos(aa[0])))
     z = (wrap_finite(mean_a - mean_p) * np.sqrt(m) / s)[1:]

@@ -1,4 +1,4 @@
-"""Seed 004's experiment by Monte Carlo: the realized type I and type II errors.
+"""Kvasnov's experiment by Monte Carlo: the realized type I and type II errors.
 
 The paper's simulation (MatLab): the passive station has accumulated n = 50 bearings,
 normal N(theta_0, sigma); the active station's m bearings are uniform over a sector
@@ -62,7 +62,7 @@ def experiment(
     estimate_sigma: bool = False,
     bearing: float = np.radians(1.5),
 ) -> ExperimentRates:
-    """Run seed 004's identification experiment ``runs`` times (angles in radians).
+    """Run Kvasnov's identification experiment ``runs`` times (angles in radians).
 
     Parameters
     ----------
@@ -99,9 +99,9 @@ def experiment(
             raise ParameterError(name, f"must be an integer >= {low}, got {value!r}")
     if law not in ("uniform", "normal"):
         raise ParameterError("law", f"must be 'uniform' or 'normal', got {law!r}")
-    for name, value in (("sigma", sigma), ("width", width)):
-        if not value > 0:
-            raise ParameterError(name, f"must be > 0, got {value!r}")
+    for name, angle in (("sigma", sigma), ("width", width)):
+        if not angle > 0:
+            raise ParameterError(name, f"must be > 0, got {angle!r}")
     alpha = float(as_probability("alpha", alpha))
     rng = np.random.default_rng(seed)
     passive = bearing + sigma * rng.standard_normal((runs, n))

@@ -1,6 +1,6 @@
-"""Fisher's Z-test identifying a passive (ESM) track with an active radar track (seed 004).
+"""Fisher's Z-test identifying a passive (ESM) track with an active radar track (Kvasnov).
 
-Seed 004 (A. V. Kvasnov, identifying radar target marks from active and passive stations
+Kvasnov (A. V. Kvasnov, identifying radar target marks from active and passive stations
 by Fisher's Z-test) treats the n bearings of the passive station as the population and
 the m << n bearings of the active station as a sample, and tests H0 "one object"
 against H1 "two objects" by (eq. 5)
@@ -9,7 +9,7 @@ against H1 "two objects" by (eq. 5)
 
 two-sided at level alpha: |Z| <= z_{1 - alpha/2} identifies the marks. Bearings are
 angles: the means are circular (atan2 of the mean sine and cosine) and the difference is
-wrapped to (-pi, pi], so 359 and 1 degree are 2 degrees apart (DESIGN section 7).
+wrapped to (-pi, pi], so 359 and 1 degree are 2 degrees apart.
 
 Beyond the paper:
 
@@ -42,6 +42,7 @@ from plotgate.core.validation import as_array, as_probability
 __all__ = [
     "MIN_ESTIMATED_SIGMA",
     "ZTest",
+    "bearing_sigma",
     "circular_mean",
     "circular_sigma",
     "required_samples",
@@ -64,7 +65,8 @@ def circular_mean(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     0.0
     """
     theta = np.asarray(theta, dtype=float)
-    return np.arctan2(np.sin(theta).mean(axis=axis), np.cos(theta).mean(axis=axis))
+    mean: np.ndarray = np.arctan2(np.sin(theta).mean(axis=axis), np.cos(theta).mean(axis=axis))
+    return mean
 
 
 def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
@@ -77,7 +79,8 @@ def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     """
     theta = np.asarray(theta, dtype=float)
     dev = wrap_finite(theta - np.expand_dims(circular_mean(theta, axis), axis))
-    return np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
+    sigma: np.ndarray = np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
+    return sigma
 
 
 def type_two_error(
@@ -89,7 +92,7 @@ def type_two_error(
               - \\Phi\\left(\\frac{-z - \\delta\\sqrt{m}/\\sigma}{c}\\right),
               \\quad z = z_{1-\\alpha/2}, \\quad c = \\sqrt{1 + m/n}
 
-    With n None, c = 1: the passive mean is the population's (seed 004's assumption).
+    With n None, c = 1: the passive mean is the population's (Kvasnov's assumption).
     With n passive samples their mean has its own error, and Z ~ N(delta sqrt(m)/sigma,
     1 + m/n) (the active and passive bearings normal with the same sigma).
 
@@ -107,7 +110,8 @@ def type_two_error(
     m = np.asarray(m, dtype=float)
     c = 1.0 if n is None else np.sqrt(1.0 + m / np.asarray(n, dtype=float))
     shift = np.abs(np.asarray(delta, dtype=float)) * np.sqrt(m) / np.asarray(sigma, float)
-    return stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
+    beta: np.ndarray = stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
+    return beta
 
 
 def required_samples(
@@ -215,7 +219,30 @@ def _samples(name: str, value: ArrayLike) -> np.ndarray:
     return a
 
 
-def _sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarray:
+def bearing_sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarray:
+    """The passive track's bearing sigma (rad): ``value`` checked, or estimated when None.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for the error.
+    value : float or None
+        A given sigma, rad, > 0; None estimates it from ``passive``
+        (:func:`circular_sigma`).
+    passive : (n,) ndarray
+        The passive track's bearings, rad.
+
+    Raises
+    ------
+    ParameterError
+        ``name`` for a sigma that is not a positive scalar, or that cannot be estimated
+        (all bearings equal to rounding, below :data:`MIN_ESTIMATED_SIGMA`).
+
+    Examples
+    --------
+    >>> float(bearing_sigma("sigma", 0.01, np.zeros(3)))
+    0.01
+    """
     if value is None:
         s = circular_sigma(passive)
         if not s >= MIN_ESTIMATED_SIGMA:
@@ -245,7 +272,7 @@ def z_test(
     ratio: float = 10.0,
     normality_alpha: float = 0.05,
 ) -> ZTest:
-    """Fisher's Z-test of seed 004 (eq. 5): are a passive and an active track one object?
+    """Fisher's Z-test of Kvasnov (eq. 5): are a passive and an active track one object?
 
     Parameters
     ----------
@@ -284,7 +311,7 @@ def z_test(
 
     References
     ----------
-    .. [1] A. V. Kvasnov, seed 004, eq. (5) and the conditions of the Z-test (n >> m,
+    .. [1] A. V. Kvasnov, eq. (5) and the conditions of the Z-test (n >> m,
        a normal population, repeated identification every 2-20 s).
 
     Examples
@@ -302,13 +329,15 @@ def z_test(
     normality_alpha = float(as_probability("normality_alpha", normality_alpha))
     if not ratio > 1:
         raise ParameterError("ratio", f"must be > 1, got {ratio!r}")
-    coords = [("passive", "active", "sigma", passive, active, sigma)]
+    coords: list[tuple[str, str, str, ArrayLike, ArrayLike, float | None]] = [
+        ("passive", "active", "sigma", passive, active, sigma)
+    ]
     if (passive_elevation is None) != (active_elevation is None):
         raise ParameterError(
             "active_elevation" if active_elevation is None else "passive_elevation",
             "give elevations on both sides or none",
         )
-    if passive_elevation is not None:
+    if passive_elevation is not None and active_elevation is not None:
         coords.append(
             (
                 "passive_elevation",
@@ -321,7 +350,7 @@ def z_test(
         )
     k = len(coords)
     z_crit = float(stats.norm.ppf(1.0 - alpha / (2 * k)))
-    z, diff, sig, normal_p = [], [], [], []
+    zs, diff, sig, normality = [], [], [], []
     n = m = 0
     for p_name, a_name, s_name, p_val, a_val, s_val in coords:
         p, a = _samples(p_name, p_val), _samples(a_name, a_val)
@@ -331,14 +360,14 @@ def z_test(
                 f"must have as many samples as the bearings ({n}, {m})",
             )
         n, m = p.size, a.size
-        s = _sigma(s_name, s_val, p)
+        s = bearing_sigma(s_name, s_val, p)
         d = wrap_finite(circular_mean(a) - circular_mean(p))
-        z.append(d * np.sqrt(m) / s)
+        zs.append(d * np.sqrt(m) / s)
         diff.append(d)
         sig.append(s)
         dev = wrap_finite(p - circular_mean(p))
-        normal_p.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
-    z, normal_p = np.array(z, dtype=float), np.array(normal_p, dtype=float)
+        normality.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
+    z, normal_p = np.array(zs, dtype=float), np.array(normality, dtype=float)
     beta = m_req = None
     if beta_max is not None and delta is None:
         raise ParameterError("beta_max", "needs delta, the separation to detect")

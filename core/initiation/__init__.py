@@ -1,9 +1,11 @@
-"""Track initiation from plots in clutter (DESIGN section 5; seeds 002, 003, 000).
+"""Track initiation from plots in clutter (Mu et al.; Konovalov; the secondary-processing
+textbook).
 
 :mod:`.scan` builds a scan of Cartesian or polar plots, :mod:`.config` holds the rules,
 :mod:`.state` the versioned state between calls (:mod:`.state_json` reads one back
-and checks it), :mod:`.logic` the initiation itself
-(:mod:`.sharing` its plot-reuse rules),
+and checks it), :mod:`.logic` the initiation itself (:mod:`.filter` its track filter,
+:mod:`.search` its candidate search, :mod:`.pairs` its gates on the candidates,
+:mod:`.assignment` and :mod:`.sharing` its association and plot-reuse rules),
 :mod:`.simulate` the seeded scenario simulator and :mod:`.evaluate` the Monte Carlo
 evaluation (targets initiated, false tracks, time to confirmation).
 """

@@ -1,4 +1,4 @@
-"""Monte Carlo evaluation of track initiation on simulated scans (DESIGN section 5).
+"""Monte Carlo evaluation of track initiation on simulated scans.
 
 Each run simulates a scenario's scans (:func:`plotgate.core.initiation.simulate.simulate`, run r
 seeded by ``SeedSequence(seed).spawn``, so one run can be replayed alone), feeds them to
@@ -79,8 +79,8 @@ def score_run(
     config: InitiationConfig,
     seed: np.random.SeedSequence | int,
     distance: float,
-) -> tuple[RunScore, bool]:
-    """Simulate and initiate one run; its score, and whether it was confirmable.
+) -> tuple[RunScore, int]:
+    """Simulate and initiate one run; its score, and how many targets were confirmable.
 
     Returns the score and the number of targets that were detected in k of the m
     scans from their first detection (the ceiling of this run) as a second element.
@@ -150,8 +150,8 @@ def evaluate(
 
     Examples
     --------
-    >>> from plotgate.core.initiation.simulate import seed_002_scenario
-    >>> ev = evaluate(seed_002_scenario(20.0), InitiationConfig(mode="polar", v_max=30.0),
+    >>> from plotgate.core.initiation.simulate import mu_scenario
+    >>> ev = evaluate(mu_scenario(20.0), InitiationConfig(mode="polar", v_max=30.0),
     ...               runs=5, seed=1)
     >>> ev.targets, ev.mean_true <= ev.ceiling
     (5, True)

@@ -1,4 +1,4 @@
-"""Which tracks share plots: the plot-reuse rules of track initiation (DESIGN section 5).
+"""Which tracks share plots: the plot-reuse rules of track initiation.
 
 "A plot used by a confirmed track is not reused to start new tracks; tentative tracks
 sharing two or more plots with a confirmed one are pruned", and of newly confirmed tracks
@@ -25,7 +25,8 @@ def _member(values: np.ndarray, ids: np.ndarray) -> np.ndarray:
     """values isin ids, for sorted distinct ids (a binary search per value, no sort)."""
     if ids.size == 0:
         return np.zeros(values.shape, dtype=bool)
-    return ids[np.minimum(np.searchsorted(ids, values), ids.size - 1)] == values
+    found: np.ndarray = ids[np.minimum(np.searchsorted(ids, values), ids.size - 1)] == values
+    return found
 
 
 def plot_pairs(plots: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

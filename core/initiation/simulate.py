@@ -1,6 +1,6 @@
 """Seeded simulator of radar scans: targets, detection probability, Poisson clutter.
 
-Seed 002's evaluation scenario (DESIGN section 5) in general form: constant-velocity
+Mu et al.'s evaluation scenario in general form: constant-velocity
 targets seen by one radar with detection probability P_D and polar noise (sigma_r,
 sigma_az), plus clutter: a Poisson number of plots per scan (mean ``clutter``) uniform
 over a rectangle. Every plot is labelled with its source (the target's index, or -1 for
@@ -18,7 +18,7 @@ from plotgate.core.frames import cartesian_to_polar
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE, Scan, polar_scan
 from plotgate.core.validation import as_array, as_points
 
-__all__ = ["Scenario", "SimulatedScans", "seed_002_scenario", "simulate"]
+__all__ = ["Scenario", "SimulatedScans", "mu_scenario", "simulate"]
 
 
 @dataclass(frozen=True)
@@ -90,15 +90,16 @@ class Scenario:
     def truth(self) -> np.ndarray:
         """(scans, k, 2) true target positions at every scan, m."""
         t = self.interval * np.arange(self.scans)
-        return self.x0[None] + t[:, None, None] * self.v[None]
+        truth: np.ndarray = self.x0[None] + t[:, None, None] * self.v[None]
+        return truth
 
 
-def seed_002_scenario(clutter: float, scans: int = 4) -> Scenario:
-    """Seed 002's test: 5 ground targets at 25 m/s east, P_D 0.8, a 15 km square.
+def mu_scenario(clutter: float, scans: int = 4) -> Scenario:
+    """Mu et al.'s test: 5 ground targets at 25 m/s east, P_D 0.8, a 15 km square.
 
     Examples
     --------
-    >>> s = seed_002_scenario(250.0)
+    >>> s = mu_scenario(250.0)
     >>> s.x0[0].tolist(), s.v[0].tolist(), round(float(np.degrees(s.sigma_az)), 6)
     ([5000.0, 10000.0], [25.0, 0.0], 0.2)
     """
@@ -160,7 +161,7 @@ def simulate(scenario: Scenario, rng: np.random.Generator | int) -> SimulatedSca
 
     Examples
     --------
-    >>> sim = simulate(seed_002_scenario(20.0), 1)
+    >>> sim = simulate(mu_scenario(20.0), 1)
     >>> len(sim.scans), sim.truth.shape, np.unique(np.concatenate(sim.labels))[:2].tolist()
     (4, (4, 5, 2), [-1, 0])
     """

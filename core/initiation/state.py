@@ -118,7 +118,7 @@ class Tracks:
         )
 
 
-_DTYPES = {
+_DTYPES: dict[str, type] = {
     "plot": np.int64,
     "scan": np.int64,
     "id": np.int64,
@@ -129,7 +129,7 @@ _DTYPES = {
     "misses": np.int64,
     "plots": np.int64,
 }
-_SHAPES = {  # trailing shapes per part; "H" is config.history
+_SHAPES: dict[str, dict[str, tuple[int | str, ...]]] = {  # "H" is config.history
     "initiators": {"z": (2,), "R": (2, 2), "sensor": (2,)},
     "tracks": {
         "x": (4,),
@@ -148,7 +148,7 @@ NULLABLE = frozenset({"ranges", "times", "sigma_r"})
 def layout(part: str, name: str, history: int) -> tuple[type, tuple[int, ...]]:
     """dtype and trailing shape of the array ``name`` of ``part`` ("initiators" or
     "tracks"); ``history`` is config.history, the width H of the tracks' histories."""
-    shape = tuple(history if s == "H" else s for s in _SHAPES[part].get(name, ()))
+    shape = tuple(history if s == "H" else int(s) for s in _SHAPES[part].get(name, ()))
     return _DTYPES.get(name, float), shape
 
 
@@ -207,7 +207,7 @@ class InitiationState:
 
 
 def _empty(cls: type, where: str, history: int) -> Any:
-    arrays = {}
+    arrays: dict[str, np.ndarray] = {}
     for f in fields(cls):
         dtype, shape = layout(where, f.name, history)
         arrays[f.name] = np.zeros((0, *shape), dtype=dtype)

@@ -59,8 +59,12 @@ __all__ = ["MAX_PLOT_ID", "check_state", "state_from_json"]
 MAX_PLOT_ID = MAX_SESSION_SCANS * PLOT_STRIDE
 """Plot ids are below this (2^52)."""
 _KEYS = ("version", "config_digest", "scans", "t", "next_track", "initiators", "tracks")
-_KINDS = {np.int64: "i", float: "if", bool: "b"}  # numpy dtype kinds each array accepts
-_WHAT = {np.int64: "int64 integers", float: "numbers", bool: "true or false"}
+_KINDS: dict[type, str] = {
+    np.int64: "i",
+    float: "if",
+    bool: "b",
+}  # numpy dtype kinds each array accepts
+_WHAT: dict[type, str] = {np.int64: "int64 integers", float: "numbers", bool: "true or false"}
 
 
 def _object(field: str, data: Any, names: tuple[str, ...]) -> None:
@@ -167,11 +171,14 @@ def _part(cls: type, where: str, data: Any, history: int) -> Any:
 
 
 def _require(
-    field: str, ok: np.ndarray, reason: Callable[[int], str], error: type = ParameterError
+    field: str,
+    ok: np.ndarray | np.bool_,
+    reason: Callable[[int], str],
+    error: type = ParameterError,
 ) -> None:
     """Raise ``error(field, reason(i), i)`` at the first row i where ``ok`` is False."""
     if not ok.all():
-        i = first_index(~ok)
+        i = first_index(np.asarray(~ok))
         assert i is not None
         raise error(field, reason(i), i)
 
@@ -286,15 +293,15 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
         ),
     )
     for name, ok in (("ranges", tr.ranges >= MIN_SENSOR_RANGE), ("sigma_r", tr.sigma_r > 0)):
-        values = getattr(tr, name)
-        _require(
-            f"{f}.{name}",
-            (ok | np.isnan(values)).all(axis=1),
-            lambda i, v=values, n=name: (
+        values: np.ndarray = getattr(tr, name)
+
+        def out_of_domain(i: int, v: np.ndarray = values, n: str = name) -> str:
+            return (
                 f"holds a {n} out of its domain "
                 f"(ranges >= {MIN_SENSOR_RANGE} m, sigmas > 0): {v[i].tolist()}"
-            ),
-        )
+            )
+
+        _require(f"{f}.{name}", (ok | np.isnan(values)).all(axis=1), out_of_domain)
     _angles_and_sigmas(f, None, tr.az, None, tr.sigma_az)
 
 
@@ -370,15 +377,15 @@ def _check_track_histories(state: InitiationState) -> None:
         ),
     )
     for name in sorted(NULLABLE):
-        values = getattr(tr, name)
-        _require(
-            f"{f}.{name}",
-            (np.isnan(values) == ~present).all(axis=1),
-            lambda i, v=values: (
+        values: np.ndarray = getattr(tr, name)
+
+        def misplaced(i: int, v: np.ndarray = values) -> str:
+            return (
                 f"must be null exactly where plots[{i}] is -1: "
                 f"{v[i].tolist()} against {tr.plots[i].tolist()}"
-            ),
-        )
+            )
+
+        _require(f"{f}.{name}", (np.isnan(values) == ~present).all(axis=1), misplaced)
     times = np.where(present, tr.times, -np.inf)
     _require(
         f"{f}.times",

@@ -1,13 +1,13 @@
-"""Passive/active identification by the Z-test of seed 004 (DESIGN section 7).
+"""Passive/active identification by Kvasnov's Z-test.
 
 Degrees on the wire become radians for core and back. Core errors name core arguments
 (``passive``, ``active``, ``sigma``, the elevations, ``delta``, ``beta_max``, ...);
-:func:`pair_field` and :func:`picture_field` map them to the request's fields.
+:data:`PAIR_FIELDS`, :data:`PICTURE_FIELDS` and :data:`SIMULATE_FIELDS` map them to the
+request's fields.
 """
 
 import numpy as np
 
-from plotgate.core import PlotgateError
 from plotgate.core.identification import experiment, identify_picture, sequential, z_test
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
@@ -26,16 +26,25 @@ __all__ = [
     "PICTURE_FIELDS",
     "PAIR_FIELDS",
     "pair",
-    "pair_field",
     "picture",
-    "picture_field",
     "simulate",
-    "simulate_field",
 ]
 
 
-def _rad(value: list[float] | float | None) -> np.ndarray | float | None:
-    return None if value is None else np.radians(np.asarray(value, dtype=float))
+def _rad(value: list[float] | float) -> np.ndarray:
+    """Angles in degrees as radians."""
+    radians: np.ndarray = np.radians(np.asarray(value, dtype=float))
+    return radians
+
+
+def _optional(value: list[float] | float | None) -> np.ndarray | None:
+    """Angles in degrees as radians, None staying None."""
+    return None if value is None else _rad(value)
+
+
+def _angle(value: float | None) -> float | None:
+    """An angle in degrees as radians (None stays None)."""
+    return None if value is None else float(np.radians(value))
 
 
 @checked
@@ -46,19 +55,19 @@ def pair(request: IdentifyPairRequest) -> IdentifyPairResult:
     t = z_test(
         passive,
         active,
-        _rad(r.sigma_deg),
+        _angle(r.sigma_deg),
         r.alpha,
-        passive_elevation=_rad(r.passive_elevations_deg),
-        active_elevation=_rad(r.active_elevations_deg),
-        sigma_elevation=_rad(r.sigma_elevation_deg),
-        delta=_rad(r.delta_deg),
+        passive_elevation=_optional(r.passive_elevations_deg),
+        active_elevation=_optional(r.active_elevations_deg),
+        sigma_elevation=_angle(r.sigma_elevation_deg),
+        delta=_angle(r.delta_deg),
         beta_max=r.beta_max,
         ratio=r.ratio,
         normality_alpha=r.normality_alpha,
     )
     history = None
     if r.sequential:
-        s = sequential(passive, active, _rad(r.sigma_deg), r.alpha)
+        s = sequential(passive, active, _angle(r.sigma_deg), r.alpha)
         history = SequentialHistory(
             m=s.m.tolist(),
             z=s.z.tolist(),
@@ -84,29 +93,13 @@ def pair(request: IdentifyPairRequest) -> IdentifyPairResult:
     )
 
 
-_PAIR_FIELDS = {
-    "passive": "passive_bearings_deg",
-    "active": "active_bearings_deg",
-    "sigma": "sigma_deg",
-    "passive_elevation": "passive_elevations_deg",
-    "active_elevation": "active_elevations_deg",
-    "sigma_elevation": "sigma_elevation_deg",
-    "delta": "delta_deg",
-}
-
-
-def pair_field(request: IdentifyPairRequest, exc: PlotgateError) -> str:
-    """The request field of a core error."""
-    return _PAIR_FIELDS.get(exc.field, exc.field)
-
-
 @checked
 def picture(request: IdentifyPictureRequest) -> IdentifyPictureResult:
     """Z matrix and one-to-one identification of many tracks."""
     pic = identify_picture(
         [np.radians(t) for t in request.passive_deg],
         [np.radians(t) for t in request.active_deg],
-        _rad(request.sigma_deg),
+        _optional(request.sigma_deg),
         request.alpha,
     )
     return IdentifyPictureResult(
@@ -121,17 +114,9 @@ def picture(request: IdentifyPictureRequest) -> IdentifyPictureResult:
     )
 
 
-def picture_field(request: IdentifyPictureRequest, exc: PlotgateError) -> str:
-    """``passive_deg[i]``, ``active_deg[j]`` or ``sigma_deg``."""
-    name = {"passive": "passive_deg", "active": "active_deg", "sigma": "sigma_deg"}.get(
-        exc.field, exc.field
-    )
-    return name if exc.index is None else f"{name}[{exc.index}]"
-
-
 @checked
 def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
-    """Seed 004's experiment: realized alpha (separation 0) or beta."""
+    """Kvasnov's experiment: realized alpha (separation 0) or beta."""
     r = request
     out = experiment(
         r.n,
@@ -153,16 +138,26 @@ def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
     )
 
 
-def simulate_field(request: IdentifySimulateRequest, exc: PlotgateError) -> str:
-    """The request field of a core error."""
-    return {"sigma": "sigma_deg", "width": "width_deg"}.get(exc.field, exc.field)
+PAIR_FIELDS: FieldMap = {
+    "passive": "passive_bearings_deg",
+    "active": "active_bearings_deg",
+    "sigma": "sigma_deg",
+    "passive_elevation": "passive_elevations_deg",
+    "active_elevation": "active_elevations_deg",
+    "sigma_elevation": "sigma_elevation_deg",
+    "delta": "delta_deg",
+}
+"""Where core's errors on an ``identification.pair`` request point: each angle to its
+field in degrees; the rest (``alpha``, ``beta_max``, ...) are named as they are."""
 
+PICTURE_FIELDS: FieldMap = {
+    "passive": "passive_deg[{i}]",
+    "active": "active_deg[{i}]",
+    "sigma": "sigma_deg[{i}]",
+}
+"""Where core's errors on an ``identification.picture`` request point: a track's bearings
+(``passive_deg[2]``), a passive track's sigma; ``alpha`` is named as it is."""
 
-PAIR_FIELDS: FieldMap = {"*": pair_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
-
-PICTURE_FIELDS: FieldMap = {"*": picture_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
-
-SIMULATE_FIELDS: FieldMap = {"*": simulate_field}
-"""Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+SIMULATE_FIELDS: FieldMap = {"sigma": "sigma_deg", "width": "width_deg"}
+"""Where core's errors on an ``identification.simulate`` request point: the two angles in
+degrees; the rest are named as they are."""

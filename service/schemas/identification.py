@@ -1,9 +1,9 @@
-"""Wire models of passive/active mark identification (seed 004; DESIGN section 7).
+"""Wire models of passive/active mark identification (Kvasnov).
 
 Operations:
 
 - ``identification.pair``: one passive (ESM) track's bearings against one active radar
-  track's bearings (optionally elevations): Fisher's Z-test of seed 004 eq. 5 with its
+  track's bearings (optionally elevations): Fisher's Z-test of Kvasnov eq. 5 with its
   p-value, critical value and decision, beta and the m needed for a stated separation,
   the paper's conditions as numbers, and optionally the decision after each active
   sample (the sequential mode);
@@ -189,7 +189,7 @@ class IdentifyPictureResult(Schema):
 
 
 class IdentifySimulateRequest(Schema):
-    """Seed 004's experiment: normal passive bearings, active ones uniform in a sector."""
+    """Kvasnov's experiment: normal passive bearings, active ones uniform in a sector."""
 
     n: int = Field(default=50, ge=2, le=MAX_TRACK_SAMPLES, description="Passive samples.")
     m: int = Field(default=5, ge=2, le=MAX_TRACK_SAMPLES, description="Active samples.")

@@ -1,4 +1,4 @@
-"""Wire models of track initiation (DESIGN section 5; seeds 002, 003, 000).
+"""Wire models of track initiation (Mu et al.; the secondary-processing textbook; Konovalov).
 
 Operations:
 
@@ -59,18 +59,29 @@ MAX_SPEED = 1e6
 
 
 class InitiationSettings(Schema):
-    """The rules of initiation (defaults: Cartesian logic, ring capture 2/2, 3/4, l = 2)."""
+    """The rules of initiation (defaults: Cartesian logic, ring capture 2/2, 3/4, l = 2).
+
+    Field for field core's ``InitiationConfig``, and the service passes them to it by
+    name. The two are written out, not derived from each other: this model adds what
+    only the wire has (descriptions, each setting's ceiling on the work of one request,
+    JSON types) and schemas do not import core, while core's config is a plain frozen
+    dataclass with no pydantic in it. A test
+    (``tests/service/test_initiation_api.py``) holds them equal: the same names in the
+    same order, the same defaults, the same choices, and every lower bound (and the
+    probabilities' upper bounds) the same, listing the ceilings and floors only the wire
+    has.
+    """
 
     mode: Literal["cartesian", "polar"] = Field(
         default="cartesian",
         description="cartesian: the logic method (capture gate, "
-        "constant-velocity filter, chi-square gates); polar: seed 002's method (sector "
+        "constant-velocity filter, chi-square gates); polar: Mu et al.'s method (sector "
         "windows, range-only extrapolation, the acceleration check).",
     )
     v_min: float = Field(default=0.0, ge=0, le=1e6, description="Smallest target speed, m/s.")
     v_max: float = Field(default=50.0, gt=0, le=1e6, description="Largest target speed, m/s.")
     capture_gate: Literal["ring", "expanded", "combined"] = Field(
-        default="ring", description="Cartesian capture gate about an initiator (seed 000)."
+        default="ring", description="Cartesian capture gate about an initiator (Konovalov)."
     )
     capture_P_G: float = Field(
         default=0.99, gt=0, lt=1, description="Combined gate: ellipse-stage gating probability."
@@ -87,11 +98,12 @@ class InitiationSettings(Schema):
     )
     association: Literal["branch", "nearest"] = Field(
         default="branch",
-        description="branch: every plot in a capture gate starts a "
-        "tentative track (seed 003, approach 1); nearest: only the nearest one.",
+        description="branch: every plot in a capture gate starts a tentative track (the "
+        "secondary-processing textbook, approach 1); nearest: only the nearest one.",
     )
     filter: Literal["kalman", "alpha_beta"] = Field(
-        default="kalman", description="Track filter: Kalman, or seed 003's alpha-beta."
+        default="kalman",
+        description="Track filter: Kalman, or the secondary-processing textbook's alpha-beta.",
     )
     q: float = Field(
         default=1.0, gt=0, le=1e6, description="Kalman white-acceleration noise, m^2/s^3."
@@ -105,8 +117,9 @@ class InitiationSettings(Schema):
         default=[1.0, 2.0, 4.0],
         min_length=1,
         max_length=10,
-        description="Gate threshold factors after 0, 1, 2... misses in a row (seed 003's "
-        "narrow, medium and wide gates); each >= 1, non-decreasing.",
+        description="Gate threshold factors after 0, 1, 2... misses in a row (the "
+        "secondary-processing textbook's narrow, medium and wide gates); each >= 1, "
+        "non-decreasing.",
     )
     confirm_k: int = Field(default=3, ge=1, le=100, description="Confirmation k of k/m.")
     confirm_m: int = Field(default=4, ge=1, le=100, description="Confirmation m of k/m.")
@@ -238,7 +251,7 @@ class TargetIn(Schema):
 
 
 class ScenarioIn(Schema):
-    """Targets, one radar and Poisson clutter (seed 002's test by default)."""
+    """Targets, one radar and Poisson clutter (Mu et al.'s test by default)."""
 
     targets: list[TargetIn] = Field(
         default_factory=lambda: [
@@ -246,7 +259,7 @@ class ScenarioIn(Schema):
             for i in range(5)
         ],
         max_length=1000,
-        description="The targets (default: seed 002's five).",
+        description="The targets (default: Mu et al.'s five).",
     )
     scans: int = Field(default=4, ge=1, le=MAX_SCANS, description="Number of scans.")
     interval: float = Field(default=1.0, gt=0, le=1e6, description="Time between scans, s.")

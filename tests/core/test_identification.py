@@ -1,4 +1,4 @@
-"""The Z-test of seed 004: numbers against scipy.stats.norm, wrap-around, beta against
+"""The Z-test of Kvasnov: numbers against scipy.stats.norm, wrap-around, beta against
 Monte Carlo, the assignment of a hand-made picture, the sequential mode, bad input."""
 
 import numpy as np

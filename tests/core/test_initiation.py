@@ -14,13 +14,15 @@ from plotgate.core.initiation import (
     cartesian_scan,
     empty_state,
     initiate,
-    logic,
     polar_scan,
+    search,
     state_from_json,
 )
 from plotgate.core.initiation.evaluate import evaluate
-from plotgate.core.initiation.logic import _Index, _predict, _track_pairs
-from plotgate.core.initiation.simulate import Scenario, seed_002_scenario, simulate
+from plotgate.core.initiation.filter import predict
+from plotgate.core.initiation.pairs import track_pairs, window_coefficients
+from plotgate.core.initiation.search import PlotIndex
+from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
 
 R4 = np.eye(2) * 4.0  # plot covariance, m^2 (2 m sigma)
 
@@ -108,13 +110,13 @@ def test_gates_widen_after_a_miss():
     # medium one after a miss (gamma x 2: 4.29)
     state, _ = run(CONFIG, *[scan(t, target(t)) for t in range(3)])
     tr = state.tracks
-    xp, Pp = _predict(tr.x, tr.P, np.array([1.0]), CONFIG.q)
+    xp, Pp = predict(tr.x, tr.P, np.array([1.0]), CONFIG.q)
     sd = np.sqrt(Pp[0, 1, 1] + 4.0)
     off = (xp[0, 0], xp[0, 1] + 3.4 * sd)
     _, (narrow,) = initiate(state, [scan(3, off)], CONFIG)
     assert narrow.associated.tolist() == [-1]
     missed, _ = initiate(state, [scan(3)], CONFIG)
-    xp, Pp = _predict(missed.tracks.x, missed.tracks.P, np.array([1.0]), CONFIG.q)
+    xp, Pp = predict(missed.tracks.x, missed.tracks.P, np.array([1.0]), CONFIG.q)
     sd = np.sqrt(Pp[0, 1, 1] + 4.0)
     _, (wide,) = initiate(missed, [scan(4, (xp[0, 0], xp[0, 1] + 3.4 * sd))], CONFIG)
     assert wide.associated.tolist() == [0]
@@ -188,7 +190,7 @@ def test_confirmed_tracks_take_plots_one_to_one():
 def test_plots_too_dense_for_the_gates_are_refused_naming_the_scan(monkeypatch):
     # 30 plots at one spot: 30 initiators x 30 plots = 900 capture pairs in scan 1; with
     # at most 500 pairs a search (10^9 pairs for 1000 such plots would exhaust memory)
-    monkeypatch.setattr(logic, "MAX_CANDIDATES", 500)
+    monkeypatch.setattr(search, "MAX_CANDIDATES", 500)
     z = np.full((30, 2), 5000.0)
     scans = [cartesian_scan(float(t), z, np.broadcast_to(R4, (30, 2, 2))) for t in range(3)]
     with pytest.raises(ParameterError) as info:
@@ -206,8 +208,8 @@ def test_candidate_search_finds_exactly_the_brute_force_gate_members():
     s = cartesian_scan(3.0, z, np.broadcast_to(R4, (4000, 2, 2)))
     tr = state.tracks
     dt = s.t - tr.t
-    xp, Pp = _predict(tr.x, tr.P, dt, CONFIG.q)
-    rows, cols, stat = _track_pairs(tr, xp, Pp, dt, s, _Index(s, CONFIG), CONFIG)
+    xp, Pp = predict(tr.x, tr.P, dt, CONFIG.q)
+    rows, cols, stat = track_pairs(tr, xp, Pp, dt, s, PlotIndex(s, None), CONFIG)
     nu = s.z - xp[0, :2]
     rho = np.einsum("ni,ij,nj->n", nu, np.linalg.inv(Pp[0, :2, :2] + R4), nu)
     brute = np.flatnonzero(rho <= stats.chi2.ppf(CONFIG.gate_P_G, 2))
@@ -228,8 +230,8 @@ def test_polar_candidate_search_finds_exactly_the_window_members_across_north():
     s = polar_scan(2.0, r, az, np.full(r.size, SR), np.full(r.size, SAZ))
     tr = state.tracks
     dt = s.t - tr.t
-    xp, Pp = _predict(tr.x, tr.P, dt, POLAR.q)
-    rows, cols, _ = _track_pairs(tr, xp, Pp, dt, s, _Index(s, POLAR), POLAR)
+    xp, Pp = predict(tr.x, tr.P, dt, POLAR.q)
+    rows, cols, _ = track_pairs(tr, xp, Pp, dt, s, PlotIndex(s, window_coefficients(POLAR)), POLAR)
     k = np.sqrt(stats.chi2.ppf(POLAR.gate_P_G, 2))
     r_pred = 10020.0
     W_R = k * np.sqrt(SR**2 + 4 * SR**2 + SR**2)
@@ -261,7 +263,7 @@ def test_kalman_track_is_the_textbook_filter():
     np.testing.assert_allclose(state.tracks.P[0], P, rtol=1e-9)
 
 
-def test_alpha_beta_gains_of_seed_003():
+def test_alpha_beta_gains_of_the_secondary_processing_textbook():
     zs = [(1000.0, 2000.0), (1010.0, 2000.0), (1026.0, 2006.0)]
     config = InitiationConfig(v_max=20.0, filter="alpha_beta")
     state, _ = run(config, *[scan(t, z) for t, z in enumerate(zs)])
@@ -324,7 +326,7 @@ def test_polar_acceleration_check_drops_jerky_tracks():
 
 
 def _clutter_session(seed=3):
-    sim = simulate(seed_002_scenario(250.0, scans=6), seed)
+    sim = simulate(mu_scenario(250.0, scans=6), seed)
     return sim.scans
 
 
@@ -434,7 +436,7 @@ def test_simulator_draws_detections_and_clutter_at_their_rates():
 
 
 def test_evaluation_without_clutter_initiates_every_target():
-    s = seed_002_scenario(0.0)
+    s = mu_scenario(0.0)
     s = Scenario(**{**s.__dict__, "P_D": 1.0})
     ev = evaluate(
         s, InitiationConfig(mode="polar", v_max=30.0, a_max=10.0, K_A=3.0), runs=5, seed=1

@@ -3,6 +3,8 @@ wire, bad input is named, and a session records and replays."""
 
 import asyncio
 import json
+from dataclasses import fields
+from typing import get_args
 
 import httpx
 import numpy as np
@@ -11,10 +13,14 @@ from fastapi.testclient import TestClient
 from plotgate.clients import AsyncClient
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
+from plotgate.core.errors import ParameterError
 from plotgate.core.initiation import InitiationConfig, initiate
-from plotgate.core.initiation.simulate import Scenario, seed_002_scenario, simulate
+from plotgate.core.initiation.config import CHOICES
+from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
+from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
 from plotgate.service.app import create_app
-from plotgate.service.schemas import ENDPOINTS, MAX_PLOTS
+from plotgate.service.schemas import ENDPOINTS, MAX_PLOTS, InitiationSettings
+from plotgate.service.schemas.common import MIN_RANGE
 from tests.conftest import answer, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0, "a_max": 10.0, "K_A": 3.0}
@@ -35,7 +41,7 @@ def _simulated(client, clutter=250.0, seed=3, scans=4) -> dict:
 
 def test_simulate_and_initiate_are_cores(client):
     sim = _simulated(client)
-    core_sim = simulate(seed_002_scenario(250.0), 3)
+    core_sim = simulate(mu_scenario(250.0), 3)
     assert sim["labels"] == [lab.tolist() for lab in core_sim.labels]
     body = answer(
         client.post("/v1/initiation/initiate", json={"config": POLAR, "scans": sim["scans"]})
@@ -54,6 +60,34 @@ def test_simulate_and_initiate_are_cores(client):
     # the plots of a confirmed track point back into the request's scans
     scan, index = confirmed[0]["plots"][-1]
     assert body["scans"][scan]["associated"][index] == confirmed[0]["id"]
+
+
+def test_polar_plots_reach_core_as_measured(client):
+    # a polar plot's range, azimuth and sigmas are core's as sent (no round trip through
+    # Cartesian coordinates), an azimuth beyond 180 degrees wrapped; a Cartesian plot
+    # among them keeps its place and gets its range and azimuth from its position
+    polar = {"frame": "polar", "sigma_r": 5.0, "sigma_az_deg": 0.2, "sensor": [10.0, -20.0]}
+    plots = [
+        {**polar, "r": 12345.678, "az_deg": -170.25},
+        {"frame": "cartesian", "x": 3000.0, "y": 4000.0, "covariance": [[4.0, 0.0], [0.0, 4.0]]},
+        {**polar, "r": 9000.5, "az_deg": 350.0},
+    ]
+    body = answer(
+        client.post("/v1/initiation/initiate", json={"scans": [{"t": 0.0, "plots": plots}]})
+    )
+    ini = body["state"]["initiators"]
+    assert ini["r"][0] == 12345.678 and ini["r"][2] == 9000.5 and ini["r"][1] == 5000.0
+    assert ini["az"][0] == np.radians(-170.25)
+    assert abs(ini["az"][2] - np.radians(-10.0)) < 1e-15
+    assert ini["sigma_r"][0] == ini["sigma_r"][2] == 5.0
+    assert ini["sigma_az"][0] == ini["sigma_az"][2] == np.radians(0.2)
+    assert ini["sensor"] == [[10.0, -20.0], [0.0, 0.0], [10.0, -20.0]]
+
+
+def test_a_polar_plots_least_range_is_cores():
+    # the wire refuses the ranges core would refuse, and no more: one value, held here
+    # (schemas do not import core)
+    assert MIN_RANGE == MIN_SENSOR_RANGE
 
 
 def test_state_round_trips_through_the_wire(client):
@@ -171,9 +205,7 @@ def test_simulated_azimuths_are_wrapped_into_a_plots_range(client):
     plots = [p for scan in sim["scans"] for p in scan["plots"]]
     assert all(-360.0 <= p["az_deg"] <= 360.0 for p in plots)
     core_sim = simulate(
-        Scenario(
-            **{**vars(seed_002_scenario(0.0, 50)), "P_D": 1.0, "sigma_az": np.radians(180.0)}
-        ),
+        Scenario(**{**vars(mu_scenario(0.0, 50)), "P_D": 1.0, "sigma_az": np.radians(180.0)}),
         5,
     )
     az = np.concatenate([s.az for s in core_sim.scans])
@@ -240,3 +272,88 @@ def test_every_field_is_described():
             for sub in (schema, *schema.get("$defs", {}).values()):
                 for field, prop in sub.get("properties", {}).items():
                     assert prop.get("description"), f"{sub['title']}.{field}: no description"
+
+
+# ------------------------------------------------------------- the settings and core's config
+
+WIRE_CEILINGS = {
+    "v_min",
+    "v_max",
+    "capture_scans",
+    "capture_time",
+    "q",
+    "confirm_k",
+    "confirm_m",
+    "drop_misses",
+    "K_R",
+    "K_az",
+    "a_max",
+    "K_A",
+    "history",
+}
+"""Settings whose upper bound is the wire's alone: a limit on the work of one request, which
+core (a library with no request) does not have."""
+WIRE_FLOORS = {"K_R", "K_az"}
+"""Settings whose lower bound is narrower on the wire (0.01) than in core (> 0)."""
+
+
+def _core_config(name, value):
+    """InitiationConfig with ``name = value`` and the other settings made to fit it."""
+    values = {name: value}
+    if name == "v_min":
+        values["v_max"] = max(50.0, value)
+    if name == "confirm_k":
+        values = {"confirm_m": max(4, value), "history": max(8, value), **values}
+    if name == "confirm_m":
+        values = {"confirm_k": max(1, min(3, value)), "history": max(8, value), **values}
+    if name == "history":
+        k, m = max(1, min(3, value)), max(1, min(4, value))
+        values = {"confirm_k": k, "confirm_m": m, **values}
+    return InitiationConfig(**values)
+
+
+def _refused(name, value):
+    try:
+        _core_config(name, value)
+    except ParameterError as exc:
+        assert exc.field == name, (name, value, exc.field)
+        return True
+    return False
+
+
+def test_the_settings_are_cores_config_field_for_field():
+    wire = InitiationSettings.model_fields
+    assert list(wire) == [f.name for f in fields(InitiationConfig)]
+    # defaults: the wire's settings as they are make core's default config
+    assert InitiationConfig(**InitiationSettings().model_dump()) == InitiationConfig()
+    for name, options in CHOICES.items():
+        assert get_args(wire[name].annotation) == options, name
+    for name, info in wire.items():
+        bounds = {type(m).__name__: m for m in info.metadata}
+        if name in CHOICES:
+            continue
+        if name == "gate_widening":  # at least one factor, on the wire as in core
+            assert bounds["MinLen"].min_length == 1 and _refused(name, ())
+            continue
+        step = 1 if info.annotation is int else None
+        # the lower bound is core's: the bound itself (ge) or just above it (gt) passes,
+        # just below it (ge) or the bound itself (gt) is refused
+        if "Ge" in bounds:
+            low = bounds["Ge"].ge
+            below = low - 1 if step else np.nextafter(low, -np.inf)
+            _core_config(name, low)
+            assert _refused(name, below) != (name in WIRE_FLOORS), name
+        else:
+            low = bounds["Gt"].gt
+            _core_config(name, np.nextafter(float(low), np.inf))
+            assert _refused(name, low), name
+        # the upper bound: core's (lt, or le 1 for a gain floor), or the wire's own ceiling
+        if "Lt" in bounds:
+            high = bounds["Lt"].lt
+            _core_config(name, np.nextafter(float(high), -np.inf))
+            assert _refused(name, high), name
+        else:
+            high = bounds["Le"].le
+            above = high + 1 if step else np.nextafter(float(high), np.inf)
+            _core_config(name, high)
+            assert _refused(name, above) != (name in WIRE_CEILINGS), name

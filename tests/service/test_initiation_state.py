@@ -19,7 +19,7 @@ from plotgate.core.initiation import (
     initiate,
 )
 from plotgate.core.initiation import state as core_state
-from plotgate.core.initiation.simulate import seed_002_scenario, simulate
+from plotgate.core.initiation.simulate import mu_scenario, simulate
 from plotgate.core.initiation.state_json import state_from_json
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
@@ -40,7 +40,7 @@ def client(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def session(client) -> tuple[dict, list[dict]]:
-    """A real state after 3 scans of seed 002's scene (clutter 20), and the next scans."""
+    """A real state after 3 scans of Mu et al.'s scene (clutter 20), and the next scans."""
     sim = answer(
         client.post(
             "/v1/initiation/simulate", json={"scenario": {"clutter": 20.0, "scans": 5}, "seed": 4}
@@ -555,7 +555,7 @@ def test_every_state_initiation_produces_passes_every_check(config):
     """After each of 12 scans of a cluttered scene (clutter 250, two seeds), the state
     passes the invariants and the wire schema: what a call answers, the next takes."""
     for seed in (0, 1):
-        sim = simulate(seed_002_scenario(250.0, scans=12), seed)
+        sim = simulate(mu_scenario(250.0, scans=12), seed)
         state = None
         for scan in sim.scans:
             state, _ = initiate(state, [scan], config)
