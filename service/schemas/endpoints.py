@@ -184,8 +184,8 @@ ENDPOINTS: dict[str, Endpoint] = {
         Endpoint(
             "solves.study",
             "/v1/solves/study",
-            "Monte Carlo accuracy study of the multistatic solvers along a track (seed 001 "
-            "Fig. 3 curves 1-6)",
+            "Monte Carlo accuracy study of the multistatic solvers along a track (Fadeev "
+            "et al., Fig. 3, curves 1-6)",
             StudyRequest,
             StudyResult,
             slow=True,
@@ -254,7 +254,7 @@ ENDPOINTS: dict[str, Endpoint] = {
         Endpoint(
             "identification.simulate",
             "/v1/identification/simulate",
-            "Seed 004's experiment by Monte Carlo: realized type I or type II error",
+            "Kvasnov's experiment by Monte Carlo: realized type I or type II error",
             IdentifySimulateRequest,
             IdentifySimulateResult,
             slow=True,

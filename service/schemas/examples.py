@@ -5,11 +5,11 @@ one to its request model and to a 200 answer). ``/docs`` shows it as the request
 example, Schemathesis sends it in its examples and coverage phases, and the numeric
 bounds test (``tests/service/test_numeric_bounds.py``) starts every mutation from it.
 
-The numbers are the papers' worked cases where there is one: seed 000's gate (tau 5 s,
-speeds 100..500 m/s, first mark 50 km north, sigma_r 200 m, sigma_az 0.5 deg), seed 001's
-noise-free range sums of a target at (3000, 4000) m moving at (50, -20) m/s seen by a
+The numbers are the papers' worked cases where there is one: Konovalov's gate (tau 5 s,
+speeds 100..500 m/s, first mark 50 km north, sigma_r 200 m, sigma_az 0.5 deg), Fadeev et
+al.'s noise-free range sums of a target at (3000, 4000) m moving at (50, -20) m/s seen by a
 transmitter at the origin and three receivers (rounded to 1 um, far below sigma 0.5 m),
-seed 004's bearings either side of north. Monte Carlo sizes are kept small.
+Kvasnov's bearings either side of north. Monte Carlo sizes are kept small.
 """
 
 from typing import Any

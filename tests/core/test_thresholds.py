@@ -13,11 +13,11 @@ from plotgate.core import (
 
 
 @pytest.mark.parametrize(("p", "K_g"), [(0.9, 2.146), (0.95, 2.448)], ids=["p=0.9", "p=0.95"])
-def test_expansion_coefficient_matches_seed_000(p, K_g):
+def test_expansion_coefficient_matches_konovalov(p, K_g):
     assert expansion_coefficient(p) == pytest.approx(K_g, abs=1e-3)
 
 
-def test_gate_threshold_matches_seed_000():
+def test_gate_threshold_matches_konovalov():
     assert gate_threshold(0.9, 2) == pytest.approx(4.605, abs=1e-3)
     assert gate_threshold(0.9) == gate_threshold(0.9, 2)
 
