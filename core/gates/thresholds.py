@@ -88,6 +88,8 @@ def gate_threshold(P_G: ArrayLike, n: int = 2) -> float | np.ndarray:
     11.345
     """
     n = as_dof("n", n)
+    if type(P_G) is float and 0.0 < P_G < 1.0:  # the common case, without an array
+        return _chi2_quantile(P_G, n)
     P = as_probability("P_G", P_G)
     if P.ndim == 0:
         return _chi2_quantile(float(P), n)

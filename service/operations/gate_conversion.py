@@ -8,6 +8,7 @@ dataclass of that kind (:mod:`plotgate.core.gates`) with those fields. A gate te
 """
 
 import dataclasses
+import functools
 
 from plotgate import core
 from plotgate.service.schemas.gates import GateParameters
@@ -28,7 +29,13 @@ KINDS: dict[str, type[core.Gate]] = {
 
 def core_gate(gate: GateParameters) -> core.Gate:
     """The core gate of a wire gate: its kind, with the fields both of them have."""
-    kind = KINDS[gate.kind]
-    sent = type(gate).model_fields
-    fields = {f.name: getattr(gate, f.name) for f in dataclasses.fields(kind) if f.name in sent}
-    return kind(**fields)
+    fields = _shared_fields(type(gate), gate.kind)
+    return KINDS[gate.kind](**{name: getattr(gate, name) for name in fields})
+
+
+@functools.cache
+def _shared_fields(wire: type[GateParameters], kind: str) -> tuple[str, ...]:
+    """The fields of core's gate ``kind`` that the wire model also has (once per wire model
+    and kind: this runs on every gate request)."""
+    sent = wire.model_fields
+    return tuple(f.name for f in dataclasses.fields(KINDS[kind]) if f.name in sent)
