@@ -4,7 +4,7 @@ Run from the repository root::
 
     python bench/bench_axis_ratio.py
 
-Seed 000's example (ring gate 100..500 m/s, tau 5 s, first mark 50 km north, sigma_az
+Konovalov's example (ring gate 100..500 m/s, tau 5 s, first mark 50 km north, sigma_az
 0.5 deg, the area prior) with the range sigma swept from 200 m (B's axis ratio
 sqrt(lambda_max / lambda_min) about 2, the paper's case) down to 1 mm (about 4 x 10^5),
 then the azimuth sigma down to 1e-6 degrees; each probability through the service's
@@ -24,14 +24,15 @@ import time
 import numpy as np
 import scipy
 
-import core.gate_probability as gp
-from service.registry import OPERATIONS, execute
-from service.schemas import Mark
+import plotgate.core.gates.probability as gp
+from plotgate.service.registry import OPERATIONS, execute
+from plotgate.service.schemas import Mark
 
 MARK = {"r": 50_000.0, "az_deg": 0.0, "sigma_r": 200.0, "sigma_az_deg": 0.5}
 PRIOR = {"kind": "area", "v_min": 100.0, "v_max": 500.0}
 CASES = [("sigma_r", v) for v in (200.0, 20.0, 1.0, 1e-3)] + [
-    ("sigma_az_deg", v) for v in (0.05, 1e-3, 1e-6)]
+    ("sigma_az_deg", v) for v in (0.05, 1e-3, 1e-6)
+]
 DESIGN_CASES = [("sigma_r", v) for v in (200.0, 20.0)]
 
 
@@ -57,8 +58,10 @@ def timed(name: str, body: dict) -> tuple[float, int, str]:
 
 
 def main() -> None:
-    print(f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
-          f"{scipy.__version__}, {platform.machine()}\n")
+    print(
+        f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
+        f"{scipy.__version__}, {platform.machine()}\n"
+    )
     count = nodes_counted()
     print("| operation | changed | axis ratio | seconds | 3-D nodes | status |")
     print("|---|---|---:|---:|---:|---|")
@@ -66,21 +69,37 @@ def main() -> None:
         mark = dict(MARK, **{field: value})
         ratio = Mark(**mark).axis_ratio()
         count[0] = 0
-        body = {"gate": {"kind": "ring", "v_min": 100.0, "v_max": 500.0}, "mark": mark,
-                "tau": 5.0, "prior": PRIOR}
+        body = {
+            "gate": {"kind": "ring", "v_min": 100.0, "v_max": 500.0},
+            "mark": mark,
+            "tau": 5.0,
+            "prior": PRIOR,
+        }
         seconds, status, _ = timed("gates.probability", body)
-        print(f"| gates.probability | {field} = {value:g} | {ratio:.3g} | {seconds:.2f} | "
-              f"{count[0]:.3g} | {status} |", flush=True)
+        print(
+            f"| gates.probability | {field} = {value:g} | {ratio:.3g} | {seconds:.2f} | "
+            f"{count[0]:.3g} | {status} |",
+            flush=True,
+        )
     for field, value in DESIGN_CASES:
         mark = dict(MARK, **{field: value})
         ratio = Mark(**mark).axis_ratio()
         count[0] = 0
-        body = {"gate": {"kind": "expanded", "v_max": 300.0}, "mark": mark, "tau": 5.0,
-                "capture": 0.9, "prior": {"kind": "area", "v_min": 0.0, "v_max": 300.0},
-                "P_D1": 0.99, "resolution": {"range": 500.0, "azimuth_deg": 1.5}}
+        body = {
+            "gate": {"kind": "expanded", "v_max": 300.0},
+            "mark": mark,
+            "tau": 5.0,
+            "capture": 0.9,
+            "prior": {"kind": "area", "v_min": 0.0, "v_max": 300.0},
+            "P_D1": 0.99,
+            "resolution": {"range": 500.0, "azimuth_deg": 1.5},
+        }
         seconds, status, _ = timed("gates.design", body)
-        print(f"| gates.design | {field} = {value:g} | {ratio:.3g} | {seconds:.2f} | "
-              f"{count[0]:.3g} | {status} |", flush=True)
+        print(
+            f"| gates.design | {field} = {value:g} | {ratio:.3g} | {seconds:.2f} | "
+            f"{count[0]:.3g} | {status} |",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

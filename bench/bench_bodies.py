@@ -17,7 +17,6 @@ For each server (this checkout, and ``--before DIR``: another checkout of plotga
 
 import argparse
 import json
-import os
 import resource
 import socket
 import statistics
@@ -31,6 +30,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+from tests.servers import serve  # noqa: E402
 from tests.service.test_adversarial_bodies import SHAPES  # noqa: E402
 
 _WATCH = """
@@ -51,28 +51,6 @@ print(" ".join(map(str, times)))
 """
 
 
-def _port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _serve(src: Path, folder: Path) -> tuple[subprocess.Popen, str]:
-    port = _port()
-    env = {**os.environ, "PYTHONPATH": str(src), "PLOTGATE_BODY_TIMEOUT_S": "2"}
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "serve", "--port", str(port),
-                             "--log-dir", str(folder)], cwd=src, env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    url = f"http://127.0.0.1:{port}"
-    for _ in range(300):
-        try:
-            if httpx.get(url + "/readyz", timeout=1).status_code == 200:
-                return proc, url
-        except httpx.TransportError:
-            time.sleep(0.1)
-    raise RuntimeError(f"the server in {src} did not start")
-
-
 def _peak_mib(pid: int) -> float:
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith("VmHWM:"):
@@ -84,13 +62,18 @@ def _post_timed(url: str, body: bytes, tmp: Path) -> tuple[int, float, float, fl
     """Status, seconds to answer, worst and p99 /healthz latency (ms) meanwhile."""
     stop = tmp / "stop"
     stop.unlink(missing_ok=True)
-    watcher = subprocess.Popen([sys.executable, "-c", _WATCH, url, str(stop)],
-                               stdout=subprocess.PIPE, text=True)
+    watcher = subprocess.Popen(
+        [sys.executable, "-c", _WATCH, url, str(stop)], stdout=subprocess.PIPE, text=True
+    )
     time.sleep(0.3)
     started = time.perf_counter()
     try:
-        status = httpx.post(url + "/v1/gates/test", content=body, timeout=600,
-                            headers={"content-type": "application/json"}).status_code
+        status = httpx.post(
+            url + "/v1/gates/test",
+            content=body,
+            timeout=600,
+            headers={"content-type": "application/json"},
+        ).status_code
     except httpx.HTTPError as exc:
         status = type(exc).__name__
     took = time.perf_counter() - started
@@ -103,8 +86,10 @@ def _held(url: str, n: int) -> int:
     """Open ``n`` connections that send half a body; how many are open 5 s later."""
     port = int(url.rsplit(":", 1)[1])
     body = b'{"gate": {"kind": "ring", "tau": 1, "v_max": 1}, "first": {}}'
-    head = (b"POST /v1/gates/test HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\n"
-            b"content-length: %d\r\n\r\n" % len(body))
+    head = (
+        b"POST /v1/gates/test HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\n"
+        b"content-length: %d\r\n\r\n" % len(body)
+    )
     conns = []
     for _ in range(n):
         conn = socket.create_connection(("127.0.0.1", port))
@@ -127,37 +112,50 @@ def _held(url: str, n: int) -> int:
 
 def _legal_body() -> bytes:
     plot = {"frame": "cartesian", "x": 1.5, "y": 2.5, "covariance": [[1.0, 0.0], [0.0, 1.0]]}
-    return json.dumps({"gate": {"kind": "ring", "tau": 1.0, "v_max": 1.0}, "first": plot,
-                       "candidates": [plot] * 100_000}).encode()
+    return json.dumps(
+        {
+            "gate": {"kind": "ring", "tau": 1.0, "v_max": 1.0},
+            "first": plot,
+            "candidates": [plot] * 100_000,
+        }
+    ).encode()
 
 
 def _run(name: str, src: Path, half_sent: int) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        proc, url = _serve(src, Path(tmp) / "recordings")
-        try:
-            print(f"\n### {name} ({src})\n")
-            print("| body | MiB | status | answered in, s | /healthz worst, ms | p99, ms |")
-            print("|---|---:|---:|---:|---:|---:|")
-            sizes = []
-            for shape, (body, _) in SHAPES.items():
-                status, took, worst, p99 = _post_timed(url, body, Path(tmp))
-                sizes.append(len(body))
-                print(f"| {shape} | {len(body) / 2**20:.0f} | {status} | {took:.2f} | "
-                      f"{worst:.0f} | {p99:.0f} |")
-            peak = _peak_mib(proc.pid)
-            legal = _legal_body()
-            status, took, worst, p99 = _post_timed(url, legal, Path(tmp))
-            print(f"| legal: 100,000 candidates | {len(legal) / 2**20:.1f} | {status} | "
-                  f"{took:.2f} | {worst:.0f} | {p99:.0f} |")
-            print(f"\npeak RSS over the absurd bodies: {peak:.0f} MiB = "
-                  f"{peak * 2**20 / statistics.mean(sizes):.1f} x the body size")
-            print(f"peak RSS after the legal body too: {_peak_mib(proc.pid):.0f} MiB")
-            if half_sent:
-                print(f"half-sent bodies still held 5 s later: {_held(url, half_sent)} of "
-                      f"{half_sent}")
-        finally:
-            proc.terminate()
-            proc.wait(timeout=60)
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        serve(
+            Path(tmp) / "recordings",
+            env={"PLOTGATE_BODY_TIMEOUT_S": "2"},
+            log=Path(tmp) / "server.log",
+            source=src,
+        ) as (proc, url),
+    ):
+        print(f"\n### {name} ({src})\n")
+        print("| body | MiB | status | answered in, s | /healthz worst, ms | p99, ms |")
+        print("|---|---:|---:|---:|---:|---:|")
+        sizes = []
+        for shape, (body, _) in SHAPES.items():
+            status, took, worst, p99 = _post_timed(url, body, Path(tmp))
+            sizes.append(len(body))
+            print(
+                f"| {shape} | {len(body) / 2**20:.0f} | {status} | {took:.2f} | "
+                f"{worst:.0f} | {p99:.0f} |"
+            )
+        peak = _peak_mib(proc.pid)
+        legal = _legal_body()
+        status, took, worst, p99 = _post_timed(url, legal, Path(tmp))
+        print(
+            f"| legal: 100,000 candidates | {len(legal) / 2**20:.1f} | {status} | "
+            f"{took:.2f} | {worst:.0f} | {p99:.0f} |"
+        )
+        print(
+            f"\npeak RSS over the absurd bodies: {peak:.0f} MiB = "
+            f"{peak * 2**20 / statistics.mean(sizes):.1f} x the body size"
+        )
+        print(f"peak RSS after the legal body too: {_peak_mib(proc.pid):.0f} MiB")
+        if half_sent:
+            print(f"half-sent bodies still held 5 s later: {_held(url, half_sent)} of {half_sent}")
 
 
 def main() -> None:

@@ -22,15 +22,15 @@ from collections.abc import Callable
 import numpy as np
 import scipy
 
-from core import (
-    combined_gate,
-    ellipse_gate,
-    expanded_gate,
-    first_association_gate,
+from plotgate.core import (
+    CombinedGate,
+    EllipseGate,
+    ExpandedGate,
+    FirstAssociationGate,
+    RectangularGate,
+    RingGate,
+    SectorGate,
     gate_threshold,
-    rectangular_gate,
-    ring_gate,
-    sector_gate,
 )
 
 N = 10**6
@@ -75,27 +75,37 @@ def main() -> None:
     az1, az2 = np.arctan2(z1[:, 0], z1[:, 1]), np.arctan2(z2[:, 0], z2[:, 1])
 
     baseline_inside = solve_baseline(z2, z1, S, 0.9)
-    if not np.array_equal(ellipse_gate(z2, z1, S, 0.9).inside, baseline_inside):
-        sys.exit("ellipse_gate and the solve baseline disagree")
+    if not np.array_equal(EllipseGate(0.9).test(z2, z1, S).inside, baseline_inside):
+        sys.exit("EllipseGate and the solve baseline disagree")
 
     cases: list[tuple[str, Callable[[], object]]] = [
         ("baseline: ellipse rho via np.linalg.solve", lambda: solve_baseline(z2, z1, S, 0.9)),
-        ("ellipse_gate", lambda: ellipse_gate(z2, z1, S, 0.9)),
-        ("combined_gate", lambda: combined_gate(z1, P1, z2, P2, 5.0, 100.0, 500.0, 0.9)),
-        ("ring_gate", lambda: ring_gate(z1, z2, 5.0, 100.0, 500.0)),
-        ("expanded_gate", lambda: expanded_gate(z1, z2, 5.0, 500.0, sigma_r, sigma_az, 0.9)),
-        ("rectangular_gate", lambda: rectangular_gate(z2, z1, sigma_r, sigma_r, 2.0)),
-        ("sector_gate", lambda: sector_gate(r2, az2, r1, az1, sigma_r, sigma_az, sigma_r,
-                                            sigma_az, 3.0, 3.0)),
-        ("first_association_gate", lambda: first_association_gate(
-            r1, az1, r2, az2, 5.0, 500.0, sigma_r, sigma_az, sigma_r, sigma_az, 3.0, 3.0)),
+        ("EllipseGate", lambda: EllipseGate(0.9).test(z2, z1, S)),
+        ("CombinedGate", lambda: CombinedGate(100.0, 500.0, 0.9).test(z1, P1, z2, P2, 5.0)),
+        ("RingGate", lambda: RingGate(100.0, 500.0).test(z1, z2, 5.0)),
+        ("ExpandedGate", lambda: ExpandedGate(500.0, 0.9).test(z1, z2, 5.0, sigma_r, sigma_az)),
+        ("RectangularGate", lambda: RectangularGate(2.0).test(z2, z1, sigma_r, sigma_r)),
+        (
+            "SectorGate",
+            lambda: SectorGate(3.0, 3.0).test(
+                r2, az2, r1, az1, sigma_r, sigma_az, sigma_r, sigma_az
+            ),
+        ),
+        (
+            "FirstAssociationGate",
+            lambda: FirstAssociationGate(500.0, 3.0, 3.0).test(
+                r1, az1, r2, az2, 5.0, sigma_r, sigma_az, sigma_r, sigma_az
+            ),
+        ),
     ]
     rates = {name: N / best_time(run) for name, run in cases}
     baseline = rates[cases[0][0]]
 
-    print(f"N = {N:,} pairs, best of {REPEATS}, seed {SEED}; Python {platform.python_version()},"
-          f" numpy {np.__version__}, scipy {scipy.__version__}, {os.cpu_count()} CPUs"
-          f" ({platform.machine()})\n")
+    print(
+        f"N = {N:,} pairs, best of {REPEATS}, seed {SEED}; Python {platform.python_version()},"
+        f" numpy {np.__version__}, scipy {scipy.__version__}, {os.cpu_count()} CPUs"
+        f" ({platform.machine()})\n"
+    )
     print("| gate | best time (ms) | pair tests / s | vs solve baseline |")
     print("|---|---:|---:|---:|")
     for name, rate in rates.items():

@@ -1,4 +1,4 @@
-"""Passive/active identification: seed 004's experiment by Monte Carlo, and picture timing.
+"""Passive/active identification: Kvasnov's experiment by Monte Carlo, and picture timing.
 
 Run from the repository root::
 
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import scipy
 
-from core.identification import experiment, identify_picture, type_two_error
+from plotgate.core.identification import experiment, identify_picture, type_two_error
 
 ROOT = Path(__file__).resolve().parent.parent
 SEED = 4004
@@ -50,14 +50,17 @@ def alpha_rows(runs: int, seed: int) -> tuple[list[str], dict]:
         for m in (5, 10):
             values = []
             for k, w in enumerate(WIDTHS):
-                out = experiment(50, m, SIGMA, 0.0, w * SIGMA, runs, seed + 10 * m + k,
-                                 estimate_sigma=estimate)
+                out = experiment(
+                    50, m, SIGMA, 0.0, w * SIGMA, runs, seed + 10 * m + k, estimate_sigma=estimate
+                )
                 values.append(out.rejected)
                 ratio = (w * w / 12.0 + m / 50.0) ** 0.5  # sd of Z relative to N(0, 1)
                 expected = 2.0 * scipy.stats.norm.sf(1.959964 / ratio)
-                rows.append(f"| {'estimated' if estimate else 'known'} | {m} | {w:.3g} | "
-                            f"{out.rejected:.4f} ± {out.standard_error:.4f} | "
-                            f"{expected:.4f} |")
+                rows.append(
+                    f"| {'estimated' if estimate else 'known'} | {m} | {w:.3g} | "
+                    f"{out.rejected:.4f} ± {out.standard_error:.4f} | "
+                    f"{expected:.4f} |"
+                )
             curves[(estimate, m)] = values
     return rows, curves
 
@@ -70,13 +73,15 @@ def beta_rows(runs: int, seed: int) -> tuple[list[str], dict]:
             f = float(type_two_error(d * SIGMA, SIGMA, m, 0.05))
             g = float(type_two_error(d * SIGMA, SIGMA, m, 0.05, n=50))  # passive error too
             a = experiment(50, m, SIGMA, d * SIGMA, 1.0, runs, seed + 100 * m + k, law="normal")
-            u = experiment(50, m, SIGMA, d * SIGMA, np.sqrt(12.0) * SIGMA, runs,
-                           seed + 100 * m + k + 50)
+            u = experiment(
+                50, m, SIGMA, d * SIGMA, np.sqrt(12.0) * SIGMA, runs, seed + 100 * m + k + 50
+            )
             formula.append(f)
             normal.append(a.identified)
             uniform.append(u.identified)
-            rows.append(f"| {m} | {d:g} | {f:.4f} | {g:.4f} | {a.identified:.4f} | "
-                        f"{u.identified:.4f} |")
+            rows.append(
+                f"| {m} | {d:g} | {f:.4f} | {g:.4f} | {a.identified:.4f} | {u.identified:.4f} |"
+            )
         curves[m] = (formula, normal, uniform)
     return rows, curves
 
@@ -108,7 +113,7 @@ def figure(alpha: dict, beta: dict, out: Path) -> Path:
     ax.set_title("alpha = 0.05, n = 50")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="x-small", ncol=2)
-    fig.suptitle("Seed 004's Z-test by Monte Carlo")
+    fig.suptitle("Kvasnov's Z-test by Monte Carlo")
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
     return out
@@ -124,8 +129,10 @@ def picture_timing(repeats: int, seed: int) -> str:
         start = time.perf_counter()
         pic = identify_picture(passive, active)
         best = min(best, time.perf_counter() - start)
-    return (f"| 100 x 100, 50 samples each | {best * 1e3:.2f} | {best / 1e4 * 1e6:.3f} | "
-            f"{len(pic.pairs)} |")
+    return (
+        f"| 100 x 100, 50 samples each | {best * 1e3:.2f} | {best / 1e4 * 1e6:.3f} | "
+        f"{len(pic.pairs)} |"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -133,26 +140,35 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runs", type=int, default=100_000, help="runs per point (10^5)")
     parser.add_argument("--seed", type=int, default=SEED)
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--png", type=Path,
-                        default=ROOT / "docs" / "figures" / "identification_errors.png")
+    parser.add_argument(
+        "--png", type=Path, default=ROOT / "docs" / "figures" / "identification_errors.png"
+    )
     parser.add_argument("--no-png", dest="png", action="store_const", const=None)
     args = parser.parse_args(argv)
-    print(f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
-          f"{scipy.__version__}, {platform.machine()}")
+    print(
+        f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
+        f"{scipy.__version__}, {platform.machine()}"
+    )
     print(f"\n## Realized type I error, alpha = 0.05, n = 50 ({args.runs:,} runs a point)\n")
-    print("| sigma | m | sector width / sigma | realized alpha | normal approximation |\n"
-          "|---|---:|---:|---:|---:|")
+    print(
+        "| sigma | m | sector width / sigma | realized alpha | normal approximation |\n"
+        "|---|---:|---:|---:|---:|"
+    )
     rows, alpha = alpha_rows(args.runs, args.seed)
     print("\n".join(rows))
     print(f"\n## Type II error against separation ({args.runs:,} runs a point)\n")
-    print("| m | delta / sigma | formula (population mean known) | with the passive mean's "
-          "error, n = 50 | MC normal | MC uniform, width sqrt(12) sigma |\n"
-          "|---:|---:|---:|---:|---:|---:|")
+    print(
+        "| m | delta / sigma | formula (population mean known) | with the passive mean's "
+        "error, n = 50 | MC normal | MC uniform, width sqrt(12) sigma |\n"
+        "|---:|---:|---:|---:|---:|---:|"
+    )
     rows, beta = beta_rows(args.runs, args.seed)
     print("\n".join(rows))
     print("\n## Picture timing\n")
-    print("| picture | ms per picture | us per identification | pairs identified |\n"
-          "|---|---:|---:|---:|")
+    print(
+        "| picture | ms per picture | us per identification | pairs identified |\n"
+        "|---|---:|---:|---:|"
+    )
     print(picture_timing(args.repeats, args.seed))
     if args.png is not None:
         print(f"\nwrote {figure(alpha, beta, args.png)}")

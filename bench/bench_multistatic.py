@@ -54,11 +54,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy
-from scipy import stats
 from scipy.optimize import least_squares
 
-from clients.study import DEFAULT_REQUEST
-from core.multistatic import (
+from plotgate.clients.study import DEFAULT_REQUEST
+from plotgate.core.multistatic import (
     MLSolution,
     crlb,
     ml_solve,
@@ -67,8 +66,9 @@ from core.multistatic import (
     sum_range_solve,
     trajectory_solve,
 )
-from service.operations.solves import position
-from service.schemas import PositionSolveRequest, PositionSolveResult
+from plotgate.core.multistatic.gauss_newton import consistency_threshold
+from plotgate.service.operations.solves import position
+from plotgate.service.schemas import PositionSolveRequest, PositionSolveResult
 
 SEED = 20261123
 SIGMA = 0.5
@@ -115,8 +115,9 @@ def best_time(run: Callable[[], object], repeats: int) -> float:
     return min(times)
 
 
-def problems(sc: Scenario, size: int, rng: np.random.Generator
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def problems(
+    sc: Scenario, size: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``size`` single-shot problems: (l (N, P), tx, rx (N, P, D), truth (N, D))."""
     i = rng.integers(0, sc.t.size, size)
     tx, rx, x = sc.tx[i], sc.rx[i], sc.x[i]
@@ -135,14 +136,17 @@ def _direct_residuals(tx: np.ndarray, rx: np.ndarray):
     def jac(x: np.ndarray, l: np.ndarray) -> np.ndarray:  # noqa: E741
         d = x - rx
         e = x - tx
-        return -(d / np.sqrt((d * d).sum(-1))[:, None]
-                 + e / np.sqrt((e * e).sum(-1))[:, None]) / SIGMA
+        return (
+            -(d / np.sqrt((d * d).sum(-1))[:, None] + e / np.sqrt((e * e).sum(-1))[:, None])
+            / SIGMA
+        )
 
     return fun, jac
 
 
-def scipy_batch(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, starts: np.ndarray,
-                method: str) -> np.ndarray:
+def scipy_batch(
+    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, starts: np.ndarray, method: str
+) -> np.ndarray:
     out = np.empty_like(starts)
     for n in range(ls.shape[0]):
         fun, jac = _direct_residuals(tx[n], rx[n])
@@ -150,15 +154,18 @@ def scipy_batch(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, starts: np.ndarr
     return out
 
 
-def single_shot(name: str, sc: Scenario, size: int, repeats: int,
-                rng: np.random.Generator) -> list[str]:
+def single_shot(
+    name: str, sc: Scenario, size: int, repeats: int, rng: np.random.Generator
+) -> list[str]:
     ls, tx, rx, _ = problems(sc, size, rng)
     sol = ml_solve(ls, tx, rx, SIGMA)
     core_s = best_time(lambda: ml_solve(ls, tx, rx, SIGMA), repeats)
     cf_s = best_time(lambda: sum_range_solve(ls, tx, rx, baseline_tol=5 * SIGMA), repeats)
     starts = sum_range_solve(ls, tx, rx, baseline_tol=5 * SIGMA).x
-    rows = [f"| {name} | ml_solve (batch) | {core_s * 1e6 / size:.1f} | {size / core_s:,.0f} "
-            f"| 1.0x | {np.mean(sol.iterations):.1f} | — |"]
+    rows = [
+        f"| {name} | ml_solve (batch) | {core_s * 1e6 / size:.1f} | {size / core_s:,.0f} "
+        f"| 1.0x | {np.mean(sol.iterations):.1f} | — |"
+    ]
     for method in ("trf", "lm"):
         start = time.perf_counter()
         x = scipy_batch(ls, tx, rx, starts, method)
@@ -166,10 +173,12 @@ def single_shot(name: str, sc: Scenario, size: int, repeats: int,
         dx = x - sol.x
         sigmas = np.sqrt(np.einsum("ni,nij,nj->n", dx, np.linalg.inv(sol.covariance), dx))
         metres = np.linalg.norm(dx, axis=-1)
-        rows.append(f"| {name} | least_squares {method} + closed-form start | "
-                    f"{s * 1e6 / size:.1f} | {size / s:,.0f} | {s / core_s:.2f}x | — | "
-                    f"max {metres.max():.1g} m = {sigmas.max():.1g} sigma; "
-                    f"{(sigmas > 0.1).sum()} beyond 0.1 sigma |")
+        rows.append(
+            f"| {name} | least_squares {method} + closed-form start | "
+            f"{s * 1e6 / size:.1f} | {size / s:,.0f} | {s / core_s:.2f}x | — | "
+            f"max {metres.max():.1g} m = {sigmas.max():.1g} sigma; "
+            f"{(sigmas > 0.1).sum()} beyond 0.1 sigma |"
+        )
     return rows
 
 
@@ -181,8 +190,7 @@ def line_start(sc: Scenario, ls: np.ndarray) -> np.ndarray:
     return np.concatenate([icpt, slope])
 
 
-def trajectory(sc: Scenario, tracks: int, repeats: int,
-               rng: np.random.Generator) -> list[str]:
+def trajectory(sc: Scenario, tracks: int, repeats: int, rng: np.random.Generator) -> list[str]:
     tau = sc.t - sc.t[0]
     n_t, p, _ = sc.tx.shape
     clean = range_sums(sc.x, sc.tx, sc.rx)
@@ -195,11 +203,15 @@ def trajectory(sc: Scenario, tracks: int, repeats: int,
         x0 = line_start(sc, ls)
         sol = trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA)
         iters.append(sol.iterations)
-        times["core"].append(best_time(
-            lambda ls=ls: trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA), repeats))
-        times["core_x0"].append(best_time(
-            lambda ls=ls, x0=x0: trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA, x0=x0),
-            repeats))
+        times["core"].append(
+            best_time(lambda ls=ls: trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA), repeats)
+        )
+        times["core_x0"].append(
+            best_time(
+                lambda ls=ls, x0=x0: trajectory_solve(ls, sc.t, sc.tx, sc.rx, SIGMA, x0=x0),
+                repeats,
+            )
+        )
         flat = ls.reshape(-1)
 
         def fun(theta: np.ndarray, flat=flat) -> np.ndarray:
@@ -219,8 +231,11 @@ def trajectory(sc: Scenario, tracks: int, repeats: int,
         for method in ("trf", "lm"):
             out = least_squares(fun, x0, jac=jac, method=method)
             diffs[method] = max(diffs[method], float(np.abs(out.x - sol.state).max()))
-            times[method].append(best_time(
-                lambda m=method, x0=x0: least_squares(fun, x0, jac=jac, method=m), repeats))
+            times[method].append(
+                best_time(
+                    lambda m=method, x0=x0: least_squares(fun, x0, jac=jac, method=m), repeats
+                )
+            )
     mean = {k: float(np.mean(v)) for k, v in times.items()}
     rows = [
         f"| trajectory_solve, own start | {mean['core'] * 1e3:.2f} | "
@@ -269,13 +284,16 @@ def _ml_row(name: str, sol: MLSolution, seconds: float) -> TrapRow:
 
 def _operation_row(name: str, answer: PositionSolveResult, seconds: float) -> TrapRow:
     out = answer.solutions
-    return TrapRow(name, np.array([s.position for s in out]),
-                   np.array([s.consistent for s in out]),
-                   np.array([s.alternative is not None for s in out]), seconds)
+    return TrapRow(
+        name,
+        np.array([s.position for s in out]),
+        np.array([s.consistent for s in out]),
+        np.array([s.alternative is not None for s in out]),
+        seconds,
+    )
 
 
-def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator
-         ) -> tuple[list[str], int]:
+def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator) -> tuple[list[str], int]:
     """Starts TRAP_OFFSET from the truth at the crossing: rows, and how many after are trapped."""
     tx, rx, truth = sc.tx[CROSS], sc.rx[CROSS], sc.x[CROSS]
     ls = range_sums(truth, tx, rx) + SIGMA * rng.standard_normal((runs, tx.shape[0]))
@@ -285,17 +303,28 @@ def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator
     fun, jac = _direct_residuals(tx, rx)
 
     began = time.process_time()  # scipy solves one problem per call; timed once (slow)
-    x_scipy = np.array([least_squares(fun, starts[r], jac=jac, args=(ls[r],)).x
-                        for r in range(runs)])
+    x_scipy = np.array(
+        [least_squares(fun, starts[r], jac=jac, args=(ls[r],)).x for r in range(runs)]
+    )
     scipy_s = time.process_time() - began
     res = (ls - range_sums(x_scipy, tx, rx)) / SIGMA
     cost_scipy = np.einsum("np,np->n", res, res)
-    threshold = stats.chi2.ppf(1.0 - ALPHA, tx.shape[0] - 2)
-    wire = [{"range_sums": ls[r].tolist(), "transmitter": tx[0].tolist(),
-             "receivers": rx.tolist(), "sigma": SIGMA} for r in range(runs)]
+    threshold = consistency_threshold(ALPHA, tx.shape[0] - 2)  # ml_solve's own test
+    wire = [
+        {
+            "range_sums": ls[r].tolist(),
+            "transmitter": tx[0].tolist(),
+            "receivers": rx.tolist(),
+            "sigma": SIGMA,
+        }
+        for r in range(runs)
+    ]
     guessed = PositionSolveRequest.model_validate(
-        {"problems": [dict(w, initial=s.tolist()) for w, s in zip(wire, starts, strict=True)],
-         "alpha": ALPHA})
+        {
+            "problems": [dict(w, initial=s.tolist()) for w, s in zip(wire, starts, strict=True)],
+            "alpha": ALPHA,
+        }
+    )
     plain = PositionSolveRequest.model_validate({"problems": wire, "alpha": ALPHA})
     calls: list[Callable[[], object]] = [
         lambda: ml_solve(ls, tx, rx, SIGMA, x0=starts, alpha=ALPHA, closed_form_starts=False),
@@ -307,13 +336,17 @@ def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator
     alone, with_x0, without_x0, op_guessed, op_plain = (call() for call in calls)
     per_solve = [t / runs for t in cpu_times(calls, repeats)]
     before = [
-        TrapRow("least_squares (trf), the start alone", x_scipy, cost_scipy <= threshold,
-                np.zeros(runs, dtype=bool), scipy_s / runs),
+        TrapRow(
+            "least_squares (trf), the start alone",
+            x_scipy,
+            cost_scipy <= threshold,
+            np.zeros(runs, dtype=bool),
+            scipy_s / runs,
+        ),
         _ml_row("ml_solve, the start alone (closed_form_starts=False)", alone, per_solve[0]),
     ]
     after = [
-        _ml_row("ml_solve with x0 (the start + the closed form's roots)", with_x0,
-                per_solve[1]),
+        _ml_row("ml_solve with x0 (the start + the closed form's roots)", with_x0, per_solve[1]),
         _ml_row("ml_solve without x0 (the closed form's roots)", without_x0, per_solve[2]),
         _operation_row("solves.position with initial", op_guessed, per_solve[3]),
         _operation_row("solves.position without initial", op_plain, per_solve[4]),
@@ -327,65 +360,89 @@ def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator
             flagged = f"{(~row.consistent[trapped]).mean():.0%}" if trapped.any() else "—"
             if when == "after":
                 trapped_after += int(trapped.sum())
-            rows.append(f"| {when} | {row.name} | {trapped.sum()} of {runs} | {at_tx.sum()} "
-                        f"| {flagged} | {row.has_alternative.sum()} "
-                        f"| {row.seconds * 1e6:.1f} |")
+            rows.append(
+                f"| {when} | {row.name} | {trapped.sum()} of {runs} | {at_tx.sum()} "
+                f"| {flagged} | {row.has_alternative.sum()} "
+                f"| {row.seconds * 1e6:.1f} |"
+            )
     return rows, trapped_after
 
 
 def sections(args: argparse.Namespace, rng: np.random.Generator) -> None:
     """The single-shot and trajectory tables."""
     print(f"\n## Single shot, batch of {args.size:,} problems\n")
-    print("| geometry | solver | us per solve | solves / s | scipy / core time "
-          "| mean GN iterations | agreement with ml_solve |\n"
-          "|---|---|---:|---:|---:|---:|---|")
-    for name, sc in (("study (forward scatter)", scenario()),
-                     ("spread receivers", spread_scenario())):
+    print(
+        "| geometry | solver | us per solve | solves / s | scipy / core time "
+        "| mean GN iterations | agreement with ml_solve |\n"
+        "|---|---|---:|---:|---:|---:|---|"
+    )
+    for name, sc in (
+        ("study (forward scatter)", scenario()),
+        ("spread receivers", spread_scenario()),
+    ):
         for row in single_shot(name, sc, args.size, args.repeats, rng):
             print(row)
     sc = scenario()
-    print(f"\n## Trajectory, {sc.t.size} samples x 3 range sums, 4 unknowns "
-          f"(mean of {args.tracks} tracks)\n")
-    print("| solver | ms per solve | trf / core | lm / core | GN iterations / agreement |\n"
-          "|---|---:|---:|---:|---|")
+    print(
+        f"\n## Trajectory, {sc.t.size} samples x 3 range sums, 4 unknowns "
+        f"(mean of {args.tracks} tracks)\n"
+    )
+    print(
+        "| solver | ms per solve | trf / core | lm / core | GN iterations / agreement |\n"
+        "|---|---:|---:|---:|---|"
+    )
     for row in trajectory(sc, args.tracks, args.repeats, rng):
         print(row)
 
 
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", type=int, default=10_000,
-                        help="single-shot problems per batch (10^4)")
-    parser.add_argument("--tracks", type=int, default=20,
-                        help="200-sample trajectories to time (20)")
+    parser.add_argument(
+        "--size", type=int, default=10_000, help="single-shot problems per batch (10^4)"
+    )
+    parser.add_argument(
+        "--tracks", type=int, default=20, help="200-sample trajectories to time (20)"
+    )
     parser.add_argument("--repeats", type=int, default=3, help="best of this many (3)")
-    parser.add_argument("--trap-runs", type=int, default=500,
-                        help="starts 500 m off in the initial-guess trap (500)")
-    parser.add_argument("--trap-only", action="store_true",
-                        help="run the initial-guess trap alone")
+    parser.add_argument(
+        "--trap-runs",
+        type=int,
+        default=500,
+        help="starts 500 m off in the initial-guess trap (500)",
+    )
+    parser.add_argument(
+        "--trap-only", action="store_true", help="run the initial-guess trap alone"
+    )
     parser.add_argument("--seed", type=int, default=SEED)
     args = parser.parse_args(argv)
     if min(args.size, args.tracks, args.repeats, args.trap_runs) < 1:
         parser.error("--size, --tracks, --repeats and --trap-runs must be at least 1")
     rng = np.random.default_rng(args.seed)
-    print(f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
-          f"{scipy.__version__}, {platform.machine()}")
+    print(
+        f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
+        f"{scipy.__version__}, {platform.machine()}"
+    )
     if not args.trap_only:
         sections(args, rng)
-    print(f"\n## Initial guesses {TRAP_OFFSET:.0f} m off on the central baseline (sample "
-          f"{CROSS}), {args.trap_runs} runs\n")
-    print("| | solver | trapped (> 10 CRLB from the truth) | at the transmitter "
-          "| trapped ones flagged by chi-square | alternative reported | us per solve |\n"
-          "|---|---|---:|---:|---:|---:|---:|")
-    rows, trapped_after = trap(scenario(), args.trap_runs, args.repeats,
-                               np.random.default_rng([args.seed, CROSS]))
+    print(
+        f"\n## Initial guesses {TRAP_OFFSET:.0f} m off on the central baseline (sample "
+        f"{CROSS}), {args.trap_runs} runs\n"
+    )
+    print(
+        "| | solver | trapped (> 10 CRLB from the truth) | at the transmitter "
+        "| trapped ones flagged by chi-square | alternative reported | us per solve |\n"
+        "|---|---|---:|---:|---:|---:|---:|"
+    )
+    rows, trapped_after = trap(
+        scenario(), args.trap_runs, args.repeats, np.random.default_rng([args.seed, CROSS])
+    )
     for row in rows:
         print(row)
     if trapped_after:
         print(f"\n{trapped_after} solves after the change are trapped", file=sys.stderr)
         return 1
     return 0
+
 
 if __name__ == "__main__":
     sys.exit(main())

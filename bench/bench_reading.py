@@ -5,8 +5,8 @@ a flush per exchange as under load), then reads it, best of ``--repeat``:
 
 - mcap's ``StreamReader`` with CRCs checked, records only, and with every message parsed
   by ``json.loads`` (how recordings were read before: the baseline);
-- :class:`clients.scan.Scan` (records only: bounded memory, CRC and size checks, resync);
-- :class:`clients.recordings.Reader` (every message parsed, checked and paired: what
+- :class:`plotgate.clients.scan.Scan` (records only: bounded memory, CRC and size checks, resync);
+- :class:`plotgate.clients.recordings.Reader` (every message parsed, checked and paired: what
   inspect, cat and replay read).
 
     python bench/bench_reading.py --exchanges 20000
@@ -22,17 +22,20 @@ from pathlib import Path
 from mcap.records import Message
 from mcap.stream_reader import StreamReader
 
-from clients.recordings import Reader
-from clients.scan import Scan
-from service.recorder import Recorder, request_record, response_record
-from service.registry import OPERATIONS, execute
+from plotgate.clients.recordings import Reader
+from plotgate.clients.scan import Scan
+from plotgate.service.recorder import Recorder, request_record, response_record
+from plotgate.service.registry import OPERATIONS, execute
 
 
 def record(folder: Path, exchanges: int) -> Path:
-    plots = [{"frame": "cartesian", "x": 100.0 * i, "y": 5e4, "covariance": [[1e4, 0], [0, 1e4]]}
-             for i in range(100)]
-    body = json.dumps({"gate": {"kind": "ellipse", "P_G": 0.9}, "first": plots[0],
-                       "candidates": plots}).encode()
+    plots = [
+        {"frame": "cartesian", "x": 100.0 * i, "y": 5e4, "covariance": [[1e4, 0], [0, 1e4]]}
+        for i in range(100)
+    ]
+    body = json.dumps(
+        {"gate": {"kind": "ellipse", "P_G": 0.9}, "first": plots[0], "candidates": plots}
+    ).encode()
     answer = execute(OPERATIONS["gates.test"], body)
     assert answer.status == 200
     recorder = Recorder(folder, OPERATIONS.values()).start()
@@ -65,12 +68,17 @@ def main() -> None:
         size = path.stat().st_size
         readers = {
             "mcap StreamReader (CRCs checked)": lambda: sum(
-                1 for _ in StreamReader(str(path), validate_crcs=True).records),
+                1 for _ in StreamReader(str(path), validate_crcs=True).records
+            ),
             "mcap StreamReader + json.loads of each message (before)": lambda: sum(
-                1 for r in StreamReader(str(path), validate_crcs=True).records
-                if isinstance(r, Message) and json.loads(r.data)),
-            "clients.scan.Scan": lambda: sum(1 for _ in Scan(path)),
-            "clients.recordings.Reader (parsed, paired)": lambda: sum(1 for _ in Reader(path)),
+                1
+                for r in StreamReader(str(path), validate_crcs=True).records
+                if isinstance(r, Message) and json.loads(r.data)
+            ),
+            "plotgate.clients.scan.Scan": lambda: sum(1 for _ in Scan(path)),
+            "plotgate.clients.recordings.Reader (parsed, paired)": lambda: sum(
+                1 for _ in Reader(path)
+            ),
         }
         print(f"{path.name}: {size / 2**20:.1f} MiB, {args.exchanges} exchanges")
         print("| reader | best s | MiB/s | items |")

@@ -24,7 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.conftest import serve  # noqa: E402
+from tests.servers import serve  # noqa: E402 - after the sys.path line
 
 LUA = """wrk.method = "POST"
 wrk.headers["Content-Type"] = "application/json"
@@ -37,13 +37,14 @@ def body(candidates: int) -> bytes:
     rng = np.random.default_rng(1)
     cov = [[200.0**2, 0.0], [0.0, 200.0**2]]
     z = rng.uniform(-2500, 2500, (candidates, 2)) + [0.0, 50_000.0]
-    plots = [{"frame": "cartesian", "x": float(x), "y": float(y), "covariance": cov}
-             for x, y in z]
-    return json.dumps({
-        "gate": {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0, "P_G": 0.9},
-        "first": {"frame": "cartesian", "x": 0.0, "y": 50_000.0, "covariance": cov},
-        "candidates": plots,
-    }).encode()
+    plots = [{"frame": "cartesian", "x": float(x), "y": float(y), "covariance": cov} for x, y in z]
+    return json.dumps(
+        {
+            "gate": {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0, "P_G": 0.9},
+            "first": {"frame": "cartesian", "x": 0.0, "y": 50_000.0, "covariance": cov},
+            "candidates": plots,
+        }
+    ).encode()
 
 
 def _cpu_seconds(pid: int) -> float:
@@ -61,23 +62,35 @@ def _ms(text: str) -> float:
 
 def _wrk(url: str, script: Path, seconds: int, connections: int) -> dict[str, float]:
     out = subprocess.run(
-        ["wrk", "-t1", f"-c{connections}", f"-d{seconds}s", "--latency", "-s", str(script),
-         url + "/v1/gates/test"], capture_output=True, text=True, check=True,
+        [
+            "wrk",
+            "-t1",
+            f"-c{connections}",
+            f"-d{seconds}s",
+            "--latency",
+            "-s",
+            str(script),
+            url + "/v1/gates/test",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
     ).stdout
     assert "Non-2xx" not in out and "Socket errors" not in out, out
     return {
         "requests": float(re.search(r"(\d+) requests in", out).group(1)),
         "rate": float(re.search(r"Requests/sec:\s+([\d.]+)", out).group(1)),
-        "p50": _ms(re.search(r"50%\s+(\S+)", out).group(1)),
-        "p99": _ms(re.search(r"99%\s+(\S+)", out).group(1)),
+        "p50": _ms(re.search(r"^\s*50%\s+(\S+)", out, re.M).group(1)),
+        "p99": _ms(re.search(r"^\s*99%\s+(\S+)", out, re.M).group(1)),
     }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=int, default=10)
-    parser.add_argument("--connections", default="1,10,50",
-                        help="comma-separated concurrent clients (1,10,50)")
+    parser.add_argument(
+        "--connections", default="1,10,50", help="comma-separated concurrent clients (1,10,50)"
+    )
     parser.add_argument("--candidates", type=int, default=10)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
@@ -101,15 +114,19 @@ def main() -> None:
                         if (c, mode) not in best or run["rate"] > best[c, mode]["rate"]:
                             best[c, mode] = run
         size = sum(f.stat().st_size for f in (Path(tmp) / "on").glob("*.mcap"))
-        print(f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, "
-              f"{args.candidates} candidates per request ({payload.stat().st_size} bytes)")
+        print(
+            f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, "
+            f"{args.candidates} candidates per request ({payload.stat().st_size} bytes)"
+        )
     print("| clients | recording | requests/s | p50 ms | p99 ms | server CPU ms/request |")
     print("|---:|---|---:|---:|---:|---:|")
     for c in levels:
         for mode in ("off", "on"):
             r = best[c, mode]
-            print(f"| {c} | {mode} | {r['rate']:,.0f} | {r['p50']:.2f} | {r['p99']:.2f} | "
-                  f"{r['cpu_ms']:.3f} |")
+            print(
+                f"| {c} | {mode} | {r['rate']:,.0f} | {r['p50']:.2f} | {r['p99']:.2f} | "
+                f"{r['cpu_ms']:.3f} |"
+            )
     for c in levels:
         ratio = best[c, "on"]["rate"] / best[c, "off"]["rate"]
         print(f"{c} clients: throughput on/off {ratio:.3f} (recording costs {1 - ratio:.1%})")

@@ -24,7 +24,8 @@ on: parsing, the schema, the state's checks, the logic, the answer and its recor
   has initiators (less the 99 that follow), then 99 scans of one plot far from them.
 
 A second table times the confirmation's plot-reuse rule alone on ``branches``' histories
-(every track holding the same plots, history 8): :func:`core.initiation.sharing.keep_greedy`
+(every track holding the same plots, history 8):
+:func:`plotgate.core.initiation.sharing.keep_greedy`
 against the baseline it replaced, a join on plot ids followed by the greedy over the
 clashing pairs (:func:`join_greedy`, checked equal first), whose work grows as the square
 of the tracks holding one plot.
@@ -44,14 +45,14 @@ import numpy as np
 import scipy
 from fastapi.testclient import TestClient
 
-from core.initiation import PLOT_STRIDE, InitiationConfig, Initiators, Tracks
-from core.initiation.sharing import keep_greedy
-from core.initiation.state import STATE_VERSION, InitiationState
-from core.initiation.state_json import check_state
-from service.app import create_app
-from service.config import Settings
-from service.schemas import MAX_STATE_INITIATORS, MAX_STATE_TRACKS
-from service.schemas.initiation_state import MAX_HISTORY, MAX_HISTORY_CELLS
+from plotgate.core.initiation import PLOT_STRIDE, InitiationConfig, Initiators, Tracks
+from plotgate.core.initiation.sharing import keep_greedy
+from plotgate.core.initiation.state import STATE_VERSION, InitiationState
+from plotgate.core.initiation.state_json import check_state
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
+from plotgate.service.schemas import MAX_STATE_INITIATORS, MAX_STATE_TRACKS
+from plotgate.service.schemas.initiation_state import MAX_HISTORY, MAX_HISTORY_CELLS
 
 R = 100.0  # plot variance, m^2 (10 m sigma)
 SETTINGS = {"cartesian": {"v_max": 50.0}}
@@ -63,47 +64,66 @@ def _wire(config: InitiationConfig) -> dict:
     return out
 
 
-def _tracks(n: int, H: int, scans: int, xy: np.ndarray, index: np.ndarray,
-            confirmed: bool) -> Tracks:
+def _tracks(
+    n: int, H: int, scans: int, xy: np.ndarray, index: np.ndarray, confirmed: bool
+) -> Tracks:
     """n tracks at positions xy (n, 2), standing still, each with a plot (of plot index
     ``index``) in each of the last min(scans, H) scans, the last one at scan scans - 1."""
     h = min(scans, H)
     plots = np.full((n, H), -1, dtype=np.int64)
     scan_of = np.arange(scans - h, scans)
-    plots[:, H - h:] = scan_of * PLOT_STRIDE + index[:, None]
+    plots[:, H - h :] = scan_of * PLOT_STRIDE + index[:, None]
     times = np.full((n, H), np.nan)
-    times[:, H - h:] = scan_of.astype(float)
+    times[:, H - h :] = scan_of.astype(float)
     r = np.hypot(xy[:, 0], xy[:, 1])
     ranges = np.where(plots >= 0, r[:, None], np.nan)
     sigma_r = np.where(plots >= 0, 10.0, np.nan)
     P = np.tile(np.diag([R, R, 4.0, 4.0]), (n, 1, 1))
     return Tracks(
-        id=np.arange(n, dtype=np.int64), confirmed=np.full(n, confirmed),
-        x=np.column_stack([xy, np.zeros((n, 2))]), P=P, t=np.full(n, scans - 1.0),
-        n=np.full(n, scans, dtype=np.int64), first_scan=np.zeros(n, dtype=np.int64),
+        id=np.arange(n, dtype=np.int64),
+        confirmed=np.full(n, confirmed),
+        x=np.column_stack([xy, np.zeros((n, 2))]),
+        P=P,
+        t=np.full(n, scans - 1.0),
+        n=np.full(n, scans, dtype=np.int64),
+        first_scan=np.zeros(n, dtype=np.int64),
         confirmed_scan=np.full(n, scans - 1 if confirmed else -1, dtype=np.int64),
-        misses=np.zeros(n, dtype=np.int64), cost=np.zeros(n), plots=plots, ranges=ranges,
-        times=times, sigma_r=sigma_r, az=np.arctan2(xy[:, 0], xy[:, 1]),
-        sigma_az=10.0 / r, sensor=np.zeros((n, 2)))
+        misses=np.zeros(n, dtype=np.int64),
+        cost=np.zeros(n),
+        plots=plots,
+        ranges=ranges,
+        times=times,
+        sigma_r=sigma_r,
+        az=np.arctan2(xy[:, 0], xy[:, 1]),
+        sigma_az=10.0 / r,
+        sensor=np.zeros((n, 2)),
+    )
 
 
 def _initiators(m: int, scan: int, first_index: int, xy: np.ndarray) -> Initiators:
     r = np.hypot(xy[:, 0], xy[:, 1])
     return Initiators(
         plot=scan * PLOT_STRIDE + first_index + np.arange(m, dtype=np.int64),
-        scan=np.full(m, scan, dtype=np.int64), t=np.full(m, float(scan)), z=xy,
-        R=np.tile(np.eye(2) * R, (m, 1, 1)), sensor=np.zeros((m, 2)), r=r,
-        az=np.arctan2(xy[:, 0], xy[:, 1]), sigma_r=np.full(m, 10.0), sigma_az=10.0 / r)
+        scan=np.full(m, scan, dtype=np.int64),
+        t=np.full(m, float(scan)),
+        z=xy,
+        R=np.tile(np.eye(2) * R, (m, 1, 1)),
+        sensor=np.zeros((m, 2)),
+        r=r,
+        az=np.arctan2(xy[:, 0], xy[:, 1]),
+        sigma_r=np.full(m, 10.0),
+        sigma_az=10.0 / r,
+    )
 
 
 def _empty_initiators() -> Initiators:
     return _initiators(0, 0, 0, np.zeros((0, 2)))
 
 
-def _state(config: InitiationConfig, scans: int, tracks: Tracks,
-           initiators: Initiators) -> dict:
-    state = InitiationState(STATE_VERSION, config.digest(), scans, scans - 1.0,
-                            tracks.size, initiators, tracks)
+def _state(config: InitiationConfig, scans: int, tracks: Tracks, initiators: Initiators) -> dict:
+    state = InitiationState(
+        STATE_VERSION, config.digest(), scans, scans - 1.0, tracks.size, initiators, tracks
+    )
     check_state(state, config)
     return state.to_json()
 
@@ -116,8 +136,11 @@ def branches(n: int, H: int) -> tuple[InitiationConfig, dict, list[dict]]:
     config = InitiationConfig(v_max=50.0, history=H, confirm_k=H, confirm_m=H, drop_misses=2)
     xy = np.tile([0.0, 5e4], (n, 1))
     tracks = _tracks(n, H, H - 1, xy, np.zeros(n, dtype=np.int64), confirmed=False)
-    return config, _state(config, H - 1, tracks, _empty_initiators()), [
-        {"t": H - 1.0, "plots": [_plot(0.0, 5e4)]}]
+    return (
+        config,
+        _state(config, H - 1, tracks, _empty_initiators()),
+        [{"t": H - 1.0, "plots": [_plot(0.0, 5e4)]}],
+    )
 
 
 def coasting(n: int, H: int) -> tuple[InitiationConfig, dict, list[dict]]:
@@ -126,8 +149,11 @@ def coasting(n: int, H: int) -> tuple[InitiationConfig, dict, list[dict]]:
     grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2)[:n]
     xy = grid * 1000.0 + [1e4, 1e4]
     tracks = _tracks(n, H, H, xy, np.arange(n, dtype=np.int64), confirmed=True)
-    return config, _state(config, H, tracks, _empty_initiators()), [
-        {"t": H + float(k), "plots": []} for k in range(100)]
+    return (
+        config,
+        _state(config, H, tracks, _empty_initiators()),
+        [{"t": H + float(k), "plots": []} for k in range(100)],
+    )
 
 
 def initiators(m: int, H: int) -> tuple[InitiationConfig, dict, list[dict]]:
@@ -137,8 +163,7 @@ def initiators(m: int, H: int) -> tuple[InitiationConfig, dict, list[dict]]:
     ini = _initiators(m, 0, 0, xy)
     far = [_plot(-5e5 + 100.0 * j, -5e5) for j in range(100)]
     empty = _tracks(0, H, 1, np.zeros((0, 2)), np.zeros(0, dtype=np.int64), False)
-    return config, _state(config, 1, empty, ini), [
-        {"t": 1.0 + k, "plots": far} for k in range(99)]
+    return config, _state(config, 1, empty, ini), [{"t": 1.0 + k, "plots": far} for k in range(99)]
 
 
 def both(n: int, H: int) -> tuple[InitiationConfig, dict, list[dict]]:
@@ -146,14 +171,18 @@ def both(n: int, H: int) -> tuple[InitiationConfig, dict, list[dict]]:
     config = InitiationConfig(v_max=50.0, history=H, drop_misses=100, capture_scans=100)
     side = int(np.ceil(np.sqrt(n)))
     grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2)[:n]
-    tracks = _tracks(n, H, H, grid * 1000.0 + [1e4, 1e4], np.arange(n, dtype=np.int64),
-                     confirmed=True)
+    tracks = _tracks(
+        n, H, H, grid * 1000.0 + [1e4, 1e4], np.arange(n, dtype=np.int64), confirmed=True
+    )
     m = min(MAX_STATE_INITIATORS, (n + 100) * MAX_STATE_INITIATORS // MAX_STATE_TRACKS)
     xy = np.random.default_rng(0).uniform(1e4, 6e4, (m, 2))
     waiting = _initiators(m, H - 1, n, xy)
     far = [_plot(-5e5 + 100.0 * j, -5e5) for j in range(100)]
-    return config, _state(config, H, tracks, waiting), [
-        {"t": H + float(k), "plots": far} for k in range(99)]
+    return (
+        config,
+        _state(config, H, tracks, waiting),
+        [{"t": H + float(k), "plots": far} for k in range(99)],
+    )
 
 
 def stateless(m: int, H: int) -> tuple[InitiationConfig, None, list[dict]]:
@@ -161,8 +190,12 @@ def stateless(m: int, H: int) -> tuple[InitiationConfig, None, list[dict]]:
     initiators searched as often, from a request's own plots)."""
     config = InitiationConfig(v_max=50.0, history=H, capture_scans=100)
     xy = np.random.default_rng(0).uniform(1e4, 6e4, (m, 2))
-    return config, None, [{"t": 0.0, "plots": [_plot(x, y) for x, y in xy.tolist()]}] + [
-        {"t": 1.0 + k, "plots": [_plot(-5e5, -5e5 + 1e3 * k)]} for k in range(99)]
+    return (
+        config,
+        None,
+        [{"t": 0.0, "plots": [_plot(x, y) for x, y in xy.tolist()]}]
+        + [{"t": 1.0 + k, "plots": [_plot(-5e5, -5e5 + 1e3 * k)]} for k in range(99)],
+    )
 
 
 def join_greedy(plots: np.ndarray) -> np.ndarray:
@@ -207,16 +240,19 @@ def rule_table(repeats: int) -> None:
                 rule(plots)
                 best = min(best, time.perf_counter() - start)
             times.append(best)
-        print(f"| {n:,} | {times[0]:.3f} | {times[1]:.3f} | {times[0] / times[1]:.0f}x |",
-              flush=True)
+        print(
+            f"| {n:,} | {times[0]:.3f} | {times[1]:.3f} | {times[0] / times[1]:.0f}x |", flush=True
+        )
 
 
-def _call(client: TestClient, config: InitiationConfig, state: dict | None, scans: list[dict]
-          ) -> tuple[float, float, dict]:
+def _call(
+    client: TestClient, config: InitiationConfig, state: dict | None, scans: list[dict]
+) -> tuple[float, float, dict]:
     body = json.dumps({"config": _wire(config), "state": state, "scans": scans}).encode()
     start = time.perf_counter()
-    r = client.post("/v1/initiation/initiate", content=body,
-                    headers={"content-type": "application/json"})
+    r = client.post(
+        "/v1/initiation/initiate", content=body, headers={"content-type": "application/json"}
+    )
     seconds = time.perf_counter() - start
     assert r.status_code == 200, r.text[:500]
     return seconds, len(body) / 2**20, r.json()
@@ -224,26 +260,37 @@ def _call(client: TestClient, config: InitiationConfig, state: dict | None, scan
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scale", type=float, default=1.0,
-                        help="fraction of the ceilings to build (1: at the ceilings)")
+    parser.add_argument(
+        "--scale",
+        type=float,
+        default=1.0,
+        help="fraction of the ceilings to build (1: at the ceilings)",
+    )
     parser.add_argument("--repeats", type=int, default=2, help="best of this many (2)")
-    parser.add_argument("--rule-only", action="store_true",
-                        help="only the plot-reuse rule against its baseline")
+    parser.add_argument(
+        "--rule-only", action="store_true", help="only the plot-reuse rule against its baseline"
+    )
     args = parser.parse_args(argv)
-    print(f"python {platform.python_version()}, numpy {np.__version__}, scipy "
-          f"{scipy.__version__}, {platform.machine()}", file=sys.stderr)
+    print(
+        f"python {platform.python_version()}, numpy {np.__version__}, scipy "
+        f"{scipy.__version__}, {platform.machine()}",
+        file=sys.stderr,
+    )
     rule_table(args.repeats)
     if args.rule_only:
         return 0
-    cases = [("branches", branches, MAX_HISTORY, MAX_HISTORY_CELLS // MAX_HISTORY),
-             ("branches", branches, 8, MAX_STATE_TRACKS),
-             ("coasting", coasting, 8, MAX_STATE_TRACKS),
-             ("coasting", coasting, MAX_HISTORY, MAX_HISTORY_CELLS // MAX_HISTORY),
-             ("initiators", initiators, 8, MAX_STATE_INITIATORS),
-             ("both", both, 8, MAX_STATE_TRACKS - 100),  # its scans start 100 tracks
-             ("stateless", stateless, 8, MAX_STATE_INITIATORS - 100)]
-    print("\n| scenario | history | tracks | initiators | scans | body MB | seconds | "
-          "tracks after |")
+    cases = [
+        ("branches", branches, MAX_HISTORY, MAX_HISTORY_CELLS // MAX_HISTORY),
+        ("branches", branches, 8, MAX_STATE_TRACKS),
+        ("coasting", coasting, 8, MAX_STATE_TRACKS),
+        ("coasting", coasting, MAX_HISTORY, MAX_HISTORY_CELLS // MAX_HISTORY),
+        ("initiators", initiators, 8, MAX_STATE_INITIATORS),
+        ("both", both, 8, MAX_STATE_TRACKS - 100),  # its scans start 100 tracks
+        ("stateless", stateless, 8, MAX_STATE_INITIATORS - 100),
+    ]
+    print(
+        "\n| scenario | history | tracks | initiators | scans | body MB | seconds | tracks after |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     with tempfile.TemporaryDirectory() as folder:
         settings = Settings(log_dir=Path(folder), git_commit="bench")
@@ -255,10 +302,16 @@ def main(argv: list[str] | None = None) -> int:
                 for _ in range(args.repeats):
                     seconds, mb, out = _call(client, config, state, scans)
                     best = min(best, seconds)
-                tracks, waiting = ((0, 0) if state is None else
-                                   (len(state["tracks"]["id"]), len(state["initiators"]["plot"])))
-                print(f"| {name} | {H} | {tracks:,} | {waiting:,} | {len(scans)} | {mb:.1f} | "
-                      f"{best:.2f} | {len(out['tracks']):,} |", flush=True)
+                tracks, waiting = (
+                    (0, 0)
+                    if state is None
+                    else (len(state["tracks"]["id"]), len(state["initiators"]["plot"]))
+                )
+                print(
+                    f"| {name} | {H} | {tracks:,} | {waiting:,} | {len(scans)} | {mb:.1f} | "
+                    f"{best:.2f} | {len(out['tracks']):,} |",
+                    flush=True,
+                )
     return 0
 
 

@@ -1,11 +1,11 @@
-"""Seed 002's track initiation run through Stone Soup's MultiMeasurementInitiator.
+"""Mu et al.'s track initiation run through Stone Soup's MultiMeasurementInitiator.
 
 Run from the repository root (needs ``pip install -e ".[bench]"``, i.e. stonesoup)::
 
     python bench/stonesoup_initiation.py --runs 500
 
-For comparison with plotgate's initiation (DESIGN section 5, "Comparing with Stone
-Soup"): the same scans our ``evaluate()`` sees (run r simulates ``seed_002_scenario``
+For comparison with plotgate's initiation ("Comparing with Stone
+Soup"): the same scans our ``evaluate()`` sees (run r simulates ``mu_scenario``
 with ``default_rng(SeedSequence(seed).spawn(runs)[r])``), the same scoring by labels (a
 returned track is true when more than half of its plots come from one target, each target
 once; every other returned track is false), and the time per scan. Prints a markdown
@@ -22,7 +22,7 @@ Choices, as close as Stone Soup allows to plotgate's polar 3-of-4 logic:
   velocity zero with std 30 m/s per axis, since targets move at up to 30 m/s;
 * motion: two ``ConstantVelocity(q=1.0)``, Kalman predictor and updater;
 * gate: ``DistanceHypothesiser`` with ``Mahalanobis`` and missed distance
-  sqrt(chi2.ppf(0.99, 2)) = 3.03 (P_G 0.99, like our gate), then ``GNNWith2DAssignment``.
+  sqrt(gate_threshold(0.99, 2)) = 3.03 (P_G 0.99, like our gate), then ``GNNWith2DAssignment``.
   Plain, Stone Soup computes the distance of every tentative track to every detection in
   Python (about 24 s per scan at 250 clutter plots, some 13 hours for 500 runs), so by
   default a kd-tree prefilter (:class:`PrefilteredGNN`, exact: same tracks, checked)
@@ -46,7 +46,6 @@ from datetime import datetime, timedelta
 
 import numpy as np
 from scipy.spatial import KDTree
-from scipy.stats import chi2
 from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
 from stonesoup.deleter.time import UpdateTimeStepsDeleter
 from stonesoup.hypothesiser.distance import DistanceHypothesiser
@@ -63,8 +62,9 @@ from stonesoup.types.state import GaussianState
 from stonesoup.types.update import Update
 from stonesoup.updater.kalman import KalmanUpdater
 
-from core.initiation.scan import Scan
-from core.initiation.simulate import seed_002_scenario, simulate
+from plotgate.core.gates.thresholds import gate_threshold
+from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.simulate import mu_scenario, simulate
 
 EPOCH = datetime(2026, 1, 1)
 
@@ -90,30 +90,40 @@ class PrefilteredGNN(GNNWith2DAssignment):
             pred = hyp.predictor.predict(track, timestamp=timestamp)
             P = np.asarray(pred.covar, dtype=float)[np.ix_((0, 2), (0, 2))]
             radius = hyp.missed_distance * np.sqrt(np.linalg.eigvalsh(P).max() + r_max)
-            near = tree.query_ball_point(np.asarray(pred.state_vector, dtype=float)[[0, 2], 0],
-                                         (1.0 + 1e-9) * radius)
+            near = tree.query_ball_point(
+                np.asarray(pred.state_vector, dtype=float)[[0, 2], 0], (1.0 + 1e-9) * radius
+            )
             out[track] = hyp.hypothesise(track, {dets[i] for i in near}, timestamp, **kwargs)
         return out
 
 
-def make_initiator(min_points: int = 3, q: float = 1.0, v_sigma: float = 30.0,
-                   P_G: float = 0.99, miss_steps: int = 2,
-                   prefilter: bool = True) -> MultiMeasurementInitiator:
+def make_initiator(
+    min_points: int = 3,
+    q: float = 1.0,
+    v_sigma: float = 30.0,
+    P_G: float = 0.99,
+    miss_steps: int = 2,
+    prefilter: bool = True,
+) -> MultiMeasurementInitiator:
     """A fresh MultiMeasurementInitiator with the choices of the module docstring."""
-    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(q),
-                                                        ConstantVelocity(q)])
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(q), ConstantVelocity(q)])
     predictor = KalmanPredictor(transition)
     updater = KalmanUpdater(measurement_model=None)  # every detection carries its own
-    hypothesiser = DistanceHypothesiser(predictor, updater, Mahalanobis(),
-                                        missed_distance=float(np.sqrt(chi2.ppf(P_G, 2))))
+    hypothesiser = DistanceHypothesiser(
+        predictor, updater, Mahalanobis(), missed_distance=float(np.sqrt(gate_threshold(P_G, 2)))
+    )
     # position entries are replaced by each first detection; velocity is the prior
-    prior = GaussianState([[0.0], [0.0], [0.0], [0.0]],
-                          np.diag([0.0, v_sigma**2, 0.0, v_sigma**2]), timestamp=EPOCH)
+    prior = GaussianState(
+        [[0.0], [0.0], [0.0], [0.0]], np.diag([0.0, v_sigma**2, 0.0, v_sigma**2]), timestamp=EPOCH
+    )
     return MultiMeasurementInitiator(
-        prior_state=prior, measurement_model=None,
+        prior_state=prior,
+        measurement_model=None,
         deleter=UpdateTimeStepsDeleter(time_steps_since_update=miss_steps),
         data_associator=(PrefilteredGNN if prefilter else GNNWith2DAssignment)(hypothesiser),
-        updater=updater, min_points=min_points)
+        updater=updater,
+        min_points=min_points,
+    )
 
 
 def detections(scan: Scan, labels: np.ndarray, index: int) -> set[Detection]:
@@ -122,28 +132,47 @@ def detections(scan: Scan, labels: np.ndarray, index: int) -> set[Detection]:
     out = []
     for i in np.lexsort((scan.z[:, 1], scan.z[:, 0])):
         model = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=scan.R[i])
-        out.append(Detection(scan.z[i].reshape(2, 1), timestamp=when, measurement_model=model,
-                             metadata={"label": int(labels[i]), "scan": index,
-                                       "plot": int(i)}))
+        out.append(
+            Detection(
+                scan.z[i].reshape(2, 1),
+                timestamp=when,
+                measurement_model=model,
+                metadata={"label": int(labels[i]), "scan": index, "plot": int(i)},
+            )
+        )
     return set(out)
 
 
 def track_source(track, targets: int) -> int:
     """The target more than half of a track's plots come from, else -1."""
-    sources = np.array([s.hypothesis.measurement.metadata["label"] for s in track
-                        if isinstance(s, Update) and s.hypothesis], dtype=int)
+    sources = np.array(
+        [
+            s.hypothesis.measurement.metadata["label"]
+            for s in track
+            if isinstance(s, Update) and s.hypothesis
+        ],
+        dtype=int,
+    )
     counts = np.bincount(sources[sources >= 0], minlength=targets)
     return int(np.argmax(counts)) if counts.max(initial=0) * 2 > sources.size else -1
 
 
-def stonesoup_initiation(clutter: float, runs: int, seed: int, min_points: int = 3,
-                         q: float = 1.0, v_sigma: float = 30.0, P_G: float = 0.99,
-                         miss_steps: int = 2, prefilter: bool = True) -> dict:
-    """Monte Carlo of MultiMeasurementInitiator on seed 002's scenario, scored like ours.
+def stonesoup_initiation(
+    clutter: float,
+    runs: int,
+    seed: int,
+    min_points: int = 3,
+    q: float = 1.0,
+    v_sigma: float = 30.0,
+    P_G: float = 0.99,
+    miss_steps: int = 2,
+    prefilter: bool = True,
+) -> dict:
+    """Monte Carlo of MultiMeasurementInitiator on Mu et al.'s scenario, scored like ours.
 
     Returns {"mean_true", "mean_false", "seconds_per_scan", "runs"}.
     """
-    scenario = seed_002_scenario(clutter)
+    scenario = mu_scenario(clutter)
     targets = scenario.x0.shape[0]
     true, false = [], []
     elapsed, scans = 0.0, 0
@@ -164,28 +193,40 @@ def stonesoup_initiation(clutter: float, runs: int, seed: int, min_points: int =
                     wrong += 1
         true.append(len(found))
         false.append(wrong)
-    return {"mean_true": float(np.mean(true)), "mean_false": float(np.mean(false)),
-            "seconds_per_scan": elapsed / scans, "runs": runs}
+    return {
+        "mean_true": float(np.mean(true)),
+        "mean_false": float(np.mean(false)),
+        "seconds_per_scan": elapsed / scans,
+        "runs": runs,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=500)
     parser.add_argument("--seed", type=int, default=2026)
-    parser.add_argument("--clutter", default="20,250",
-                        help="comma-separated mean clutter plots per scan")
-    parser.add_argument("--no-prefilter", action="store_true",
-                        help="plain GNNWith2DAssignment (exact same tracks, much slower)")
+    parser.add_argument(
+        "--clutter", default="20,250", help="comma-separated mean clutter plots per scan"
+    )
+    parser.add_argument(
+        "--no-prefilter",
+        action="store_true",
+        help="plain GNNWith2DAssignment (exact same tracks, much slower)",
+    )
     args = parser.parse_args(argv)
-    print(f"Stone Soup MultiMeasurementInitiator, seed 002 scenario, {args.runs} runs, "
-          f"seed {args.seed}, prefilter {'off' if args.no_prefilter else 'on'}\n")
+    print(
+        f"Stone Soup MultiMeasurementInitiator, Mu et al. scenario, {args.runs} runs, "
+        f"seed {args.seed}, prefilter {'off' if args.no_prefilter else 'on'}\n"
+    )
     print("| clutter / scan | mean true (of 5) | mean false | ms / scan |")
     print("|---:|---:|---:|---:|")
     for clutter in (float(c) for c in args.clutter.split(",")):
-        r = stonesoup_initiation(clutter, args.runs, args.seed,
-                                 prefilter=not args.no_prefilter)
-        print(f"| {clutter:g} | {r['mean_true']:.3f} | {r['mean_false']:.3f} | "
-              f"{1e3 * r['seconds_per_scan']:.2f} |", flush=True)
+        r = stonesoup_initiation(clutter, args.runs, args.seed, prefilter=not args.no_prefilter)
+        print(
+            f"| {clutter:g} | {r['mean_true']:.3f} | {r['mean_false']:.3f} | "
+            f"{1e3 * r['seconds_per_scan']:.2f} |",
+            flush=True,
+        )
     return 0
 
 

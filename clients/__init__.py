@@ -1,10 +1,10 @@
 """plotgate clients: typed httpx client (sync and async), recordings reader, replay, CLI.
 
-Imports only :mod:`service.schemas` from the service side (pydantic, no FastAPI).
+Imports only :mod:`plotgate.service.schemas` from the service side (pydantic, no FastAPI).
 """
 
-from clients.client import DEFAULT_TIMEOUT, DEFAULT_URL, AsyncClient, Client
-from clients.errors import (
+from plotgate.clients.client import DEFAULT_TIMEOUT, DEFAULT_URL, AsyncClient, Client
+from plotgate.clients.errors import (
     InvalidInputError,
     PlotgateClientError,
     ProblemError,

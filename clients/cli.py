@@ -8,10 +8,10 @@ answer; ``plotgate replay PATH...`` re-runs recorded sessions and exits 0 (uncha
 ``plotgate recover FILE`` writes a complete, indexed copy of every intact record of a
 damaged file; ``plotgate inspect PATH...`` prints each file's state and time range and
 per-operation counts and latencies; ``plotgate cat PATH...`` prints the exchanges as JSON
-lines; ``plotgate plot {fig2,fig5,compare}`` draws seed 000's gating-probability figures;
-``plotgate study`` runs seed 001's multistatic accuracy study (Fig. 3) and writes its table
+lines; ``plotgate plot {fig2,fig5,compare}`` draws Konovalov's gating-probability figures;
+``plotgate study`` runs Fadeev et al.'s multistatic accuracy study (Fig. 3) and writes its table
 and figure; ``plotgate scenario`` draws a simulated scenario and the tracks initiated in it
-(seed 002's figures).
+(Mu et al.'s figures).
 
 No command ends in a traceback: a missing file, a usage or connection error is one line on
 stderr and exit 2; a closed pipe (``| head``) ends the command quietly.
@@ -23,6 +23,8 @@ import os
 import sys
 from datetime import UTC, datetime
 from pathlib import Path
+
+from plotgate import __version__
 
 __all__ = ["main"]
 
@@ -65,18 +67,20 @@ def _silence_stdout() -> None:
 def _serve(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from service.config import Settings
-    from service.connections import HeaderDeadline
+    from plotgate.service.config import Settings
+    from plotgate.service.connections import HeaderDeadline
 
     overrides = {
-        "PLOTGATE_HOST": args.host, "PLOTGATE_PORT": args.port,
-        "PLOTGATE_WORKERS": args.workers, "PLOTGATE_LOG_DIR": args.log_dir,
+        "PLOTGATE_HOST": args.host,
+        "PLOTGATE_PORT": args.port,
+        "PLOTGATE_WORKERS": args.workers,
+        "PLOTGATE_LOG_DIR": args.log_dir,
         "PLOTGATE_RECORD": args.record,
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
     settings = Settings()
     uvicorn.run(
-        "service.app:create_app",
+        "plotgate.service.app:create_app",
         factory=True,
         host=settings.host,
         port=settings.port,
@@ -89,10 +93,11 @@ def _serve(args: argparse.Namespace) -> int:
 
 def _call(args: argparse.Namespace) -> int:
     """Print the answer (exit 0) or the problem (exit 1) of one request."""
-    body = (sys.stdin.buffer.read() if args.request in (None, "-")
-            else Path(args.request).read_bytes())
+    body = (
+        sys.stdin.buffer.read() if args.request in (None, "-") else Path(args.request).read_bytes()
+    )
     if args.server is None:
-        from service.registry import OPERATIONS, execute, internal_error
+        from plotgate.service.registry import OPERATIONS, execute, internal_error
 
         op = OPERATIONS[args.operation]
         try:
@@ -104,32 +109,37 @@ def _call(args: argparse.Namespace) -> int:
     else:
         import httpx
 
-        from clients.client import SLOW_TIMEOUT
-        from service.schemas import ENDPOINTS
+        from plotgate.clients.client import SLOW_TIMEOUT
+        from plotgate.service.schemas import ENDPOINTS
 
         path = ENDPOINTS[args.operation].path
-        answer = httpx.post(args.server.rstrip("/") + path, content=body, timeout=SLOW_TIMEOUT,
-                            headers={"content-type": "application/json"})
+        answer = httpx.post(
+            args.server.rstrip("/") + path,
+            content=body,
+            timeout=SLOW_TIMEOUT,
+            headers={"content-type": "application/json"},
+        )
         status, content = answer.status_code, answer.content
     sys.stdout.write(json.dumps(json.loads(content), indent=2) + "\n")
     return 0 if status < 400 else 1
 
 
 def _filters(args: argparse.Namespace):
-    from clients.recordings import Filters
+    from plotgate.clients.recordings import Filters
 
-    operations = frozenset(op.strip() for ops in args.operation or () for op in ops.split(",")
-                           if op.strip())
+    operations = frozenset(
+        op.strip() for ops in args.operation or () for op in ops.split(",") if op.strip()
+    )
     return Filters(operations, args.since, args.until)
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from clients.replay import replay
+    from plotgate.clients.replay import replay
 
     limits = None
     if not args.no_limits and args.server is None:
-        from service.config import Settings
-        from service.registry import check_limits
+        from plotgate.service.config import Settings
+        from plotgate.service.registry import check_limits
 
         try:
             limits = Settings().limits
@@ -138,8 +148,15 @@ def _replay(args: argparse.Namespace) -> int:
             print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
             return 2
     report = replay(
-        args.paths, server=args.server, rtol=args.rtol, atol=args.atol, out=args.out,
-        progress=None, filters=_filters(args), timeout=args.timeout or None, limits=limits,
+        args.paths,
+        server=args.server,
+        rtol=args.rtol,
+        atol=args.atol,
+        out=args.out,
+        progress=None,
+        filters=_filters(args),
+        timeout=args.timeout or None,
+        limits=limits,
     )
     code = report.exit_code(args.allow_empty)
     for error in report.unreadable:
@@ -148,14 +165,16 @@ def _replay(args: argparse.Namespace) -> int:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
     text = report.text()
     if code == 2 and not report.unreadable:
-        text += ("\nnothing was compared (exit 2): wrong path or filters? --allow-empty "
-                 "passes a run with nothing to compare")
+        text += (
+            "\nnothing was compared (exit 2): wrong path or filters? --allow-empty "
+            "passes a run with nothing to compare"
+        )
     _write(text)
     return code
 
 
 def _recover(args: argparse.Namespace) -> int:
-    from clients.recover import Refused, recover
+    from plotgate.clients.recover import Refused, recover
 
     try:
         done = recover(args.path, args.out, keep=args.keep)
@@ -176,7 +195,7 @@ def _unreadable(command: str, unreadable: list[str], files: int) -> int:
 
 
 def _inspect(args: argparse.Namespace) -> int:
-    from clients.inspect import format_inspection, inspect
+    from plotgate.clients.inspect import format_inspection, inspect
 
     summary = inspect(args.paths, _filters(args))
     if _write(json.dumps(summary, indent=2) if args.json else format_inspection(summary)):
@@ -185,8 +204,8 @@ def _inspect(args: argparse.Namespace) -> int:
 
 
 def _cat(args: argparse.Namespace) -> int:
-    from clients.cat import lines
-    from clients.recordings import Reader
+    from plotgate.clients.cat import lines
+    from plotgate.clients.recordings import Reader
 
     reader = Reader(args.paths, _filters(args))
     for line in lines(reader):
@@ -196,17 +215,25 @@ def _cat(args: argparse.Namespace) -> int:
         for damage in rec.damage:
             print(f"plotgate cat: {rec.path}: {damage}", file=sys.stderr)
         if rec.damage_count > len(rec.damage):
-            print(f"plotgate cat: {rec.path}: ... and {rec.damage_count - len(rec.damage)} "
-                  "more damaged records", file=sys.stderr)
+            print(
+                f"plotgate cat: {rec.path}: ... and {rec.damage_count - len(rec.damage)} "
+                "more damaged records",
+                file=sys.stderr,
+            )
     return _unreadable("cat", reader.unreadable, len(reader.files))
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from clients.errors import PlotgateClientError
-    from clients.plots import MissingMatplotlib, Setup, plot
+    from plotgate.clients.errors import PlotgateClientError
+    from plotgate.clients.plots import MissingMatplotlib, Setup, plot
 
-    setup = Setup(tau=args.tau, v_min=args.v_min, v_max=args.v_max,
-                  course_deg=args.course_deg, az_deg=args.az_deg)
+    setup = Setup(
+        tau=args.tau,
+        v_min=args.v_min,
+        v_max=args.v_max,
+        course_deg=args.course_deg,
+        az_deg=args.az_deg,
+    )
     try:
         out = plot(args.figure, args.out, server=args.server, setup=setup, points=args.points)
     except (MissingMatplotlib, PlotgateClientError) as exc:
@@ -217,12 +244,13 @@ def _plot(args: argparse.Namespace) -> int:
 
 
 def _study(args: argparse.Namespace) -> int:
-    from clients.errors import PlotgateClientError
-    from clients.plots import MissingMatplotlib, matplotlib_classes
-    from clients.study import DEFAULT_REQUEST, checks, draw, run_study, table
+    from plotgate.clients.errors import PlotgateClientError
+    from plotgate.clients.plots import MissingMatplotlib, matplotlib_classes
+    from plotgate.clients.study import DEFAULT_REQUEST, checks, draw, run_study, table
 
-    request = dict(DEFAULT_REQUEST if args.request is None
-                   else json.loads(Path(args.request).read_text()))
+    request = dict(
+        DEFAULT_REQUEST if args.request is None else json.loads(Path(args.request).read_text())
+    )
     for key, value in (("runs", args.runs), ("seed", args.seed)):
         if value is not None:
             request[key] = value
@@ -247,12 +275,17 @@ def _study(args: argparse.Namespace) -> int:
 
 
 def _scenario(args: argparse.Namespace) -> int:
-    from clients.errors import PlotgateClientError
-    from clients.plots import MissingMatplotlib
-    from clients.scenario_plot import scenario_figure
+    from plotgate.clients.errors import PlotgateClientError
+    from plotgate.clients.plots import MissingMatplotlib
+    from plotgate.clients.scenario_plot import scenario_figure
 
-    config = {"mode": args.mode, "v_max": args.v_max, "capture_gate": "combined",
-              "a_max": 10.0, "K_A": 3.0}
+    config = {
+        "mode": args.mode,
+        "v_max": args.v_max,
+        "capture_gate": "combined",
+        "a_max": 10.0,
+        "K_A": 3.0,
+    }
     if args.config is not None:
         config = json.loads(Path(args.config).read_text())
     request = {"scenario": {"clutter": args.clutter, "scans": args.scans}, "seed": args.seed}
@@ -291,6 +324,7 @@ def _at_least_two(text: str) -> int:
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="plotgate", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"plotgate {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     serve = sub.add_parser("serve", help="run the HTTP service, recording to MCAP")
@@ -298,59 +332,95 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("--port", type=int, help="port (PLOTGATE_PORT, default 8000)")
     serve.add_argument("--workers", type=int, help="worker processes (PLOTGATE_WORKERS)")
     serve.add_argument("--log-dir", help="recordings folder (PLOTGATE_LOG_DIR, ./recordings)")
-    serve.add_argument("--no-record", dest="record", action="store_const", const=False,
-                       help="do not record (PLOTGATE_RECORD=false)")
+    serve.add_argument(
+        "--no-record",
+        dest="record",
+        action="store_const",
+        const=False,
+        help="do not record (PLOTGATE_RECORD=false)",
+    )
     serve.set_defaults(func=_serve)
 
     filters = argparse.ArgumentParser(add_help=False)
-    filters.add_argument("paths", nargs="+", type=Path, metavar="PATH",
-                         help="MCAP files or folders of them (requests and responses are "
-                         "paired across all of them)")
-    filters.add_argument("--operation", action="append", metavar="OP",
-                         help="only this operation (repeat, or comma-separate, for several)")
-    filters.add_argument("--since", type=_time, metavar="TIME",
-                         help="only requests from this time on (ISO 8601, UTC unless it says; "
-                         "or Unix seconds)")
-    filters.add_argument("--until", type=_time, metavar="TIME",
-                         help="only requests before this time (as --since)")
+    filters.add_argument(
+        "paths",
+        nargs="+",
+        type=Path,
+        metavar="PATH",
+        help="MCAP files or folders of them (requests and responses are "
+        "paired across all of them)",
+    )
+    filters.add_argument(
+        "--operation",
+        action="append",
+        metavar="OP",
+        help="only this operation (repeat, or comma-separate, for several)",
+    )
+    filters.add_argument(
+        "--since",
+        type=_time,
+        metavar="TIME",
+        help="only requests from this time on (ISO 8601, UTC unless it says; or Unix seconds)",
+    )
+    filters.add_argument(
+        "--until", type=_time, metavar="TIME", help="only requests before this time (as --since)"
+    )
 
     rep = sub.add_parser(
-        "replay", parents=[filters], help="re-run recorded requests and compare the answers",
+        "replay",
+        parents=[filters],
+        help="re-run recorded requests and compare the answers",
         description="Re-runs every recorded exchange (in-process through this build, or on "
         "a live server with --server, each request under a new id marked as a replay of its "
         "original) and compares the answers field by field.",
-        epilog=REPLAY_EXIT_CODES, formatter_class=argparse.RawDescriptionHelpFormatter)
+        epilog=REPLAY_EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     rep.add_argument("--server", help="replay against this live server URL (default in-process)")
     rep.add_argument("--rtol", type=float, default=1e-9, help="relative float tolerance")
     rep.add_argument("--atol", type=float, default=1e-12, help="absolute float tolerance")
-    rep.add_argument("--timeout", type=float, default=60.0, metavar="S",
-                     help="seconds each exchange may take (default 60; 0: no limit)")
-    rep.add_argument("--no-limits", action="store_true",
-                     help="in-process: run requests over the service's work caps "
-                     "(PLOTGATE_LIMITS) too")
-    rep.add_argument("--allow-empty", action="store_true",
-                     help="exit 0, not 2, when there is nothing to compare")
+    rep.add_argument(
+        "--timeout",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="seconds each exchange may take (default 60; 0: no limit)",
+    )
+    rep.add_argument(
+        "--no-limits",
+        action="store_true",
+        help="in-process: run requests over the service's work caps (PLOTGATE_LIMITS) too",
+    )
+    rep.add_argument(
+        "--allow-empty",
+        action="store_true",
+        help="exit 0, not 2, when there is nothing to compare",
+    )
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")
     rep.set_defaults(func=_replay)
 
-    rec = sub.add_parser("recover", help="a complete, indexed copy of a damaged file",
-                         description="Copies every intact record of an MCAP file (one a "
-                         "killed server left without summary and index, or one with damaged "
-                         "chunks: reading resumes at the next intact chunk) into a new file "
-                         "with summary and index, says what it dropped, and renames the "
-                         "original to <name>.partial so replaying the folder reads each "
-                         "exchange once. A file without the MCAP magic is refused (exit 2) "
-                         "and left as it is.")
+    rec = sub.add_parser(
+        "recover",
+        help="a complete, indexed copy of a damaged file",
+        description="Copies every intact record of an MCAP file (one a "
+        "killed server left without summary and index, or one with damaged "
+        "chunks: reading resumes at the next intact chunk) into a new file "
+        "with summary and index, says what it dropped, and renames the "
+        "original to <name>.partial so replaying the folder reads each "
+        "exchange once. A file without the MCAP magic is refused (exit 2) "
+        "and left as it is.",
+    )
     rec.add_argument("path", type=Path, help="the MCAP file")
     rec.add_argument("--out", type=Path, help="the copy (default <stem>.recovered.mcap)")
     rec.add_argument("--keep", action="store_true", help="do not rename the original")
     rec.set_defaults(func=_recover)
 
-    from service.schemas import ENDPOINTS
+    from plotgate.service.schemas import ENDPOINTS
 
     call = sub.add_parser(
-        "call", help="run one operation on a JSON request and print the answer",
+        "call",
+        help="run one operation on a JSON request and print the answer",
         description="Runs in-process through this build's registry (what the server would "
         "answer), or on a live server with --server. Exit 0 on an answer, 1 on a problem.",
     )
@@ -360,84 +430,119 @@ def _parser() -> argparse.ArgumentParser:
     call.set_defaults(func=_call)
 
     ins = sub.add_parser(
-        "inspect", parents=[filters],
+        "inspect",
+        parents=[filters],
         help="each file's state and time range; per-operation counts, errors, latencies",
         description="Exit 0, or 2 when a file is not a recording at all (damage inside a "
-        "file is listed with its offset, not an error).")
+        "file is listed with its offset, not an error).",
+    )
     ins.add_argument("--json", action="store_true", help="print JSON instead of a table")
     ins.set_defaults(func=_inspect)
 
     cat = sub.add_parser(
-        "cat", parents=[filters], help="print the exchanges as JSON lines",
+        "cat",
+        parents=[filters],
+        help="print the exchanges as JSON lines",
         description="One JSON line per exchange: file, time, log_time, operation, "
         "request_id, replay_of, and the request and response records as recorded (response "
         "null when never answered). Damage goes to stderr with its offset. Exit 0, or 2 when "
-        "a file is not a recording at all.")
+        "a file is not a recording at all.",
+    )
     cat.set_defaults(func=_cat)
 
-    from clients.plots import DEFAULT_FILES, FIGURES
+    from plotgate.clients.plots import DEFAULT_FILES, FIGURES
 
     plo = sub.add_parser(
-        "plot", help="draw seed 000's gating-probability figures (needs plotgate[plot])",
+        "plot",
+        help="draw Konovalov's gating-probability figures (needs plotgate[plot])",
         description="fig2: ring gate, conditional probability against speed (20, 50 km) and "
-        "range (200, 300 m/s) for three sensor errors (seed 000 Fig. 2); fig5: the same for "
+        "range (200, 300 m/s) for three sensor errors (Konovalov, Fig. 2); fig5: the same for "
         "the combined gate, P_G 0.9 (Fig. 5); compare: unconditional probability against "
         "range for the ring, combined and expanded gates.",
     )
     plo.add_argument("figure", choices=FIGURES, help="which figure")
-    plo.add_argument("--out", type=Path,
-                     help="PNG to write (default " + ", ".join(DEFAULT_FILES.values()) + ")")
+    plo.add_argument(
+        "--out", type=Path, help="PNG to write (default " + ", ".join(DEFAULT_FILES.values()) + ")"
+    )
     plo.add_argument("--server", help="compute on this live server URL (default in-process)")
-    plo.add_argument("--course-deg", type=float, default=0.0,
-                     help="target course, degrees clockwise from north (default 0)")
-    plo.add_argument("--az-deg", type=float, default=0.0,
-                     help="azimuth of the first mark, degrees (default 0: due north)")
+    plo.add_argument(
+        "--course-deg",
+        type=float,
+        default=0.0,
+        help="target course, degrees clockwise from north (default 0)",
+    )
+    plo.add_argument(
+        "--az-deg",
+        type=float,
+        default=0.0,
+        help="azimuth of the first mark, degrees (default 0: due north)",
+    )
     plo.add_argument("--tau", type=float, default=5.0, help="interval between marks, s (5)")
     plo.add_argument("--v-min", type=float, default=100.0, help="gate's minimum speed (100)")
     plo.add_argument("--v-max", type=float, default=500.0, help="gate's maximum speed (500)")
-    plo.add_argument("--points", type=_at_least_two,
-                     help="values per curve (default 81 speeds, 96 ranges, 15 unconditional)")
+    plo.add_argument(
+        "--points",
+        type=_at_least_two,
+        help="values per curve (default 81 speeds, 96 ranges, 15 unconditional)",
+    )
     plo.set_defaults(func=_plot)
 
     stu = sub.add_parser(
-        "study", help="seed 001's multistatic accuracy study: table and PNG (Fig. 3)",
+        "study",
+        help="Fadeev et al.'s multistatic accuracy study: table and PNG (Fig. 3)",
         description="Monte Carlo of the multistatic solvers along a track (operation "
-        "solves.study): curves 1-6 of seed 001 Fig. 3 at every sample, checked against "
+        "solves.study): curves 1-6 of Fadeev et al., Fig. 3 at every sample, checked against "
         "the CRLB. Default: the built-in scenario (one transmitter, three receivers at "
         "10 m/s, a target at 80 m/s crossing the baselines, 1000 runs: a few minutes).",
     )
-    stu.add_argument("request", nargs="?",
-                     help="a JSON solves.study request (default: the built-in scenario)")
+    stu.add_argument(
+        "request", nargs="?", help="a JSON solves.study request (default: the built-in scenario)"
+    )
     stu.add_argument("--runs", type=_at_least_two, help="Monte Carlo runs (override)")
     stu.add_argument("--seed", type=int, help="noise seed (override)")
-    stu.add_argument("--no-tracks", action="store_true",
-                     help="skip curve 3 and the full track (most of the cost)")
-    stu.add_argument("--table", type=Path, default=Path("multistatic_accuracy.md"),
-                     help="markdown table to write (default multistatic_accuracy.md)")
-    stu.add_argument("--png", type=Path, default=Path("multistatic_accuracy.png"),
-                     help="figure to write (default multistatic_accuracy.png; needs "
-                     "plotgate[plot])")
-    stu.add_argument("--no-png", dest="png", action="store_const", const=None,
-                     help="write no figure")
+    stu.add_argument(
+        "--no-tracks",
+        action="store_true",
+        help="skip curve 3 and the full track (most of the cost)",
+    )
+    stu.add_argument(
+        "--table",
+        type=Path,
+        default=Path("multistatic_accuracy.md"),
+        help="markdown table to write (default multistatic_accuracy.md)",
+    )
+    stu.add_argument(
+        "--png",
+        type=Path,
+        default=Path("multistatic_accuracy.png"),
+        help="figure to write (default multistatic_accuracy.png; needs plotgate[plot])",
+    )
+    stu.add_argument(
+        "--no-png", dest="png", action="store_const", const=None, help="write no figure"
+    )
     stu.add_argument("--server", help="compute on this live server URL (default in-process)")
     stu.set_defaults(func=_study)
 
     sce = sub.add_parser(
-        "scenario", help="draw a simulated scenario and its initiated tracks (seed 002)",
-        description="Simulates seed 002's scenario (5 ground targets at 25 m/s, P_D 0.8, "
+        "scenario",
+        help="draw a simulated scenario and its initiated tracks (Mu et al.)",
+        description="Simulates Mu et al.'s scenario (5 ground targets at 25 m/s, P_D 0.8, "
         "Poisson clutter over a 15 km square) with initiation.simulate, initiates tracks "
         "with initiation.initiate and draws the plots and the confirmed tracks as a PNG.",
     )
     sce.add_argument("--clutter", type=float, default=250.0, help="clutter per scan (250)")
     sce.add_argument("--scans", type=int, default=4, help="number of scans (4)")
     sce.add_argument("--seed", type=int, default=3, help="simulation seed (3)")
-    sce.add_argument("--mode", choices=("cartesian", "polar"), default="polar",
-                     help="initiation method (polar)")
+    sce.add_argument(
+        "--mode", choices=("cartesian", "polar"), default="polar", help="initiation method (polar)"
+    )
     sce.add_argument("--v-max", type=float, default=30.0, help="largest speed, m/s (30)")
-    sce.add_argument("--config", help="a JSON file of initiation settings (overrides "
-                     "--mode and --v-max)")
-    sce.add_argument("--out", type=Path, default=Path("scenario.png"),
-                     help="PNG to write (scenario.png)")
+    sce.add_argument(
+        "--config", help="a JSON file of initiation settings (overrides --mode and --v-max)"
+    )
+    sce.add_argument(
+        "--out", type=Path, default=Path("scenario.png"), help="PNG to write (scenario.png)"
+    )
     sce.add_argument("--server", help="compute on this live server URL (default in-process)")
     sce.set_defaults(func=_scenario)
     return parser
@@ -469,7 +574,7 @@ def _one_line(exc: Exception) -> str:
     """What went wrong, in one line: a missing file, an unreachable server, or a bug."""
     import httpx
 
-    from clients.errors import TransportError
+    from plotgate.clients.errors import TransportError
 
     if isinstance(exc, OSError) and exc.filename is not None:
         return f"{exc.filename}: {exc.strerror}"
@@ -477,12 +582,11 @@ def _one_line(exc: Exception) -> str:
         return str(exc)
     if isinstance(exc, httpx.TransportError):
         try:
-            url = exc.request.url
+            where = str(exc.request.url)
         except RuntimeError:
-            url = "the server"
-        return f"cannot reach {url}: {exc}"
-    return (f"internal error (a bug in plotgate, please report it): {type(exc).__name__}: "
-            f"{exc}")
+            where = "the server"
+        return f"cannot reach {where}: {exc}"
+    return f"internal error (a bug in plotgate, please report it): {type(exc).__name__}: {exc}"
 
 
 if __name__ == "__main__":

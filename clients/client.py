@@ -1,6 +1,6 @@
 """Typed HTTP clients of plotgate, sync and async, built on httpx and the shared schemas.
 
-Each operation of :data:`service.schemas.ENDPOINTS` is reachable through ``call(name,
+Each operation of :data:`plotgate.service.schemas.ENDPOINTS` is reachable through ``call(name,
 request)``; the common ones also have a typed method (``test_gate``, ``gate_probability``
 ...). The gating-probability and multistatic-solve methods (``solve_position``,
 ``solve_trajectory``, ``crlb``, ``estimate_noise``, ``accuracy_study``) and the
@@ -8,7 +8,7 @@ initiation methods (``initiate``, ``simulate_scans``, ``evaluate_initiation``) a
 identification methods (``identify_pair``, ``identify_picture``, ``simulate_identification``)
 take their request model or the same as a dict (validated here, so a bad dict raises pydantic's
 ``ValidationError`` before any call).
-Errors are the exceptions of :mod:`clients.errors`. The README shows a full example.
+Errors are the exceptions of :mod:`plotgate.clients.errors`. The README shows a full example.
 """
 
 from collections.abc import Mapping, Sequence
@@ -17,8 +17,8 @@ from typing import Any
 import httpx
 from pydantic import BaseModel
 
-from clients.errors import TransportError, raise_for_problem
-from service.schemas import (
+from plotgate.clients.errors import TransportError, raise_for_problem
+from plotgate.service.schemas import (
     ENDPOINTS,
     CrlbRequest,
     CrlbResult,
@@ -202,9 +202,7 @@ class Client:
         """Seeded scans of targets in clutter (operation ``initiation.simulate``)."""
         return self.call("initiation.simulate", _model("initiation.simulate", request))
 
-    def evaluate_initiation(
-        self, request: EvaluateRequest | Mapping[str, Any]
-    ) -> EvaluateResult:
+    def evaluate_initiation(self, request: EvaluateRequest | Mapping[str, Any]) -> EvaluateResult:
         """Monte Carlo of track initiation (operation ``initiation.evaluate``)."""
         return self.call("initiation.evaluate", _model("initiation.evaluate", request))
 
@@ -223,7 +221,7 @@ class Client:
     def simulate_identification(
         self, request: IdentifySimulateRequest | Mapping[str, Any]
     ) -> IdentifySimulateResult:
-        """Seed 004's experiment by Monte Carlo (``identification.simulate``)."""
+        """Kvasnov's experiment by Monte Carlo (``identification.simulate``)."""
         return self.call("identification.simulate", _model("identification.simulate", request))
 
     def ready(self) -> bool:
@@ -262,8 +260,9 @@ class AsyncClient:
         """Run any operation by name; returns its response model."""
         path, content, headers, timeout = _prepare(operation, request, request_id)
         try:
-            response = await self._http.post(path, content=content, headers=headers,
-                                             timeout=timeout)
+            response = await self._http.post(
+                path, content=content, headers=headers, timeout=timeout
+            )
         except httpx.TransportError as exc:
             raise TransportError(f"{operation} at {self._http.base_url}: {exc}") from exc
         return _parse(operation, response)
@@ -331,9 +330,7 @@ class AsyncClient:
         """Scans through track initiation, continuing a state (``initiation.initiate``)."""
         return await self.call("initiation.initiate", _model("initiation.initiate", request))
 
-    async def simulate_scans(
-        self, request: SimulateRequest | Mapping[str, Any]
-    ) -> SimulateResult:
+    async def simulate_scans(self, request: SimulateRequest | Mapping[str, Any]) -> SimulateResult:
         """Seeded scans of targets in clutter (operation ``initiation.simulate``)."""
         return await self.call("initiation.simulate", _model("initiation.simulate", request))
 
@@ -353,15 +350,15 @@ class AsyncClient:
         self, request: IdentifyPictureRequest | Mapping[str, Any]
     ) -> IdentifyPictureResult:
         """Z matrix and identification of many tracks (``identification.picture``)."""
-        return await self.call("identification.picture",
-                               _model("identification.picture", request))
+        return await self.call("identification.picture", _model("identification.picture", request))
 
     async def simulate_identification(
         self, request: IdentifySimulateRequest | Mapping[str, Any]
     ) -> IdentifySimulateResult:
-        """Seed 004's experiment by Monte Carlo (``identification.simulate``)."""
-        return await self.call("identification.simulate",
-                               _model("identification.simulate", request))
+        """Kvasnov's experiment by Monte Carlo (``identification.simulate``)."""
+        return await self.call(
+            "identification.simulate", _model("identification.simulate", request)
+        )
 
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""

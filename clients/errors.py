@@ -1,16 +1,16 @@
 """Client exceptions, one base to catch them all::
 
-    PlotgateClientError
-    ├── TransportError            the server could not be reached or did not answer in time
-    └── ProblemError              the server answered with an RFC 9457 problem
-        ├── InvalidInputError     400 / 422: the request named in ``problem.errors`` is wrong
-        ├── RecordingUnavailable  503: the server refused to answer unrecorded; retry later
-        └── ServerError           any other status (500 is a bug in plotgate)
+PlotgateClientError
+├── TransportError            the server could not be reached or did not answer in time
+└── ProblemError              the server answered with an RFC 9457 problem
+    ├── InvalidInputError     400 / 422: the request named in ``problem.errors`` is wrong
+    ├── RecordingUnavailable  503: the server refused to answer unrecorded; retry later
+    └── ServerError           any other status (500 is a bug in plotgate)
 """
 
 import httpx
 
-from service.schemas import Problem
+from plotgate.service.schemas import Problem
 
 __all__ = [
     "InvalidInputError",
@@ -64,8 +64,11 @@ def raise_for_problem(response: httpx.Response) -> None:
         problem = Problem.model_validate_json(response.content)
     except ValueError:
         problem = Problem(
-            type="about:blank", title=response.reason_phrase, status=response.status_code,
-            detail=response.text[:500], request_id=response.headers.get("x-request-id"),
+            type="about:blank",
+            title=response.reason_phrase,
+            status=response.status_code,
+            detail=response.text[:500],
+            request_id=response.headers.get("x-request-id"),
         )
     url = str(response.request.url)
     if response.status_code in (400, 422):

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from clients.recordings import Filters, Reader
+from plotgate.clients.recordings import Filters, Reader
 
 __all__ = ["OperationStats", "format_inspection", "inspect"]
 
@@ -31,8 +31,9 @@ class OperationStats:
     latency_ms: dict[str, float] = field(default_factory=dict)
 
 
-def inspect(paths: Path | str | Iterable[Path | str], filters: Filters | None = None
-            ) -> dict[str, Any]:
+def inspect(
+    paths: Path | str | Iterable[Path | str], filters: Filters | None = None
+) -> dict[str, Any]:
     """Per file: state, time range, metadata and damage; per operation (the exchanges the
     filters take): counts, error counts by status, latency p50/p90/p99/max."""
     reader = Reader(paths, filters)
@@ -56,9 +57,12 @@ def inspect(paths: Path | str | Iterable[Path | str], filters: Filters | None = 
     for op, values in durations.items():
         q = np.percentile(values, [50, 90, 99, 100])
         stats[op].latency_ms = dict(zip(("p50", "p90", "p99", "max"), map(float, q), strict=True))
-    return {"files": [rec.summary() for rec in reader.files],
-            "unreadable": reader.unreadable, "written_twice": reader.written_twice,
-            "operations": {op: vars(s) for op, s in sorted(stats.items())}}
+    return {
+        "files": [rec.summary() for rec in reader.files],
+        "unreadable": reader.unreadable,
+        "written_twice": reader.written_twice,
+        "operations": {op: vars(s) for op, s in sorted(stats.items())},
+    }
 
 
 def format_inspection(summary: dict[str, Any]) -> str:
@@ -71,31 +75,38 @@ def format_inspection(summary: dict[str, Any]) -> str:
         state = "complete" if f["complete"] else "no footer (its writer did not finish)"
         span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
         version = f["metadata"].get("plotgate", {}).get("plotgate_version")
-        lines.append(f"{f['path']}: {f['messages']} messages, {span}, {state}"
-                     + (f", plotgate {version}" if version else ""))
+        lines.append(
+            f"{f['path']}: {f['messages']} messages, {span}, {state}"
+            + (f", plotgate {version}" if version else "")
+        )
         if f["damage_count"]:
             lines.append(f"  {f['damage_count']} damaged records skipped:")
             lines += [f"    {d}" for d in f["damage"]]
             if f["damage_count"] > len(f["damage"]):
                 lines.append(f"    ... and {f['damage_count'] - len(f['damage'])} more")
     if summary["written_twice"]:
-        lines.append(f"{summary['written_twice']} records written twice by the recorder, "
-                     "counted once")
+        lines.append(
+            f"{summary['written_twice']} records written twice by the recorder, counted once"
+        )
     lines.append(
         f"{'operation':<24}{'requests':>9}{'answered':>9}{'errors':>8}{'replays':>8}"
         f"{'p50 ms':>9}{'p90 ms':>9}{'p99 ms':>9}{'max ms':>9}"
     )
     for op, s in summary["operations"].items():
         lat = s["latency_ms"]
-        cols = "".join(f"{lat[k]:>9.2f}" if k in lat else f"{'-':>9}"
-                       for k in ("p50", "p90", "p99", "max"))
-        lines.append(f"{op:<24}{s['requests']:>9}{s['responses']:>9}"
-                     f"{sum(s['errors'].values()):>8}{s['replays']:>8}{cols}")
+        cols = "".join(
+            f"{lat[k]:>9.2f}" if k in lat else f"{'-':>9}" for k in ("p50", "p90", "p99", "max")
+        )
+        lines.append(
+            f"{op:<24}{s['requests']:>9}{s['responses']:>9}"
+            f"{sum(s['errors'].values()):>8}{s['replays']:>8}{cols}"
+        )
         for status, count in sorted(s["errors"].items()):
             lines.append(f"{'':<24}  status {status}: {count}")
         if s["unanswered"]:
             lines.append(f"{'':<24}  never answered: {s['unanswered']}")
         if s["answers_without_request"]:
-            lines.append(f"{'':<24}  answers whose request is lost: "
-                         f"{s['answers_without_request']}")
+            lines.append(
+                f"{'':<24}  answers whose request is lost: {s['answers_without_request']}"
+            )
     return "\n".join(lines)

@@ -1,6 +1,6 @@
-"""Gating-probability figures of seed 000, drawn from the service's own answers.
+"""Konovalov's gating-probability figures, drawn from the service's own answers.
 
-``plotgate plot fig2`` redraws Fig. 2 of Konovalov (seed 000): the conditional probability
+``plotgate plot fig2`` redraws Fig. 2 of Konovalov: the conditional probability
 that the second mark falls in the ring gate, (a) against target speed at R = 20 km, (b) at
 R = 50 km, (c) against range at v = 200 m/s and (d) at v = 300 m/s, one curve per sensor
 error (sigma_R, sigma_az). ``fig5`` is the same for the combined two-stage gate with
@@ -11,7 +11,7 @@ P'_Sigma = 0.9967 at 50 km for the combined gate) marked.
 
 Every point comes from the operation ``gates.probability_curve``: the requests are plain
 JSON dicts (:func:`speed_curve`, :func:`range_curve`, :func:`figure_requests`), run either
-in-process or against a live server (:mod:`clients.runners`).
+in-process or against a live server (:mod:`plotgate.clients.runners`).
 
 Choices the paper leaves open: the first mark lies due north of the radar (azimuth 0) and
 the course is 0 (north), so the target moves along the line of sight, where the range
@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from clients.runners import Runner, http_runner, in_process_runner
+from plotgate.clients.runners import Runner, http_runner, in_process_runner
 
 __all__ = [
     "FIGURES",
@@ -57,11 +57,12 @@ RANGE_SPEEDS = (200.0, 300.0)
 CONDITIONAL_RANGE_KM = (5.0, 100.0)
 UNCONDITIONAL_RANGE_KM = (10.0, 80.0)
 DEFAULT_POINTS = {"speed": 81, "range": 96, "unconditional": 15}
-PAPER_VALUES = {  # seed 000, worked examples: (gate kind, range km, probability)
+PAPER_VALUES = {  # Konovalov's worked examples: (gate kind, range km, probability)
     "ring": ((20.0, 0.90), (50.0, 0.82)),
     "combined": ((50.0, 0.9967),),
 }
 INSTALL_HINT = 'matplotlib is needed to draw figures: pip install "plotgate[plot]"'
+
 
 class MissingMatplotlib(ImportError):
     """matplotlib is not installed; the message says how to install it."""
@@ -69,7 +70,7 @@ class MissingMatplotlib(ImportError):
 
 @dataclass(frozen=True)
 class Setup:
-    """The scenario of seed 000's figures (defaults: the paper's)."""
+    """The scenario of Konovalov's figures (defaults: the paper's)."""
 
     tau: float = 5.0
     v_min: float = 100.0
@@ -84,8 +85,7 @@ class Setup:
         if kind == "ring":
             return {"kind": "ring", "v_min": self.v_min, "v_max": self.v_max}
         if kind == "combined":
-            return {"kind": "combined", "v_min": self.v_min, "v_max": self.v_max,
-                    "P_G": self.P_G}
+            return {"kind": "combined", "v_min": self.v_min, "v_max": self.v_max, "P_G": self.P_G}
         if kind == "expanded":
             return {"kind": "expanded", "v_max": self.v_max, "p": self.p}
         raise ValueError(f"no figure gate of kind {kind!r}")
@@ -96,20 +96,40 @@ class Setup:
 
     def describe(self, conditional: bool = True) -> str:
         course = f"course {self.course_deg:g}°, " if conditional else "uniform heading, "
-        return (f"τ = {self.tau:g} s, v {self.v_min:g}–{self.v_max:g} m/s, {course}"
-                f"first mark at azimuth {self.az_deg:g}°, equal errors on both marks")
+        return (
+            f"τ = {self.tau:g} s, v {self.v_min:g}–{self.v_max:g} m/s, {course}"
+            f"first mark at azimuth {self.az_deg:g}°, equal errors on both marks"
+        )
 
 
-def speed_curve(gate: dict[str, Any], mark: dict[str, Any], tau: float,
-                speeds: Sequence[float], course_deg: float = 0.0) -> dict[str, Any]:
+def speed_curve(
+    gate: dict[str, Any],
+    mark: dict[str, Any],
+    tau: float,
+    speeds: Sequence[float],
+    course_deg: float = 0.0,
+) -> dict[str, Any]:
     """A conditional ``gates.probability_curve`` request against speed (m/s)."""
-    return {"gate": gate, "mark": mark, "tau": tau, "against": "speed",
-            "values": [float(v) for v in speeds], "course_deg": course_deg}
+    return {
+        "gate": gate,
+        "mark": mark,
+        "tau": tau,
+        "against": "speed",
+        "values": [float(v) for v in speeds],
+        "course_deg": course_deg,
+    }
 
 
-def range_curve(gate: dict[str, Any], mark: dict[str, Any], tau: float,
-                ranges: Sequence[float], *, speed: float | None = None,
-                course_deg: float = 0.0, prior: dict[str, Any] | None = None) -> dict[str, Any]:
+def range_curve(
+    gate: dict[str, Any],
+    mark: dict[str, Any],
+    tau: float,
+    ranges: Sequence[float],
+    *,
+    speed: float | None = None,
+    course_deg: float = 0.0,
+    prior: dict[str, Any] | None = None,
+) -> dict[str, Any]:
     """A ``gates.probability_curve`` request against the first mark's range (m).
 
     With ``speed`` (and ``course_deg``) the curve is conditional; with ``prior``
@@ -119,8 +139,14 @@ def range_curve(gate: dict[str, Any], mark: dict[str, Any], tau: float,
     if (speed is None) == (prior is None):
         raise ValueError("give exactly one of speed and prior")
     values = [float(r) for r in ranges]
-    body: dict[str, Any] = {"gate": gate, "mark": {**mark, "r": values[0]}, "tau": tau,
-                            "against": "range", "values": values, "course_deg": course_deg}
+    body: dict[str, Any] = {
+        "gate": gate,
+        "mark": {**mark, "r": values[0]},
+        "tau": tau,
+        "against": "range",
+        "values": values,
+        "course_deg": course_deg,
+    }
     if speed is not None:
         body["speed"] = float(speed)
     else:
@@ -151,8 +177,9 @@ def _sigma_label(sigma_r: float, sigma_az_deg: float) -> str:
     return f"σR = {sigma_r:g} m, σα = {sigma_az_deg:g}°"
 
 
-def figure_requests(figure: str, setup: Setup | None = None,
-                    points: int | None = None) -> list[Panel]:
+def figure_requests(
+    figure: str, setup: Setup | None = None, points: int | None = None
+) -> list[Panel]:
     """The panels of ``figure`` (``fig2``, ``fig5`` or ``compare``) with their requests.
 
     ``points`` overrides the number of values per curve (default 81 speeds, 96 ranges,
@@ -176,19 +203,48 @@ def _conditional_panels(kind: str, setup: Setup, points: int | None) -> list[Pan
     reference = setup.P_G if kind == "combined" else None
     panels = []
     for letter, r_km in zip("ab", SPEED_RANGES_KM, strict=True):
-        curves = [(_sigma_label(sr, sa),
-                   speed_curve(gate, setup.mark(r_km * 1e3, sr, sa), setup.tau, speeds,
-                               setup.course_deg))
-                  for sr, sa in SENSOR_ERRORS]
-        panels.append(Panel(f"({letter}) R = {r_km:g} km", "target speed v, m/s", "speed",
-                            curves, reference=reference))
+        curves = [
+            (
+                _sigma_label(sr, sa),
+                speed_curve(
+                    gate, setup.mark(r_km * 1e3, sr, sa), setup.tau, speeds, setup.course_deg
+                ),
+            )
+            for sr, sa in SENSOR_ERRORS
+        ]
+        panels.append(
+            Panel(
+                f"({letter}) R = {r_km:g} km",
+                "target speed v, m/s",
+                "speed",
+                curves,
+                reference=reference,
+            )
+        )
     for letter, v in zip("cd", RANGE_SPEEDS, strict=True):
-        curves = [(_sigma_label(sr, sa),
-                   range_curve(gate, setup.mark(ranges[0], sr, sa), setup.tau, ranges,
-                               speed=v, course_deg=setup.course_deg))
-                  for sr, sa in SENSOR_ERRORS]
-        panels.append(Panel(f"({letter}) v = {v:g} m/s", "range of the first mark R, km",
-                            "range", curves, reference=reference))
+        curves = [
+            (
+                _sigma_label(sr, sa),
+                range_curve(
+                    gate,
+                    setup.mark(ranges[0], sr, sa),
+                    setup.tau,
+                    ranges,
+                    speed=v,
+                    course_deg=setup.course_deg,
+                ),
+            )
+            for sr, sa in SENSOR_ERRORS
+        ]
+        panels.append(
+            Panel(
+                f"({letter}) v = {v:g} m/s",
+                "range of the first mark R, km",
+                "range",
+                curves,
+                reference=reference,
+            )
+        )
     return panels
 
 
@@ -196,15 +252,27 @@ def _compare_panels(setup: Setup, points: int | None) -> list[Panel]:
     lo, hi = UNCONDITIONAL_RANGE_KM
     ranges = _grid(lo * 1e3, hi * 1e3, points or DEFAULT_POINTS["unconditional"])
     prior = {"kind": "area", "v_min": setup.v_min, "v_max": setup.v_max}
-    names = {"ring": "ring", "combined": f"combined, P_G = {setup.P_G:g}",
-             "expanded": f"expanded, p = {setup.p:g}"}
-    curves = [(name, range_curve(setup.gate(kind), setup.mark(ranges[0], *PAPER_ERROR),
-                                 setup.tau, ranges, prior=prior,
-                                 course_deg=setup.course_deg))
-              for kind, name in names.items()]
+    names = {
+        "ring": "ring",
+        "combined": f"combined, P_G = {setup.P_G:g}",
+        "expanded": f"expanded, p = {setup.p:g}",
+    }
+    curves = [
+        (
+            name,
+            range_curve(
+                setup.gate(kind),
+                setup.mark(ranges[0], *PAPER_ERROR),
+                setup.tau,
+                ranges,
+                prior=prior,
+                course_deg=setup.course_deg,
+            ),
+        )
+        for kind, name in names.items()
+    ]
     marks = {names[k]: v for k, v in PAPER_VALUES.items()}
-    title = (f"unconditional (prior: position uniform over the ring), "
-             f"{_sigma_label(*PAPER_ERROR)}")
+    title = f"unconditional (prior: position uniform over the ring), {_sigma_label(*PAPER_ERROR)}"
     return [Panel(title, "range of the first mark R, km", "range", curves, marks=marks)]
 
 
@@ -220,10 +288,10 @@ def matplotlib_classes() -> tuple[Any, Any]:
 
 
 _TITLES = {
-    "fig2": "Ring gate: conditional probability of gating the second mark (seed 000 Fig. 2)",
-    "fig5": "Combined gate, P_G = {P_G:g}: conditional probability (seed 000 Fig. 5)",
+    "fig2": "Ring gate: conditional probability of gating the second mark (Konovalov, Fig. 2)",
+    "fig5": "Combined gate, P_G = {P_G:g}: conditional probability (Konovalov, Fig. 5)",
     "compare": "Ring vs combined vs expanded gate: unconditional probability "
-               "(seed 000 eq. 3-6 and its worked values)",
+    "(Konovalov, eq. 3-6 and its worked values)",
 }
 
 
@@ -233,20 +301,35 @@ def draw(figure: str, panels: list[Panel], setup: Setup, out: Path) -> Path:
     single = len(panels) == 1
     fig = Figure(figsize=(8.5, 6) if single else (12, 9), layout="constrained")
     FigureCanvasAgg(fig)
-    axes = [fig.add_subplot(1, 1, 1)] if single else [
-        fig.add_subplot(2, 2, i + 1) for i in range(len(panels))]
+    axes = (
+        [fig.add_subplot(1, 1, 1)]
+        if single
+        else [fig.add_subplot(2, 2, i + 1) for i in range(len(panels))]
+    )
     for ax, panel in zip(axes, panels, strict=True):
         for (label, _), answer in zip(panel.curves, panel.answers, strict=True):
             x = [v / 1e3 if panel.against == "range" else v for v in answer["values"]]
             style = {"marker": "o", "markersize": 3} if single else {}
             (line,) = ax.plot(x, answer["probability"], label=label, **style)
             for r_km, p in panel.marks.get(label, ()):
-                ax.plot([r_km], [p], marker="*", markersize=13, linestyle="none",
-                        color=line.get_color(), markeredgecolor="black",
-                        label=f"paper: {p:g} at {r_km:g} km")
+                ax.plot(
+                    [r_km],
+                    [p],
+                    marker="*",
+                    markersize=13,
+                    linestyle="none",
+                    color=line.get_color(),
+                    markeredgecolor="black",
+                    label=f"paper: {p:g} at {r_km:g} km",
+                )
         if panel.reference is not None:
-            ax.axhline(panel.reference, color="grey", linestyle="--", linewidth=1,
-                       label=f"P_G = {panel.reference:g}")
+            ax.axhline(
+                panel.reference,
+                color="grey",
+                linestyle="--",
+                linewidth=1,
+                label=f"P_G = {panel.reference:g}",
+            )
         ax.set_title(panel.title)
         ax.set_xlabel(panel.xlabel)
         ax.set_ylabel("probability P")
@@ -261,9 +344,15 @@ def draw(figure: str, panels: list[Panel], setup: Setup, out: Path) -> Path:
     return out
 
 
-def plot(figure: str, out: Path | str | None = None, *, server: str | None = None,
-         setup: Setup | None = None, points: int | None = None,
-         runner: Runner | None = None) -> Path:
+def plot(
+    figure: str,
+    out: Path | str | None = None,
+    *,
+    server: str | None = None,
+    setup: Setup | None = None,
+    points: int | None = None,
+    runner: Runner | None = None,
+) -> Path:
     """Compute and draw ``figure``; returns the PNG path written.
 
     Parameters
@@ -271,7 +360,7 @@ def plot(figure: str, out: Path | str | None = None, *, server: str | None = Non
     figure : ``fig2``, ``fig5`` or ``compare``.
     out : the PNG to write (default ``fig2_ring.png`` etc. in the current folder).
     server : base URL of a live plotgate; None computes in-process.
-    setup : the scenario (default seed 000's: tau 5 s, v 100-500 m/s, course 0).
+    setup : the scenario (default Konovalov's: tau 5 s, v 100-500 m/s, course 0).
     points : values per curve, to make quick (test) figures.
     runner : run the requests with this instead (overrides ``server``).
     """
@@ -283,14 +372,15 @@ def plot(figure: str, out: Path | str | None = None, *, server: str | None = Non
         return _answer_and_draw(figure, panels, setup, out, runner)
     if server is None:
         return _answer_and_draw(figure, panels, setup, out, in_process_runner(OPERATION))
-    from clients.client import Client
+    from plotgate.clients.client import Client
 
     with Client(server) as client:
         return _answer_and_draw(figure, panels, setup, out, http_runner(client, OPERATION))
 
 
-def _answer_and_draw(figure: str, panels: list[Panel], setup: Setup, out: Path,
-                     runner: Runner) -> Path:
+def _answer_and_draw(
+    figure: str, panels: list[Panel], setup: Setup, out: Path, runner: Runner
+) -> Path:
     for panel in panels:
         panel.answers = [runner(body) for _, body in panel.curves]
     return draw(figure, panels, setup, out)

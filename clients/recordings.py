@@ -1,6 +1,7 @@
 """plotgate recordings read back: every exchange of any number of MCAP files, each once.
 
-Files are read with :class:`clients.scan.Scan`, which reports damage (with its file offset)
+Files are read with :class:`plotgate.clients.scan.Scan`, which reports damage (with its file
+offset)
 and goes on after it, so a truncated or corrupt file gives every intact record it holds.
 Each message is then checked for the shape the recorder writes (:func:`parse_record`): a
 JSON object of at most :data:`MAX_DEPTH` levels, a request id the service could have
@@ -26,11 +27,21 @@ from typing import Any
 import numpy as np
 from mcap.records import Channel, Message, Metadata, Schema
 
-from clients.scan import MAX_RECORD_BYTES, Damage, Located, NotMcap, Scan
-from service.schemas import REQUEST_ID_PATTERN, Problem
+from plotgate.clients.scan import MAX_RECORD_BYTES, Damage, Located, NotMcap, Scan
+from plotgate.service.schemas import REQUEST_ID_PATTERN, Problem
 
-__all__ = ["MAX_DEPTH", "Exchange", "Filters", "Reader", "Recording", "iso_time",
-           "parse_record", "plotgate_channel", "read_recording", "recording_files"]
+__all__ = [
+    "MAX_DEPTH",
+    "Exchange",
+    "Filters",
+    "Reader",
+    "Recording",
+    "iso_time",
+    "parse_record",
+    "plotgate_channel",
+    "read_recording",
+    "recording_files",
+]
 
 MAX_DEPTH = 256
 """Deepest JSON a record may hold. The service records a body as ``body`` only when its
@@ -114,11 +125,18 @@ class Recording:
     def summary(self) -> dict[str, Any]:
         """The file as JSON: path, state, time range, damage."""
         return {
-            "path": str(self.path), "size": self.size, "complete": self.complete,
-            "error": self.error, "messages": self.messages, "chunks": self.chunks,
-            "chunks_damaged": self.chunks_damaged, "first_time": iso_time(self.first_time),
-            "last_time": iso_time(self.last_time), "damage_count": self.damage_count,
-            "damage": self.damage, "metadata": self.metadata,
+            "path": str(self.path),
+            "size": self.size,
+            "complete": self.complete,
+            "error": self.error,
+            "messages": self.messages,
+            "chunks": self.chunks,
+            "chunks_damaged": self.chunks_damaged,
+            "first_time": iso_time(self.first_time),
+            "last_time": iso_time(self.last_time),
+            "damage_count": self.damage_count,
+            "damage": self.damage,
+            "metadata": self.metadata,
         }
 
 
@@ -126,8 +144,11 @@ def iso_time(ns: int | None) -> str | None:
     """Nanoseconds since the epoch as an ISO 8601 UTC time (microseconds)."""
     if ns is None:
         return None
-    return datetime.fromtimestamp(ns / 1e9, UTC).isoformat(timespec="microseconds").replace(
-        "+00:00", "Z")
+    return (
+        datetime.fromtimestamp(ns / 1e9, UTC)
+        .isoformat(timespec="microseconds")
+        .replace("+00:00", "Z")
+    )
 
 
 @dataclass(frozen=True)
@@ -140,9 +161,11 @@ class Filters:
     until: int | None = None
 
     def admit(self, operation: str, log_time: int) -> bool:
-        return ((not self.operations or operation in self.operations)
-                and (self.since is None or log_time >= self.since)
-                and (self.until is None or log_time < self.until))
+        return (
+            (not self.operations or operation in self.operations)
+            and (self.since is None or log_time >= self.since)
+            and (self.until is None or log_time < self.until)
+        )
 
 
 def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
@@ -186,8 +209,7 @@ def _too_deep(text: bytes) -> bool:
         brackets = _BARE_STRINGS.sub(b"", text.translate(None, _NOT_STRUCTURE))
     level = 0
     for start in range(0, len(brackets), 2**20):
-        steps = _STEP[np.frombuffer(brackets, np.uint8, min(2**20, len(brackets) - start),
-                                    start)]
+        steps = _STEP[np.frombuffer(brackets, np.uint8, min(2**20, len(brackets) - start), start)]
         run = np.cumsum(steps, dtype=np.int64) + level
         if run.max() > MAX_DEPTH:
             return True
@@ -218,12 +240,14 @@ def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
     if not isinstance(rid, str) or not REQUEST_ID.match(rid):
         raise ValueError("no request_id the service could have given")
     if record.get("operation") != operation:
-        raise ValueError(f"operation {str(record.get('operation'))[:100]!r} on the channel of "
-                         f"{operation}")
+        raise ValueError(
+            f"operation {str(record.get('operation'))[:100]!r} on the channel of {operation}"
+        )
     if kind == "request":
         replay_of = record.get("replay_of")
-        if replay_of is not None and not (isinstance(replay_of, str)
-                                          and REQUEST_ID.match(replay_of)):
+        if replay_of is not None and not (
+            isinstance(replay_of, str) and REQUEST_ID.match(replay_of)
+        ):
             raise ValueError("replay_of is not a request id")
         if "raw" in record and not isinstance(record["raw"], str):
             raise ValueError("a request record whose raw body is not text")
@@ -231,7 +255,9 @@ def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
     status, duration = record.get("status"), record.get("duration_s")
     if not (type(status) is int and 100 <= status <= 599):
         raise ValueError("a response record without an HTTP status")
-    if type(duration) not in (int, float) or not 0 <= duration < float("inf"):
+    if not (isinstance(duration, int | float) and type(duration) is not bool):
+        raise ValueError("a response record without a duration")
+    if not 0 <= duration < float("inf"):
         raise ValueError("a response record without a duration")
     if status < 400 and "result" not in record:
         raise ValueError(f"a {status} response record without a result")
@@ -287,8 +313,13 @@ class Reader:
     know a replay whose original was read).
     """
 
-    def __init__(self, paths: Path | str | Iterable[Path | str], filters: Filters | None = None,
-                 *, max_record_bytes: int = MAX_RECORD_BYTES) -> None:
+    def __init__(
+        self,
+        paths: Path | str | Iterable[Path | str],
+        filters: Filters | None = None,
+        *,
+        max_record_bytes: int = MAX_RECORD_BYTES,
+    ) -> None:
         self.paths = recording_files(paths)
         self.filters = filters or Filters()
         self.max_record_bytes = max_record_bytes
@@ -333,8 +364,9 @@ class Reader:
         rec.size, rec.complete = scan.size, scan.complete
         rec.chunks, rec.chunks_damaged = scan.chunks, scan.chunks_damaged
 
-    def _message(self, rec: Recording, channels: dict[int, tuple[str, str] | str],
-                 item: Located) -> Iterator[Exchange]:
+    def _message(
+        self, rec: Recording, channels: dict[int, tuple[str, str] | str], item: Located
+    ) -> Iterator[Exchange]:
         message = item.record
         assert isinstance(message, Message)
         rec.messages += 1
@@ -359,8 +391,14 @@ class Reader:
             self.written_twice += 1
             return
         keep = kind == "response" or self.filters.admit(operation, t)
-        current = _Waiting(operation, rid, t, str(rec.path), message.data if keep else None,
-                           record if keep else None)
+        current = _Waiting(
+            operation,
+            rid,
+            t,
+            str(rec.path),
+            message.data if keep else None,
+            record if keep else None,
+        )
         if kind == "request":
             if record.get("replay_of") is None:
                 self._originals.add(key)
@@ -375,8 +413,9 @@ class Reader:
         waiting = counterparts.popleft()
         if not counterparts:
             del other[key]
-        self._seen.discard((("response" if kind == "request" else "request"), *key,
-                            waiting.log_time))
+        self._seen.discard(
+            (("response" if kind == "request" else "request"), *key, waiting.log_time)
+        )
         request, response = (current, waiting) if kind == "request" else (waiting, current)
         for done in (("request", *key, request.log_time), ("response", *key, response.log_time)):
             self._recent[done] = None
@@ -390,9 +429,16 @@ class Reader:
     def _exchange(self, request: _Waiting) -> Exchange:
         record = request.record or {}
         replay_of = record.get("replay_of")
-        return Exchange(request.operation, request.request_id, record, None, request.log_time,
-                        request.file, replay_of is not None
-                        and (request.operation, replay_of) in self._originals, request.data)
+        return Exchange(
+            request.operation,
+            request.request_id,
+            record,
+            None,
+            request.log_time,
+            request.file,
+            replay_of is not None and (request.operation, replay_of) in self._originals,
+            request.data,
+        )
 
     def _leftovers(self) -> Iterator[Exchange]:
         for queue in self._requests.values():
@@ -402,9 +448,15 @@ class Reader:
         for queue in self._responses.values():
             for response in queue:
                 if self.filters.admit(response.operation, response.log_time):
-                    yield Exchange(response.operation, response.request_id, None,
-                                   response.record, response.log_time, response.file,
-                                   response_bytes=response.data)
+                    yield Exchange(
+                        response.operation,
+                        response.request_id,
+                        None,
+                        response.record,
+                        response.log_time,
+                        response.file,
+                        response_bytes=response.data,
+                    )
         self._requests.clear()
         self._responses.clear()
         self._seen.clear()

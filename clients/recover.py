@@ -2,9 +2,10 @@
 
 A server killed mid-write leaves an MCAP file without its summary, index and footer; a disk
 or a copy can damage bytes anywhere. :func:`recover` reads the file with
-:class:`clients.scan.Scan`, which skips each damaged chunk or record and goes on at the next
+:class:`plotgate.clients.scan.Scan`, which skips each damaged chunk or record and goes on at the
+next
 intact one, writes every intact plotgate record (the messages replay reads, checked as
-:func:`clients.recordings.parse_record` does, their channels and schemas, the metadata)
+:func:`plotgate.clients.recordings.parse_record` does, their channels and schemas, the metadata)
 into a new file with its own summary and index (LZ4 chunks, like the recorder), and
 reports what it dropped with its offset. The original is renamed to ``<name>.partial``
 when anything in it was damaged or missing, so a replay of the folder reads each exchange
@@ -21,8 +22,8 @@ from pathlib import Path
 from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
-from clients.recordings import MAX_LISTED, parse_record, plotgate_channel
-from clients.scan import MAGIC, Damage, NotMcap, Scan
+from plotgate.clients.recordings import MAX_LISTED, parse_record, plotgate_channel
+from plotgate.clients.scan import MAGIC, Damage, NotMcap, Scan
 
 __all__ = ["Recovery", "Refused", "recover"]
 
@@ -51,13 +52,17 @@ class Recovery:
 
     def text(self) -> str:
         state = "complete" if self.was_complete else "no footer (its writer did not finish)"
-        lines = [f"{self.source}: {state}; {self.messages} messages from {self.chunks} intact "
-                 f"chunks copied to {self.output}"]
+        lines = [
+            f"{self.source}: {state}; {self.messages} messages from {self.chunks} intact "
+            f"chunks copied to {self.output}"
+        ]
         if self.damage_count:
-            lines.append(f"dropped: {self.chunks_damaged} damaged chunks (holding "
-                         f"{self.dropped_messages} messages by their indexes), "
-                         f"{self.skipped_bytes} bytes skipped, {self.damage_count} damaged "
-                         "records in all:")
+            lines.append(
+                f"dropped: {self.chunks_damaged} damaged chunks (holding "
+                f"{self.dropped_messages} messages by their indexes), "
+                f"{self.skipped_bytes} bytes skipped, {self.damage_count} damaged "
+                "records in all:"
+            )
             lines += [f"  {d}" for d in self.damage]
             if self.damage_count > len(self.damage):
                 lines.append(f"  ... and {self.damage_count - len(self.damage)} more")
@@ -96,8 +101,11 @@ class _Copy:
             self.channels[record.id] = plotgate_channel(record, set(self.schemas))
             if not isinstance(self.channels[record.id], str):
                 self.written_channels[record.id] = self.writer.register_channel(
-                    record.topic, record.message_encoding, self.schema(record.schema_id),
-                    dict(record.metadata))
+                    record.topic,
+                    record.message_encoding,
+                    self.schema(record.schema_id),
+                    dict(record.metadata),
+                )
         elif isinstance(record, Metadata):
             self.writer.add_metadata(record.name, dict(record.metadata))
         elif isinstance(record, Message):
@@ -113,16 +121,22 @@ class _Copy:
         channel = self.channels.get(message.channel_id)
         try:
             if channel is None:
-                raise ValueError(f"a message on channel {message.channel_id}, which no Channel "
-                                 "record declared")
+                raise ValueError(
+                    f"a message on channel {message.channel_id}, which no Channel record declared"
+                )
             if isinstance(channel, str):
                 raise ValueError(f"a message on {channel}")
             parse_record(channel[1], channel[0], message.data)
         except ValueError as exc:
             self.dropped(Damage(offset, str(exc), inner))
             return
-        self.writer.add_message(self.written_channels[message.channel_id], message.log_time,
-                                message.data, message.publish_time, message.sequence)
+        self.writer.add_message(
+            self.written_channels[message.channel_id],
+            message.log_time,
+            message.data,
+            message.publish_time,
+            message.sequence,
+        )
         self.recovery.messages += 1
 
     def start(self, profile: str, library: str) -> None:
@@ -157,8 +171,10 @@ def recover(path: Path | str, out: Path | str | None = None, keep: bool = False)
         raise FileNotFoundError(f"no such file: {path}")
     with open(path, "rb") as f:
         if f.read(len(MAGIC)) != MAGIC:
-            raise Refused(f"{path} is not an MCAP file (it does not start with the MCAP "
-                          "magic); left as it is")
+            raise Refused(
+                f"{path} is not an MCAP file (it does not start with the MCAP "
+                "magic); left as it is"
+            )
     if out.exists() and out.resolve() == path.resolve():
         raise Refused(f"the copy would overwrite {path}; name another with --out")
     recovery = Recovery(path, out)

@@ -1,13 +1,13 @@
 """Replay recorded sessions against this build (or a live server) and report what changed.
 
-Every recorded exchange is read once (:class:`clients.recordings.Reader`: requests and
+Every recorded exchange is read once (:class:`plotgate.clients.recordings.Reader`: requests and
 responses paired across all the files given, damage reported and skipped) and its request
 run again: in-process through the operation registry by default, or over HTTP against a
 live server. Answers are compared field by field, floats with ``numpy.isclose(rtol,
 atol)``; a recorded failure must fail the same way again (same status, problem type and
 offending fields).
 
-The exit code is a contract (DESIGN section 10, :meth:`ReplayReport.exit_code`):
+The exit code is a contract (docs/architecture.md, :meth:`ReplayReport.exit_code`):
 
 - 0: every exchange compared was unchanged (and at least one was compared);
 - 1: something changed, a recorded failure that now succeeds or fails differently
@@ -45,9 +45,9 @@ import httpx
 import numpy as np
 from tqdm import tqdm
 
-from clients.errors import TransportError
-from clients.recordings import MAX_LISTED, Exchange, Filters, Reader, iso_time
-from service.schemas import ENDPOINTS
+from plotgate.clients.errors import TransportError
+from plotgate.clients.recordings import MAX_LISTED, Exchange, Filters, Reader, iso_time
+from plotgate.service.schemas import ENDPOINTS
 
 __all__ = ["Answer", "Change", "ReplayReport", "diff", "in_process", "over_http", "replay"]
 
@@ -125,31 +125,42 @@ class ReplayReport:
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "exchanges": self.exchanges, "compared": self.compared,
-            "unchanged": self.unchanged, "changed": self.changed,
-            "not_compared": self.not_compared, "written_twice": self.written_twice,
-            "ok": self.ok, "unreadable": self.unreadable, "files": self.files,
-            "changes": [vars(c) for c in self.changes], "notes": self.notes,
+            "exchanges": self.exchanges,
+            "compared": self.compared,
+            "unchanged": self.unchanged,
+            "changed": self.changed,
+            "not_compared": self.not_compared,
+            "written_twice": self.written_twice,
+            "ok": self.ok,
+            "unreadable": self.unreadable,
+            "files": self.files,
+            "changes": [vars(c) for c in self.changes],
+            "notes": self.notes,
         }
 
     def text(self) -> str:
         lines = [_file_line(f) for f in self.files]
         lines += [f"unreadable: {u}" for u in self.unreadable]
         for c in self.changes:
-            lines.append(f"CHANGED {c.operation} {c.request_id} {c.field}: "
-                         f"recorded {_short(c.recorded)}, replayed {_short(c.replayed)}")
+            lines.append(
+                f"CHANGED {c.operation} {c.request_id} {c.field}: "
+                f"recorded {_short(c.recorded)}, replayed {_short(c.replayed)}"
+            )
         if self.changed > len({(c.file, c.request_id, c.time) for c in self.changes}):
             lines.append(f"... more changes than the {MAX_CHANGES} listed")
         lines += [f"note: {n}" for n in self.notes]
         skipped = sum(self.not_compared.values())
-        lines.append(f"{self.exchanges} exchanges: {self.compared} compared, {skipped} not "
-                     "compared")
+        lines.append(
+            f"{self.exchanges} exchanges: {self.compared} compared, {skipped} not compared"
+        )
         lines += [f"  not compared: {n} {why}" for why, n in sorted(self.not_compared.items())]
         if self.written_twice:
-            lines.append(f"  {self.written_twice} records written twice by the recorder, "
-                         "read once")
-        lines.append(f"{self.compared} compared: {self.unchanged} unchanged, {self.changed} "
-                     "changed")
+            lines.append(
+                f"  {self.written_twice} records written twice by the recorder, read once"
+            )
+        lines.append(
+            f"{self.compared} compared: {self.unchanged} unchanged, {self.changed} changed"
+        )
         return "\n".join(lines)
 
 
@@ -220,8 +231,9 @@ def _failure(status: int, problem: Any) -> dict[str, Any]:
     """What must stay the same when a request fails again."""
     problem = problem if isinstance(problem, dict) else {}
     errors = problem.get("errors")
-    fields = [e.get("field") for e in errors if isinstance(e, dict)] if isinstance(
-        errors, list) else []
+    fields = (
+        [e.get("field") for e in errors if isinstance(e, dict)] if isinstance(errors, list) else []
+    )
     return {"status": status, "type": problem.get("type"), "fields": sorted(map(str, fields))}
 
 
@@ -250,13 +262,15 @@ def _deadline(seconds: float | None) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
-def in_process(timeout: float | None = DEFAULT_TIMEOUT_S,
-               limits: Mapping[str, Mapping[str, int]] | None = None) -> Runner:
+def in_process(
+    timeout: float | None = DEFAULT_TIMEOUT_S,
+    limits: Mapping[str, Mapping[str, int]] | None = None,
+) -> Runner:
     """Run exchanges through this build's registry, as the server would: an exception in an
     operation becomes the server's 500 problem (its text kept as a note), an exchange over
     ``timeout`` seconds is stopped, one over ``limits`` (the server's ``PLOTGATE_LIMITS``
     caps) is not run."""
-    from service.registry import OPERATIONS, failed, internal_error, parse, run
+    from plotgate.service.registry import OPERATIONS, failed, internal_error, parse, run
 
     def answer(exchange: Exchange, rid: str) -> Answer:
         op = OPERATIONS[exchange.operation]
@@ -269,8 +283,11 @@ def in_process(timeout: float | None = DEFAULT_TIMEOUT_S,
                     outcome = failed(op, parsed.problem, rid)
                 else:
                     caps = (limits or {}).get(op.name, {})
-                    over = [f"{size} {value} > {cap}" for size, cap in caps.items()
-                            if (value := op.endpoint.work[size](parsed.request)) > cap]
+                    over = [
+                        f"{size} {value} > {cap}"
+                        for size, cap in caps.items()
+                        if (value := op.endpoint.work[size](parsed.request)) > cap
+                    ]
                     if over:
                         return Answer(None, skip=OVER_CAPS)
                     outcome = run(op, parsed.request, rid)
@@ -292,10 +309,15 @@ def over_http(http: httpx.Client) -> Runner:
     def answer(exchange: Exchange, rid: str) -> Answer:
         url = f"{http.base_url}".rstrip("/") + ENDPOINTS[exchange.operation].path
         try:
-            response = http.post(ENDPOINTS[exchange.operation].path, content=exchange.body,
-                                 headers={"content-type": "application/json",
-                                          "x-request-id": rid,
-                                          "x-plotgate-replay-of": exchange.request_id})
+            response = http.post(
+                ENDPOINTS[exchange.operation].path,
+                content=exchange.body,
+                headers={
+                    "content-type": "application/json",
+                    "x-request-id": rid,
+                    "x-plotgate-replay-of": exchange.request_id,
+                },
+            )
         except httpx.TimeoutException:
             return Answer(None, note=f"no answer within {http.timeout.read} s (--timeout)")
         except httpx.TransportError as exc:
@@ -335,7 +357,7 @@ def replay(
     limits : in-process work caps, ``{operation: {size: cap}}`` (``PLOTGATE_LIMITS``);
         exchanges over them are not run.
 
-    Raises :class:`clients.TransportError` when the server cannot be reached, and
+    Raises :class:`plotgate.clients.TransportError` when the server cannot be reached, and
     ``FileNotFoundError`` for a path that does not exist.
     """
     report = ReplayReport()
@@ -343,8 +365,9 @@ def replay(
     not_compared: Counter[str] = Counter()
     with contextlib.ExitStack() as resources:
         if server:
-            http = resources.enter_context(httpx.Client(
-                base_url=server, timeout=httpx.Timeout(timeout, connect=10.0)))
+            http = resources.enter_context(
+                httpx.Client(base_url=server, timeout=httpx.Timeout(timeout, connect=10.0))
+            )
             run = over_http(http)
         else:
             run = in_process(timeout, limits)
@@ -354,8 +377,11 @@ def replay(
             report.exchanges += 1
             reason = _not_comparable(exchange)
             if reason is None and exchange.operation not in ENDPOINTS:
-                _count(report, exchange, [(
-                    "operation", exchange.operation, "not an operation of this build")])
+                _count(
+                    report,
+                    exchange,
+                    [("operation", exchange.operation, "not an operation of this build")],
+                )
                 continue
             if reason is None:
                 rid = uuid.uuid4().hex
@@ -389,8 +415,9 @@ def _not_comparable(exchange: Exchange) -> str | None:
     return None
 
 
-def _differences(exchange: Exchange, answer: Answer, rtol: float, atol: float
-                 ) -> list[tuple[str, Any, Any]]:
+def _differences(
+    exchange: Exchange, answer: Answer, rtol: float, atol: float
+) -> list[tuple[str, Any, Any]]:
     recorded = exchange.response or {}
     status = recorded.get("status", 0)
     if answer.status is None:
@@ -408,8 +435,9 @@ def _differences(exchange: Exchange, answer: Answer, rtol: float, atol: float
     return found
 
 
-def _count(report: ReplayReport, exchange: Exchange, differences: list[tuple[str, Any, Any]]
-           ) -> None:
+def _count(
+    report: ReplayReport, exchange: Exchange, differences: list[tuple[str, Any, Any]]
+) -> None:
     report.compared += 1
     if not differences:
         report.unchanged += 1
@@ -417,9 +445,17 @@ def _count(report: ReplayReport, exchange: Exchange, differences: list[tuple[str
     report.changed += 1
     for where, a, b in differences:
         if len(report.changes) < MAX_CHANGES:
-            report.changes.append(Change(exchange.file, exchange.operation,
-                                         exchange.request_id, iso_time(exchange.log_time) or "",
-                                         where, a, b))
+            report.changes.append(
+                Change(
+                    exchange.file,
+                    exchange.operation,
+                    exchange.request_id,
+                    iso_time(exchange.log_time) or "",
+                    where,
+                    a,
+                    b,
+                )
+            )
 
 
 class _SessionWriter:
@@ -427,27 +463,30 @@ class _SessionWriter:
     its original, with its new answer) to one MCAP file."""
 
     def __init__(self, out: Path, sources: list[Path]) -> None:
-        from service.provenance import VERSION
-        from service.recorder import Recorder
-        from service.registry import OPERATIONS
+        from plotgate.service.provenance import VERSION
+        from plotgate.service.recorder import Recorder
+        from plotgate.service.registry import OPERATIONS
 
         out = Path(out)
-        metadata = {"plotgate_version": VERSION,
-                    "replayed_from": ", ".join(map(str, sources))[:10_000]}
+        metadata = {
+            "plotgate_version": VERSION,
+            "replayed_from": ", ".join(map(str, sources))[:10_000],
+        }
         self._recorder = Recorder(
             out.parent, OPERATIONS.values(), file_name=out.name, metadata=metadata
         ).start()
 
-    def __call__(self, exchange: Exchange, rid: str, answer: Answer, duration_s: float
-                 ) -> None:
-        from service.recorder import request_record, response_record
+    def __call__(self, exchange: Exchange, rid: str, answer: Answer, duration_s: float) -> None:
+        from plotgate.service.recorder import request_record, response_record
 
         op = exchange.operation
-        written = self._recorder.request(op, request_record(
-            rid, op, exchange.body, replay_of=exchange.request_id))
+        written = self._recorder.request(
+            op, request_record(rid, op, exchange.body, replay_of=exchange.request_id)
+        )
         content = json.dumps(answer.content).encode()
-        self._recorder.response(written, response_record(rid, op, answer.status or 0,
-                                                         duration_s, content))
+        self._recorder.response(
+            written, response_record(rid, op, answer.status or 0, duration_s, content)
+        )
         self._recorder.flush()
 
     def __enter__(self) -> "_SessionWriter":

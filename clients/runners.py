@@ -2,7 +2,7 @@
 
 The figure and study commands build their requests as dicts and answer them either
 through this build's operation registry (imported lazily, as replay does, so ``import
-clients`` never pulls in core) or against a live server through :class:`clients.Client`.
+clients`` never pulls in core) or against a live server through :class:`plotgate.clients.Client`.
 """
 
 import json
@@ -17,9 +17,9 @@ Runner = Callable[[dict[str, Any]], dict[str, Any]]
 
 def in_process_runner(operation: str) -> Runner:
     """Run requests through this build's operation registry, as the server would."""
-    from clients.errors import InvalidInputError, ServerError
-    from service.registry import OPERATIONS, execute
-    from service.schemas import Problem
+    from plotgate.clients.errors import InvalidInputError, ServerError
+    from plotgate.service.registry import OPERATIONS, execute
+    from plotgate.service.schemas import Problem
 
     op = OPERATIONS[operation]
 
@@ -35,8 +35,9 @@ def in_process_runner(operation: str) -> Runner:
 
 
 def http_runner(client: Any, operation: str) -> Runner:
-    """Run requests through a :class:`clients.Client` (validated against the wire model)."""
-    from service.schemas import ENDPOINTS
+    """Run requests through a :class:`plotgate.clients.Client` (validated against the wire
+    model)."""
+    from plotgate.service.schemas import ENDPOINTS
 
     model = ENDPOINTS[operation].request
 

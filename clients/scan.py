@@ -32,7 +32,7 @@ import os
 import re
 import struct
 import zlib
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
@@ -41,8 +41,7 @@ import lz4.frame
 import zstandard
 from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 
-__all__ = ["MAGIC", "MAX_CHUNK_BYTES", "MAX_RECORD_BYTES", "Damage", "Located", "NotMcap",
-           "Scan"]
+__all__ = ["MAGIC", "MAX_CHUNK_BYTES", "MAX_RECORD_BYTES", "Damage", "Located", "NotMcap", "Scan"]
 
 MAGIC = b"\x89MCAP0\r\n"
 MAX_RECORD_BYTES = 2**27
@@ -59,10 +58,23 @@ a larger one is decompressed twice, so memory never holds it whole."""
 
 HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, MESSAGE_INDEX = 1, 2, 3, 4, 5, 6, 7
 METADATA, DATA_END = 0x0C, 0x0F
-NAMES = {1: "Header", 2: "Footer", 3: "Schema", 4: "Channel", 5: "Message", 6: "Chunk",
-         7: "MessageIndex", 8: "ChunkIndex", 9: "Attachment", 0x0A: "AttachmentIndex",
-         0x0B: "Statistics", 0x0C: "Metadata", 0x0D: "MetadataIndex", 0x0E: "SummaryOffset",
-         0x0F: "DataEnd"}
+NAMES = {
+    1: "Header",
+    2: "Footer",
+    3: "Schema",
+    4: "Channel",
+    5: "Message",
+    6: "Chunk",
+    7: "MessageIndex",
+    8: "ChunkIndex",
+    9: "Attachment",
+    0x0A: "AttachmentIndex",
+    0x0B: "Statistics",
+    0x0C: "Metadata",
+    0x0D: "MetadataIndex",
+    0x0E: "SummaryOffset",
+    0x0F: "DataEnd",
+}
 HELD = {HEADER, SCHEMA, CHANNEL, MESSAGE, METADATA}
 """Records read whole; every other record is skipped by its length without being read."""
 RESYNC = {FOOTER, SCHEMA, CHANNEL, CHUNK, METADATA, DATA_END}
@@ -117,9 +129,10 @@ class _Fields:
 
     def take(self, n: int) -> bytes:
         if n > len(self.data) - self.at:
-            raise _Malformed(f"a field runs {n - (len(self.data) - self.at)} bytes past the "
-                             f"record's end")
-        piece = self.data[self.at:self.at + n]
+            raise _Malformed(
+                f"a field runs {n - (len(self.data) - self.at)} bytes past the record's end"
+            )
+        piece = self.data[self.at : self.at + n]
         self.at += n
         return piece
 
@@ -156,8 +169,13 @@ def _parse(opcode: int, data: bytes) -> McapRecord:
     f = _Fields(data)
     if opcode == MESSAGE:
         channel_id, sequence, log_time, publish_time = struct.unpack("<HIQQ", f.take(22))
-        return Message(channel_id=channel_id, sequence=sequence, log_time=log_time,
-                       publish_time=publish_time, data=data[22:])
+        return Message(
+            channel_id=channel_id,
+            sequence=sequence,
+            log_time=log_time,
+            publish_time=publish_time,
+            data=data[22:],
+        )
     record: McapRecord
     if opcode == HEADER:
         record = Header(profile=f.text(), library=f.text())
@@ -166,8 +184,13 @@ def _parse(opcode: int, data: bytes) -> McapRecord:
         if record.id == 0:
             raise _Malformed("schema id 0 is reserved")
     elif opcode == CHANNEL:
-        record = Channel(id=f.u16(), schema_id=f.u16(), topic=f.text(),
-                         message_encoding=f.text(), metadata=f.pairs())
+        record = Channel(
+            id=f.u16(),
+            schema_id=f.u16(),
+            topic=f.text(),
+            message_encoding=f.text(),
+            metadata=f.pairs(),
+        )
     else:
         record = Metadata(name=f.text(), metadata=f.pairs())
     f.end()
@@ -183,10 +206,10 @@ class _Region(io.RawIOBase):
     def readable(self) -> bool:
         return True
 
-    def readinto(self, buffer) -> int:  # noqa: ANN001 - a writable buffer
+    def readinto(self, buffer: memoryview | bytearray) -> int:  # type: ignore[override]
         n = min(len(buffer), self.left)
         data = os.pread(self.fd, n, self.pos) if n else b""
-        buffer[:len(data)] = data
+        buffer[: len(data)] = data
         self.pos += len(data)
         self.left -= len(data)
         return len(data)
@@ -197,7 +220,9 @@ def _decompressed(compression: str, source: io.RawIOBase) -> BinaryIO:
     if compression == "lz4":
         return lz4.frame.LZ4FrameFile(io.BufferedReader(source, PIECE_BYTES), mode="rb")
     if compression == "zstd":
-        return zstandard.ZstdDecompressor(max_window_size=2**27).stream_reader(source)
+        return zstandard.ZstdDecompressor(max_window_size=2**27).stream_reader(
+            io.BufferedReader(source, PIECE_BYTES)
+        )
     return io.BufferedReader(source, PIECE_BYTES)
 
 
@@ -224,8 +249,13 @@ class Scan:
     say what was kept and dropped.
     """
 
-    def __init__(self, path: Path | str, *, max_record_bytes: int = MAX_RECORD_BYTES,
-                 max_chunk_bytes: int = MAX_CHUNK_BYTES) -> None:
+    def __init__(
+        self,
+        path: Path | str,
+        *,
+        max_record_bytes: int = MAX_RECORD_BYTES,
+        max_chunk_bytes: int = MAX_CHUNK_BYTES,
+    ) -> None:
         self.path = Path(path)
         self.max_record_bytes = max_record_bytes
         self.max_chunk_bytes = max_chunk_bytes
@@ -246,13 +276,17 @@ class Scan:
             self._fd = f.fileno()
             self.size = os.fstat(self._fd).st_size
             if os.pread(self._fd, len(MAGIC), 0) != MAGIC:
-                raise NotMcap(f"{self.path} is not an MCAP file (it does not start with the "
-                              "MCAP magic)")
+                raise NotMcap(
+                    f"{self.path} is not an MCAP file (it does not start with the MCAP magic)"
+                )
             yield from self._summary_channels()
             yield from self._records(len(MAGIC))
             if not self.complete:
-                yield Damage(self.size, "the file ends without its footer (its writer did not "
-                             "finish it: killed, or still writing)")
+                yield Damage(
+                    self.size,
+                    "the file ends without its footer (its writer did not "
+                    "finish it: killed, or still writing)",
+                )
 
     def _pread(self, n: int, at: int) -> bytes:
         return os.pread(self._fd, n, at)
@@ -263,8 +297,11 @@ class Scan:
             head = self._pread(9, pos)
             if len(head) < 9:
                 self.skipped_bytes += len(head)
-                yield Damage(pos, f"{len(head)} bytes of an incomplete record at the end "
-                             "(the writer stopped mid-record)")
+                yield Damage(
+                    pos,
+                    f"{len(head)} bytes of an incomplete record at the end "
+                    "(the writer stopped mid-record)",
+                )
                 return
             opcode, length = struct.unpack("<BQ", head)
             rest = self.size - pos - 9
@@ -272,11 +309,15 @@ class Scan:
             if opcode not in NAMES:
                 problem = f"not a record: opcode {opcode:#04x}"
             elif length > rest:
-                problem = (f"{NAMES[opcode]} record declares {length} bytes, only {rest} "
-                           "remain (cut short, or its length is damaged)")
+                problem = (
+                    f"{NAMES[opcode]} record declares {length} bytes, only {rest} "
+                    "remain (cut short, or its length is damaged)"
+                )
             elif opcode in HELD and length > self.max_record_bytes:
-                problem = (f"{NAMES[opcode]} record declares {length} bytes, more than the "
-                           f"{self.max_record_bytes} this reader holds")
+                problem = (
+                    f"{NAMES[opcode]} record declares {length} bytes, more than the "
+                    f"{self.max_record_bytes} this reader holds"
+                )
             if problem is not None:
                 pos = yield from self._resync(pos, problem)
                 continue
@@ -284,8 +325,9 @@ class Scan:
             if opcode == FOOTER:
                 if self._footer(pos, length):
                     return
-                yield Damage(pos, "a footer that is not followed by the closing magic at the "
-                             "file's end")
+                yield Damage(
+                    pos, "a footer that is not followed by the closing magic at the file's end"
+                )
             elif in_summary:
                 pass  # summary records: the schemas and channels were read first
             elif opcode == CHUNK:
@@ -297,8 +339,7 @@ class Scan:
                 try:
                     yield Located(pos, None, _parse(opcode, self._pread(length, pos + 9)))
                 except _Malformed as exc:
-                    pos = yield from self._resync(pos, f"malformed {NAMES[opcode]} record: "
-                                                  f"{exc}")
+                    pos = yield from self._resync(pos, f"malformed {NAMES[opcode]} record: {exc}")
                     continue
             elif opcode == MESSAGE_INDEX and self._after_damaged_chunk and length >= 6:
                 self.dropped_messages += struct.unpack("<I", self._pread(4, pos + 11))[0] // 16
@@ -308,19 +349,25 @@ class Scan:
 
     def _footer(self, pos: int, length: int) -> bool:
         """True when the footer at ``pos`` ends the file with the closing magic."""
-        self.complete = (length == 20 and pos + FOOTER_BYTES + len(MAGIC) == self.size
-                         and self._pread(len(MAGIC), pos + FOOTER_BYTES) == MAGIC)
+        self.complete = (
+            length == 20
+            and pos + FOOTER_BYTES + len(MAGIC) == self.size
+            and self._pread(len(MAGIC), pos + FOOTER_BYTES) == MAGIC
+        )
         return self.complete
 
-    def _resync(self, pos: int, reason: str | None) -> Iterator[Damage]:
+    def _resync(self, pos: int, reason: str | None) -> Generator[Damage, None, int]:
         """Report damage at ``pos`` and return where the next intact record starts (the
         file's end when there is none)."""
         found = self._next_record(pos + 1)
         stop = self.size if found is None else found
         self.skipped_bytes += stop - pos
         if reason is not None:
-            after = ("nothing readable after it" if found is None
-                     else f"{stop - pos} bytes skipped, reading again at offset {stop}")
+            after = (
+                "nothing readable after it"
+                if found is None
+                else f"{stop - pos} bytes skipped, reading again at offset {stop}"
+            )
             yield Damage(pos, f"{reason}; {after}")
         return stop
 
@@ -378,7 +425,7 @@ class Scan:
             raise _Malformed("its lengths do not add up to the record's")
         return size, crc, compression, pos + 9 + 32 + name_length + 8, records
 
-    def _chunk(self, pos: int, length: int) -> Iterator[Located | Damage]:
+    def _chunk(self, pos: int, length: int) -> Generator[Located | Damage, None, bool]:
         """Yield a chunk's records once the whole chunk has checked out; damage otherwise.
         Returns False when the chunk's own fields do not add up (its length is not to be
         believed), True otherwise."""
@@ -392,8 +439,10 @@ class Scan:
         if compression not in COMPRESSIONS:
             problem = f"unknown compression {compression!r}"
         elif size > self.max_chunk_bytes:
-            problem = (f"declares {size} bytes uncompressed, more than the "
-                       f"{self.max_chunk_bytes} this reader decompresses")
+            problem = (
+                f"declares {size} bytes uncompressed, more than the "
+                f"{self.max_chunk_bytes} this reader decompresses"
+            )
         else:
             kept, problem = self._check_chunk(compression, data_at, records, size, crc)
         if problem is not None:
@@ -401,8 +450,11 @@ class Scan:
             self._after_damaged_chunk = True
             yield Damage(pos, f"damaged chunk ({problem}); its {length + 9} bytes skipped")
             return True
-        stream = (io.BytesIO(kept) if kept is not None
-                  else _decompressed(compression, _Region(self._fd, data_at, records)))
+        stream = (
+            io.BytesIO(kept)
+            if kept is not None
+            else _decompressed(compression, _Region(self._fd, data_at, records))
+        )
         self.chunks += 1
         try:
             yield from self._chunk_records(pos, stream, size)
@@ -410,8 +462,9 @@ class Scan:
             yield Damage(pos, f"the chunk stopped decompressing on its second reading: {exc}")
         return True
 
-    def _check_chunk(self, compression: str, at: int, length: int, size: int, crc: int
-                     ) -> tuple[bytes | None, str | None]:
+    def _check_chunk(
+        self, compression: str, at: int, length: int, size: int, crc: int
+    ) -> tuple[bytes | None, str | None]:
         """Decompress a chunk in pieces: its size and CRC. Returns the records when the
         chunk is small enough to keep, and what is wrong (None when nothing)."""
         keep = size <= INLINE_CHUNK_BYTES
@@ -422,8 +475,7 @@ class Scan:
             while piece := stream.read(PIECE_BYTES):
                 count += len(piece)
                 if count > size:
-                    return None, (f"inflates past its declared {size} bytes (a compression "
-                                  "bomb?)")
+                    return None, (f"inflates past its declared {size} bytes (a compression bomb?)")
                 computed = zlib.crc32(piece, computed)
                 if keep:
                     pieces.append(piece)
@@ -435,8 +487,7 @@ class Scan:
             return None, f"CRC mismatch: stored {crc}, computed {computed}"
         return (b"".join(pieces) if keep else None), None
 
-    def _chunk_records(self, pos: int, stream: BinaryIO, size: int
-                       ) -> Iterator[Located | Damage]:
+    def _chunk_records(self, pos: int, stream: BinaryIO, size: int) -> Iterator[Located | Damage]:
         inner = 0
         while inner < size:
             head = _read(stream, 9)
@@ -451,8 +502,10 @@ class Scan:
             elif length > rest:
                 problem = f"{NAMES[opcode]} record declares {length} bytes, {rest} remain"
             elif length > self.max_record_bytes:
-                problem = (f"{NAMES[opcode]} record declares {length} bytes, more than the "
-                           f"{self.max_record_bytes} this reader holds")
+                problem = (
+                    f"{NAMES[opcode]} record declares {length} bytes, more than the "
+                    f"{self.max_record_bytes} this reader holds"
+                )
             if problem is not None:
                 yield Damage(pos, f"{problem}; the rest of the chunk skipped", inner)
                 return
@@ -474,8 +527,11 @@ class Scan:
         if opcode != FOOTER or length != 20 or start == 0:
             return
         if not len(MAGIC) < start < at:
-            yield Damage(at, f"the footer puts the summary at offset {start}, outside the file's "
-                         "data; the summary is not used")
+            yield Damage(
+                at,
+                f"the footer puts the summary at offset {start}, outside the file's "
+                "data; the summary is not used",
+            )
             return
         if crc != 0:
             computed = 0
@@ -483,8 +539,11 @@ class Scan:
                 n = min(PIECE_BYTES, at + FOOTER_BYTES - 4 - piece_at)
                 computed = zlib.crc32(self._pread(n, piece_at), computed)
             if computed != crc:
-                yield Damage(start, f"the summary section fails its CRC (stored {crc}, "
-                             f"computed {computed}); it is not used")
+                yield Damage(
+                    start,
+                    f"the summary section fails its CRC (stored {crc}, "
+                    f"computed {computed}); it is not used",
+                )
                 return
         pos = start
         while pos < at:

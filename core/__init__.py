@@ -1,8 +1,8 @@
 """plotgate core: stateless gating mathematics for radar track initiation.
 
 Pure functions over numpy arrays (numpy and scipy only; no I/O, no state): frame
-conversions, gate thresholds and the gates of the seed papers, each vectorized
-over a leading batch axis of N plots or pairs. Bad input raises a
+conversions, gate thresholds and the gates of the papers (:mod:`plotgate.core.gates`),
+vectorized over a leading batch axis of N plots or pairs. Bad input raises a
 :class:`PlotgateError` subclass naming the argument.
 
 Symbols (SI units; angles in radians)
@@ -19,55 +19,52 @@ r, az : range (m) and azimuth, clockwise from north: x = r sin az, y = r cos az.
 K_R, K_az : window coefficients of the polar sector gates.
 """
 
-from core.capture_gates import combined_gate, expanded_gate, ring_gate
-from core.covariance import MAX_CONDITION, check_covariance
-from core.errors import (
+from plotgate.core.covariance import MAX_CONDITION, check_covariance
+from plotgate.core.errors import (
     CovarianceError,
     GeometryError,
     NonFiniteError,
     ParameterError,
     PlotgateError,
 )
-from core.frames import (
+from plotgate.core.frames import (
     cartesian_covariance_to_polar,
     cartesian_to_polar,
     polar_covariance_to_cartesian,
     polar_to_cartesian,
     wrap_angle,
 )
-from core.gate_analysis import (
-    FalseMarks,
-    GateDesign,
-    capture_probability,
-    combined_area_approximation,
-    design_gate,
-    false_marks,
-    gate_area,
-    resolution_cells,
-)
-from core.gate_probability import (
-    GateProbability,
-    conditional_probability,
-    monte_carlo_probability,
-    unconditional_probability,
-)
-from core.gate_regions import (
+from plotgate.core.gates import (
     CombinedGate,
     EllipseGate,
     ExpandedGate,
+    FalseMarks,
     FirstAssociationGate,
     Gate,
+    GateDesign,
+    GateProbability,
+    GateResult,
+    GateStage,
     MarkGeometry,
     RectangularGate,
     RingGate,
     SectorGate,
     StarRegion,
+    capture_probability,
+    combined_area_approximation,
+    conditional_probability,
+    design_gate,
+    expansion_coefficient,
+    false_marks,
+    gate_area,
+    gate_threshold,
+    innovation_covariance,
     mark_geometry,
+    monte_carlo_probability,
+    rectangular_coefficient,
+    resolution_cells,
+    unconditional_probability,
 )
-from core.gating import GateResult, GateStage
-from core.polar_gates import first_association_gate, sector_gate
-from core.thresholds import expansion_coefficient, gate_threshold, rectangular_coefficient
-from core.tracking_gates import ellipse_gate, innovation_covariance, rectangular_gate
 
 __all__ = [
     "MAX_CONDITION",
@@ -104,18 +101,11 @@ __all__ = [
     "PlotgateError",
     "cartesian_covariance_to_polar",
     "cartesian_to_polar",
-    "combined_gate",
-    "ellipse_gate",
-    "expanded_gate",
     "expansion_coefficient",
-    "first_association_gate",
     "gate_threshold",
     "innovation_covariance",
     "polar_covariance_to_cartesian",
     "polar_to_cartesian",
     "rectangular_coefficient",
-    "rectangular_gate",
-    "ring_gate",
-    "sector_gate",
     "wrap_angle",
 ]

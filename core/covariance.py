@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import MAX_CONDITION, as_covariance
+from plotgate.core.validation import MAX_CONDITION, as_covariance
 
 __all__ = ["MAX_CONDITION", "check_covariance"]
 
@@ -50,7 +50,7 @@ def check_covariance(P: ArrayLike, name: str = "P") -> np.ndarray:
     --------
     >>> check_covariance([[4.0, 1.0], [1.0, 3.0]]).tolist()
     [[4.0, 1.0], [1.0, 3.0]]
-    >>> from core.errors import CovarianceError
+    >>> from plotgate.core.errors import CovarianceError
     >>> try:
     ...     check_covariance([[[4.0, 0.0], [0.0, 1.0]], [[1.0, 2.0], [2.0, 1.0]]], "R")
     ... except CovarianceError as exc:

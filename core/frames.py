@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import (
+from plotgate.core.errors import GeometryError
+from plotgate.core.validation import (
     as_array,
     as_covariance,
     as_points,
@@ -27,9 +28,9 @@ from core._validate import (
     require_nonnegative,
     require_positive,
 )
-from core.errors import GeometryError
 
 __all__ = [
+    "wrap_finite",
     "cartesian_covariance_to_polar",
     "cartesian_to_polar",
     "polar_covariance_to_cartesian",
@@ -40,8 +41,8 @@ __all__ = [
 _TWO_PI = 2.0 * np.pi
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Wrap finite angles to (-pi, pi] (no validation)."""
+def wrap_finite(a: np.ndarray) -> np.ndarray:
+    """Wrap angles known to be finite to (-pi, pi]: :func:`wrap_angle` without its check."""
     w = np.pi - np.mod(np.pi - a, _TWO_PI)
     # np.mod may round up to exactly 2 pi for arguments just below a multiple of it
     return np.where(w <= -np.pi, w + _TWO_PI, w)[()]  # [()]: 0-d array to scalar
@@ -70,8 +71,8 @@ def wrap_angle(a: ArrayLike) -> float | np.ndarray:
 
     References
     ----------
-    .. [1] DESIGN.md section 2: azimuth differences are wrapped to (-pi, pi];
-       the sector gates of seed 002 (eq. 2, 4) compare such differences.
+    .. [1] Mu et al., eq. 2 and 4: the sector gates compare azimuth differences, which
+       plotgate always wraps to (-pi, pi] (docs/architecture.md, core).
 
     Examples
     --------
@@ -80,7 +81,7 @@ def wrap_angle(a: ArrayLike) -> float | np.ndarray:
     >>> wrap_angle(np.array([np.pi, -np.pi, 0.0])).tolist() == [np.pi, np.pi, 0.0]
     True
     """
-    w = _wrap(as_array("a", a))
+    w = wrap_finite(as_array("a", a))
     return float(w) if w.ndim == 0 else w
 
 
@@ -110,8 +111,9 @@ def polar_to_cartesian(r: ArrayLike, az: ArrayLike) -> np.ndarray:
 
     References
     ----------
-    .. [1] DESIGN.md section 2 (frame convention); seed 000 works in the radar's
-       polar measurements (range and azimuth errors Delta R, Delta alpha).
+    .. [1] The frame convention of docs/architecture.md (x east, y north, azimuth
+       clockwise from north); Konovalov works in the radar's polar measurements (range
+       and azimuth errors Delta R, Delta alpha).
 
     Examples
     --------
@@ -154,7 +156,8 @@ def cartesian_to_polar(xy: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
 
     References
     ----------
-    .. [1] DESIGN.md section 2 (frame convention).
+    .. [1] The frame convention of docs/architecture.md (x east, y north, azimuth
+       clockwise from north).
 
     Examples
     --------
@@ -164,7 +167,7 @@ def cartesian_to_polar(xy: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """
     xy = as_points("xy", xy)
     x, y = xy[..., 0], xy[..., 1]
-    return np.hypot(x, y), _wrap(np.arctan2(x, y))
+    return np.hypot(x, y), wrap_finite(np.arctan2(x, y))
 
 
 def polar_covariance_to_cartesian(
@@ -204,9 +207,9 @@ def polar_covariance_to_cartesian(
 
     References
     ----------
-    .. [1] Seed 000: the measurement errors are independent in the frame of the
-       line of sight (range and cross-range), which this maps to x, y;
-       DESIGN.md section 2 fixes J.
+    .. [1] Konovalov: the measurement errors are independent in the frame of the
+       line of sight (range and cross-range), which this maps to x, y through the
+       Jacobian J above.
 
     Examples
     --------
@@ -221,8 +224,7 @@ def polar_covariance_to_cartesian(
     require_nonnegative("r", r)
     require_positive("sigma_r", sigma_r)
     require_positive("sigma_az", sigma_az)
-    shape = broadcast_batch(r=r.shape, az=az.shape, sigma_r=sigma_r.shape,
-                            sigma_az=sigma_az.shape)
+    shape = broadcast_batch(r=r.shape, az=az.shape, sigma_r=sigma_r.shape, sigma_az=sigma_az.shape)
     s, c = np.sin(az), np.cos(az)
     var_r = sigma_r * sigma_r
     var_t = (r * sigma_az) ** 2  # cross-range variance
@@ -268,8 +270,8 @@ def cartesian_covariance_to_polar(xy: ArrayLike, P: ArrayLike) -> np.ndarray:
 
     References
     ----------
-    .. [1] DESIGN.md section 2 (J); seed 000 states measurement errors in range
-       and azimuth (Delta R, Delta alpha).
+    .. [1] The Jacobian J above; Konovalov states measurement errors in range and
+       azimuth (Delta R, Delta alpha).
 
     Examples
     --------
@@ -284,8 +286,9 @@ def cartesian_covariance_to_polar(xy: ArrayLike, P: ArrayLike) -> np.ndarray:
     r = np.hypot(x, y)
     at_origin = r == 0.0
     if at_origin.any():
-        raise GeometryError("xy", "is at the sensor (r = 0), where azimuth is undefined",
-                            first_index(at_origin))
+        raise GeometryError(
+            "xy", "is at the sensor (r = 0), where azimuth is undefined", first_index(at_origin)
+        )
     s, c = x / r, y / r
     sc, ss, cc = s * c, s * s, c * c
     P_polar = np.empty((*shape, 2, 2))

@@ -3,7 +3,7 @@
 ``create_app(settings)`` builds the app: operation routes from the registry under
 ``/v1``, ``/healthz`` and ``/readyz`` at the root, RFC 9457 problem bodies for every
 error FastAPI or Starlette raise themselves (404, 405, ...), the guards in front
-(:mod:`service.guards`, outermost first: request ids on every response, authentication
+(:mod:`plotgate.service.guards`, outermost first: request ids on every response, authentication
 when a key or token is set, so an unauthenticated caller cannot make the service read a
 body, then the body-size limit), and a
 lifespan that opens the MCAP recorder on start and closes it (summary and index written)
@@ -14,7 +14,7 @@ Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 import asyncio
 import gc
 import logging
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Mapping
 from contextlib import asynccontextmanager
 from typing import Any
 
@@ -24,15 +24,15 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.responses import Response
 from starlette.exceptions import HTTPException
 
-from service.config import Settings, get_settings
-from service.guards import Auth, BodyLimit, RequestId
-from service.logs import REDACT_QUERY
-from service.metrics import Metrics
-from service.problems import ProblemError, field_errors, problem_json
-from service.provenance import VERSION, provenance
-from service.recorder import Recorder
-from service.registry import OPERATIONS, check_limits
-from service.routes import PROBLEM_JSON, health_router, operations_router, request_id_of
+from plotgate.service.config import Settings, get_settings
+from plotgate.service.guards import Auth, BodyLimit, RequestId
+from plotgate.service.logs import REDACT_QUERY
+from plotgate.service.metrics import Metrics
+from plotgate.service.problems import ProblemError, field_errors, problem_json
+from plotgate.service.provenance import VERSION, provenance
+from plotgate.service.recorder import Recorder
+from plotgate.service.registry import OPERATIONS, check_limits
+from plotgate.service.routes import PROBLEM_JSON, health_router, operations_router, request_id_of
 
 __all__ = ["create_app"]
 
@@ -96,15 +96,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_middleware(
             Auth,
             api_key=settings.api_key.get_secret_value() if settings.api_key else None,
-            bearer_token=(settings.bearer_token.get_secret_value()
-                          if settings.bearer_token else None))
+            bearer_token=(
+                settings.bearer_token.get_secret_value() if settings.bearer_token else None
+            ),
+        )
     app.add_middleware(RequestId)
     return app
 
 
 async def _watch(recorder: Recorder, interval_s: float) -> None:
     """Probe the recorder's folder every ``interval_s``: a deleted folder is created again
-    and readiness comes back by itself, with no traffic (DESIGN section 10)."""
+    and readiness comes back by itself, with no traffic."""
     while True:
         await asyncio.sleep(interval_s)
         try:
@@ -113,10 +115,15 @@ async def _watch(recorder: Recorder, interval_s: float) -> None:
             log.exception("the recorder's probe failed")
 
 
-def _render(err: ProblemError, request: Request,
-            headers: dict[str, str] | None = None) -> Response:
-    return Response(problem_json(err, request.url.path, request_id_of(request)), err.status,
-                    headers, media_type=PROBLEM_JSON)
+def _render(
+    err: ProblemError, request: Request, headers: Mapping[str, str] | None = None
+) -> Response:
+    return Response(
+        problem_json(err, request.url.path, request_id_of(request)),
+        err.status,
+        headers,
+        media_type=PROBLEM_JSON,
+    )
 
 
 async def _http_problem(request: Request, exc: Exception) -> Response:
@@ -135,13 +142,15 @@ async def _validation_problem(request: Request, exc: Exception) -> Response:
 
 def _openapi(app: FastAPI) -> dict[str, Any]:
     """FastAPI's schema plus the request models (routes read raw bodies) with each
-    operation's example body (:data:`service.schemas.examples.EXAMPLES`), problem+json, and
+    operation's example body (:data:`plotgate.service.schemas.examples.EXAMPLES`), problem+json,
+    and
     per operation ``x-plotgate-limits``: the sizes a server may cap and this server's caps
     (null: only the schema's own bounds)."""
     if app.openapi_schema:
         return app.openapi_schema
-    schema = get_openapi(title=app.title, version=app.version, summary=app.summary,
-                         routes=app.routes)
+    schema = get_openapi(
+        title=app.title, version=app.version, summary=app.summary, routes=app.routes
+    )
     components = schema.setdefault("components", {}).setdefault("schemas", {})
     for op in OPERATIONS.values():
         model = op.request.model_json_schema(ref_template="#/components/schemas/{model}")

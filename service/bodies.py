@@ -27,9 +27,20 @@ from typing import Any
 from pydantic import BaseModel
 from pydantic_core import from_json
 
-__all__ = ["MAX_BODY_VALUES", "SLICE_BYTES", "BodyRefused", "BodyTimeout", "ClientGone",
-           "ShapeScan", "is_strict_json", "read_body", "shape_problem", "slices",
-           "value_ceiling", "value_count"]
+__all__ = [
+    "MAX_BODY_VALUES",
+    "SLICE_BYTES",
+    "BodyRefused",
+    "BodyTimeout",
+    "ClientGone",
+    "ShapeScan",
+    "is_strict_json",
+    "read_body",
+    "shape_problem",
+    "slices",
+    "value_ceiling",
+    "value_count",
+]
 
 MAX_BODY_VALUES = 3_000_000
 """Most JSON values one body may hold, whatever its operation's schema allows: 100,000
@@ -47,8 +58,9 @@ class BodyTimeout(Exception):
     """The body did not arrive within the deadline; ``received`` is what did."""
 
     def __init__(self, received: bytes, deadline_s: float) -> None:
-        super().__init__(f"the body did not arrive within {deadline_s:g} s "
-                         f"({len(received)} bytes received)")
+        super().__init__(
+            f"the body did not arrive within {deadline_s:g} s ({len(received)} bytes received)"
+        )
         self.received = received
         self.deadline_s = deadline_s
 
@@ -99,17 +111,17 @@ class ShapeScan:
                 if self.plain <= SLICE_BYTES:
                     self.plain = len(piece) - 1 - max(piece.rfind(c) for c in b",:[]{}")
             if self.values > self.ceiling:
-                self.problem = (f"holds more than {self.ceiling} JSON values; no valid "
-                                "request does")
+                self.problem = f"holds more than {self.ceiling} JSON values; no valid request does"
             elif self.plain > SLICE_BYTES:
-                self.problem = (f"has more than {SLICE_BYTES} bytes without JSON structure; "
-                                "no string, number or whitespace of a valid request is that "
-                                "long")
+                self.problem = (
+                    f"has more than {SLICE_BYTES} bytes without JSON structure; "
+                    "no string, number or whitespace of a valid request is that "
+                    "long"
+                )
         return self.problem
 
 
-async def read_body(receive: Receive, deadline_s: float, scan: ShapeScan | None = None
-                    ) -> bytes:
+async def read_body(receive: Receive, deadline_s: float, scan: ShapeScan | None = None) -> bytes:
     """The whole request body; :class:`BodyTimeout` after ``deadline_s`` seconds, and
     :class:`BodyRefused` once ``scan`` refuses what has arrived."""
     chunks: list[bytes] = []
@@ -147,7 +159,7 @@ def is_strict_json(body: bytes) -> bool:
 
 def slices(body: bytes) -> Iterator[bytes]:
     """``body`` in pieces of :data:`SLICE_BYTES` (each a copy made when it is taken)."""
-    return (body[start:start + SLICE_BYTES] for start in range(0, len(body), SLICE_BYTES))
+    return (body[start : start + SLICE_BYTES] for start in range(0, len(body), SLICE_BYTES))
 
 
 def shape_problem(body: bytes, ceiling: int) -> str | None:
@@ -169,8 +181,11 @@ def value_count(body: bytes) -> int:
     count = 1
     for start in range(0, len(body), SLICE_BYTES):
         stop = start + SLICE_BYTES
-        count += (body.count(b",", start, stop) + body.count(b"[", start, stop)
-                  + body.count(b"{", start, stop))
+        count += (
+            body.count(b",", start, stop)
+            + body.count(b"[", start, stop)
+            + body.count(b"{", start, stop)
+        )
     return count
 
 

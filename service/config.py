@@ -19,34 +19,50 @@ class Settings(BaseSettings):
     workers: int = Field(default=1, ge=1, description="uvicorn worker processes.")
     record: bool = Field(default=True, description="Record every exchange to MCAP.")
     record_best_effort: bool = Field(
-        default=False, description="Answer even when a record cannot be written (counted in "
-        "the metrics) instead of refusing with 503.")
+        default=False,
+        description="Answer even when a record cannot be written (counted in "
+        "the metrics) instead of refusing with 503.",
+    )
     log_dir: Path = Field(default=Path("recordings"), description="Folder of the MCAP files.")
     rotate_bytes: int = Field(default=256 * 2**20, gt=0, description="Rotate files at this size.")
     rotate_age_s: float = Field(default=3600.0, gt=0, description="Rotate files at this age, s.")
     git_commit: str | None = Field(default=None, description="Build's commit, if not in git.")
-    max_body_bytes: int = Field(default=64 * 2**20, gt=0,
-                                description="Largest request body, bytes (413 above).")
+    max_body_bytes: int = Field(
+        default=64 * 2**20, gt=0, description="Largest request body, bytes (413 above)."
+    )
     body_timeout_s: float = Field(
-        default=30.0, gt=0, description="Deadline for receiving a request's whole body, s "
-        "(408 after it, and the connection closed).")
+        default=30.0,
+        gt=0,
+        description="Deadline for receiving a request's whole body, s "
+        "(408 after it, and the connection closed).",
+    )
     header_timeout_s: float = Field(
-        default=10.0, gt=0, description="Deadline for a request's headers, from a "
+        default=10.0,
+        gt=0,
+        description="Deadline for a request's headers, from a "
         "connection's start or its previous response, s (the connection is closed after "
-        "it; plotgate serve only).")
+        "it; plotgate serve only).",
+    )
     probe_interval_s: float = Field(
-        default=1.0, gt=0, le=60, description="How often the recorder checks its folder "
+        default=1.0,
+        gt=0,
+        le=60,
+        description="How often the recorder checks its folder "
         "(re-created when missing; readiness comes back by itself), s; also the "
-        "Retry-After of a 503.")
+        "Retry-After of a 503.",
+    )
     limits: dict[str, dict[str, int]] = Field(
         default_factory=dict,
         description="Per-operation caps below the schema's bounds, JSON: {operation: "
-        "{size: max}}, e.g. {\"initiation.evaluate\": {\"runs\": 1000}}; the sizes each "
-        "operation offers are in the OpenAPI schema (x-plotgate-limits).")
+        '{size: max}}, e.g. {"initiation.evaluate": {"runs": 1000}}; the sizes each '
+        "operation offers are in the OpenAPI schema (x-plotgate-limits).",
+    )
     api_key: SecretStr | None = Field(
-        default=None, description="When set, requests need this X-API-Key header.")
+        default=None, description="When set, requests need this X-API-Key header."
+    )
     bearer_token: SecretStr | None = Field(
-        default=None, description="When set, requests need Authorization: Bearer <token>.")
+        default=None, description="When set, requests need Authorization: Bearer <token>."
+    )
 
 
 @lru_cache

@@ -5,7 +5,7 @@ opens connections and sends nothing, or half a request line, holds them until th
 runs out of sockets. :class:`HeaderDeadline` is uvicorn's h11 protocol with one deadline
 more: from a connection's start, and from the end of each response, the next request's
 headers must be complete within ``PLOTGATE_HEADER_TIMEOUT_S``, or the connection is closed.
-Bodies have their own deadline (``PLOTGATE_BODY_TIMEOUT_S``, :mod:`service.bodies`).
+Bodies have their own deadline (``PLOTGATE_BODY_TIMEOUT_S``, :mod:`plotgate.service.bodies`).
 ``plotgate serve`` uses it (``uvicorn.run(..., http=HeaderDeadline)``); a server started
 with the bare ``uvicorn`` command does not.
 """
@@ -15,7 +15,7 @@ import asyncio
 import h11
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
-from service.config import get_settings
+from plotgate.service.config import get_settings
 
 __all__ = ["HeaderDeadline"]
 

@@ -20,13 +20,13 @@
 import hmac
 import re
 import uuid
-from collections.abc import Awaitable, Callable, MutableMapping
+from collections.abc import Awaitable, Callable, MutableMapping, Sequence
 from typing import Any
 
 from starlette.datastructures import Headers
 
-from service.problems import ProblemError, problem_json
-from service.schemas import REQUEST_ID_PATTERN, FieldError
+from plotgate.service.problems import ProblemError, problem_json
+from plotgate.service.schemas import REQUEST_ID_PATTERN, FieldError
 
 __all__ = ["OPEN_PATHS", "Auth", "BodyLimit", "RequestId", "replay_of", "request_id"]
 
@@ -36,8 +36,9 @@ Receive = Callable[[], Awaitable[Message]]
 Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
-OPEN_PATHS = frozenset({"/healthz", "/readyz", "/docs", "/docs/oauth2-redirect", "/redoc",
-                        "/openapi.json"})
+OPEN_PATHS = frozenset(
+    {"/healthz", "/readyz", "/docs", "/docs/oauth2-redirect", "/redoc", "/openapi.json"}
+)
 """Paths that stay open when authentication is on."""
 
 
@@ -82,11 +83,15 @@ class RequestId:
         await self.app(scope, receive, tagged)
 
 
-async def _problem(send: Send, scope: Scope, err: ProblemError,
-                   extra: list[tuple[bytes, bytes]] = ()) -> None:
+async def _problem(
+    send: Send, scope: Scope, err: ProblemError, extra: Sequence[tuple[bytes, bytes]] = ()
+) -> None:
     body = problem_json(err, scope.get("path", ""), request_id(scope))
-    headers = [(b"content-type", b"application/problem+json"),
-               (b"content-length", str(len(body)).encode()), *extra]
+    headers = [
+        (b"content-type", b"application/problem+json"),
+        (b"content-length", str(len(body)).encode()),
+        *extra,
+    ]
     await send({"type": "http.response.start", "status": err.status, "headers": headers})
     await send({"type": "http.response.body", "body": body})
 
@@ -104,8 +109,9 @@ class BodyLimit:
 
     def _error(self, size: str) -> ProblemError:
         reason = f"is {size} bytes; at most {self.max_bytes} (PLOTGATE_MAX_BODY_BYTES)"
-        return ProblemError("payload-too-large", 413, f"body: {reason}",
-                            [FieldError(field="body", reason=reason)])
+        return ProblemError(
+            "payload-too-large", 413, f"body: {reason}", [FieldError(field="body", reason=reason)]
+        )
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -154,10 +160,20 @@ class Auth:
         if scope["type"] != "http" or scope.get("path") in OPEN_PATHS or self._allowed(scope):
             await self.app(scope, receive, send)
             return
-        ways = [w for w, on in (("an X-API-Key header", self.api_key),
-                                ("an Authorization: Bearer token", self.bearer)) if on]
+        ways = [
+            w
+            for w, on in (
+                ("an X-API-Key header", self.api_key),
+                ("an Authorization: Bearer token", self.bearer),
+            )
+            if on
+        ]
         reason = f"is missing or wrong: send {' or '.join(ways)}"
-        err = ProblemError("unauthorized", 401, f"credentials: {reason}",
-                           [FieldError(field="credentials", reason=reason)])
+        err = ProblemError(
+            "unauthorized",
+            401,
+            f"credentials: {reason}",
+            [FieldError(field="credentials", reason=reason)],
+        )
         challenge = b'Bearer realm="plotgate"' if self.bearer else b'ApiKey realm="plotgate"'
         await _problem(send, scope, err, [(b"www-authenticate", challenge)])

@@ -3,7 +3,7 @@
 A client that puts a secret in the URL (``?api_key=...``) must not find it in the server's
 logs: uvicorn's access log writes the request's full path, query included, so
 :data:`REDACT_QUERY`, added to the ``uvicorn.access`` logger by
-:func:`service.app.create_app`, replaces every query with ``?[redacted]``. plotgate reads
+:func:`plotgate.service.app.create_app`, replaces every query with ``?[redacted]``. plotgate reads
 nothing from query strings, so nothing of use is lost.
 """
 

@@ -17,13 +17,30 @@ from prometheus_client import CollectorRegistry, Counter, Histogram, generate_la
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
 from prometheus_client.registry import Collector
 
-from service.recorder import Recorder
+from plotgate.service.recorder import Recorder
 
 __all__ = ["CONTENT_TYPE", "Metrics"]
 
 CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
-_LATENCY_BUCKETS = (0.0005, 0.001, 0.0025, 0.005, 0.01, 0.02, 0.05, 0.1, 0.25, 0.5, 1.0,
-                    2.5, 5.0, 10.0, 30.0, 60.0, 300.0)
+_LATENCY_BUCKETS = (
+    0.0005,
+    0.001,
+    0.0025,
+    0.005,
+    0.01,
+    0.02,
+    0.05,
+    0.1,
+    0.25,
+    0.5,
+    1.0,
+    2.5,
+    5.0,
+    10.0,
+    30.0,
+    60.0,
+    300.0,
+)
 
 
 class _RecorderCollector(Collector):
@@ -36,17 +53,27 @@ class _RecorderCollector(Collector):
         recorder = self.recorder()
         if recorder is None:
             return
-        yield CounterMetricFamily("plotgate_recorder_records", "Records handed to the OS.",
-                                  value=recorder.records)
-        yield CounterMetricFamily("plotgate_recorder_bytes", "Bytes written to MCAP files.",
-                                  value=recorder.bytes_written)
-        yield CounterMetricFamily("plotgate_recorder_files_rotated",
-                                  "Files closed for size or age.", value=recorder.rotations)
-        yield GaugeMetricFamily("plotgate_recorder_queue_depth",
-                                "Records added and waiting for their flush.",
-                                value=recorder.pending)
-        yield GaugeMetricFamily("plotgate_recorder_ready", "1 while records can be written.",
-                                value=float(recorder.ready))
+        yield CounterMetricFamily(
+            "plotgate_recorder_records", "Records handed to the OS.", value=recorder.records
+        )
+        yield CounterMetricFamily(
+            "plotgate_recorder_bytes", "Bytes written to MCAP files.", value=recorder.bytes_written
+        )
+        yield CounterMetricFamily(
+            "plotgate_recorder_files_rotated",
+            "Files closed for size or age.",
+            value=recorder.rotations,
+        )
+        yield GaugeMetricFamily(
+            "plotgate_recorder_queue_depth",
+            "Records added and waiting for their flush.",
+            value=recorder.pending,
+        )
+        yield GaugeMetricFamily(
+            "plotgate_recorder_ready",
+            "1 while records can be written.",
+            value=float(recorder.ready),
+        )
 
 
 class Metrics:
@@ -55,17 +82,31 @@ class Metrics:
 
     def __init__(self, recorder: Callable[[], Recorder | None]) -> None:
         self.registry = CollectorRegistry()
-        self.requests = Counter("plotgate_requests", "Requests answered, by operation and "
-                                "status.", ["operation", "status"], registry=self.registry)
-        self.latency = Histogram("plotgate_request_duration_seconds", "Time to answer, by "
-                                 "operation, s.", ["operation"], buckets=_LATENCY_BUCKETS,
-                                 registry=self.registry)
+        self.requests = Counter(
+            "plotgate_requests",
+            "Requests answered, by operation and status.",
+            ["operation", "status"],
+            registry=self.registry,
+        )
+        self.latency = Histogram(
+            "plotgate_request_duration_seconds",
+            "Time to answer, by operation, s.",
+            ["operation"],
+            buckets=_LATENCY_BUCKETS,
+            registry=self.registry,
+        )
         self.unrecorded_total = Counter(
-            "plotgate_unrecorded", "Exchanges answered without a complete record "
-            "(best-effort recording only).", ["operation"], registry=self.registry)
-        self.flush = Histogram("plotgate_recorder_flush_seconds",
-                               "Duration of a recorder flush, s.", buckets=_LATENCY_BUCKETS,
-                               registry=self.registry)
+            "plotgate_unrecorded",
+            "Exchanges answered without a complete record (best-effort recording only).",
+            ["operation"],
+            registry=self.registry,
+        )
+        self.flush = Histogram(
+            "plotgate_recorder_flush_seconds",
+            "Duration of a recorder flush, s.",
+            buckets=_LATENCY_BUCKETS,
+            registry=self.registry,
+        )
         self.registry.register(_RecorderCollector(recorder))
 
     def observe(self, operation: str, status: int, seconds: float) -> None:

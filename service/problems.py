@@ -18,8 +18,8 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from core import PlotgateError
-from service.schemas import FieldError, Problem
+from plotgate.core import PlotgateError
+from plotgate.service.schemas import FieldError, Problem
 
 __all__ = ["ProblemError", "field_errors", "from_core", "from_validation", "problem_json"]
 
@@ -86,7 +86,9 @@ def from_validation(exc: ValidationError) -> ProblemError:
     if any(e["type"] == "json_invalid" for e in errors):
         reason = "; ".join(str(e.get("ctx", {}).get("error", e["msg"])) for e in errors)
         return ProblemError(
-            "malformed-json", 400, f"body is not valid JSON: {reason}",
+            "malformed-json",
+            400,
+            f"body is not valid JSON: {reason}",
             [FieldError(field="body", reason=reason)],
         )
     fields = field_errors(errors[:MAX_FIELD_ERRORS])
@@ -99,6 +101,8 @@ def from_validation(exc: ValidationError) -> ProblemError:
 def from_core(exc: PlotgateError, field: str) -> ProblemError:
     """Map a core error to a 422 naming ``field``, the request path of the offending value."""
     return ProblemError(
-        "invalid-input", 422, f"{field}: {exc.reason}",
+        "invalid-input",
+        422,
+        f"{field}: {exc.reason}",
         [FieldError(field=field, reason=exc.reason)],
     )

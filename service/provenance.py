@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy
 import scipy
 
-from service.config import Settings
+from plotgate.service.config import Settings
 
 __all__ = ["VERSION", "git_commit", "provenance"]
 
@@ -25,7 +25,10 @@ def git_commit() -> str | None:
         out = subprocess.run(
             ["git", "rev-parse", "HEAD"],
             cwd=Path(__file__).resolve().parent,
-            capture_output=True, text=True, timeout=5, check=True,
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
         )
     except (OSError, subprocess.SubprocessError):
         return None

@@ -1,14 +1,15 @@
 """MCAP recorder: every exchange, durably, group-committed on the event loop.
 
-Design (DESIGN section 8):
+Design:
 
 - One file per process at a time, named ``plotgate-<UTC time>-pid<pid>-<seq>.mcap`` so
   names sort by time and workers of one server never share a file. A file is closed with
   its summary and index and a new one opened when it passes ``max_bytes`` or ``max_age_s``.
 - Two channels per operation, ``<op>/request`` and ``<op>/response``, whose JSON schemas
-  are :class:`~service.schemas.RequestRecord` and :class:`~service.schemas.ResponseRecord`
+  are :class:`~plotgate.service.schemas.RequestRecord` and
+  :class:`~plotgate.service.schemas.ResponseRecord`
   with the operation's request, result and problem models embedded
-  (:func:`~service.schemas.request_schema`; ``jsonschema`` schema encoding, ``json``
+  (:func:`~plotgate.service.schemas.request_schema`; ``jsonschema`` schema encoding, ``json``
   messages), and a ``plotgate`` metadata record (versions, git commit, settings) at the
   start of every file.
 - mcap's ``Writer`` is not thread-safe and its ``flush()`` closes the current chunk, so
@@ -37,9 +38,9 @@ from typing import IO
 
 from mcap.writer import CompressionType, Writer
 
-from service.bodies import is_strict_json, slices
-from service.registry import Operation
-from service.schemas import request_schema, response_schema
+from plotgate.service.bodies import is_strict_json, slices
+from plotgate.service.registry import Operation
+from plotgate.service.schemas import request_schema, response_schema
 
 __all__ = ["Exchange", "Recorder", "RecordingError", "request_record", "response_record"]
 
@@ -54,15 +55,21 @@ class RecordingError(RuntimeError):
 
 def _head(request_id: str, operation: str, replay_of: str | None = None) -> bytes:
     head = b'{"request_id": %s, "operation": "%s"' % (
-        json.dumps(request_id).encode(), operation.encode()
+        json.dumps(request_id).encode(),
+        operation.encode(),
     )
     if replay_of is not None:
         head += b', "replay_of": %s' % json.dumps(replay_of).encode()
     return head
 
 
-def request_record(request_id: str, operation: str, body: bytes,
-                   strict_json: bool | None = None, replay_of: str | None = None) -> bytes:
+def request_record(
+    request_id: str,
+    operation: str,
+    body: bytes,
+    strict_json: bool | None = None,
+    replay_of: str | None = None,
+) -> bytes:
     """The request message: strict-JSON bodies are embedded as they came, others as text.
 
     ``strict_json`` says which the body is when the caller knows (the service parsed it);
@@ -96,7 +103,11 @@ def response_record(
     """The response message around an answer's JSON ``content`` (result or problem)."""
     key = b"result" if status < 400 else b"error"
     return b'%s, "status": %d, "duration_s": %r, "%s": %s}' % (
-        _head(request_id, operation), status, duration_s, key, content
+        _head(request_id, operation),
+        status,
+        duration_s,
+        key,
+        content,
     )
 
 
@@ -127,7 +138,7 @@ class Recorder:
     a worker thread, with the writer to itself meanwhile), or plain code (``request``,
     ``response``, ``close``).
 
-    Nothing is answered unrecorded (DESIGN section 10). Every flush checks that the file is
+    Nothing is answered unrecorded. Every flush checks that the file is
     still where it was written: a file whose folder was deleted (an operator's ``rm -rf``, a
     volume unmounted) takes every record written to it since it was opened, so the folder
     is created again, a new file opened, and the records of every exchange still in flight
@@ -292,8 +303,9 @@ class Recorder:
         finally:
             self.forget(exchange)
 
-    async def _exclusive(self, write: Callable[[Exchange], None], exchange: Exchange,
-                         size: int) -> None:
+    async def _exclusive(
+        self, write: Callable[[Exchange], None], exchange: Exchange, size: int
+    ) -> None:
         """Run ``write`` with the writer to itself: on the loop for a small record, in a
         worker thread for one over :data:`LARGE_RECORD_BYTES` (copying, checksumming and
         compressing tens of megabytes would stall every other request); the flush that

@@ -1,9 +1,10 @@
 """The operation registry: the one table that routes, recorder and replay all read.
 
-Each :class:`Operation` binds a wire contract (:class:`~service.schemas.Endpoint`: name such
+Each :class:`Operation` binds a wire contract (:class:`~plotgate.service.schemas.Endpoint`: name
+such
 as ``gates.test``, HTTP path, request and response models) to a pure handler
 ``(request) -> response`` that calls core. Adding a capability means declaring its endpoint
-in :mod:`service.schemas.endpoints` and adding one line to ``_HANDLERS``.
+in :mod:`plotgate.service.schemas.endpoints` and adding one line to ``_HANDLERS``.
 
 :func:`execute` runs an operation on a raw request body exactly as the HTTP route does,
 so an in-process replay answers byte for byte what the server would.
@@ -16,9 +17,10 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from core import PlotgateError
-from service.bodies import is_strict_json, shape_problem, value_ceiling
-from service.operations import (
+from plotgate.core import PlotgateError
+from plotgate.service.bodies import is_strict_json, shape_problem, value_ceiling
+from plotgate.service.fields import FieldMap, resolve
+from plotgate.service.operations import (
     gates,
     identification,
     initiation,
@@ -26,16 +28,25 @@ from service.operations import (
     solves,
     study,
 )
-from service.problems import ProblemError, from_core, from_validation, problem_json
-from service.schemas import ENDPOINTS, Endpoint, FieldError
+from plotgate.service.problems import ProblemError, from_core, from_validation, problem_json
+from plotgate.service.schemas import ENDPOINTS, Endpoint, FieldError
 
-__all__ = ["OPERATIONS", "Operation", "Outcome", "Parsed", "check_limits", "execute", "failed",
-           "internal_error", "misshapen", "parse", "run"]
+__all__ = [
+    "OPERATIONS",
+    "Operation",
+    "Outcome",
+    "Parsed",
+    "check_limits",
+    "execute",
+    "failed",
+    "internal_error",
+    "misshapen",
+    "parse",
+    "run",
+]
 
 Handler = Callable[[Any], BaseModel]
 """A pure function from a validated request model to a response model."""
-FieldOf = Callable[[Any, PlotgateError], str]
-"""Maps a core error raised for a request to the request field it concerns."""
 
 
 @dataclass(frozen=True)
@@ -44,7 +55,8 @@ class Operation:
 
     endpoint: Endpoint
     handler: Handler
-    field_of: FieldOf
+    fields: FieldMap
+    """Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
 
     @property
     def name(self) -> str:
@@ -63,29 +75,29 @@ class Operation:
         return self.endpoint.response
 
 
-_HANDLERS: dict[str, tuple[Handler, FieldOf]] = {
-    "gates.test": (gates.test, gates.test_field),
-    "gates.pairs": (gates.pairs, gates.pairs_field),
-    "gates.probability": (probability.probability, probability.field_of),
-    "gates.probability_curve": (probability.curve, probability.curve_field),
-    "gates.analysis": (probability.analysis, probability.field_of),
-    "gates.design": (probability.design, probability.field_of),
-    "solves.position": (solves.position, solves.position_field),
-    "solves.trajectory": (solves.trajectory, solves.trajectory_field),
-    "solves.crlb": (solves.crlb, solves.crlb_field),
-    "solves.noise": (solves.noise, solves.noise_field),
-    "solves.study": (study.study, study.study_field),
-    "initiation.initiate": (initiation.initiate, initiation.initiate_field),
-    "initiation.simulate": (initiation.simulate, initiation.scenario_field),
-    "initiation.evaluate": (initiation.evaluate, initiation.scenario_field),
-    "identification.pair": (identification.pair, identification.pair_field),
-    "identification.picture": (identification.picture, identification.picture_field),
-    "identification.simulate": (identification.simulate, identification.simulate_field),
+_HANDLERS: dict[str, tuple[Handler, FieldMap]] = {
+    "gates.test": (gates.test, gates.TEST_FIELDS),
+    "gates.pairs": (gates.pairs, gates.PAIRS_FIELDS),
+    "gates.probability": (probability.probability, probability.PROBABILITY_FIELDS),
+    "gates.probability_curve": (probability.curve, probability.CURVE_FIELDS),
+    "gates.analysis": (probability.analysis, probability.ANALYSIS_FIELDS),
+    "gates.design": (probability.design, probability.DESIGN_FIELDS),
+    "solves.position": (solves.position, solves.POSITION_FIELDS),
+    "solves.trajectory": (solves.trajectory, solves.TRAJECTORY_FIELDS),
+    "solves.crlb": (solves.crlb, solves.CRLB_FIELDS),
+    "solves.noise": (solves.noise, solves.NOISE_FIELDS),
+    "solves.study": (study.study, study.STUDY_FIELDS),
+    "initiation.initiate": (initiation.initiate, initiation.INITIATE_FIELDS),
+    "initiation.simulate": (initiation.simulate, initiation.SIMULATE_FIELDS),
+    "initiation.evaluate": (initiation.evaluate, initiation.EVALUATE_FIELDS),
+    "identification.pair": (identification.pair, identification.PAIR_FIELDS),
+    "identification.picture": (identification.picture, identification.PICTURE_FIELDS),
+    "identification.simulate": (identification.simulate, identification.SIMULATE_FIELDS),
 }
 
 OPERATIONS: dict[str, Operation] = {
-    name: Operation(ENDPOINTS[name], handler, field_of)
-    for name, (handler, field_of) in _HANDLERS.items()
+    name: Operation(ENDPOINTS[name], handler, fields)
+    for name, (handler, fields) in _HANDLERS.items()
 }
 
 
@@ -113,8 +125,7 @@ def check_limits(limits: Mapping[str, Mapping[str, int]]) -> None:
         for size, cap in caps.items():
             if size not in OPERATIONS[name].endpoint.work:
                 sizes = ", ".join(OPERATIONS[name].endpoint.work) or "none"
-                raise ValueError(f"PLOTGATE_LIMITS: {name} has no size {size!r} (it has: "
-                                 f"{sizes})")
+                raise ValueError(f"PLOTGATE_LIMITS: {name} has no size {size!r} (it has: {sizes})")
             if cap < 1:
                 raise ValueError(f"PLOTGATE_LIMITS: {name}.{size} must be >= 1, got {cap}")
 
@@ -124,8 +135,9 @@ def _over_limit(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> N
         value = op.endpoint.work[size](request)
         if value > cap:
             reason = f"is {value}; this server allows at most {cap} (PLOTGATE_LIMITS)"
-            raise ProblemError("invalid-input", 422, f"{size}: {reason}",
-                               [FieldError(field=size, reason=reason)])
+            raise ProblemError(
+                "invalid-input", 422, f"{size}: {reason}", [FieldError(field=size, reason=reason)]
+            )
 
 
 @dataclass(frozen=True)
@@ -139,7 +151,7 @@ class Parsed:
 
 
 def parse(op: Operation, body: bytes, *, sized_up: bool = False) -> Parsed:
-    """Size up ``body`` (:func:`service.bodies.shape_problem`) and validate it, once.
+    """Size up ``body`` (:func:`plotgate.service.bodies.shape_problem`) and validate it, once.
 
     A body holding more JSON values than any valid request of the operation could, or a
     megabyte without JSON structure, is refused (422 on ``body``) before anything is built
@@ -162,10 +174,11 @@ def parse(op: Operation, body: bytes, *, sized_up: bool = False) -> Parsed:
 
 
 def misshapen(reason: str) -> Parsed:
-    """A body refused by its shape (:class:`service.bodies.ShapeScan`): 422 on ``body``,
+    """A body refused by its shape (:class:`plotgate.service.bodies.ShapeScan`): 422 on ``body``,
     recorded as raw text, as nothing was parsed."""
-    problem = ProblemError("invalid-input", 422, f"body: {reason}",
-                           [FieldError(field="body", reason=reason)])
+    problem = ProblemError(
+        "invalid-input", 422, f"body: {reason}", [FieldError(field="body", reason=reason)]
+    )
     return Parsed(None, problem, json=False)
 
 
@@ -174,8 +187,12 @@ def _strict_json(body: bytes) -> bool:
     return (b"NaN" not in body and b"Infinity" not in body) or is_strict_json(body)
 
 
-def run(op: Operation, request: BaseModel, request_id: str | None = None,
-        limits: Mapping[str, int] | None = None) -> Outcome:
+def run(
+    op: Operation,
+    request: BaseModel,
+    request_id: str | None = None,
+    limits: Mapping[str, int] | None = None,
+) -> Outcome:
     """Run a validated request and serialize the answer.
 
     Bad input (a server cap passed, core's errors) becomes an :class:`Outcome` whose content
@@ -189,14 +206,18 @@ def run(op: Operation, request: BaseModel, request_id: str | None = None,
         try:
             response = op.handler(request)
         except PlotgateError as exc:
-            raise from_core(exc, op.field_of(request, exc)) from exc
+            raise from_core(exc, resolve(op.fields, request, exc)) from exc
     except ProblemError as exc:
         return failed(op, exc, request_id)
     return Outcome(status=200, content=response.model_dump_json().encode())
 
 
-def execute(op: Operation, body: bytes, request_id: str | None = None,
-            limits: Mapping[str, int] | None = None) -> Outcome:
+def execute(
+    op: Operation,
+    body: bytes,
+    request_id: str | None = None,
+    limits: Mapping[str, int] | None = None,
+) -> Outcome:
     """:func:`parse` then :func:`run`: what the HTTP route answers for ``body``, so an
     in-process replay answers byte for byte what the server would."""
     parsed = parse(op, body)

@@ -4,18 +4,18 @@ Every operation route does the same steps, in this order:
 
 1. take the request id (``X-Request-ID`` if the caller sent a sane one, else a new one);
 2. receive the body within ``PLOTGATE_BODY_TIMEOUT_S`` (408 after it, recorded);
-3. parse it once (:func:`service.registry.parse`: sized up against the operation's value
+3. parse it once (:func:`plotgate.service.registry.parse`: sized up against the operation's value
    ceiling, then validated), on the event loop for a small body, in a worker thread for a
    body over ``INLINE_BODY_BYTES`` so a large body never stalls the loop;
 4. add the request record (the body as it came: embedded when it is strict JSON, as text
    otherwise);
-5. run the operation (:func:`service.registry.run`): on the event loop for a small body (a
+5. run the operation (:func:`plotgate.service.registry.run`): on the event loop for a small body (a
    thread hand-off costs more than a gate test of a few hundred plots), in a worker thread
    for a large body or an operation whose endpoint is marked ``slow`` (quadratures that take
    tenths of a second or more);
 6. add the response record and wait for the flush that hands both records to the operating
    system;
-7. answer (:class:`service.guards.RequestId` puts ``X-Request-ID`` on every response).
+7. answer (:class:`plotgate.service.guards.RequestId` puts ``X-Request-ID`` on every response).
 
 If the records cannot be written the answer is a 503 problem with ``Retry-After``: nothing
 is acknowledged unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is answered
@@ -30,7 +30,7 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
-from service.bodies import (
+from plotgate.service.bodies import (
     BodyRefused,
     BodyTimeout,
     ClientGone,
@@ -38,11 +38,17 @@ from service.bodies import (
     read_body,
     value_ceiling,
 )
-from service.guards import replay_of, request_id
-from service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
-from service.problems import ProblemError, problem_json
-from service.recorder import Exchange, Recorder, RecordingError, request_record, response_record
-from service.registry import (
+from plotgate.service.guards import replay_of, request_id
+from plotgate.service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
+from plotgate.service.problems import ProblemError, problem_json
+from plotgate.service.recorder import (
+    Exchange,
+    Recorder,
+    RecordingError,
+    request_record,
+    response_record,
+)
+from plotgate.service.registry import (
     OPERATIONS,
     Operation,
     Outcome,
@@ -53,7 +59,7 @@ from service.registry import (
     parse,
     run,
 )
-from service.schemas import FieldError, Problem
+from plotgate.service.schemas import FieldError, Problem
 
 __all__ = ["PROBLEM_JSON", "health_router", "operations_router", "request_id_of"]
 
@@ -65,7 +71,8 @@ worker thread."""
 
 
 def request_id_of(request: Request) -> str:
-    """The request's id (:func:`service.guards.request_id`: the sane X-Request-ID or new)."""
+    """The request's id (:func:`plotgate.service.guards.request_id`: the sane X-Request-ID or
+    new)."""
     return request_id(request.scope)
 
 
@@ -74,8 +81,7 @@ def retry_after(request: Request) -> dict[str, str]:
     return {"retry-after": str(math.ceil(request.app.state.settings.probe_interval_s))}
 
 
-def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] | None
-         ) -> Outcome:
+def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] | None) -> Outcome:
     if parsed.request is None:
         assert parsed.problem is not None
         return failed(op, parsed.problem, request_id)
@@ -86,8 +92,14 @@ def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] 
         return internal_error(op, request_id)
 
 
-def _intake(op: Operation, body: bytes, parsed: Parsed | None, request_id: str,
-            recording: bool, replay: str | None) -> tuple[Parsed, bytes]:
+def _intake(
+    op: Operation,
+    body: bytes,
+    parsed: Parsed | None,
+    request_id: str,
+    recording: bool,
+    replay: str | None,
+) -> tuple[Parsed, bytes]:
     """Parse a body once, unless it was refused as it arrived (``parsed``), and, when
     recording, build its request record (``replay``: the id it replays, for a replay): the
     passes over every byte."""
@@ -99,10 +111,13 @@ def _intake(op: Operation, body: bytes, parsed: Parsed | None, request_id: str,
 
 
 def _timed_out(exc: BodyTimeout) -> Parsed:
-    reason = (f"did not arrive within {exc.deadline_s:g} s ({len(exc.received)} bytes "
-              "received; PLOTGATE_BODY_TIMEOUT_S)")
-    err = ProblemError("request-timeout", 408, f"body: {reason}",
-                       [FieldError(field="body", reason=reason)])
+    reason = (
+        f"did not arrive within {exc.deadline_s:g} s ({len(exc.received)} bytes "
+        "received; PLOTGATE_BODY_TIMEOUT_S)"
+    )
+    err = ProblemError(
+        "request-timeout", 408, f"body: {reason}", [FieldError(field="body", reason=reason)]
+    )
     return Parsed(None, err, json=False)
 
 
@@ -117,21 +132,23 @@ def _endpoint(op: Operation):
         exchange: Exchange | None = None
         close = False  # the connection, after answering: the body was not read to its end
         try:
-            body = await read_body(request.receive, settings.body_timeout_s,
-                                   ShapeScan(value_ceiling(op.request)))
-            parsed = None
+            body = await read_body(
+                request.receive, settings.body_timeout_s, ShapeScan(value_ceiling(op.request))
+            )
+            refused: Parsed | None = None
         except ClientGone:
             return Response(status_code=499)  # nobody to answer, nothing acknowledged
         except BodyTimeout as exc:
-            body, parsed, close = exc.received, _timed_out(exc), True
+            body, refused, close = exc.received, _timed_out(exc), True
         except BodyRefused as exc:
-            body, parsed, close = exc.received, misshapen(exc.reason), not exc.drained
+            body, refused, close = exc.received, misshapen(exc.reason), not exc.drained
         large = len(body) > INLINE_BODY_BYTES
         if large:
-            parsed, record = await run_in_threadpool(_intake, op, body, parsed, rid,
-                                                     recorder is not None, replay)
+            parsed, record = await run_in_threadpool(
+                _intake, op, body, refused, rid, recorder is not None, replay
+            )
         else:
-            parsed, record = _intake(op, body, parsed, rid, recorder is not None, replay)
+            parsed, record = _intake(op, body, refused, rid, recorder is not None, replay)
         del body  # the record holds it from here on
         try:
             if recorder is not None:
@@ -149,7 +166,10 @@ def _endpoint(op: Operation):
                 outcome = _run(op, parsed, rid, limits)
             if recorder is not None and exchange is not None:
                 record = response_record(
-                    rid, op.name, outcome.status, time.perf_counter() - started,
+                    rid,
+                    op.name,
+                    outcome.status,
+                    time.perf_counter() - started,
                     outcome.content,
                 )
                 try:
@@ -160,17 +180,23 @@ def _endpoint(op: Operation):
                     metrics.unrecorded(op.name)
         except RecordingError as exc:
             metrics.observe(op.name, 503, time.perf_counter() - started)
-            err = ProblemError("recording-unavailable", 503,
-                               f"the exchange was not recorded: {exc}")
-            return Response(problem_json(err, op.path, rid), 503, retry_after(request),
-                            media_type=PROBLEM_JSON)
+            err = ProblemError(
+                "recording-unavailable", 503, f"the exchange was not recorded: {exc}"
+            )
+            return Response(
+                problem_json(err, op.path, rid), 503, retry_after(request), media_type=PROBLEM_JSON
+            )
         finally:
             if recorder is not None and exchange is not None:
                 recorder.forget(exchange)
         metrics.observe(op.name, outcome.status, time.perf_counter() - started)
         headers = {"connection": "close"} if close else None
-        return Response(outcome.content, outcome.status, headers,
-                        media_type="application/json" if outcome.ok else PROBLEM_JSON)
+        return Response(
+            outcome.content,
+            outcome.status,
+            headers,
+            media_type="application/json" if outcome.ok else PROBLEM_JSON,
+        )
 
     endpoint.__name__ = op.name.replace(".", "_")
     return endpoint
@@ -185,8 +211,11 @@ def operations_router() -> APIRouter:
             (400, "The body is not JSON."),
             (408, "The body did not arrive within the server's deadline."),
             (422, "A field is invalid; `errors` names each one."),
-            (503, "The exchange could not be recorded, so it was refused; retry after "
-                  "`Retry-After` seconds."),
+            (
+                503,
+                "The exchange could not be recorded, so it was refused; retry after "
+                "`Retry-After` seconds.",
+            ),
         )
     }
     for op in OPERATIONS.values():
@@ -228,15 +257,22 @@ def health_router() -> APIRouter:
         if recorder is None or recorder.probe():
             return Response('{"status":"ready"}', 200, media_type="application/json")
         err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
-        return Response(problem_json(err, "/readyz"), 503, retry_after(request),
-                        media_type=PROBLEM_JSON)
+        return Response(
+            problem_json(err, "/readyz"), 503, retry_after(request), media_type=PROBLEM_JSON
+        )
 
-    @router.get("/metrics", summary="Prometheus metrics: requests, latencies, recorder",
-                response_class=Response,
-                responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}},
-                                 "description": "Prometheus text exposition format."}})
+    @router.get(
+        "/metrics",
+        summary="Prometheus metrics: requests, latencies, recorder",
+        response_class=Response,
+        responses={
+            200: {
+                "content": {"text/plain": {"schema": {"type": "string"}}},
+                "description": "Prometheus text exposition format.",
+            }
+        },
+    )
     async def metrics(request: Request) -> Response:
-        return Response(request.app.state.metrics.render(), 200,
-                        media_type=METRICS_CONTENT_TYPE)
+        return Response(request.app.state.metrics.render(), 200, media_type=METRICS_CONTENT_TYPE)
 
     return router

@@ -1,22 +1,15 @@
 """Shared fixtures: service settings on a temporary folder, the app, plots, the MCAP reader."""
 
-import contextlib
 import json
-import os
 import shutil
-import socket
 import subprocess
-import sys
-import time
-from collections.abc import Callable, Iterator
 from pathlib import Path
 
-import httpx
 import pytest
 from fastapi.testclient import TestClient
 
-from service.app import create_app
-from service.config import Settings
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
 
 READER = Path(__file__).resolve().parent / "interop"
 """The project's independent MCAP reader (Node, @mcap/core), pinned by its lockfile."""
@@ -41,9 +34,17 @@ class McapReader:
 
     def many(self, paths: list[Path], schemas: bool = False) -> tuple[int, list[dict]]:
         """Its exit status and one report per file."""
-        run = subprocess.run([self.node, str(READER / "read.mjs"),
-                              *(["--schemas"] if schemas else []), *map(str, paths)],
-                             capture_output=True, text=True, timeout=600)
+        run = subprocess.run(
+            [
+                self.node,
+                str(READER / "read.mjs"),
+                *(["--schemas"] if schemas else []),
+                *map(str, paths),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         assert run.returncode in (0, 1), run.stderr
         return run.returncode, [json.loads(line) for line in run.stdout.splitlines()]
 
@@ -58,19 +59,30 @@ def mcap_check() -> McapReader:
     node, npm = shutil.which("node"), shutil.which("npm")
     assert node and npm, "Node >= 18 (node and npm) is needed for tests/interop"
     if not (READER / "node_modules").exists():
-        subprocess.run([npm, "ci", "--no-audit", "--no-fund"], cwd=READER, check=True,
-                       capture_output=True, timeout=600)
+        subprocess.run(
+            [npm, "ci", "--no-audit", "--no-fund"],
+            cwd=READER,
+            check=True,
+            capture_output=True,
+            timeout=600,
+        )
     return McapReader(node)
 
 
-def cartesian(x: float, y: float, sxx: float = 100.0**2, syy: float = 100.0**2,
-              sxy: float = 0.0) -> dict:
+def cartesian(
+    x: float, y: float, sxx: float = 100.0**2, syy: float = 100.0**2, sxy: float = 0.0
+) -> dict:
     return {"frame": "cartesian", "x": x, "y": y, "covariance": [[sxx, sxy], [sxy, syy]]}
 
 
 def polar(r: float, az_deg: float, sigma_r: float = 200.0, sigma_az_deg: float = 0.5) -> dict:
-    return {"frame": "polar", "r": r, "az_deg": az_deg, "sigma_r": sigma_r,
-            "sigma_az_deg": sigma_az_deg}
+    return {
+        "frame": "polar",
+        "r": r,
+        "az_deg": az_deg,
+        "sigma_r": sigma_r,
+        "sigma_az_deg": sigma_az_deg,
+    }
 
 
 def answer(r) -> dict:
@@ -88,52 +100,3 @@ def invalid_input(r, field: str, status: int = 422) -> dict:
     assert field in [e["field"] for e in body["errors"]], body
     assert field in body["detail"]
     return body
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-@contextlib.contextmanager
-def serve(log_dir: Path, *args: str, preexec_fn: Callable[[], None] | None = None,
-          env: dict[str, str] | None = None, log: Path | None = None,
-          ) -> Iterator[tuple[subprocess.Popen, str]]:
-    """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready.
-
-    ``preexec_fn`` runs in the child before the server starts (e.g. to set rlimits); ``env``
-    adds environment variables (``PLOTGATE_*`` settings); ``log`` keeps the server's
-    output (its logs, the access log included) in that file.
-    """
-    port = free_port()
-    stderr = open(log, "wb") if log is not None else subprocess.PIPE  # noqa: SIM115
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "clients.cli", "serve", "--port", str(port),
-         "--log-dir", str(log_dir), *args],
-        cwd=Path(__file__).resolve().parents[1], env={**os.environ, **(env or {})},
-        stdout=stderr if log is not None else subprocess.DEVNULL, stderr=stderr,
-        preexec_fn=preexec_fn,
-    )
-    if log is not None:
-        stderr.close()  # the child has its own copy
-    url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 30
-    try:
-        while True:
-            assert proc.poll() is None, (proc.stderr.read().decode() if proc.stderr
-                                         else log.read_text() if log else "")
-            try:
-                if httpx.get(url + "/readyz", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert time.monotonic() < deadline, "server did not become ready in 30 s"
-            time.sleep(0.1)
-        yield proc, url
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            proc.wait(timeout=30)
-        if proc.stderr:
-            proc.stderr.close()

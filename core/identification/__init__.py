@@ -1,4 +1,4 @@
-"""Passive/active mark identification by Fisher's Z-test (seed 004; DESIGN section 7).
+"""Passive/active mark identification by Fisher's Z-test (Kvasnov).
 
 :mod:`.ztest` tests one passive against one active track (bearings, optionally
 elevations; beta, the required m, the paper's conditions), :mod:`.picture` whole
@@ -6,9 +6,9 @@ pictures (the Z matrix and a one-to-one assignment) and the sequential mode, and
 :mod:`.simulate` the paper's experiment by Monte Carlo (realized alpha and beta).
 """
 
-from core.identification.picture import Picture, Sequence, identify_picture, sequential
-from core.identification.simulate import ExperimentRates, experiment
-from core.identification.ztest import (
+from plotgate.core.identification.picture import Picture, Sequence, identify_picture, sequential
+from plotgate.core.identification.simulate import ExperimentRates, experiment
+from plotgate.core.identification.ztest import (
     ZTest,
     circular_mean,
     circular_sigma,

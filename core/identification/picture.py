@@ -1,4 +1,4 @@
-"""Whole pictures and sequential identification with the Z-test of seed 004.
+"""Whole pictures and sequential identification with the Z-test of Kvasnov.
 
 * :func:`identify_picture`: P passive and A active tracks at once. The Z matrix
   Z[i, j] = wrap(mean_act_j - mean_pas_i) sqrt(m_j) / sigma_i comes from per-track
@@ -7,41 +7,45 @@
   identified, and ``scipy.optimize.linear_sum_assignment`` on |Z| picks a one-to-one
   identification among them (each passive track to at most one active track). The rest
   are unassigned on both sides.
-* :func:`sequential`: the test repeated as active samples accumulate (seed 004's third
+* :func:`sequential`: the test repeated as active samples accumulate (Kvasnov's third
   condition: identification repeats every 2-20 s). Stateless: the samples in, the
   decision after each new active sample out, from cumulative sums.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from core._validate import as_array, as_probability
-from core.errors import ParameterError
-from core.frames import _wrap
-from core.identification.ztest import MIN_ESTIMATED_SIGMA, _sigma
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import wrap_finite
+from plotgate.core.identification.ztest import MIN_ESTIMATED_SIGMA, bearing_sigma
+from plotgate.core.validation import as_array, as_probability
 
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
 
 
-def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def _tracks(name: str, value: ArrayLike | list[ArrayLike]) -> tuple[np.ndarray, np.ndarray]:
     """Padded (T, K) angles and the (T, K) mask of valid samples (NaN pads a short track)."""
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        rows = [np.asarray(as_array(f"{name}[{i}]", r), float) for i, r in enumerate(value)]
+        tracks = cast(Iterable[ArrayLike], value)  # ragged: a list of tracks
+        rows = [np.asarray(as_array(f"{name}[{i}]", r), float) for i, r in enumerate(tracks)]
         width = max((r.size for r in rows), default=0)
         a = np.full((len(rows), width), np.nan)
         for i, r in enumerate(rows):  # one copy per ragged track
-            a[i, :r.size] = r
+            a[i, : r.size] = r
     if a.ndim != 2 or a.shape[0] == 0:
-        raise ParameterError(name, f"must be a list of tracks, each a list of angles; got "
-                             f"shape {a.shape}")
+        raise ParameterError(
+            name, f"must be a list of tracks, each a list of angles; got shape {a.shape}"
+        )
     valid = ~np.isnan(a)
     bad = ~np.isfinite(a) & valid
     if bad.any():
@@ -49,13 +53,13 @@ def _tracks(name: str, value: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     count = valid.sum(axis=1)
     if (count < 2).any():
         i = int(np.argmax(count < 2))
-        raise ParameterError(name, f"track {i} has {count[i]} samples; at least 2 are needed",
-                             i)
+        raise ParameterError(name, f"track {i} has {count[i]} samples; at least 2 are needed", i)
     return np.where(valid, a, 0.0), valid
 
 
 def _means(a: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    return np.arctan2((np.sin(a) * valid).sum(1), (np.cos(a) * valid).sum(1))
+    means: np.ndarray = np.arctan2((np.sin(a) * valid).sum(1), (np.cos(a) * valid).sum(1))
+    return means
 
 
 @dataclass(frozen=True)
@@ -89,9 +93,10 @@ class Picture:
     sigma: np.ndarray
 
 
-def identify_picture(passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | None = None,
-                     alpha: float = 0.05) -> Picture:
-    """Z matrix and one-to-one identification of many passive and active tracks (seed 004).
+def identify_picture(
+    passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | None = None, alpha: float = 0.05
+) -> Picture:
+    """Z matrix and one-to-one identification of many passive and active tracks (Kvasnov).
 
     Parameters
     ----------
@@ -127,28 +132,35 @@ def identify_picture(passive: ArrayLike, active: ArrayLike, sigma: ArrayLike | N
     aa, av = _tracks("active", active)
     mean_p, mean_a = _means(pa, pv), _means(aa, av)
     if sigma is None:
-        dev = _wrap(pa - mean_p[:, None]) * pv
+        dev = wrap_finite(pa - mean_p[:, None]) * pv
         s = np.sqrt((dev * dev).sum(1) / (pv.sum(1) - 1))
         if not (s >= MIN_ESTIMATED_SIGMA).all():
-            raise ParameterError("sigma", "cannot be estimated: a passive track's angles are "
-                                 "all equal (to rounding)",
-                                 int(np.argmax(~(s >= MIN_ESTIMATED_SIGMA))))
+            raise ParameterError(
+                "sigma",
+                "cannot be estimated: a passive track's angles are all equal (to rounding)",
+                int(np.argmax(~(s >= MIN_ESTIMATED_SIGMA))),
+            )
     else:
         s = np.broadcast_to(as_array("sigma", sigma), mean_p.shape).astype(float)
         if not (s > 0).all():
             raise ParameterError("sigma", "must be positive angles")
-    z = _wrap(mean_a[None, :] - mean_p[:, None]) * np.sqrt(av.sum(1))[None, :] / s[:, None]
+    z = wrap_finite(mean_a[None, :] - mean_p[:, None]) * np.sqrt(av.sum(1))[None, :] / s[:, None]
     crit = float(stats.norm.ppf(1.0 - alpha / 2.0))
     passes = np.abs(z) <= crit
     cost = np.where(passes, np.abs(z), 2.0 * crit * (1 + min(z.shape)) + 1.0)
     rows, cols = linear_sum_assignment(cost)
     keep = passes[rows, cols]
     pairs = np.column_stack([rows[keep], cols[keep]])
-    return Picture(z=z, p_value=2.0 * stats.norm.sf(np.abs(z)), critical=crit, passes=passes,
-                   pairs=pairs,
-                   unassigned_passive=np.setdiff1d(np.arange(z.shape[0]), pairs[:, 0]),
-                   unassigned_active=np.setdiff1d(np.arange(z.shape[1]), pairs[:, 1]),
-                   sigma=s)
+    return Picture(
+        z=z,
+        p_value=2.0 * stats.norm.sf(np.abs(z)),
+        critical=crit,
+        passes=passes,
+        pairs=pairs,
+        unassigned_passive=np.setdiff1d(np.arange(z.shape[0]), pairs[:, 0]),
+        unassigned_active=np.setdiff1d(np.arange(z.shape[1]), pairs[:, 1]),
+        sigma=s,
+    )
 
 
 @dataclass(frozen=True)
@@ -161,19 +173,20 @@ class Sequence:
         Active samples used: 2, 3, ..., m.
     z, p_value : (m - 1,) ndarray
     identified : (m - 1,) ndarray of bool
-    first_decision : int or None
-        The m at which the decision took its final value and kept it (None if m < 2).
+    first_decision : int
+        The m at which the decision took its final value and kept it.
     """
 
     m: np.ndarray
     z: np.ndarray
     p_value: np.ndarray
     identified: np.ndarray
-    first_decision: int | None
+    first_decision: int
 
 
-def sequential(passive: ArrayLike, active: ArrayLike, sigma: float | None = None,
-               alpha: float = 0.05) -> Sequence:
+def sequential(
+    passive: ArrayLike, active: ArrayLike, sigma: float | None = None, alpha: float = 0.05
+) -> Sequence:
     """The Z-test repeated as active samples arrive, one decision per prefix 2..m.
 
     Examples
@@ -189,12 +202,17 @@ def sequential(passive: ArrayLike, active: ArrayLike, sigma: float | None = None
     pa, pv = _tracks("passive", [passive])
     aa, _ = _tracks("active", [active])
     mean_p = _means(pa, pv)[0]
-    s = float(_sigma("sigma", sigma, pa[0]))
+    s = float(bearing_sigma("sigma", sigma, pa[0]))
     m = np.arange(1, aa.shape[1] + 1)
     mean_a = np.arctan2(np.cumsum(np.sin(aa[0])), np.cumsum(np.cos(aa[0])))
-    z = (_wrap(mean_a - mean_p) * np.sqrt(m) / s)[1:]
+    z = (wrap_finite(mean_a - mean_p) * np.sqrt(m) / s)[1:]
     ident = np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)
     change = np.flatnonzero(ident != ident[-1])
     first = int(m[1:][change[-1] + 1]) if change.size else int(m[1])
-    return Sequence(m=m[1:], z=z, p_value=2.0 * stats.norm.sf(np.abs(z)), identified=ident,
-                    first_decision=first)
+    return Sequence(
+        m=m[1:],
+        z=z,
+        p_value=2.0 * stats.norm.sf(np.abs(z)),
+        identified=ident,
+        first_decision=first,
+    )

@@ -1,4 +1,4 @@
-"""Seed 004's experiment by Monte Carlo: the realized type I and type II errors.
+"""Kvasnov's experiment by Monte Carlo: the realized type I and type II errors.
 
 The paper's simulation (MatLab): the passive station has accumulated n = 50 bearings,
 normal N(theta_0, sigma); the active station's m bearings are uniform over a sector
@@ -8,7 +8,7 @@ runs the test rejects is the realized type I error (the paper reports alpha of a
 0.04 at a nominal 0.05); with a separation the active object is another one, and the
 fraction identified is the realized type II error beta. ``law="normal"`` draws the
 active bearings N(theta_0 + separation, sigma) instead, the case the beta formula of
-:func:`core.identification.ztest.type_two_error` describes exactly.
+:func:`plotgate.core.identification.ztest.type_two_error` describes exactly.
 
 Every run is one Z-test, all runs at once (vectorized), seeded.
 """
@@ -20,10 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from core._validate import as_probability
-from core.errors import ParameterError
-from core.frames import _wrap
-from core.identification.ztest import circular_mean, circular_sigma
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import wrap_finite
+from plotgate.core.identification.ztest import circular_mean, circular_sigma
+from plotgate.core.validation import as_probability
 
 __all__ = ["ExperimentRates", "experiment"]
 
@@ -49,11 +49,20 @@ class ExperimentRates:
     standard_error: float
 
 
-def experiment(n: int, m: int, sigma: float, separation: float, width: float, runs: int,
-               seed: int, alpha: float = 0.05, law: str = "uniform",
-               estimate_sigma: bool = False, bearing: float = np.radians(1.5)
-               ) -> ExperimentRates:
-    """Run seed 004's identification experiment ``runs`` times (angles in radians).
+def experiment(
+    n: int,
+    m: int,
+    sigma: float,
+    separation: float,
+    width: float,
+    runs: int,
+    seed: int,
+    alpha: float = 0.05,
+    law: str = "uniform",
+    estimate_sigma: bool = False,
+    bearing: float = np.radians(1.5),
+) -> ExperimentRates:
+    """Run Kvasnov's identification experiment ``runs`` times (angles in radians).
 
     Parameters
     ----------
@@ -90,9 +99,9 @@ def experiment(n: int, m: int, sigma: float, separation: float, width: float, ru
             raise ParameterError(name, f"must be an integer >= {low}, got {value!r}")
     if law not in ("uniform", "normal"):
         raise ParameterError("law", f"must be 'uniform' or 'normal', got {law!r}")
-    for name, value in (("sigma", sigma), ("width", width)):
-        if not value > 0:
-            raise ParameterError(name, f"must be > 0, got {value!r}")
+    for name, angle in (("sigma", sigma), ("width", width)):
+        if not angle > 0:
+            raise ParameterError(name, f"must be > 0, got {angle!r}")
     alpha = float(as_probability("alpha", alpha))
     rng = np.random.default_rng(seed)
     passive = bearing + sigma * rng.standard_normal((runs, n))
@@ -103,6 +112,7 @@ def experiment(n: int, m: int, sigma: float, separation: float, width: float, ru
         active = centre + sigma * rng.standard_normal((runs, m))
 
     s = circular_sigma(passive, axis=1) if estimate_sigma else sigma
-    z = _wrap(circular_mean(active, axis=1) - circular_mean(passive, axis=1)) * np.sqrt(m) / s
+    difference = wrap_finite(circular_mean(active, axis=1) - circular_mean(passive, axis=1))
+    z = difference * np.sqrt(m) / s
     ident = float(np.mean(np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)))
     return ExperimentRates(runs, ident, 1.0 - ident, float(np.sqrt(ident * (1 - ident) / runs)))

@@ -1,6 +1,6 @@
-"""Fisher's Z-test identifying a passive (ESM) track with an active radar track (seed 004).
+"""Fisher's Z-test identifying a passive (ESM) track with an active radar track (Kvasnov).
 
-Seed 004 (A. V. Kvasnov, identifying radar target marks from active and passive stations
+Kvasnov (A. V. Kvasnov, identifying radar target marks from active and passive stations
 by Fisher's Z-test) treats the n bearings of the passive station as the population and
 the m << n bearings of the active station as a sample, and tests H0 "one object"
 against H1 "two objects" by (eq. 5)
@@ -9,7 +9,7 @@ against H1 "two objects" by (eq. 5)
 
 two-sided at level alpha: |Z| <= z_{1 - alpha/2} identifies the marks. Bearings are
 angles: the means are circular (atan2 of the mean sine and cosine) and the difference is
-wrapped to (-pi, pi], so 359 and 1 degree are 2 degrees apart (DESIGN section 7).
+wrapped to (-pi, pi], so 359 and 1 degree are 2 degrees apart.
 
 Beyond the paper:
 
@@ -35,13 +35,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import stats
 
-from core._validate import as_array, as_probability
-from core.errors import ParameterError
-from core.frames import _wrap
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import wrap_finite
+from plotgate.core.validation import as_array, as_probability
 
 __all__ = [
     "MIN_ESTIMATED_SIGMA",
     "ZTest",
+    "bearing_sigma",
     "circular_mean",
     "circular_sigma",
     "required_samples",
@@ -64,7 +65,8 @@ def circular_mean(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     0.0
     """
     theta = np.asarray(theta, dtype=float)
-    return np.arctan2(np.sin(theta).mean(axis=axis), np.cos(theta).mean(axis=axis))
+    mean: np.ndarray = np.arctan2(np.sin(theta).mean(axis=axis), np.cos(theta).mean(axis=axis))
+    return mean
 
 
 def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
@@ -76,19 +78,21 @@ def circular_sigma(theta: ArrayLike, axis: int = -1) -> np.ndarray:
     1.414213562
     """
     theta = np.asarray(theta, dtype=float)
-    dev = _wrap(theta - np.expand_dims(circular_mean(theta, axis), axis))
-    return np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
+    dev = wrap_finite(theta - np.expand_dims(circular_mean(theta, axis), axis))
+    sigma: np.ndarray = np.sqrt((dev * dev).sum(axis=axis) / (theta.shape[axis] - 1))
+    return sigma
 
 
-def type_two_error(delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: float,
-                   n: ArrayLike | None = None) -> np.ndarray:
+def type_two_error(
+    delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: float, n: ArrayLike | None = None
+) -> np.ndarray:
     """Probability of identifying two objects delta apart (rad): beta of the two-sided test.
 
     .. math:: \\beta = \\Phi\\left(\\frac{z - \\delta\\sqrt{m}/\\sigma}{c}\\right)
               - \\Phi\\left(\\frac{-z - \\delta\\sqrt{m}/\\sigma}{c}\\right),
               \\quad z = z_{1-\\alpha/2}, \\quad c = \\sqrt{1 + m/n}
 
-    With n None, c = 1: the passive mean is the population's (seed 004's assumption).
+    With n None, c = 1: the passive mean is the population's (Kvasnov's assumption).
     With n passive samples their mean has its own error, and Z ~ N(delta sqrt(m)/sigma,
     1 + m/n) (the active and passive bearings normal with the same sigma).
 
@@ -106,11 +110,18 @@ def type_two_error(delta: ArrayLike, sigma: ArrayLike, m: ArrayLike, alpha: floa
     m = np.asarray(m, dtype=float)
     c = 1.0 if n is None else np.sqrt(1.0 + m / np.asarray(n, dtype=float))
     shift = np.abs(np.asarray(delta, dtype=float)) * np.sqrt(m) / np.asarray(sigma, float)
-    return stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
+    beta: np.ndarray = stats.norm.cdf((z - shift) / c) - stats.norm.cdf((-z - shift) / c)
+    return beta
 
 
-def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
-                     n: int | None = None, m_max: int = 10**7) -> int:
+def required_samples(
+    delta: float,
+    sigma: float,
+    alpha: float,
+    beta_max: float,
+    n: int | None = None,
+    m_max: int = 10**7,
+) -> int:
     """Smallest m with type_two_error(delta, sigma, m, alpha, n) <= beta_max.
 
     Starts from the known-mean approximation m = ((z_{1-a/2} + z_{1-b}) sigma / delta)^2
@@ -131,12 +142,15 @@ def required_samples(delta: float, sigma: float, alpha: float, beta_max: float,
     alpha = float(as_probability("alpha", alpha))
     beta_max = float(as_probability("beta_max", beta_max))
     if not delta != 0:
-        raise ParameterError("delta", "must be non-zero: identical bearings cannot be "
-                             "told apart by any number of samples")
+        raise ParameterError(
+            "delta",
+            "must be non-zero: identical bearings cannot be told apart by any number of samples",
+        )
     k = (stats.norm.ppf(1 - alpha / 2) + stats.norm.ppf(1 - beta_max)) * sigma / abs(delta)
     if not abs(k) <= np.sqrt(m_max):  # the approximation alone needs too many (k may be inf)
-        raise ParameterError("beta_max", f"needs more than {m_max} active samples for this "
-                             f"delta, sigma and alpha")
+        raise ParameterError(
+            "beta_max", f"needs more than {m_max} active samples for this delta, sigma and alpha"
+        )
     m = max(1, int(np.floor(k * k)) - 2)
     step = 64
     while m <= m_max:  # bracket by doubling, then the exact smallest m in the bracket
@@ -205,12 +219,38 @@ def _samples(name: str, value: ArrayLike) -> np.ndarray:
     return a
 
 
-def _sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarray:
+def bearing_sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np.ndarray:
+    """The passive track's bearing sigma (rad): ``value`` checked, or estimated when None.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for the error.
+    value : float or None
+        A given sigma, rad, > 0; None estimates it from ``passive``
+        (:func:`circular_sigma`).
+    passive : (n,) ndarray
+        The passive track's bearings, rad.
+
+    Raises
+    ------
+    ParameterError
+        ``name`` for a sigma that is not a positive scalar, or that cannot be estimated
+        (all bearings equal to rounding, below :data:`MIN_ESTIMATED_SIGMA`).
+
+    Examples
+    --------
+    >>> float(bearing_sigma("sigma", 0.01, np.zeros(3)))
+    0.01
+    """
     if value is None:
         s = circular_sigma(passive)
         if not s >= MIN_ESTIMATED_SIGMA:
-            raise ParameterError(name, "cannot be estimated: the passive angles are all equal "
-                                 f"(to rounding: {float(s):.3g} rad)")
+            raise ParameterError(
+                name,
+                "cannot be estimated: the passive angles are all equal "
+                f"(to rounding: {float(s):.3g} rad)",
+            )
         return s
     s = as_array(name, value)
     if s.ndim or not s > 0:
@@ -232,7 +272,7 @@ def z_test(
     ratio: float = 10.0,
     normality_alpha: float = 0.05,
 ) -> ZTest:
-    """Fisher's Z-test of seed 004 (eq. 5): are a passive and an active track one object?
+    """Fisher's Z-test of Kvasnov (eq. 5): are a passive and an active track one object?
 
     Parameters
     ----------
@@ -271,7 +311,7 @@ def z_test(
 
     References
     ----------
-    .. [1] A. V. Kvasnov, seed 004, eq. (5) and the conditions of the Z-test (n >> m,
+    .. [1] A. V. Kvasnov, eq. (5) and the conditions of the Z-test (n >> m,
        a normal population, repeated identification every 2-20 s).
 
     Examples
@@ -289,31 +329,45 @@ def z_test(
     normality_alpha = float(as_probability("normality_alpha", normality_alpha))
     if not ratio > 1:
         raise ParameterError("ratio", f"must be > 1, got {ratio!r}")
-    coords = [("passive", "active", "sigma", passive, active, sigma)]
+    coords: list[tuple[str, str, str, ArrayLike, ArrayLike, float | None]] = [
+        ("passive", "active", "sigma", passive, active, sigma)
+    ]
     if (passive_elevation is None) != (active_elevation is None):
-        raise ParameterError("active_elevation" if active_elevation is None
-                             else "passive_elevation", "give elevations on both sides or none")
-    if passive_elevation is not None:
-        coords.append(("passive_elevation", "active_elevation", "sigma_elevation",
-                       passive_elevation, active_elevation, sigma_elevation))
+        raise ParameterError(
+            "active_elevation" if active_elevation is None else "passive_elevation",
+            "give elevations on both sides or none",
+        )
+    if passive_elevation is not None and active_elevation is not None:
+        coords.append(
+            (
+                "passive_elevation",
+                "active_elevation",
+                "sigma_elevation",
+                passive_elevation,
+                active_elevation,
+                sigma_elevation,
+            )
+        )
     k = len(coords)
     z_crit = float(stats.norm.ppf(1.0 - alpha / (2 * k)))
-    z, diff, sig, normal_p = [], [], [], []
+    zs, diff, sig, normality = [], [], [], []
     n = m = 0
     for p_name, a_name, s_name, p_val, a_val, s_val in coords:
         p, a = _samples(p_name, p_val), _samples(a_name, a_val)
         if n and (p.size != n or a.size != m):
-            raise ParameterError(p_name if p.size != n else a_name,
-                                 f"must have as many samples as the bearings ({n}, {m})")
+            raise ParameterError(
+                p_name if p.size != n else a_name,
+                f"must have as many samples as the bearings ({n}, {m})",
+            )
         n, m = p.size, a.size
-        s = _sigma(s_name, s_val, p)
-        d = _wrap(circular_mean(a) - circular_mean(p))
-        z.append(d * np.sqrt(m) / s)
+        s = bearing_sigma(s_name, s_val, p)
+        d = wrap_finite(circular_mean(a) - circular_mean(p))
+        zs.append(d * np.sqrt(m) / s)
         diff.append(d)
         sig.append(s)
-        dev = _wrap(p - circular_mean(p))
-        normal_p.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
-    z, normal_p = np.array(z, dtype=float), np.array(normal_p, dtype=float)
+        dev = wrap_finite(p - circular_mean(p))
+        normality.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
+    z, normal_p = np.array(zs, dtype=float), np.array(normality, dtype=float)
     beta = m_req = None
     if beta_max is not None and delta is None:
         raise ParameterError("beta_max", "needs delta, the separation to detect")
@@ -323,9 +377,18 @@ def z_test(
         if beta_max is not None:
             m_req = required_samples(delta, float(sig[0]), alpha / k, beta_max, n)
     return ZTest(
-        z=z, p_value=2.0 * stats.norm.sf(np.abs(z)), critical=z_crit,
-        identified=bool(np.all(np.abs(z) <= z_crit)), difference=np.array(diff, float),
-        sigma=np.array(sig, float), n=n, m=m, n_over_m=n / m, large_population=n / m >= ratio,
+        z=z,
+        p_value=2.0 * stats.norm.sf(np.abs(z)),
+        critical=z_crit,
+        identified=bool(np.all(np.abs(z) <= z_crit)),
+        difference=np.array(diff, float),
+        sigma=np.array(sig, float),
+        n=n,
+        m=m,
+        n_over_m=n / m,
+        large_population=n / m >= ratio,
         normality_p=normal_p,
         normal=bool(np.all(np.isnan(normal_p) | (normal_p >= normality_alpha))),
-        beta=beta, m_required=m_req)
+        beta=beta,
+        m_required=m_req,
+    )

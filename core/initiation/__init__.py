@@ -1,17 +1,19 @@
-"""Track initiation from plots in clutter (DESIGN section 5; seeds 002, 003, 000).
+"""Track initiation from plots in clutter (Mu et al.; Konovalov; the secondary-processing
+textbook).
 
 :mod:`.scan` builds a scan of Cartesian or polar plots, :mod:`.config` holds the rules,
 :mod:`.state` the versioned state between calls (:mod:`.state_json` reads one back
-and checks it), :mod:`.logic` the initiation itself
-(:mod:`.sharing` its plot-reuse rules),
+and checks it), :mod:`.logic` the initiation itself (:mod:`.filter` its track filter,
+:mod:`.search` its candidate search, :mod:`.pairs` its gates on the candidates,
+:mod:`.assignment` and :mod:`.sharing` its association and plot-reuse rules),
 :mod:`.simulate` the seeded scenario simulator and :mod:`.evaluate` the Monte Carlo
 evaluation (targets initiated, false tracks, time to confirmation).
 """
 
-from core.initiation.config import InitiationConfig
-from core.initiation.logic import DROP_REASONS, ScanReport, initiate
-from core.initiation.scan import Scan, cartesian_scan, polar_scan
-from core.initiation.state import (
+from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.logic import DROP_REASONS, ScanReport, initiate
+from plotgate.core.initiation.scan import Scan, cartesian_scan, polar_scan
+from plotgate.core.initiation.state import (
     PLOT_STRIDE,
     STATE_VERSION,
     InitiationState,
@@ -19,7 +21,7 @@ from core.initiation.state import (
     Tracks,
     empty_state,
 )
-from core.initiation.state_json import check_state, state_from_json
+from plotgate.core.initiation.state_json import check_state, state_from_json
 
 __all__ = [
     "DROP_REASONS",

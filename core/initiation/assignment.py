@@ -1,6 +1,6 @@
 """Minimum-cost one-to-one assignment on a sparse set of candidate pairs.
 
-Confirmed tracks take plots one to one (:mod:`core.initiation.logic`, step 2): among the
+Confirmed tracks take plots one to one (:mod:`plotgate.core.initiation.logic`, step 2): among the
 (track, plot) pairs that passed their gates, as many pairs as can be taken, of least
 total gate statistic among those. Tracks and plots that share no pair do not compete, so
 the problem splits into the connected components of the pairs' graph: a component with
@@ -19,7 +19,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 
-from core.errors import ParameterError
+from plotgate.core.errors import ParameterError
 
 __all__ = ["MAX_TANGLED", "one_to_one"]
 
@@ -28,8 +28,9 @@ MAX_TANGLED = 2**24
 seconds of ``linear_sum_assignment``)."""
 
 
-def one_to_one(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def one_to_one(
+    rows: np.ndarray, cols: np.ndarray, s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A minimum-cost one-to-one choice among the pairs: as many pairs as can be taken,
     of least total statistic among those.
 
@@ -83,9 +84,12 @@ def one_to_one(rows: np.ndarray, cols: np.ndarray, s: np.ndarray
         r_local, r_index = np.unique(ri[pairs], return_inverse=True)
         c_local, c_index = np.unique(ci[pairs], return_inverse=True)
         if r_local.size * c_local.size > MAX_TANGLED:
-            raise ParameterError("scans", f"{r_local.size} confirmed tracks compete for "
-                                 f"{c_local.size} plots through chained gates, more than "
-                                 f"{MAX_TANGLED} pairs to assign: the clutter is too thick")
+            raise ParameterError(
+                "scans",
+                f"{r_local.size} confirmed tracks compete for "
+                f"{c_local.size} plots through chained gates, more than "
+                f"{MAX_TANGLED} pairs to assign: the clutter is too thick",
+            )
         big = 1.0 + 2.0 * s[pairs].max() * min(r_local.size, c_local.size)
         index = np.full((r_local.size, c_local.size), -1)
         index[r_index, c_index] = pairs

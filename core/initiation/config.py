@@ -1,7 +1,8 @@
-"""Settings of the track-initiation logic (DESIGN section 5; seeds 002, 003, 000).
+"""Settings of the track-initiation logic (Mu et al.; Konovalov; the secondary-processing
+textbook).
 
 One frozen :class:`InitiationConfig` holds every rule: the mode (Cartesian logic or the
-polar method of seed 002), the capture gate and its 2/N or 2/T criterion, branch or
+polar method of Mu et al.), the capture gate and its 2/N or 2/T criterion, branch or
 nearest association, the filter, the tracking gates and how they widen after misses,
 the k/m confirmation and the k/m - l drop. :meth:`InitiationConfig.digest` fingerprints
 the settings, so a state made under other settings is recognised as foreign.
@@ -14,16 +15,17 @@ import json
 import math
 from dataclasses import asdict, dataclass, field
 
-from core.errors import ParameterError
+from plotgate.core.errors import ParameterError
 
-__all__ = ["InitiationConfig"]
+__all__ = ["CHOICES", "InitiationConfig"]
 
-_CHOICES = {
+CHOICES = {
     "mode": ("cartesian", "polar"),
     "capture_gate": ("ring", "expanded", "combined"),
     "association": ("branch", "nearest"),
     "filter": ("kalman", "alpha_beta"),
 }
+"""The settings that name a choice, and their options."""
 
 
 @dataclass(frozen=True)
@@ -34,13 +36,13 @@ class InitiationConfig:
     ----------
     mode : ``"cartesian"`` or ``"polar"``
         Cartesian: the logic method (capture gate about the first plot, constant-velocity
-        filter, chi-square gates). Polar: seed 002's method (first-association sector
+        filter, chi-square gates). Polar: Mu et al.'s method (first-association sector
         windows, range-only linear extrapolation, the azimuth window of the tangential
         speed bound, the radial acceleration check before confirmation).
     v_min, v_max : float
         Target speed bounds, m/s (0 <= v_min <= v_max, v_max > 0).
     capture_gate : ``"ring"``, ``"expanded"`` or ``"combined"``
-        Cartesian capture gate about an initiator (seed 000).
+        Cartesian capture gate about an initiator (Konovalov).
     capture_P_G : float
         Gating probability of the combined gate's ellipse stage.
     capture_p : float
@@ -55,15 +57,17 @@ class InitiationConfig:
         003, approach 1), or only the one nearest the initiator (approach 2).
     filter : ``"kalman"`` or ``"alpha_beta"``
         Cartesian track filter: constant-velocity Kalman with white-acceleration noise
-        ``q`` (m^2/s^3), or seed 003's alpha-beta smoother alpha_n = 2(2n-1)/(n(n+1)),
-        beta_n = 6/(n(n+1)) (n plots so far), floored at alpha_min, beta_min.
+        ``q`` (m^2/s^3), or the secondary-processing textbook's alpha-beta smoother
+        alpha_n = 2(2n-1)/(n(n+1)), beta_n = 6/(n(n+1)) (n plots so far), floored at
+        alpha_min, beta_min.
     gate_P_G : float
         Gating probability of a track's chi-square gate (Cartesian) or, through
         K_R = K_az = sqrt(chi2.ppf(P_G, 2)) when those are None, of its polar windows.
     gate_widening : tuple of float
-        Seed 003's narrow / medium / wide gates: the gate threshold (gamma, or K^2 for
-        the polar windows) is multiplied by gate_widening[min(misses, len - 1)] after
-        that many misses in a row; each factor >= 1, non-decreasing.
+        The secondary-processing textbook's narrow / medium / wide gates: the gate
+        threshold (gamma, or K^2 for the polar windows) is multiplied by
+        gate_widening[min(misses, len - 1)] after that many misses in a row; each
+        factor >= 1, non-decreasing.
     confirm_k, confirm_m : int
         Confirmation k/m: k plots within the track's first m scans (counted from its
         first plot, both capture plots included; 1 <= k <= m).
@@ -107,18 +111,23 @@ class InitiationConfig:
     history: int = 8
 
     def __post_init__(self) -> None:
-        for name, options in _CHOICES.items():
+        for name, options in CHOICES.items():
             if getattr(self, name) not in options:
-                raise ParameterError(name, f"must be one of {', '.join(options)}, got "
-                                     f"{getattr(self, name)!r}")
+                raise ParameterError(
+                    name, f"must be one of {', '.join(options)}, got {getattr(self, name)!r}"
+                )
         object.__setattr__(self, "gate_widening", tuple(float(w) for w in self.gate_widening))
         self._check()
 
     def _check(self) -> None:
         def number(name: str, ok: bool, rule: str) -> None:
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
-                    and math.isfinite(value) and ok):
+            if not (
+                isinstance(value, (int, float))
+                and not isinstance(value, bool)
+                and math.isfinite(value)
+                and ok
+            ):
                 raise ParameterError(name, f"must be {rule}, got {value!r}")
 
         number("v_min", self.v_min >= 0, "finite and >= 0")
@@ -133,18 +142,25 @@ class InitiationConfig:
         for name in ("K_R", "K_az", "capture_time"):
             if getattr(self, name) is not None:
                 number(name, getattr(self, name) > 0, "> 0 or null")
-        for name, low in (("capture_scans", 2), ("confirm_k", 1), ("confirm_m", 1),
-                          ("drop_misses", 1), ("history", max(2, self.confirm_m))):
+        for name, low in (
+            ("capture_scans", 2),
+            ("confirm_k", 1),
+            ("confirm_m", 1),
+            ("drop_misses", 1),
+            ("history", max(2, self.confirm_m)),
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ParameterError(name, f"must be an integer >= {low}, got {value!r}")
         if self.confirm_k > self.confirm_m:
-            raise ParameterError("confirm_k", f"must be <= confirm_m = {self.confirm_m}, "
-                                 f"got {self.confirm_k}")
+            raise ParameterError(
+                "confirm_k", f"must be <= confirm_m = {self.confirm_m}, got {self.confirm_k}"
+            )
         w = self.gate_widening
         if not w or not all(math.isfinite(x) and x >= 1 for x in w) or list(w) != sorted(w):
-            raise ParameterError("gate_widening", f"must be non-decreasing factors >= 1, "
-                                 f"got {list(w)}")
+            raise ParameterError(
+                "gate_widening", f"must be non-decreasing factors >= 1, got {list(w)}"
+            )
 
     def digest(self) -> str:
         """A short fingerprint of these settings (stored in every state)."""

@@ -1,8 +1,8 @@
-"""Monte Carlo evaluation of track initiation on simulated scans (DESIGN section 5).
+"""Monte Carlo evaluation of track initiation on simulated scans.
 
-Each run simulates a scenario's scans (:func:`core.initiation.simulate.simulate`, run r
+Each run simulates a scenario's scans (:func:`plotgate.core.initiation.simulate.simulate`, run r
 seeded by ``SeedSequence(seed).spawn``, so one run can be replayed alone), feeds them to
-:func:`core.initiation.initiate` scan by scan, and scores every track at the scan it is
+:func:`plotgate.core.initiation.initiate` scan by scan, and scores every track at the scan it is
 confirmed:
 
 * by labels: a confirmed track is true when more than half of its plots come from one
@@ -20,11 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import ParameterError
-from core.initiation.config import InitiationConfig
-from core.initiation.logic import initiate
-from core.initiation.simulate import Scenario, simulate
-from core.initiation.state import PLOT_STRIDE
+from plotgate.core.errors import ParameterError
+from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.logic import initiate
+from plotgate.core.initiation.simulate import Scenario, simulate
+from plotgate.core.initiation.state import PLOT_STRIDE
 
 __all__ = ["Evaluation", "RunScore", "evaluate", "score_run"]
 
@@ -74,9 +74,13 @@ class Evaluation:
     false: np.ndarray
 
 
-def score_run(scenario: Scenario, config: InitiationConfig, seed: np.random.SeedSequence
-              | int, distance: float) -> tuple[RunScore, bool]:
-    """Simulate and initiate one run; its score, and whether it was confirmable.
+def score_run(
+    scenario: Scenario,
+    config: InitiationConfig,
+    seed: np.random.SeedSequence | int,
+    distance: float,
+) -> tuple[RunScore, int]:
+    """Simulate and initiate one run; its score, and how many targets were confirmable.
 
     Returns the score and the number of targets that were detected in k of the m
     scans from their first detection (the ceiling of this run) as a second element.
@@ -118,13 +122,14 @@ def score_run(scenario: Scenario, config: InitiationConfig, seed: np.random.Seed
     confirmable = 0
     for j in range(k):  # per target: k detections within m scans of its first
         hit = np.flatnonzero(detected[:, j])
-        if hit.size and detected[hit[0]:hit[0] + config.confirm_m, j].sum() >= config.confirm_k:
+        if hit.size and detected[hit[0] : hit[0] + config.confirm_m, j].sum() >= config.confirm_k:
             confirmable += 1
     return RunScore(len(labelled), false, len(near), false_d, tuple(times)), confirmable
 
 
-def evaluate(scenario: Scenario, config: InitiationConfig, runs: int, seed: int,
-             distance: float = 100.0) -> Evaluation:
+def evaluate(
+    scenario: Scenario, config: InitiationConfig, runs: int, seed: int, distance: float = 100.0
+) -> Evaluation:
     """Monte Carlo of track initiation on a scenario: targets initiated, false tracks.
 
     Parameters
@@ -145,8 +150,8 @@ def evaluate(scenario: Scenario, config: InitiationConfig, runs: int, seed: int,
 
     Examples
     --------
-    >>> from core.initiation.simulate import seed_002_scenario
-    >>> ev = evaluate(seed_002_scenario(20.0), InitiationConfig(mode="polar", v_max=30.0),
+    >>> from plotgate.core.initiation.simulate import mu_scenario
+    >>> ev = evaluate(mu_scenario(20.0), InitiationConfig(mode="polar", v_max=30.0),
     ...               runs=5, seed=1)
     >>> ev.targets, ev.mean_true <= ev.ceiling
     (5, True)
@@ -167,9 +172,14 @@ def evaluate(scenario: Scenario, config: InitiationConfig, runs: int, seed: int,
     true = np.array([s.true for s in scores])
     false = np.array([s.false for s in scores])
     return Evaluation(
-        runs=runs, targets=scenario.x0.shape[0], ceiling=float(np.mean(ceiling)),
-        mean_true=float(true.mean()), mean_false=float(false.mean()),
+        runs=runs,
+        targets=scenario.x0.shape[0],
+        ceiling=float(np.mean(ceiling)),
+        mean_true=float(true.mean()),
+        mean_false=float(false.mean()),
         mean_true_by_distance=float(np.mean([s.true_by_distance for s in scores])),
         mean_false_by_distance=float(np.mean([s.false_by_distance for s in scores])),
         mean_time_to_confirmation=float(np.mean(times)) if times else float("nan"),
-        true=true, false=false)
+        true=true,
+        false=false,
+    )

@@ -1,4 +1,4 @@
-"""Which tracks share plots: the plot-reuse rules of track initiation (DESIGN section 5).
+"""Which tracks share plots: the plot-reuse rules of track initiation.
 
 "A plot used by a confirmed track is not reused to start new tracks; tentative tracks
 sharing two or more plots with a confirmed one are pruned", and of newly confirmed tracks
@@ -25,7 +25,8 @@ def _member(values: np.ndarray, ids: np.ndarray) -> np.ndarray:
     """values isin ids, for sorted distinct ids (a binary search per value, no sort)."""
     if ids.size == 0:
         return np.zeros(values.shape, dtype=bool)
-    return ids[np.minimum(np.searchsorted(ids, values), ids.size - 1)] == values
+    found: np.ndarray = ids[np.minimum(np.searchsorted(ids, values), ids.size - 1)] == values
+    return found
 
 
 def plot_pairs(plots: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -62,7 +63,7 @@ def plot_pairs(plots: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarr
     for k in np.unique(h[h >= 2]):  # one pass per count (at most H)
         r = np.flatnonzero(h == k)
         c1, c2 = np.triu_indices(k, 1)
-        block = packed[r, plots.shape[1] - k:]
+        block = packed[r, plots.shape[1] - k :]
         rows.append(np.repeat(r, c1.size))
         first.append(block[:, c1].ravel())
         second.append(block[:, c2].ravel())
@@ -74,7 +75,7 @@ def plot_pairs(plots: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarr
 def keep_greedy(plots: np.ndarray) -> np.ndarray:
     """Keep rows in order, each unless it shares two or more plots with a row kept before it.
 
-    Of the tracks one scan confirms, in order of merit (:mod:`core.initiation.logic`, step
+    Of the tracks one scan confirms, in order of merit (:mod:`plotgate.core.initiation.logic`, step
     5: smaller mean statistic first), the first of two clashing tracks wins. Only the
     pairs of plots that two rows hold can clash, and only rows holding one are contested;
     a kept row claims its pairs (kept rows share at most one plot, so no two claim the

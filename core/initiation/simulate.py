@@ -1,6 +1,6 @@
 """Seeded simulator of radar scans: targets, detection probability, Poisson clutter.
 
-Seed 002's evaluation scenario (DESIGN section 5) in general form: constant-velocity
+Mu et al.'s evaluation scenario in general form: constant-velocity
 targets seen by one radar with detection probability P_D and polar noise (sigma_r,
 sigma_az), plus clutter: a Poisson number of plots per scan (mean ``clutter``) uniform
 over a rectangle. Every plot is labelled with its source (the target's index, or -1 for
@@ -13,12 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core._validate import as_array, as_points
-from core.errors import ParameterError
-from core.frames import cartesian_to_polar
-from core.initiation.scan import MIN_SENSOR_RANGE, Scan, polar_scan
+from plotgate.core.errors import ParameterError
+from plotgate.core.frames import cartesian_to_polar
+from plotgate.core.initiation.scan import MIN_SENSOR_RANGE, Scan, polar_scan
+from plotgate.core.validation import as_array, as_points
 
-__all__ = ["Scenario", "SimulatedScans", "seed_002_scenario", "simulate"]
+__all__ = ["Scenario", "SimulatedScans", "mu_scenario", "simulate"]
 
 
 @dataclass(frozen=True)
@@ -67,17 +67,21 @@ class Scenario:
         object.__setattr__(self, "v", v)
         region = as_array("region", self.region)
         if region.shape != (4,) or not (region[0] < region[1] and region[2] < region[3]):
-            raise ParameterError("region", f"must be (x_min, x_max, y_min, y_max) with "
-                                 f"min < max, got {region.tolist()}")
+            raise ParameterError(
+                "region",
+                f"must be (x_min, x_max, y_min, y_max) with min < max, got {region.tolist()}",
+            )
         object.__setattr__(self, "region", region)
         object.__setattr__(self, "sensor", as_points("sensor", self.sensor).reshape(2))
         if isinstance(self.scans, bool) or not isinstance(self.scans, int) or self.scans < 1:
             raise ParameterError("scans", f"must be an integer >= 1, got {self.scans!r}")
-        for name, ok, rule in (("interval", self.interval > 0, "> 0"),
-                               ("P_D", 0 <= self.P_D <= 1, "in [0, 1]"),
-                               ("clutter", self.clutter >= 0, ">= 0"),
-                               ("sigma_r", self.sigma_r > 0, "> 0"),
-                               ("sigma_az", self.sigma_az > 0, "> 0")):
+        for name, ok, rule in (
+            ("interval", self.interval > 0, "> 0"),
+            ("P_D", 0 <= self.P_D <= 1, "in [0, 1]"),
+            ("clutter", self.clutter >= 0, ">= 0"),
+            ("sigma_r", self.sigma_r > 0, "> 0"),
+            ("sigma_az", self.sigma_az > 0, "> 0"),
+        ):
             value = float(as_array(name, getattr(self, name)))
             if not ok:
                 raise ParameterError(name, f"must be {rule}, got {value}")
@@ -86,24 +90,38 @@ class Scenario:
     def truth(self) -> np.ndarray:
         """(scans, k, 2) true target positions at every scan, m."""
         t = self.interval * np.arange(self.scans)
-        return self.x0[None] + t[:, None, None] * self.v[None]
+        truth: np.ndarray = self.x0[None] + t[:, None, None] * self.v[None]
+        return truth
 
 
-def seed_002_scenario(clutter: float, scans: int = 4) -> Scenario:
-    """Seed 002's test: 5 ground targets at 25 m/s east, P_D 0.8, a 15 km square.
+def mu_scenario(clutter: float, scans: int = 4) -> Scenario:
+    """Mu et al.'s test: 5 ground targets at 25 m/s east, P_D 0.8, a 15 km square.
 
     Examples
     --------
-    >>> s = seed_002_scenario(250.0)
+    >>> s = mu_scenario(250.0)
     >>> s.x0[0].tolist(), s.v[0].tolist(), round(float(np.degrees(s.sigma_az)), 6)
     ([5000.0, 10000.0], [25.0, 0.0], 0.2)
     """
-    x0 = [[5000.0, 10000.0], [6000.0, 9000.0], [7000.0, 8000.0], [8000.0, 7000.0],
-          [9000.0, 6000.0]]
-    return Scenario(x0=np.array(x0), v=np.tile([25.0, 0.0], (5, 1)), scans=scans,
-                    interval=1.0, P_D=0.8, clutter=clutter,
-                    region=np.array([0.0, 15000.0, 0.0, 15000.0]),
-                    sensor=np.zeros(2), sigma_r=5.0, sigma_az=np.radians(0.2))
+    x0 = [
+        [5000.0, 10000.0],
+        [6000.0, 9000.0],
+        [7000.0, 8000.0],
+        [8000.0, 7000.0],
+        [9000.0, 6000.0],
+    ]
+    return Scenario(
+        x0=np.array(x0),
+        v=np.tile([25.0, 0.0], (5, 1)),
+        scans=scans,
+        interval=1.0,
+        P_D=0.8,
+        clutter=clutter,
+        region=np.array([0.0, 15000.0, 0.0, 15000.0]),
+        sensor=np.zeros(2),
+        sigma_r=5.0,
+        sigma_az=np.radians(0.2),
+    )
 
 
 @dataclass(frozen=True)
@@ -143,7 +161,7 @@ def simulate(scenario: Scenario, rng: np.random.Generator | int) -> SimulatedSca
 
     Examples
     --------
-    >>> sim = simulate(seed_002_scenario(20.0), 1)
+    >>> sim = simulate(mu_scenario(20.0), 1)
     >>> len(sim.scans), sim.truth.shape, np.unique(np.concatenate(sim.labels))[:2].tolist()
     (4, (4, 5, 2), [-1, 0])
     """
@@ -159,8 +177,7 @@ def simulate(scenario: Scenario, rng: np.random.Generator | int) -> SimulatedSca
         r = np.atleast_1d(r) + s.sigma_r * rng.standard_normal(seen.size)
         az = np.atleast_1d(az) + s.sigma_az * rng.standard_normal(seen.size)
         count = rng.poisson(s.clutter)
-        xy = np.column_stack([rng.uniform(x_min, x_max, count),
-                              rng.uniform(y_min, y_max, count)])
+        xy = np.column_stack([rng.uniform(x_min, x_max, count), rng.uniform(y_min, y_max, count)])
         cr, caz = cartesian_to_polar(xy - s.sensor)
         cr, caz = np.atleast_1d(cr), np.atleast_1d(caz)
         far = cr >= MIN_SENSOR_RANGE
@@ -169,7 +186,15 @@ def simulate(scenario: Scenario, rng: np.random.Generator | int) -> SimulatedSca
         label = np.concatenate([seen, np.full(far.sum(), -1)])
         order = rng.permutation(r.size)
         r, az, label = np.maximum(r[order], MIN_SENSOR_RANGE), az[order], label[order]
-        scans.append(polar_scan(i * s.interval, r, az, np.full(r.size, s.sigma_r),
-                                np.full(r.size, s.sigma_az), s.sensor))
+        scans.append(
+            polar_scan(
+                i * s.interval,
+                r,
+                az,
+                np.full(r.size, s.sigma_r),
+                np.full(r.size, s.sigma_az),
+                s.sensor,
+            )
+        )
         labels.append(label)
     return SimulatedScans(scans, labels, truth)

@@ -1,14 +1,14 @@
 """The state of track initiation between calls: plain arrays, versioned, JSON-ready.
 
-:func:`core.initiation.initiate` is stateless: it takes an :class:`InitiationState` and
+:func:`plotgate.core.initiation.initiate` is stateless: it takes an :class:`InitiationState` and
 scans and returns the next state. A state is the initiators waiting for a second plot,
 the tentative and confirmed tracks, and counters; :meth:`InitiationState.to_json` and
-:func:`core.initiation.state_json.state_from_json` turn it into plain lists and back,
+:func:`plotgate.core.initiation.state_json.state_from_json` turn it into plain lists and back,
 bit for bit (floats keep their 17 significant digits), so a client can hold it between
 calls and sending scans one call at a time answers exactly as sending them all at once.
 
 A state is bound to the settings that made it: it carries ``config_digest``, and
-:func:`~core.initiation.state_json.state_from_json` refuses a state of another version,
+:func:`~plotgate.core.initiation.state_json.state_from_json` refuses a state of another version,
 of other settings, or any field that breaks an invariant (naming the field).
 
 Plots are identified across calls by ``scan * PLOT_STRIDE + index``, the scan's number
@@ -22,10 +22,20 @@ from typing import Any
 
 import numpy as np
 
-from core.initiation.config import InitiationConfig
+from plotgate.core.initiation.config import InitiationConfig
 
-__all__ = ["MAX_SESSION_SCANS", "MAX_TRACK_ID", "NULLABLE", "PLOT_STRIDE", "STATE_VERSION",
-           "InitiationState", "Initiators", "Tracks", "empty_state", "layout"]
+__all__ = [
+    "MAX_SESSION_SCANS",
+    "MAX_TRACK_ID",
+    "NULLABLE",
+    "PLOT_STRIDE",
+    "STATE_VERSION",
+    "InitiationState",
+    "Initiators",
+    "Tracks",
+    "empty_state",
+    "layout",
+]
 
 STATE_VERSION = 1
 PLOT_STRIDE = 1 << 20
@@ -100,19 +110,36 @@ class Tracks:
 
     def join(self, other: Tracks) -> Tracks:
         """These tracks followed by ``other``."""
-        return Tracks(*(np.concatenate([getattr(self, f.name), getattr(other, f.name)])
-                        for f in fields(self)))
+        return Tracks(
+            *(
+                np.concatenate([getattr(self, f.name), getattr(other, f.name)])
+                for f in fields(self)
+            )
+        )
 
 
-_DTYPES = {
-    "plot": np.int64, "scan": np.int64, "id": np.int64, "confirmed": bool,
-    "n": np.int64, "first_scan": np.int64, "confirmed_scan": np.int64,
-    "misses": np.int64, "plots": np.int64,
+_DTYPES: dict[str, type] = {
+    "plot": np.int64,
+    "scan": np.int64,
+    "id": np.int64,
+    "confirmed": bool,
+    "n": np.int64,
+    "first_scan": np.int64,
+    "confirmed_scan": np.int64,
+    "misses": np.int64,
+    "plots": np.int64,
 }
-_SHAPES = {  # trailing shapes per part; "H" is config.history
+_SHAPES: dict[str, dict[str, tuple[int | str, ...]]] = {  # "H" is config.history
     "initiators": {"z": (2,), "R": (2, 2), "sensor": (2,)},
-    "tracks": {"x": (4,), "P": (4, 4), "sensor": (2,), "plots": ("H",), "ranges": ("H",),
-               "times": ("H",), "sigma_r": ("H",)},
+    "tracks": {
+        "x": (4,),
+        "P": (4, 4),
+        "sensor": (2,),
+        "plots": ("H",),
+        "ranges": ("H",),
+        "times": ("H",),
+        "sigma_r": ("H",),
+    },
 }
 NULLABLE = frozenset({"ranges", "times", "sigma_r"})
 """Tracks' history arrays that hold NaN (JSON null) where no plot is yet."""
@@ -121,7 +148,7 @@ NULLABLE = frozenset({"ranges", "times", "sigma_r"})
 def layout(part: str, name: str, history: int) -> tuple[type, tuple[int, ...]]:
     """dtype and trailing shape of the array ``name`` of ``part`` ("initiators" or
     "tracks"); ``history`` is config.history, the width H of the tracks' histories."""
-    shape = tuple(history if s == "H" else s for s in _SHAPES[part].get(name, ()))
+    shape = tuple(history if s == "H" else int(s) for s in _SHAPES[part].get(name, ()))
     return _DTYPES.get(name, float), shape
 
 
@@ -165,16 +192,22 @@ class InitiationState:
                 out[f.name] = a.tolist()
             return out
 
-        return {"version": self.version, "config_digest": self.config_digest,
-                "scans": self.scans, "t": self.t, "next_track": self.next_track,
-                "initiators": part(self.initiators), "tracks": part(self.tracks)}
+        return {
+            "version": self.version,
+            "config_digest": self.config_digest,
+            "scans": self.scans,
+            "t": self.t,
+            "next_track": self.next_track,
+            "initiators": part(self.initiators),
+            "tracks": part(self.tracks),
+        }
 
     def replace(self, **changes: Any) -> InitiationState:
         return replace(self, **changes)
 
 
 def _empty(cls: type, where: str, history: int) -> Any:
-    arrays = {}
+    arrays: dict[str, np.ndarray] = {}
     for f in fields(cls):
         dtype, shape = layout(where, f.name, history)
         arrays[f.name] = np.zeros((0, *shape), dtype=dtype)
@@ -183,6 +216,12 @@ def _empty(cls: type, where: str, history: int) -> Any:
 
 def empty_state(config: InitiationConfig) -> InitiationState:
     """The state before the first scan."""
-    return InitiationState(STATE_VERSION, config.digest(), 0, None, 0,
-                           _empty(Initiators, "initiators", config.history),
-                           _empty(Tracks, "tracks", config.history))
+    return InitiationState(
+        STATE_VERSION,
+        config.digest(),
+        0,
+        None,
+        0,
+        _empty(Initiators, "initiators", config.history),
+        _empty(Tracks, "tracks", config.history),
+    )

@@ -2,14 +2,14 @@
 
 A client holds the state between calls, so a state that comes back may be stale, foreign,
 truncated or hostile. :func:`state_from_json` rebuilds it and :func:`check_state` holds
-every field to what :func:`core.initiation.initiate` itself produces, so nothing
+every field to what :func:`plotgate.core.initiation.initiate` itself produces, so nothing
 downstream meets a value it cannot handle (a negative miss count indexing the gate
 widening, a scan counter whose plot ids overflow int64, a covariance that is not
 positive definite):
 
 - the version and the settings' digest; counters within the session's bounds
-  (:data:`~core.initiation.state.MAX_SESSION_SCANS` scans,
-  :data:`~core.initiation.state.MAX_TRACK_ID` track ids); ``t`` null exactly before the
+  (:data:`~plotgate.core.initiation.state.MAX_SESSION_SCANS` scans,
+  :data:`~plotgate.core.initiation.state.MAX_TRACK_ID` track ids); ``t`` null exactly before the
   first scan;
 - every array of a part with the same number of rows, the tracks' histories
   ``config.history`` wide; integers where ids and counts are, true/false where flags
@@ -22,7 +22,7 @@ positive definite):
   width), its first scan that of its first plot, ``misses`` the scans since its last
   plot (below ``config.drop_misses``), its times non-decreasing and not after ``t``,
   ``confirmed_scan`` set exactly when confirmed; every track at the state's time;
-- domains: ranges at least :data:`~core.initiation.scan.MIN_SENSOR_RANGE`, azimuths in
+- domains: ranges at least :data:`~plotgate.core.initiation.scan.MIN_SENSOR_RANGE`, azimuths in
   [-pi, pi], sigmas and costs positive, plot covariances symmetric positive definite
   with core's condition bound, track covariances symmetric positive definite.
 
@@ -38,11 +38,10 @@ from typing import Any
 
 import numpy as np
 
-from core._validate import as_covariance, first_index
-from core.errors import CovarianceError, NonFiniteError, ParameterError
-from core.initiation.config import InitiationConfig
-from core.initiation.scan import MIN_SENSOR_RANGE
-from core.initiation.state import (
+from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
+from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
+from plotgate.core.initiation.state import (
     MAX_SESSION_SCANS,
     MAX_TRACK_ID,
     NULLABLE,
@@ -53,27 +52,34 @@ from core.initiation.state import (
     Tracks,
     layout,
 )
+from plotgate.core.validation import as_covariance, first_index
 
 __all__ = ["MAX_PLOT_ID", "check_state", "state_from_json"]
 
 MAX_PLOT_ID = MAX_SESSION_SCANS * PLOT_STRIDE
 """Plot ids are below this (2^52)."""
 _KEYS = ("version", "config_digest", "scans", "t", "next_track", "initiators", "tracks")
-_KINDS = {np.int64: "i", float: "if", bool: "b"}  # numpy dtype kinds each array accepts
-_WHAT = {np.int64: "int64 integers", float: "numbers", bool: "true or false"}
+_KINDS: dict[type, str] = {
+    np.int64: "i",
+    float: "if",
+    bool: "b",
+}  # numpy dtype kinds each array accepts
+_WHAT: dict[type, str] = {np.int64: "int64 integers", float: "numbers", bool: "true or false"}
 
 
 def _object(field: str, data: Any, names: tuple[str, ...]) -> None:
     if not isinstance(data, dict):
-        raise ParameterError(field, f"must be an object with the keys {', '.join(names)}, "
-                             f"got {type(data).__name__}")
+        raise ParameterError(
+            field, f"must be an object with the keys {', '.join(names)}, got {type(data).__name__}"
+        )
     for name in names:
         if name not in data:
             raise ParameterError(f"{field}.{name}", "is missing")
     for name in data:
         if name not in names:
-            raise ParameterError(f"{field}.{name}", f"is not a field of {field} (it has: "
-                                 f"{', '.join(names)})")
+            raise ParameterError(
+                f"{field}.{name}", f"is not a field of {field} (it has: {', '.join(names)})"
+            )
 
 
 def _integer(field: str, value: Any, high: int) -> int:
@@ -82,8 +88,14 @@ def _integer(field: str, value: Any, high: int) -> int:
     return value
 
 
-def _array(field: str, value: Any, dtype: type, shape: tuple[int, ...], nullable: bool,
-           rows: tuple[str, int] | None) -> np.ndarray:
+def _array(
+    field: str,
+    value: Any,
+    dtype: type,
+    shape: tuple[int, ...],
+    nullable: bool,
+    rows: tuple[str, int] | None,
+) -> np.ndarray:
     """``value`` as an (n, *shape) array of ``dtype``; ``rows`` (the part's first field and
     its length) fixes n."""
     what = f"must be a list of {_WHAT[dtype]}" + (" or null" if nullable else "")
@@ -94,12 +106,25 @@ def _array(field: str, value: Any, dtype: type, shape: tuple[int, ...], nullable
     except (TypeError, ValueError, OverflowError):
         a = None
     empty = a is not None and a.shape == (0,)  # [], whatever the rows' shape
-    if a is None or not empty and (a.ndim != 1 + len(shape) or a.shape[1:] != shape
-                                   or a.size and a.dtype.kind not in _KINDS[dtype]):
+    if (
+        a is None
+        or not empty
+        and (
+            a.ndim != 1 + len(shape)
+            or a.shape[1:] != shape
+            or a.size
+            and a.dtype.kind not in _KINDS[dtype]
+        )
+    ):
         i = _bad_row(value, dtype, shape)
         want = f"(n, {', '.join(map(str, shape))})".replace(", )", ")")
-        raise ParameterError(field, f"{what} shaped {want}" if i is None else
-                             f"row {i} must be {_WHAT[dtype]} shaped {shape}", i)
+        raise ParameterError(
+            field,
+            f"{what} shaped {want}"
+            if i is None
+            else f"row {i} must be {_WHAT[dtype]} shaped {shape}",
+            i,
+        )
     a = (a.reshape((0, *shape)) if empty else a).astype(dtype)
     if rows is not None and a.shape[0] != rows[1]:
         raise ParameterError(field, f"has {a.shape[0]} rows; {rows[0]} has {rows[1]}")
@@ -134,87 +159,149 @@ def _part(cls: type, where: str, data: Any, history: int) -> Any:
     for name in names:
         dtype, shape = layout(where, name, history)
         rows = None if not arrays else (f"{field}.{names[0]}", len(arrays[names[0]]))
-        arrays[name] = _array(f"{field}.{name}", data[name], dtype, shape,
-                              where == "tracks" and name in NULLABLE, rows)
+        arrays[name] = _array(
+            f"{field}.{name}",
+            data[name],
+            dtype,
+            shape,
+            where == "tracks" and name in NULLABLE,
+            rows,
+        )
     return cls(**arrays)
 
 
-def _require(field: str, ok: np.ndarray, reason: Callable[[int], str],
-             error: type = ParameterError) -> None:
+def _require(
+    field: str,
+    ok: np.ndarray | np.bool_,
+    reason: Callable[[int], str],
+    error: type = ParameterError,
+) -> None:
     """Raise ``error(field, reason(i), i)`` at the first row i where ``ok`` is False."""
     if not ok.all():
-        i = first_index(~ok)
+        i = first_index(np.asarray(~ok))
         assert i is not None
         raise error(field, reason(i), i)
 
 
-def _angles_and_sigmas(field: str, r: np.ndarray | None, az: np.ndarray,
-                       sigma_r: np.ndarray | None, sigma_az: np.ndarray) -> None:
+def _angles_and_sigmas(
+    field: str,
+    r: np.ndarray | None,
+    az: np.ndarray,
+    sigma_r: np.ndarray | None,
+    sigma_az: np.ndarray,
+) -> None:
     if r is not None:
-        _require(f"{field}.r", r >= MIN_SENSOR_RANGE,
-                 lambda i: f"is {r[i]} m; a plot is at least {MIN_SENSOR_RANGE} m from its "
-                 "sensor")
+        _require(
+            f"{field}.r",
+            r >= MIN_SENSOR_RANGE,
+            lambda i: f"is {r[i]} m; a plot is at least {MIN_SENSOR_RANGE} m from its sensor",
+        )
     if sigma_r is not None:
         _require(f"{field}.sigma_r", sigma_r > 0, lambda i: f"must be > 0, got {sigma_r[i]}")
-    _require(f"{field}.az", np.abs(az) <= np.pi,
-             lambda i: f"must be an azimuth in [-pi, pi] rad, got {az[i]}")
+    _require(
+        f"{field}.az",
+        np.abs(az) <= np.pi,
+        lambda i: f"must be an azimuth in [-pi, pi] rad, got {az[i]}",
+    )
     _require(f"{field}.sigma_az", sigma_az > 0, lambda i: f"must be > 0, got {sigma_az[i]}")
 
 
 def _check_initiators(state: InitiationState) -> None:
     ini, f = state.initiators, "state.initiators"
-    _require(f"{f}.plot", (ini.plot >= 0) & (ini.plot < MAX_PLOT_ID),
-             lambda i: f"is {ini.plot[i]}; plot ids are 0 to {MAX_PLOT_ID - 1}")
-    _require(f"{f}.scan", (ini.scan >= 0) & (ini.scan < state.scans),
-             lambda i: f"is {ini.scan[i]}; this state has processed scans 0 to "
-             f"{state.scans - 1}")
+    _require(
+        f"{f}.plot",
+        (ini.plot >= 0) & (ini.plot < MAX_PLOT_ID),
+        lambda i: f"is {ini.plot[i]}; plot ids are 0 to {MAX_PLOT_ID - 1}",
+    )
+    _require(
+        f"{f}.scan",
+        (ini.scan >= 0) & (ini.scan < state.scans),
+        lambda i: f"is {ini.scan[i]}; this state has processed scans 0 to {state.scans - 1}",
+    )
     as_covariance(f"{f}.R", ini.R)
     _angles_and_sigmas(f, ini.r, ini.az, ini.sigma_r, ini.sigma_az)
-    _require(f"{f}.plot", ini.plot // PLOT_STRIDE == ini.scan,
-             lambda i: f"is {ini.plot[i]} = scan {ini.plot[i] // PLOT_STRIDE} x "
-             f"{PLOT_STRIDE} + index {ini.plot[i] % PLOT_STRIDE}, but its scan is "
-             f"{ini.scan[i]}")
+    _require(
+        f"{f}.plot",
+        ini.plot // PLOT_STRIDE == ini.scan,
+        lambda i: (
+            f"is {ini.plot[i]} = scan {ini.plot[i] // PLOT_STRIDE} x "
+            f"{PLOT_STRIDE} + index {ini.plot[i] % PLOT_STRIDE}, but its scan is "
+            f"{ini.scan[i]}"
+        ),
+    )
     order = np.argsort(ini.plot, kind="stable")
     again = np.zeros(ini.plot.size, dtype=bool)
     again[order[1:]] = ini.plot[order[1:]] == ini.plot[order[:-1]]
     _require(f"{f}.plot", ~again, lambda i: f"repeats plot {ini.plot[i]}")
-    _require(f"{f}.t", ini.t <= (state.t if state.t is not None else -np.inf),
-             lambda i: f"is {ini.t[i]} s, after the state's time {state.t} s")
+    _require(
+        f"{f}.t",
+        ini.t <= (state.t if state.t is not None else -np.inf),
+        lambda i: f"is {ini.t[i]} s, after the state's time {state.t} s",
+    )
 
 
 def _check_track_values(state: InitiationState, config: InitiationConfig) -> None:
     tr, f = state.tracks, "state.tracks"
-    _require(f"{f}.id", (tr.id >= 0) & (tr.id < state.next_track),
-             lambda i: f"is {tr.id[i]}; track ids are 0 to next_track - 1 = "
-             f"{state.next_track - 1}")
+    _require(
+        f"{f}.id",
+        (tr.id >= 0) & (tr.id < state.next_track),
+        lambda i: f"is {tr.id[i]}; track ids are 0 to next_track - 1 = {state.next_track - 1}",
+    )
     scale = np.trace(np.abs(tr.P), axis1=1, axis2=2)
-    _require(f"{f}.P", (np.abs(tr.P - np.swapaxes(tr.P, 1, 2)) <= 1e-9 * scale[:, None, None])
-             .all(axis=(1, 2)), lambda i: f"is not symmetric: {tr.P[i].tolist()}",
-             CovarianceError)
+    _require(
+        f"{f}.P",
+        (np.abs(tr.P - np.swapaxes(tr.P, 1, 2)) <= 1e-9 * scale[:, None, None]).all(axis=(1, 2)),
+        lambda i: f"is not symmetric: {tr.P[i].tolist()}",
+        CovarianceError,
+    )
     low = np.linalg.eigvalsh(tr.P).min(axis=1, initial=np.inf)
-    _require(f"{f}.P", low > 0, lambda i: f"is not positive definite (smallest eigenvalue "
-             f"{low[i]:.3g}): {tr.P[i].tolist()}", CovarianceError)
+    _require(
+        f"{f}.P",
+        low > 0,
+        lambda i: (
+            f"is not positive definite (smallest eigenvalue {low[i]:.3g}): {tr.P[i].tolist()}"
+        ),
+        CovarianceError,
+    )
     _require(f"{f}.n", tr.n >= 2, lambda i: f"is {tr.n[i]}; a track starts with two plots")
-    _require(f"{f}.first_scan", (tr.first_scan >= 0) & (tr.first_scan < state.scans),
-             lambda i: f"is {tr.first_scan[i]}; this state has processed scans 0 to "
-             f"{state.scans - 1}")
-    _require(f"{f}.confirmed_scan", (tr.confirmed_scan >= -1)
-             & (tr.confirmed_scan < state.scans),
-             lambda i: f"is {tr.confirmed_scan[i]}; -1 (tentative) or a scan 0 to "
-             f"{state.scans - 1}")
-    _require(f"{f}.misses", (tr.misses >= 0) & (tr.misses < config.drop_misses),
-             lambda i: f"is {tr.misses[i]}; misses in a row are 0 to drop_misses - 1 = "
-             f"{config.drop_misses - 1} (a track with more is dropped)")
+    _require(
+        f"{f}.first_scan",
+        (tr.first_scan >= 0) & (tr.first_scan < state.scans),
+        lambda i: f"is {tr.first_scan[i]}; this state has processed scans 0 to {state.scans - 1}",
+    )
+    _require(
+        f"{f}.confirmed_scan",
+        (tr.confirmed_scan >= -1) & (tr.confirmed_scan < state.scans),
+        lambda i: f"is {tr.confirmed_scan[i]}; -1 (tentative) or a scan 0 to {state.scans - 1}",
+    )
+    _require(
+        f"{f}.misses",
+        (tr.misses >= 0) & (tr.misses < config.drop_misses),
+        lambda i: (
+            f"is {tr.misses[i]}; misses in a row are 0 to drop_misses - 1 = "
+            f"{config.drop_misses - 1} (a track with more is dropped)"
+        ),
+    )
     _require(f"{f}.cost", tr.cost >= 0, lambda i: f"must be >= 0, got {tr.cost[i]}")
     present = tr.plots >= 0
-    _require(f"{f}.plots", ((tr.plots == -1) | present & (tr.plots < state.scans * PLOT_STRIDE))
-             .all(axis=1), lambda i: f"holds ids outside -1 and the scans so far "
-             f"(0 to {state.scans - 1}): {tr.plots[i].tolist()}")
+    _require(
+        f"{f}.plots",
+        ((tr.plots == -1) | present & (tr.plots < state.scans * PLOT_STRIDE)).all(axis=1),
+        lambda i: (
+            f"holds ids outside -1 and the scans so far "
+            f"(0 to {state.scans - 1}): {tr.plots[i].tolist()}"
+        ),
+    )
     for name, ok in (("ranges", tr.ranges >= MIN_SENSOR_RANGE), ("sigma_r", tr.sigma_r > 0)):
-        values = getattr(tr, name)
-        _require(f"{f}.{name}", (ok | np.isnan(values)).all(axis=1),
-                 lambda i, v=values, n=name: f"holds a {n} out of its domain "
-                 f"(ranges >= {MIN_SENSOR_RANGE} m, sigmas > 0): {v[i].tolist()}")
+        values: np.ndarray = getattr(tr, name)
+
+        def out_of_domain(i: int, v: np.ndarray = values, n: str = name) -> str:
+            return (
+                f"holds a {n} out of its domain "
+                f"(ranges >= {MIN_SENSOR_RANGE} m, sigmas > 0): {v[i].tolist()}"
+            )
+
+        _require(f"{f}.{name}", (ok | np.isnan(values)).all(axis=1), out_of_domain)
     _angles_and_sigmas(f, None, tr.az, None, tr.sigma_az)
 
 
@@ -222,50 +309,93 @@ def _check_track_histories(state: InitiationState) -> None:
     tr, f = state.tracks, "state.tracks"
     H = tr.plots.shape[1]
     present = tr.plots >= 0
-    _require(f"{f}.id", np.r_[True, tr.id[1:] > tr.id[:-1]],
-             lambda i: f"is {tr.id[i]}, not above the id before it ({tr.id[i - 1]}); ids "
-             "increase")
-    _require(f"{f}.t", tr.t == (state.t if state.t is not None else np.nan),
-             lambda i: f"is {tr.t[i]} s; every track is at the state's time {state.t} s")
-    _require(f"{f}.plots", (present[:, 1:] >= present[:, :-1]).all(axis=1),
-             lambda i: f"has a plot before a -1: {tr.plots[i].tolist()}; -1 only before "
-             "the first plot")
+    _require(
+        f"{f}.id",
+        np.r_[True, tr.id[1:] > tr.id[:-1]],
+        lambda i: f"is {tr.id[i]}, not above the id before it ({tr.id[i - 1]}); ids increase",
+    )
+    _require(
+        f"{f}.t",
+        tr.t == (state.t if state.t is not None else np.nan),
+        lambda i: f"is {tr.t[i]} s; every track is at the state's time {state.t} s",
+    )
+    _require(
+        f"{f}.plots",
+        (present[:, 1:] >= present[:, :-1]).all(axis=1),
+        lambda i: f"has a plot before a -1: {tr.plots[i].tolist()}; -1 only before the first plot",
+    )
     scan = np.where(present, tr.plots // PLOT_STRIDE, -1)
-    _require(f"{f}.plots", (~present[:, 1:] | (scan[:, 1:] > scan[:, :-1])).all(axis=1),
-             lambda i: f"holds plots not from increasing scans: {tr.plots[i].tolist()}")
+    _require(
+        f"{f}.plots",
+        (~present[:, 1:] | (scan[:, 1:] > scan[:, :-1])).all(axis=1),
+        lambda i: f"holds plots not from increasing scans: {tr.plots[i].tolist()}",
+    )
     count = present.sum(axis=1)
-    _require(f"{f}.n", count == np.minimum(tr.n, H),
-             lambda i: f"is {tr.n[i]}, but plots[{i}] holds {count[i]} plots of a history "
-             f"of {H}")
-    _require(f"{f}.n", tr.n <= state.scans - tr.first_scan,
-             lambda i: f"is {tr.n[i]}: more plots than scans since its first scan "
-             f"{tr.first_scan[i]} ({state.scans - tr.first_scan[i]})")
+    _require(
+        f"{f}.n",
+        count == np.minimum(tr.n, H),
+        lambda i: f"is {tr.n[i]}, but plots[{i}] holds {count[i]} plots of a history of {H}",
+    )
+    _require(
+        f"{f}.n",
+        tr.n <= state.scans - tr.first_scan,
+        lambda i: (
+            f"is {tr.n[i]}: more plots than scans since its first scan "
+            f"{tr.first_scan[i]} ({state.scans - tr.first_scan[i]})"
+        ),
+    )
     oldest = scan[np.arange(tr.size), H - np.maximum(count, 1)]
-    _require(f"{f}.first_scan", np.where(tr.n <= H, tr.first_scan == oldest,
-                                         tr.first_scan < oldest),
-             lambda i: f"is {tr.first_scan[i]}, but its oldest plot in history is from "
-             f"scan {oldest[i]} ({tr.n[i]} plots, history {H})")
-    _require(f"{f}.confirmed_scan", (tr.confirmed_scan >= 0) == tr.confirmed,
-             lambda i: f"is {tr.confirmed_scan[i]} for a "
-             f"{'confirmed' if tr.confirmed[i] else 'tentative'} track (-1 exactly while "
-             "tentative)")
-    _require(f"{f}.confirmed_scan", ~tr.confirmed | (tr.confirmed_scan >= tr.first_scan),
-             lambda i: f"is {tr.confirmed_scan[i]}, before its first scan "
-             f"{tr.first_scan[i]}")
+    _require(
+        f"{f}.first_scan",
+        np.where(tr.n <= H, tr.first_scan == oldest, tr.first_scan < oldest),
+        lambda i: (
+            f"is {tr.first_scan[i]}, but its oldest plot in history is from "
+            f"scan {oldest[i]} ({tr.n[i]} plots, history {H})"
+        ),
+    )
+    _require(
+        f"{f}.confirmed_scan",
+        (tr.confirmed_scan >= 0) == tr.confirmed,
+        lambda i: (
+            f"is {tr.confirmed_scan[i]} for a "
+            f"{'confirmed' if tr.confirmed[i] else 'tentative'} track (-1 exactly while "
+            "tentative)"
+        ),
+    )
+    _require(
+        f"{f}.confirmed_scan",
+        ~tr.confirmed | (tr.confirmed_scan >= tr.first_scan),
+        lambda i: f"is {tr.confirmed_scan[i]}, before its first scan {tr.first_scan[i]}",
+    )
     since = state.scans - 1 - scan[:, -1]
-    _require(f"{f}.misses", tr.misses == since,
-             lambda i: f"is {tr.misses[i]}, but its last plot is from scan {scan[i, -1]}, "
-             f"{since[i]} scans before the last one")
+    _require(
+        f"{f}.misses",
+        tr.misses == since,
+        lambda i: (
+            f"is {tr.misses[i]}, but its last plot is from scan {scan[i, -1]}, "
+            f"{since[i]} scans before the last one"
+        ),
+    )
     for name in sorted(NULLABLE):
-        values = getattr(tr, name)
-        _require(f"{f}.{name}", (np.isnan(values) == ~present).all(axis=1),
-                 lambda i, v=values: f"must be null exactly where plots[{i}] is -1: "
-                 f"{v[i].tolist()} against {tr.plots[i].tolist()}")
+        values: np.ndarray = getattr(tr, name)
+
+        def misplaced(i: int, v: np.ndarray = values) -> str:
+            return (
+                f"must be null exactly where plots[{i}] is -1: "
+                f"{v[i].tolist()} against {tr.plots[i].tolist()}"
+            )
+
+        _require(f"{f}.{name}", (np.isnan(values) == ~present).all(axis=1), misplaced)
     times = np.where(present, tr.times, -np.inf)
-    _require(f"{f}.times", (times[:, 1:] >= times[:, :-1]).all(axis=1)
-             & (times[:, -1] <= (state.t if state.t is not None else -np.inf)),
-             lambda i: f"must be non-decreasing and not after the state's time {state.t} s: "
-             f"{tr.times[i].tolist()}")
+    _require(
+        f"{f}.times",
+        (times[:, 1:] >= times[:, :-1]).all(axis=1)
+        & (times[:, -1] <= (state.t if state.t is not None else -np.inf)),
+        lambda i: (
+            f"must be non-decreasing and not after the state's time {state.t} s: "
+            f"{tr.times[i].tolist()}"
+        ),
+    )
 
 
 def check_state(state: InitiationState, config: InitiationConfig) -> None:
@@ -286,7 +416,7 @@ def check_state(state: InitiationState, config: InitiationConfig) -> None:
 
     Examples
     --------
-    >>> from core.initiation.state import empty_state
+    >>> from plotgate.core.initiation.state import empty_state
     >>> config = InitiationConfig()
     >>> state = empty_state(config)
     >>> check_state(state, config)
@@ -297,25 +427,35 @@ def check_state(state: InitiationState, config: InitiationConfig) -> None:
     state.t | must be null exactly when no scan was processed (scans 1)
     """
     if state.version != STATE_VERSION:
-        raise ParameterError("state.version", f"is {state.version!r}; this build reads "
-                             f"version {STATE_VERSION}")
+        raise ParameterError(
+            "state.version", f"is {state.version!r}; this build reads version {STATE_VERSION}"
+        )
     if state.config_digest != config.digest():
-        raise ParameterError("state.config_digest", f"is {state.config_digest!r}: the state "
-                             f"was made under other settings (these give "
-                             f"{config.digest()!r}); a state continues only the session and "
-                             "settings that made it")
+        raise ParameterError(
+            "state.config_digest",
+            f"is {state.config_digest!r}: the state "
+            f"was made under other settings (these give "
+            f"{config.digest()!r}); a state continues only the session and "
+            "settings that made it",
+        )
     _integer("state.scans", state.scans, MAX_SESSION_SCANS)
     _integer("state.next_track", state.next_track, MAX_TRACK_ID)
     if (state.t is None) != (state.scans == 0):
-        raise ParameterError("state.t", "must be null exactly when no scan was processed "
-                             f"(scans {state.scans})")
+        raise ParameterError(
+            "state.t", f"must be null exactly when no scan was processed (scans {state.scans})"
+        )
     _check_initiators(state)
     _check_track_values(state, config)
     _check_track_histories(state)
     taken = np.isin(state.initiators.plot, state.tracks.plots)
-    _require("state.initiators.plot", ~taken,
-             lambda i: f"is {state.initiators.plot[i]}, a plot a track holds; an initiator "
-             "is a plot no track took")
+    _require(
+        "state.initiators.plot",
+        ~taken,
+        lambda i: (
+            f"is {state.initiators.plot[i]}, a plot a track holds; an initiator "
+            "is a plot no track took"
+        ),
+    )
 
 
 def state_from_json(data: Any, config: InitiationConfig) -> InitiationState:
@@ -341,7 +481,7 @@ def state_from_json(data: Any, config: InitiationConfig) -> InitiationState:
 
     Examples
     --------
-    >>> from core.initiation.state import empty_state
+    >>> from plotgate.core.initiation.state import empty_state
     >>> config = InitiationConfig()
     >>> s = state_from_json(empty_state(config).to_json(), config)
     >>> s.scans, s.tracks.size
@@ -350,22 +490,27 @@ def state_from_json(data: Any, config: InitiationConfig) -> InitiationState:
     _object("state", data, _KEYS)
     version = data["version"]
     if isinstance(version, bool) or not isinstance(version, int) or version != STATE_VERSION:
-        raise ParameterError("state.version", f"is {data['version']!r}; this build reads "
-                             f"version {STATE_VERSION}")
+        raise ParameterError(
+            "state.version", f"is {data['version']!r}; this build reads version {STATE_VERSION}"
+        )
     if not isinstance(data["config_digest"], str):
-        raise ParameterError("state.config_digest", "must be a string, got "
-                             f"{data['config_digest']!r}")
+        raise ParameterError(
+            "state.config_digest", f"must be a string, got {data['config_digest']!r}"
+        )
     t = data["t"]
-    if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float))
-                          or not np.isfinite(t)):
+    if t is not None and (
+        isinstance(t, bool) or not isinstance(t, (int, float)) or not np.isfinite(t)
+    ):
         raise ParameterError("state.t", f"must be a finite time or null, got {t!r}")
     h = config.history
     state = InitiationState(
-        STATE_VERSION, data["config_digest"],
+        STATE_VERSION,
+        data["config_digest"],
         _integer("state.scans", data["scans"], MAX_SESSION_SCANS),
         None if t is None else float(t),
         _integer("state.next_track", data["next_track"], MAX_TRACK_ID),
         _part(Initiators, "initiators", data["initiators"], h),
-        _part(Tracks, "tracks", data["tracks"], h))
+        _part(Tracks, "tracks", data["tracks"], h),
+    )
     check_state(state, config)
     return state

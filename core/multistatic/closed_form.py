@@ -1,12 +1,12 @@
-"""Closed-form multistatic position solves of seed 001: sum-range and difference-range.
+"""Closed-form multistatic position solves of Fadeev et al.: sum-range and difference-range.
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov) compares the maximum-likelihood
-estimate with two analytic solutions of the position-line equations built on eq. (1)
-(its ref. [10]): the *sum-range* method intersects the ellipses of equal range sum
-(Fig. 3, curves 5), the *difference-range* method the hyperbolae of the receiver-pair
-differences of the range sums (curves 6). Both are solved here by spherical
-intersection (DESIGN section 6): squaring the range equation around a reference point
-makes it linear in the offset s and the reference range R,
+Fadeev, Myakinkov and Ogurtsov compare the maximum-likelihood estimate with two
+analytic solutions of the position-line equations built on eq. (1) (their ref. [10]):
+the *sum-range* method intersects the ellipses of equal range sum (Fig. 3, curves 5),
+the *difference-range* method the hyperbolae of the receiver-pair differences of the
+range sums (curves 6). Both are solved here by spherical intersection: squaring the
+range equation around a reference point makes it linear in the offset s and the
+reference range R,
 
 .. math:: \\mathbf{M} \\mathbf{s} = \\mathbf{h} + R \\, \\mathbf{g},
 
@@ -48,8 +48,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core.errors import ParameterError
-from core.multistatic.model import COINCIDENT_RTOL, _scale, range_sums, validate_problem
+from plotgate.core.errors import ParameterError
+from plotgate.core.multistatic.model import (
+    COINCIDENT_RTOL,
+    coordinate_scale,
+    range_sums,
+    validate_problem,
+)
 
 __all__ = [
     "RANK_RTOL",
@@ -107,9 +112,12 @@ def _single_transmitter(tx: np.ndarray, tol: np.ndarray) -> None:
         index = int(np.argmax(bad))
         k = int(np.argmax(spread[index] > tol[index]))
         raise ParameterError(
-            "tx", f"this closed form needs one transmitter per problem, but pair {k} has "
+            "tx",
+            f"this closed form needs one transmitter per problem, but pair {k} has "
             f"tx {tx[index, k].tolist()} and pair 0 has {tx[index, 0].tolist()}; "
-            f"solve each transmitter's pairs separately", index)
+            f"solve each transmitter's pairs separately",
+            index,
+        )
 
 
 def _intersect(
@@ -129,7 +137,7 @@ def _intersect(
     must be >= 0 for the root to be consistent.
     """
     n, _, d = M.shape
-    tol = ROOT_RTOL * _scale(tx, rx)  # (N,)
+    tol = ROOT_RTOL * coordinate_scale(tx, rx)  # (N,)
 
     # Least squares s = a + R c through the SVD (batched pseudo-inverse).
     U, S, Vt = np.linalg.svd(M, full_matrices=False)  # (N,K,D), (N,D), (N,D,D)
@@ -176,8 +184,11 @@ def _intersect(
     t = np.sqrt(np.maximum(t2, 0.0))
     null = Vt[:, -1]  # (N, D), unit
     sign = np.array([1.0, -1.0])
-    s = np.where(mirror[:, None, None],
-                 s_m[:, None, :] + (sign[:, None] * t[:, None, None]) * null[:, None, :], s)
+    s = np.where(
+        mirror[:, None, None],
+        s_m[:, None, :] + (sign[:, None] * t[:, None, None]) * null[:, None, :],
+        s,
+    )
     R = np.where(mirror[:, None], R_m[:, None], R)
     real = np.where(mirror, t2 >= -1e-12 * R_m * R_m, real)
     solvable_rank = full_rank | mirror
@@ -187,11 +198,16 @@ def _intersect(
     s = np.where(finite[..., None], s, 0.0)
     x = base[:, None, :] + s
     implied = ranges[:, None, :] + R[..., None] * ranges_slope[:, None, :]  # (N, 2, K)
-    consistent = (finite & real[:, None] & solvable_rank[:, None]
-                  & (R >= -tol[:, None])
-                  & (implied >= -tol[:, None, None]).all(axis=-1))
-    residual = np.linalg.norm(ls[:, None, :] - range_sums(x, tx[:, None], rx[:, None]),
-                              axis=-1)  # (N, 2)
+    consistent = (
+        finite
+        & real[:, None]
+        & solvable_rank[:, None]
+        & (R >= -tol[:, None])
+        & (implied >= -tol[:, None, None]).all(axis=-1)
+    )
+    residual = np.linalg.norm(
+        ls[:, None, :] - range_sums(x, tx[:, None], rx[:, None]), axis=-1
+    )  # (N, 2)
 
     # Smaller residual wins. Residuals equal to rounding (a square system, where both
     # roots are exact) fall back to the smaller reference range R, and equal R (mirror
@@ -215,21 +231,22 @@ def _intersect(
     vertex = np.where(np.isfinite(vertex), vertex, 0.0)
     fallback = base + a + vertex[:, None] * c
     x_out = np.where(solvable[:, None], x_best, fallback)
-    res_out = np.where(solvable, residual[rows, best],
-                       np.linalg.norm(ls - range_sums(fallback, tx, rx), axis=-1))
+    res_out = np.where(
+        solvable, residual[rows, best], np.linalg.norm(ls - range_sums(fallback, tx, rx), axis=-1)
+    )
     alt_out = np.where(has_alt[:, None], x_other, x_out)
     alt_res = np.where(has_alt, residual[rows, other], res_out)
     return ClosedFormSolution(x_out, alt_out, has_alt, solvable, res_out, alt_res)
 
 
 def sum_range_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     *,
     baseline_tol: ArrayLike | None = None,
 ) -> ClosedFormSolution:
-    """Sum-range method: intersect the ellipses of equal range sum (seed 001, curves 5).
+    """Sum-range method: intersect the ellipses of equal range sum (Fadeev et al., curves 5).
 
     With one transmitter per problem, s = x - tx, R_t = |s|, b_k = rx_k - tx, the
     range to receiver k is l_k - R_t; squaring it gives the linear equations
@@ -252,7 +269,7 @@ def sum_range_solve(
         Receivers, metres; D = 2 or 3.
     baseline_tol : float or array_like, optional
         Metres a range sum may fall below its baseline (noise near a baseline crossing);
-        see :func:`core.multistatic.model.validate_problem`. Default 0.
+        see :func:`plotgate.core.multistatic.model.validate_problem`. Default 0.
 
     Returns
     -------
@@ -262,13 +279,13 @@ def sum_range_solve(
     Raises
     ------
     NonFiniteError, ParameterError, GeometryError
-        As :func:`core.multistatic.model.validate_problem`; also ParameterError
+        As :func:`plotgate.core.multistatic.model.validate_problem`; also ParameterError
         (field ``"tx"``) when the pairs of a problem do not share one transmitter.
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
-       sum-range method (Fig. 3, curves 5); DESIGN section 6.
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1) and the
+       sum-range method (Fig. 3, curves 5).
 
     Examples
     --------
@@ -289,17 +306,18 @@ def sum_range_solve(
     (array([[2000., 3000.]]), array([ True]), array([1463.]))
     """
     ls, tx, rx, _ = validate_problem(l, tx, rx, baseline_tol=baseline_tol)
-    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+    _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
     base = tx[:, 0]
     b = rx - base[:, None]
     norm_b = np.linalg.norm(b, axis=-1)
     h = 0.5 * (norm_b - ls) * (norm_b + ls)  # (|b|^2 - l^2) / 2 without cancellation
-    return _intersect(M=b, g=ls, h=h, ranges=ls, ranges_slope=-np.ones_like(ls),
-                      base=base, ls=ls, tx=tx, rx=rx)
+    return _intersect(
+        M=b, g=ls, h=h, ranges=ls, ranges_slope=-np.ones_like(ls), base=base, ls=ls, tx=tx, rx=rx
+    )
 
 
 def difference_range_solve(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     *,
@@ -344,8 +362,8 @@ def difference_range_solve(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1) and the
-       difference-range method (Fig. 3, curves 6); DESIGN section 6.
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1) and the
+       difference-range method (Fig. 3, curves 6).
 
     Examples
     --------
@@ -359,13 +377,16 @@ def difference_range_solve(
     p, d = rx.shape[1], rx.shape[2]
     if p < d + 1:
         raise ParameterError(
-            "l", f"has {p} measurements, giving {p - 1} differences for {d} unknowns; "
-            f"the difference-range method needs at least {d + 1}")
-    _single_transmitter(tx, COINCIDENT_RTOL * _scale(tx, rx))
+            "l",
+            f"has {p} measurements, giving {p - 1} differences for {d} unknowns; "
+            f"the difference-range method needs at least {d + 1}",
+        )
+    _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
     base = rx[:, 0]
     e = rx[:, 1:] - base[:, None]
     dk = ls[:, 1:] - ls[:, :1]
     norm_e = np.linalg.norm(e, axis=-1)
     h = 0.5 * (norm_e - dk) * (norm_e + dk)  # (|e|^2 - d^2) / 2 without cancellation
-    return _intersect(M=e, g=-dk, h=h, ranges=dk, ranges_slope=np.ones_like(dk),
-                      base=base, ls=ls, tx=tx, rx=rx)
+    return _intersect(
+        M=e, g=-dk, h=h, ranges=dk, ranges_slope=np.ones_like(dk), base=base, ls=ls, tx=tx, rx=rx
+    )

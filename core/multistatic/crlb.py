@@ -1,31 +1,32 @@
-"""Cramer-Rao lower bounds of multistatic range-sum positioning (seed 001, eq. 3).
+"""Cramer-Rao lower bounds of multistatic range-sum positioning (Fadeev et al., eq. 3).
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov) bounds the position error
-of a target seen by range sums l_p = |x - rx_p| + |x - tx_p| with independent
-N(0, sigma_p^2) noise by the inverse of the Fisher information
+Fadeev, Myakinkov and Ogurtsov bound the position error of a target seen by range sums
+l_p = |x - rx_p| + |x - tx_p| with independent N(0, sigma_p^2) noise by the inverse of
+the Fisher information
 
 .. math:: \\mathbf{J} = \\sum_{i}\\sum_{p} \\frac{1}{\\sigma_p^2}
           \\nabla l_{p,i} \\, \\nabla l_{p,i}^T = \\mathbf{H}^T \\mathbf{G} \\mathbf{H},
           \\quad \\mathbf{G} = \\mathrm{diag}(1/\\sigma_p^2)
 
-(eq. 3; H the Jacobian of :func:`core.multistatic.model.range_sum_jacobian`), single
+(eq. 3; H the Jacobian of :func:`plotgate.core.multistatic.model.range_sum_jacobian`), single
 shot (one sample, Fig. 3 curves 1) or accumulated over the samples of a
 constant-velocity track (curves 2).
 
 Conventions and decisions
 -------------------------
-* Shapes as :mod:`core.multistatic.model`: x (N, D) or (D,), tx / rx (N, P, D) or
+* Shapes as :mod:`plotgate.core.multistatic.model`: x (N, D) or (D,), tx / rx (N, P, D) or
   (P, D), sigma scalar, (P,) or (N, P); results are batched (N, ...).
 * GDOP = sqrt(trace J^-1) / sigma_ref with the reference sigma
   sigma_ref = (mean_p 1 / sigma_p^2)^(-1/2), the sigma that carries the average
   information of one measurement. With equal sigmas sigma_ref = sigma and the GDOP is
   the pure geometry factor sqrt(trace (H^T H)^-1); scaling every sigma by c leaves
   the GDOP unchanged.
-* Where the target sits on a baseline the row of that pair vanishes (seed 001: the
+* Where the target sits on a baseline the row of that pair vanishes (Fadeev et al.: the
   ellipse degenerates to the segment). With too few other pairs J is then singular;
-  its eigenvalues are floored at INFORMATION_RTOL times the largest, so the bound in
-  the unobservable direction is huge (about 1e7 times the best sigma) but finite,
-  never NaN or an exception.
+  its eigenvalues are floored at ``INFORMATION_RTOL`` times the largest
+  (:mod:`plotgate.core.multistatic.information`), so the bound in the unobservable
+  direction is huge (about 1e7 times the best sigma) but finite, never NaN or an
+  exception.
 * Trajectories: x0 is the position at the first sample time t_ref = t[0] and
   x(t) = x0 + v (t - t_ref).
 """
@@ -33,35 +34,30 @@ Conventions and decisions
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, first_index
-from core.errors import GeometryError, ParameterError
-from core.multistatic.model import (
+from plotgate.core.errors import GeometryError, ParameterError
+from plotgate.core.multistatic.information import inverse_information, position_covariance
+from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
-    _scale,
+    coordinate_scale,
     range_sum_jacobian,
     range_sums,
     validate_problem,
+    validate_track,
 )
+from plotgate.core.validation import as_array, first_index
 
 __all__ = [
     "CRLB",
-    "INFORMATION_RTOL",
     "TrajectoryCRLB",
     "crlb",
     "difference_crlb",
     "trajectory_crlb",
 ]
-
-INFORMATION_RTOL = 1e-14
-"""Eigenvalues of a Fisher information matrix below INFORMATION_RTOL times its largest
-are raised to that floor before inversion (a numerically unobservable direction gets a
-huge but finite variance)."""
-
-_INFORMATION_FLOOR = 1e-150  # absolute floor (m^-2) for an all-zero information matrix
 
 
 @dataclass(frozen=True)
@@ -91,7 +87,7 @@ class CRLB:
 
 @dataclass(frozen=True)
 class TrajectoryCRLB:
-    """Cramer-Rao bound of a constant-velocity track from T samples (seed 001, eq. 3).
+    """Cramer-Rao bound of a constant-velocity track from T samples (Fadeev et al., eq. 3).
 
     Attributes
     ----------
@@ -105,7 +101,7 @@ class TrajectoryCRLB:
         sqrt of its diagonal: metres for x0, m/s for v.
     position_covariance : (T, D, D) ndarray
         Bound on the position at each sample time, A_i J^-1 A_i^T with
-        A_i = [I, (t_i - t_ref) I], m^2 (seed 001, Fig. 3 curves 2).
+        A_i = [I, (t_i - t_ref) I], m^2 (Fadeev et al., Fig. 3 curves 2).
     position_sigma : (T, D) ndarray
         sqrt of its diagonal, metres.
     gdop : (T,) ndarray
@@ -124,39 +120,14 @@ class TrajectoryCRLB:
     sigma_ref: float
 
 
-def _symmetric_eigh(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Ascending eigenvalues (..., K) and eigenvectors (..., K, K) of symmetric matrices.
-
-    K = 2 in closed form (the principal-axis angle phi, tan 2 phi = 2b / (a - d)), as
-    accurate as LAPACK's and 30 times faster on a batch; other K by np.linalg.eigh.
-    """
-    if A.shape[-1] != 2:
-        return np.linalg.eigh(A)
-    a, d = A[..., 0, 0], A[..., 1, 1]
-    b = 0.5 * (A[..., 0, 1] + A[..., 1, 0])
-    mean, r = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
-    phi = 0.5 * np.arctan2(2.0 * b, a - d)  # direction of the larger eigenvalue's vector
-    c, s = np.cos(phi), np.sin(phi)
-    V = np.stack([np.stack([-s, c], axis=-1), np.stack([c, s], axis=-1)], axis=-2)
-    return np.stack([mean - r, mean + r], axis=-1), V
-
-
-def _inverse_information(J: np.ndarray) -> np.ndarray:
-    """J^-1 of symmetric PSD (..., K, K) matrices, eigenvalues floored (never NaN/inf)."""
-    J = 0.5 * (J + np.swapaxes(J, -1, -2))
-    w, V = _symmetric_eigh(J)
-    floor = np.maximum(INFORMATION_RTOL * w[..., -1:], _INFORMATION_FLOOR)
-    w = np.maximum(w, floor)
-    cov = np.einsum("...ik,...k,...jk->...ij", V, 1.0 / w, V)
-    return 0.5 * (cov + np.swapaxes(cov, -1, -2))
-
-
 def _diag_sqrt(cov: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.maximum(np.diagonal(cov, axis1=-2, axis2=-1), 0.0))
+    sigma: np.ndarray = np.sqrt(np.maximum(np.diagonal(cov, axis1=-2, axis2=-1), 0.0))
+    return sigma
 
 
 def _sigma_ref(sigma: np.ndarray, axis: int | tuple[int, ...] = -1) -> np.ndarray:
-    return 1.0 / np.sqrt(np.mean(1.0 / (sigma * sigma), axis=axis))
+    ref: np.ndarray = 1.0 / np.sqrt(np.mean(1.0 / (sigma * sigma), axis=axis))
+    return ref
 
 
 def _single_tx(tx: ArrayLike) -> ArrayLike:
@@ -182,7 +153,8 @@ def _geometry(
         d = None  # range_sums words the error on rx
     if x.ndim not in (1, 2) or (d is not None and x.shape[-1] != d):
         raise ParameterError(
-            "x", f"must have shape (D,) or (N, D) with the D = {d} of rx, got {x.shape}")
+            "x", f"must have shape (D,) or (N, D) with the D = {d} of rx, got {x.shape}"
+        )
     ls = range_sums(x, tx, rx)  # shape, D, P and broadcast checks, field-named
     batched = x.ndim == 2
     d = x.shape[-1]
@@ -190,26 +162,30 @@ def _geometry(
     min_pairs = d + extra_pairs
     if p < min_pairs:
         raise ParameterError(
-            "rx", f"has {p} measurement pairs; this bound of {d} coordinates needs at "
-            f"least {min_pairs}")
-    _, tx, rx, sigma = validate_problem(ls, tx, rx, sigma)
+            "rx",
+            f"has {p} measurement pairs; this bound of {d} coordinates needs at least {min_pairs}",
+        )
+    _, tx, rx, checked_sigma = validate_problem(ls, tx, rx, sigma)
     n = tx.shape[0]
     x = np.array(np.broadcast_to(x, (n, d)))
     # the gradient of |x - platform| is undefined on the platform
-    tol = COINCIDENT_RTOL * _scale(tx, rx)
-    gap = np.minimum(np.linalg.norm(x[:, None] - tx, axis=-1),
-                     np.linalg.norm(x[:, None] - rx, axis=-1)).min(axis=-1)
+    tol = COINCIDENT_RTOL * coordinate_scale(tx, rx)
+    gap = np.minimum(
+        np.linalg.norm(x[:, None] - tx, axis=-1), np.linalg.norm(x[:, None] - rx, axis=-1)
+    ).min(axis=-1)
     on_platform = gap <= tol
     if on_platform.any():
         index = first_index(on_platform)
         raise GeometryError(
-            "x", f"{x[index].tolist()} is at a platform, where the range-sum gradient is "
-            f"undefined", index if batched else None)
-    return x, tx, rx, sigma
+            "x",
+            f"{x[index].tolist()} is at a platform, where the range-sum gradient is undefined",
+            index if batched else None,
+        )
+    return x, tx, rx, cast(np.ndarray, checked_sigma)  # given, so checked: never None
 
 
 def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
-    """Single-shot Cramer-Rao bound of the position from P range sums (seed 001, eq. 3).
+    """Single-shot Cramer-Rao bound of the position from P range sums (Fadeev et al., eq. 3).
 
     .. math:: \\mathbf{J} = \\mathbf{H}^T \\mathrm{diag}(1/\\sigma_p^2) \\mathbf{H},
               \\quad \\mathbf{H}_{p} = \\frac{\\mathbf{x} - \\mathbf{rx}_p}
@@ -244,7 +220,7 @@ def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3): the Fisher
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (3): the Fisher
        information of the range sums, one sample (Fig. 3, curves 1).
 
     Examples
@@ -264,10 +240,14 @@ def crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
 
 
 def _bound(J: np.ndarray, sigma_ref: np.ndarray) -> CRLB:
-    cov = _inverse_information(J)
-    return CRLB(information=J, covariance=cov, sigma=_diag_sqrt(cov),
-                gdop=np.sqrt(np.trace(cov, axis1=-2, axis2=-1)) / sigma_ref,
-                sigma_ref=sigma_ref)
+    cov = inverse_information(J)
+    return CRLB(
+        information=J,
+        covariance=cov,
+        sigma=_diag_sqrt(cov),
+        gdop=np.sqrt(np.trace(cov, axis1=-2, axis2=-1)) / sigma_ref,
+        sigma_ref=sigma_ref,
+    )
 
 
 def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike) -> CRLB:
@@ -292,7 +272,7 @@ def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike
         True target positions, metres.
     tx, rx : (P, D) or (N, P, D) array_like
         Transmitter and receiver of each pair, metres; P >= D + 1. The first pair is
-        the reference (as in :func:`core.multistatic.closed_form.difference_range_solve`).
+        the reference (as in :func:`plotgate.core.multistatic.closed_form.difference_range_solve`).
     sigma : float, (P,) or (N, P) array_like
         Range-sum noise standard deviations, metres, > 0.
 
@@ -309,7 +289,7 @@ def difference_crlb(x: ArrayLike, tx: ArrayLike, rx: ArrayLike, sigma: ArrayLike
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3) applied to
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (3) applied to
        the difference-range method's measurements (Fig. 3, curves 6).
 
     Examples
@@ -331,22 +311,8 @@ def _difference_information(H: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     var = sigma * sigma
     # C = A diag(sigma^2) A^T: sigma_k^2 + sigma_1^2 on the diagonal, sigma_1^2 off it
     C = np.eye(var.shape[-1] - 1) * var[..., 1:, None] + var[..., :1, None]
-    return np.einsum("...ki,...kj->...ij", Hd, np.linalg.solve(C, Hd))
-
-
-def _track_inputs(
-    x0: ArrayLike, v: ArrayLike, t: ArrayLike
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    t = as_array("t", t)
-    if t.ndim != 1 or t.size < 1:
-        raise ParameterError("t", f"must have shape (T,) with T >= 1, got {t.shape}")
-    x0 = as_array("x0", x0)
-    if x0.shape not in ((2,), (3,)):
-        raise ParameterError("x0", f"must have shape (D,) with D = 2 or 3, got {x0.shape}")
-    v = as_array("v", v)
-    if v.shape != x0.shape:
-        raise ParameterError("v", f"must have the shape of x0 {x0.shape}, got {v.shape}")
-    return x0, v, t
+    J: np.ndarray = np.einsum("...ki,...kj->...ij", Hd, np.linalg.solve(C, Hd))
+    return J
 
 
 def trajectory_crlb(
@@ -358,7 +324,7 @@ def trajectory_crlb(
     sigma: ArrayLike,
     measurements: str = "sum",
 ) -> TrajectoryCRLB:
-    """Accumulated Cramer-Rao bound of a constant-velocity track (seed 001, eq. 3, curves 2).
+    """Accumulated Cramer-Rao bound of a constant-velocity track (Fadeev et al., eq. 3, curves 2).
 
     The state theta = (x0, v) gives x_i = x0 + v (t_i - t_ref); the Jacobian of
     l_{p,i} is [H_{p,i}, (t_i - t_ref) H_{p,i}], and the information is summed over the
@@ -384,7 +350,7 @@ def trajectory_crlb(
         Sample times, seconds (any epoch).
     tx, rx : (P, D) or (T, P, D) array_like
         Platforms of each pair, fixed or per sample (e.g. from
-        :func:`core.multistatic.model.platform_positions`), metres; P >= D.
+        :func:`plotgate.core.multistatic.model.platform_positions`), metres; P >= D.
     sigma : float, (P,) or (T, P) array_like
         Range-sum noise standard deviations, metres, > 0.
     measurements : ``"sum"`` or ``"difference"``, optional
@@ -408,7 +374,7 @@ def trajectory_crlb(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (3) with the sum
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (3) with the sum
        over the n accumulated samples (Fig. 3, curves 2).
 
     Examples
@@ -422,8 +388,9 @@ def trajectory_crlb(
     """
     if measurements not in ("sum", "difference"):
         raise ParameterError(
-            "measurements", f"must be 'sum' or 'difference', got {measurements!r}")
-    x0, v, t = _track_inputs(x0, v, t)
+            "measurements", f"must be 'sum' or 'difference', got {measurements!r}"
+        )
+    x0, v, t = validate_track(x0, v, t)
     tau = t - t[0]
     x = x0 + tau[:, None] * v  # (T, D)
     x, tx, rx, sigma = _geometry(x, tx, rx, sigma, extra_pairs=int(measurements != "sum"))
@@ -434,25 +401,21 @@ def trajectory_crlb(
         J = np.einsum("tpi,tpj->ij", Hs, Hs)
     else:
         J = _difference_information(Hs, sigma).sum(axis=0)
-    cov = _inverse_information(J)
+    cov = inverse_information(J)
     return _track_bound(J, cov, tau, float(t[0]), float(_sigma_ref(sigma, axis=(0, 1))))
-
-
-def _position_covariance(cov: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """A cov A^T with A = [I, tau I] for each tau: (..., M, D, D) from (..., 2D, 2D)."""
-    d = cov.shape[-1] // 2
-    cov = cov[..., None, :, :]
-    P_xx, P_xv, P_vv = cov[..., :d, :d], cov[..., :d, d:], cov[..., d:, d:]
-    tau = tau[:, None, None]
-    out = P_xx + tau * (P_xv + np.swapaxes(P_xv, -1, -2)) + tau * tau * P_vv
-    return 0.5 * (out + np.swapaxes(out, -1, -2))
 
 
 def _track_bound(
     J: np.ndarray, cov: np.ndarray, tau: np.ndarray, t_ref: float, sigma_ref: float
 ) -> TrajectoryCRLB:
-    pos = _position_covariance(cov, tau)
+    pos = position_covariance(cov, tau)
     return TrajectoryCRLB(
-        t_ref=t_ref, information=J, covariance=cov, sigma=_diag_sqrt(cov),
-        position_covariance=pos, position_sigma=_diag_sqrt(pos),
-        gdop=np.sqrt(np.trace(pos, axis1=-2, axis2=-1)) / sigma_ref, sigma_ref=sigma_ref)
+        t_ref=t_ref,
+        information=J,
+        covariance=cov,
+        sigma=_diag_sqrt(cov),
+        position_covariance=pos,
+        position_sigma=_diag_sqrt(pos),
+        gdop=np.sqrt(np.trace(pos, axis1=-2, axis2=-1)) / sigma_ref,
+        sigma_ref=sigma_ref,
+    )

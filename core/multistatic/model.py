@@ -1,8 +1,8 @@
-"""Range-sum measurement model of seed 001 (multistatic radar, moving platforms).
+"""Range-sum measurement model of Fadeev et al. (multistatic radar, moving platforms).
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, coordinate accuracy of a
-multistatic forward-scattering radar with mobile positions), eq. (1): a transmitter at
-``tx`` and a receiver at ``rx`` measure the range sum
+Fadeev, Myakinkov and Ogurtsov (coordinate accuracy of a multistatic forward-scattering
+radar with mobile positions), eq. (1): a transmitter at ``tx`` and a receiver at ``rx``
+measure the range sum
 
 .. math:: l = |\\mathbf{x} - \\mathbf{rx}| + |\\mathbf{x} - \\mathbf{tx}|
 
@@ -19,7 +19,7 @@ x : (N, D) target positions. tx, rx : (N, P, D) or unbatched (P, D), broadcast.
 l : (N, P) or (P,) range sums. sigma : scalar, (P,) or (N, P) noise standard deviations.
 
 Platform positions are known at each time; moving platforms are either given per
-sample or generated with :func:`platform_positions` (constant velocity, seed 001 Fig. 2).
+sample or generated with :func:`platform_positions` (constant velocity, Fadeev et al., Fig. 2).
 """
 
 from __future__ import annotations
@@ -29,17 +29,24 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, first_index
-from core.errors import GeometryError, ParameterError
+from plotgate.core.errors import GeometryError, ParameterError
+from plotgate.core.validation import as_array, first_index
 
 __all__ = [
     "COINCIDENT_RTOL",
     "BASELINE_SIGMAS",
     "Problem",
+    "array_shape",
+    "coordinate_scale",
     "platform_positions",
     "range_sum_jacobian",
+    "range_sum_jacobian_unchecked",
     "range_sums",
+    "range_sums_unchecked",
     "validate_problem",
+    "validate_track",
+    "vector_norm",
+    "with_tx_axis",
 ]
 
 COINCIDENT_RTOL = 1e-9
@@ -49,7 +56,7 @@ COINCIDENT_RTOL = 1e-9
 BASELINE_SIGMAS = 5.0
 """With a known sigma, a range sum may fall this many sigma below its baseline
 |tx - rx| before it is refused: noise alone puts about half the measurements of a
-target on a baseline below it (seed 001 studies exactly such baseline crossings)."""
+target on a baseline below it (Fadeev et al. study exactly such baseline crossings)."""
 
 
 class Problem(NamedTuple):
@@ -65,28 +72,32 @@ class Problem(NamedTuple):
         Noise standard deviations, metres; None when no sigma was given.
     """
 
-    l: np.ndarray  # noqa: E741 (the contract and seed 001 name the range sum l)
+    l: np.ndarray  # noqa: E741 (the contract and Fadeev et al. name the range sum l)
     tx: np.ndarray
     rx: np.ndarray
     sigma: np.ndarray | None
 
 
-def _shape(name: str, value: ArrayLike) -> tuple[int, ...]:
-    """Shape of an array_like; ParameterError (naming it) for ragged nesting."""
+def array_shape(name: str, value: ArrayLike) -> tuple[int, ...]:
+    """Shape of an array_like without coercing it; ParameterError naming ``name`` when
+    the nesting is ragged."""
     try:
         return np.shape(value)
     except (TypeError, ValueError) as exc:
         raise ParameterError(name, f"must be a regular array of real numbers ({exc})") from None
 
 
-def _with_tx_axis(tx: ArrayLike) -> ArrayLike:
-    """A single transmitter given as (D,) becomes (1, D), broadcast over the pairs."""
-    return np.asarray(tx)[None, :] if len(_shape("tx", tx)) == 1 else tx
+def with_tx_axis(tx: ArrayLike) -> ArrayLike:
+    """A single transmitter given as (D,) becomes (1, D), broadcast over the pairs.
+
+    Other shapes pass through unchanged for the solvers' shape checks.
+    """
+    return np.asarray(tx)[None, :] if len(array_shape("tx", tx)) == 1 else tx
 
 
 def _platforms(name: str, value: ArrayLike, max_ndim: int | None = 3) -> np.ndarray:
     """Coerce a (..., P, D) finite platform array with D in {2, 3}; index = batch row."""
-    shape = _shape(name, value)
+    shape = array_shape(name, value)
     if len(shape) < 2 or shape[-1] not in (2, 3) or (max_ndim and len(shape) > max_ndim):
         form = "(P, D) or (N, P, D)" if max_ndim == 3 else "(..., P, D)"
         raise ParameterError(name, f"must have shape {form} with D = 2 or 3, got {shape}")
@@ -95,7 +106,7 @@ def _platforms(name: str, value: ArrayLike, max_ndim: int | None = 3) -> np.ndar
 
 def _positions(name: str, value: ArrayLike) -> np.ndarray:
     """Coerce (..., D) finite positions with D in {2, 3}."""
-    shape = _shape(name, value)
+    shape = array_shape(name, value)
     if len(shape) < 1 or shape[-1] not in (2, 3):
         raise ParameterError(name, f"must have shape (..., D) with D = 2 or 3, got {shape}")
     return as_array(name, value, (shape[-1],))
@@ -106,7 +117,7 @@ def _model_inputs(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coerce x (..., D), tx/rx (..., P, D) and check that D and P agree."""
     x = _positions("x", x)
-    tx = _platforms("tx", _with_tx_axis(tx), max_ndim=None)
+    tx = _platforms("tx", with_tx_axis(tx), max_ndim=None)
     rx = _platforms("rx", rx, max_ndim=None)
     d = x.shape[-1]
     for name, arr in (("tx", tx), ("rx", rx)):
@@ -114,20 +125,23 @@ def _model_inputs(
             raise ParameterError(name, f"has D = {arr.shape[-1]} but x has D = {d}")
     if tx.shape[-2] not in (1, rx.shape[-2]):
         raise ParameterError(
-            "tx", f"has P = {tx.shape[-2]} measurements but rx has {rx.shape[-2]}")
+            "tx", f"has P = {tx.shape[-2]} measurements but rx has {rx.shape[-2]}"
+        )
     try:
         np.broadcast_shapes(x.shape[:-1], tx.shape[:-2], rx.shape[:-2])
     except ValueError:
         raise ParameterError(
-            "x", f"batch shape {x.shape[:-1]} does not broadcast with tx {tx.shape[:-2]} "
-            f"and rx {rx.shape[:-2]}") from None
+            "x",
+            f"batch shape {x.shape[:-1]} does not broadcast with tx {tx.shape[:-2]} "
+            f"and rx {rx.shape[:-2]}",
+        ) from None
     return x, tx, rx
 
 
 def platform_positions(
     initial: ArrayLike, velocity: ArrayLike, t: ArrayLike, t0: float = 0.0
 ) -> np.ndarray:
-    """Positions of platforms moving at constant velocity (seed 001, Fig. 2).
+    """Positions of platforms moving at constant velocity (Fadeev et al., Fig. 2).
 
     .. math:: \\mathbf{p}(t) = \\mathbf{p}_0 + \\mathbf{v} (t - t_0)
 
@@ -162,7 +176,7 @@ def platform_positions(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, Fig. 2: positions
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, Fig. 2: positions
        move on straight lines at constant speed (10 m/s in the paper's example).
 
     Examples
@@ -181,23 +195,25 @@ def platform_positions(
     velocity = _positions("velocity", velocity)
     if velocity.shape[-1] != initial.shape[-1]:
         raise ParameterError(
-            "velocity", f"has D = {velocity.shape[-1]} but initial has D = {initial.shape[-1]}")
+            "velocity", f"has D = {velocity.shape[-1]} but initial has D = {initial.shape[-1]}"
+        )
     try:
         batch = np.broadcast_shapes(initial.shape, velocity.shape)
     except ValueError:
         raise ParameterError(
-            "velocity", f"shape {velocity.shape} does not broadcast with initial "
-            f"{initial.shape}") from None
+            "velocity", f"shape {velocity.shape} does not broadcast with initial {initial.shape}"
+        ) from None
     t = as_array("t", t)
     if t.ndim > 1:
         raise ParameterError("t", f"must have shape (T,), got {t.shape}")
     t0 = float(as_array("t0", t0))
     tau = (t - t0).reshape(t.shape + (1,) * len(batch))
-    return initial + tau * velocity
+    positions: np.ndarray = initial + tau * velocity
+    return positions
 
 
 def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
-    """Range sums l_p = |x - rx_p| + |x - tx_p| (seed 001, eq. 1).
+    """Range sums l_p = |x - rx_p| + |x - tx_p| (Fadeev et al., eq. 1).
 
     Parameters
     ----------
@@ -222,43 +238,48 @@ def range_sums(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1).
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1).
 
     Examples
     --------
     >>> range_sums([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
     array([10000.])
     """
-    return _range_sums(*_model_inputs(x, tx, rx))
+    return range_sums_unchecked(*_model_inputs(x, tx, rx))
 
 
-def _norm(v: np.ndarray) -> np.ndarray:
-    """|v| along the last axis (no checks)."""
-    return np.sqrt(np.einsum("...i,...i->...", v, v))
+def vector_norm(v: np.ndarray) -> np.ndarray:
+    """Euclidean norm |v| along the last axis of checked arrays (no checks)."""
+    norm: np.ndarray = np.sqrt(np.einsum("...i,...i->...", v, v))
+    return norm
 
 
-def _range_sums(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
-    """:func:`range_sums` of checked arrays (the solvers' inner loop)."""
+def range_sums_unchecked(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """:func:`range_sums` without its checks: x (..., D), tx, rx (..., P, D) already
+    validated (the solvers' inner loop)."""
     xp = x[..., None, :]
-    return _norm(xp - rx) + _norm(xp - tx)
+    ls: np.ndarray = vector_norm(xp - rx) + vector_norm(xp - tx)
+    return ls
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
     """v / |v| along the last axis; 0 where v = 0 (the smallest subgradient of |v|)."""
-    norm = _norm(v)[..., None]
-    return np.divide(v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)),
-                     where=norm > 0)
+    norm = vector_norm(v)[..., None]
+    unit: np.ndarray = np.divide(
+        v, norm, out=np.zeros(np.broadcast_shapes(v.shape, norm.shape)), where=norm > 0
+    )
+    return unit
 
 
 def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray:
-    """Jacobian H of the range sums: dl_p/dx (seed 001, the H_n of eq. 6).
+    """Jacobian H of the range sums: dl_p/dx (Fadeev et al., the H_n of eq. 6).
 
     .. math:: \\frac{\\partial l_p}{\\partial \\mathbf{x}} =
               \\frac{\\mathbf{x} - \\mathbf{rx}_p}{|\\mathbf{x} - \\mathbf{rx}_p|} +
               \\frac{\\mathbf{x} - \\mathbf{tx}_p}{|\\mathbf{x} - \\mathbf{tx}_p|}
 
     The row is the sum of the unit vectors from the two foci; it vanishes on the
-    baseline between them (seed 001: the ellipse degenerates to the segment and the
+    baseline between them (Fadeev et al.: the ellipse degenerates to the segment and the
     cross-baseline derivative is zero). Where x sits exactly on a platform the
     gradient of that distance is undefined; its term is taken as 0 (the smallest
     subgradient) so the result stays finite.
@@ -282,20 +303,22 @@ def range_sum_jacobian(x: ArrayLike, tx: ArrayLike, rx: ArrayLike) -> np.ndarray
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eqs. (1), (3), (6).
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eqs. (1), (3), (6).
 
     Examples
     --------
     >>> range_sum_jacobian([3000.0, 4000.0], [[0.0, 0.0]], [[6000.0, 0.0]])
     array([[0. , 1.6]])
     """
-    return _range_sum_jacobian(*_model_inputs(x, tx, rx))
+    return range_sum_jacobian_unchecked(*_model_inputs(x, tx, rx))
 
 
-def _range_sum_jacobian(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
-    """:func:`range_sum_jacobian` of checked arrays (the solvers' inner loop)."""
+def range_sum_jacobian_unchecked(x: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """:func:`range_sum_jacobian` without its checks: x (..., D), tx, rx (..., P, D)
+    already validated (the solvers' inner loop)."""
     xp = x[..., None, :]
-    return _unit(xp - rx) + _unit(xp - tx)
+    H: np.ndarray = _unit(xp - rx) + _unit(xp - tx)
+    return H
 
 
 def _batch_length(**shapes: tuple[int, ...]) -> int:
@@ -309,14 +332,54 @@ def _batch_length(**shapes: tuple[int, ...]) -> int:
     return 1 if n is None else n
 
 
-def _scale(tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
-    """(N,) coordinate scale of each problem: largest |platform coordinate|, >= 1 m."""
+def coordinate_scale(tx: np.ndarray, rx: np.ndarray) -> np.ndarray:
+    """Coordinate scale (N,) of N problems: the largest |platform coordinate|, >= 1 m.
+
+    Platform tolerances (``COINCIDENT_RTOL``) are relative to it.
+    """
     big = np.maximum(np.abs(tx).max(axis=(-2, -1)), np.abs(rx).max(axis=(-2, -1)))
-    return np.maximum(big, 1.0)
+    scale: np.ndarray = np.maximum(big, 1.0)
+    return scale
+
+
+def validate_track(
+    x0: ArrayLike, v: ArrayLike, t: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Check and coerce a constant-velocity track: position x0, velocity v, times t.
+
+    Parameters
+    ----------
+    x0 : (D,) array_like
+        Position at the first sample time, metres; D = 2 or 3.
+    v : (D,) array_like
+        Velocity, m/s.
+    t : (T,) array_like
+        Sample times, seconds; T >= 1.
+
+    Returns
+    -------
+    x0, v, t : ndarray
+        As float arrays.
+
+    Raises
+    ------
+    NonFiniteError, ParameterError
+        If a value is not finite or a shape is wrong (field ``"x0"``, ``"v"`` or ``"t"``).
+    """
+    t = as_array("t", t)
+    if t.ndim != 1 or t.size < 1:
+        raise ParameterError("t", f"must have shape (T,) with T >= 1, got {t.shape}")
+    x0 = as_array("x0", x0)
+    if x0.shape not in ((2,), (3,)):
+        raise ParameterError("x0", f"must have shape (D,) with D = 2 or 3, got {x0.shape}")
+    v = as_array("v", v)
+    if v.shape != x0.shape:
+        raise ParameterError("v", f"must have the shape of x0 {x0.shape}, got {v.shape}")
+    return x0, v, t
 
 
 def validate_problem(
-    l: ArrayLike,  # noqa: E741 (seed 001 names the range sum l)
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
     rx: ArrayLike,
     sigma: ArrayLike | None = None,
@@ -367,7 +430,7 @@ def validate_problem(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (1):
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (1):
        l >= |tx - rx| by the triangle inequality.
 
     Examples
@@ -376,7 +439,7 @@ def validate_problem(
     >>> p.l.shape, p.tx.shape, p.rx.shape, p.sigma
     ((1, 2), (1, 2, 2), (1, 2, 2), None)
     """
-    tx = _platforms("tx", _with_tx_axis(tx))
+    tx = _platforms("tx", with_tx_axis(tx))
     rx = _platforms("rx", rx)
     if rx.shape[-1] != tx.shape[-1]:
         raise ParameterError("rx", f"has D = {rx.shape[-1]} but tx has D = {tx.shape[-1]}")
@@ -384,7 +447,7 @@ def validate_problem(
     p = rx.shape[-2]
     if tx.shape[-2] not in (1, p):
         raise ParameterError("tx", f"has P = {tx.shape[-2]} measurements but rx has {p}")
-    l_shape = _shape("l", l)
+    l_shape = array_shape("l", l)
     if len(l_shape) not in (1, 2):
         raise ParameterError("l", f"must have shape (P,) or (N, P), got {l_shape}")
     ls = as_array("l", l, (l_shape[-1],))
@@ -396,23 +459,23 @@ def validate_problem(
         sig = as_array("sigma", sigma)
         if sig.ndim > 2 or (sig.ndim >= 1 and sig.shape[-1] != p):
             raise ParameterError(
-                "sigma", f"must be a scalar or have shape (P,) or (N, P) with P = {p}, "
-                f"got {sig.shape}")
+                "sigma",
+                f"must be a scalar or have shape (P,) or (N, P) with P = {p}, got {sig.shape}",
+            )
         shapes["sigma"] = sig.shape[:-1]
     n = _batch_length(**shapes)
     if p < d:
         raise ParameterError(
-            "l", f"has {p} measurements but the position has {d} unknowns; "
-            f"at least {d} are needed")
-    negative = ls < 0
+            "l", f"has {p} measurements but the position has {d} unknowns; at least {d} are needed"
+        )
+    negative: np.ndarray = ls < 0
     if negative.any():
-        bad = negative.any(axis=-1)
-        index = first_index(bad)
+        index = first_index(np.asarray(negative.any(axis=-1)))
         row = ls[index] if index is not None else ls
         raise ParameterError("l", f"must be non-negative, got {row.tolist()}", index)
     if sig is not None and not (sig > 0).all():
         bad = ~(sig > 0)
-        index = first_index(bad.any(axis=-1)) if sig.ndim == 2 else None
+        index = first_index(np.asarray(bad.any(axis=-1))) if sig.ndim == 2 else None
         row = sig[index] if index is not None else sig
         raise ParameterError("sigma", f"must be positive, got {row.tolist()}", index)
 
@@ -421,7 +484,7 @@ def validate_problem(
     rx = np.array(np.broadcast_to(rx, (n, p, d)))
     if sig is not None:
         sig = np.array(np.broadcast_to(sig, (n, p)))
-    tol = COINCIDENT_RTOL * _scale(tx, rx)  # (N,)
+    tol = COINCIDENT_RTOL * coordinate_scale(tx, rx)  # (N,)
 
     baseline = np.linalg.norm(rx - tx, axis=-1)  # (N, P)
     coincident = baseline <= tol[:, None]
@@ -429,8 +492,8 @@ def validate_problem(
         index = int(np.argmax(coincident.any(axis=-1)))
         k = int(np.argmax(coincident[index]))
         raise GeometryError(
-            "rx", f"receiver {k} coincides with its transmitter at "
-            f"{tx[index, k].tolist()}", index)
+            "rx", f"receiver {k} coincides with its transmitter at {tx[index, k].tolist()}", index
+        )
     if p > 1:
         # (N, P, P) pair distances: a pair repeated has equal tx and equal rx.
         same_rx = np.linalg.norm(rx[:, :, None] - rx[:, None], axis=-1) <= tol[:, None, None]
@@ -440,27 +503,32 @@ def validate_problem(
             index = int(np.argmax(dup.any(axis=(-2, -1))))
             i, j = np.unravel_index(int(np.argmax(dup[index])), (p, p))
             raise GeometryError(
-                "rx", f"receivers {i} and {j} are at the same position "
-                f"{rx[index, i].tolist()} with the same transmitter", index)
+                "rx",
+                f"receivers {i} and {j} are at the same position "
+                f"{rx[index, i].tolist()} with the same transmitter",
+                index,
+            )
 
     if baseline_tol is None:
         allow = BASELINE_SIGMAS * sig if sig is not None else np.zeros((n, p))
     else:
         allow = as_array("baseline_tol", baseline_tol)
         if not (allow >= 0).all():
-            raise ParameterError(
-                "baseline_tol", f"must be non-negative, got {allow.tolist()}")
+            raise ParameterError("baseline_tol", f"must be non-negative, got {allow.tolist()}")
         try:
             allow = np.broadcast_to(allow, (n, p))
         except ValueError:
             raise ParameterError(
-                "baseline_tol", f"shape {allow.shape} does not broadcast with "
-                f"(N, P) = {(n, p)}") from None
+                "baseline_tol", f"shape {allow.shape} does not broadcast with (N, P) = {(n, p)}"
+            ) from None
     short = ls < baseline - allow - tol[:, None]
     if short.any():
         index = int(np.argmax(short.any(axis=-1)))
         k = int(np.argmax(short[index]))
         raise GeometryError(
-            "l", f"range sum {k} = {float(ls[index, k])} m is shorter than its baseline "
-            f"|tx - rx| = {float(baseline[index, k])} m; no target position gives it", index)
+            "l",
+            f"range sum {k} = {float(ls[index, k])} m is shorter than its baseline "
+            f"|tx - rx| = {float(baseline[index, k])} m; no target position gives it",
+            index,
+        )
     return Problem(ls, tx, rx, sig)

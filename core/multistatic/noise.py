@@ -1,12 +1,11 @@
-"""Range-sum noise estimation and polynomial smoothing of solved positions (seed 001).
+"""Range-sum noise estimation and polynomial smoothing of solved positions (Fadeev et al.).
 
-Seed 001 (R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, accuracy of target
-positioning in a multistatic forward-scatter radar with moving platforms) estimates
-the unknown range-sum noise from the measurements themselves (eq. 5): for a target on
-a straight line, each range-sum series l_p(t) is close to a quadratic in time, so the
-residuals of a quadratic least-squares fit measure sigma_p. It also smooths the solved
-coordinates with a polynomial in a sliding window (the remark after eq. 7, curves 5
-and 6 of Fig. 3).
+Fadeev, Myakinkov and Ogurtsov (accuracy of target positioning in a multistatic
+forward-scatter radar with moving platforms) estimate the unknown range-sum noise from the
+measurements themselves (eq. 5): for a target on a straight line, each range-sum series
+l_p(t) is close to a quadratic in time, so the residuals of a quadratic least-squares
+fit measure sigma_p. They also smooth the solved coordinates with a polynomial in a
+sliding window (the remark after eq. 7, curves 5 and 6 of Fig. 3).
 
 Symbols
 -------
@@ -36,15 +35,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, first_index
-from core.errors import ParameterError
+from plotgate.core.errors import ParameterError
+from plotgate.core.validation import as_array
 
 __all__ = ["NoiseEstimate", "range_sum_noise", "smooth_positions"]
 
 
 @dataclass(frozen=True)
 class NoiseEstimate:
-    """Range-sum noise estimated from the residuals of a polynomial fit (seed 001, eq. 5).
+    """Range-sum noise estimated from the residuals of a polynomial fit (Fadeev et al., eq. 5).
 
     Attributes
     ----------
@@ -82,9 +81,10 @@ def _as_times(t: ArrayLike, n_needed: int, what: str) -> np.ndarray:
         raise ParameterError("t", f"needs at least {n_needed} samples {what}, got {t.size}")
     step = np.diff(t)
     if not (step > 0.0).all():
-        index = first_index(~(step > 0.0)) + 1
-        raise ParameterError("t", f"must be strictly increasing, got {t[index - 1]} then "
-                             f"{t[index]}", index)
+        index = int(np.argmax(~(step > 0.0))) + 1
+        raise ParameterError(
+            "t", f"must be strictly increasing, got {t[index - 1]} then {t[index]}", index
+        )
     return t
 
 
@@ -92,8 +92,9 @@ def _as_series(name: str, value: ArrayLike, n_samples: int) -> np.ndarray:
     x = as_array(name, value)
     if x.ndim == 0 or x.shape[0] != n_samples:
         raise ParameterError(
-            name, f"must have shape (T, ...) with T = {n_samples} samples as t, "
-                  f"got shape {x.shape}")
+            name,
+            f"must have shape (T, ...) with T = {n_samples} samples as t, got shape {x.shape}",
+        )
     return x
 
 
@@ -103,7 +104,9 @@ def _vandermonde(tau: np.ndarray, degree: int) -> np.ndarray:
 
 
 def range_sum_noise(
-    t: ArrayLike, l: ArrayLike, degree: int = 2  # noqa: E741 (seed 001 names it l)
+    t: ArrayLike,
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name it l)
+    degree: int = 2,
 ) -> NoiseEstimate:
     """Noise of each range-sum series from its polynomial (quadratic) fit.
 
@@ -144,7 +147,7 @@ def range_sum_noise(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, eq. (5):
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, eq. (5):
        :math:`\\hat\\sigma_{lk,n}^2 = \\frac{1}{n}\\sum_i (\\hat l_{k,i} -
        \\tilde l_{k,i}(t_i))^2` with quadratic smoothing :math:`\\tilde l`.
 
@@ -180,7 +183,7 @@ def range_sum_noise(
 
 
 def smooth_positions(t: ArrayLike, x: ArrayLike, window: int, degree: int = 2) -> np.ndarray:
-    """Sliding-window polynomial smoothing of solved coordinates (seed 001, Fig. 3).
+    """Sliding-window polynomial smoothing of solved coordinates (Fadeev et al., Fig. 3).
 
     At each sample i the polynomial of degree q is fitted by least squares to the
     ``window`` samples around it and evaluated at t_i. The window is centred on i
@@ -220,7 +223,7 @@ def smooth_positions(t: ArrayLike, x: ArrayLike, window: int, degree: int = 2) -
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, section 2 and the
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, section 2 and the
        conclusion: polynomial smoothing of the coordinate estimates in a sliding
        window (improves the sum-range and difference-range methods, Fig. 3).
 
@@ -234,10 +237,14 @@ def smooth_positions(t: ArrayLike, x: ArrayLike, window: int, degree: int = 2) -
     True
     """
     degree = _as_degree(degree)
-    if (isinstance(window, bool) or not isinstance(window, (int, np.integer))
-            or window < degree + 1):
+    if (
+        isinstance(window, bool)
+        or not isinstance(window, (int, np.integer))
+        or window < degree + 1
+    ):
         raise ParameterError(
-            "window", f"must be an integer >= degree + 1 = {degree + 1}, got {window!r}")
+            "window", f"must be an integer >= degree + 1 = {degree + 1}, got {window!r}"
+        )
     window = int(window)
     t = _as_times(t, window, f"for a window of {window}")
     x = _as_series("x", x, t.size)
@@ -253,4 +260,5 @@ def smooth_positions(t: ArrayLike, x: ArrayLike, window: int, degree: int = 2) -
     tau = (tw - t[:, None]) / half[:, None]
     V = _vandermonde(tau, degree)  # (T, window, q + 1)
     coef = np.linalg.pinv(V) @ y[rows]  # (T, q + 1, columns)
-    return coef[:, 0, :].reshape(x.shape)
+    smoothed: np.ndarray = coef[:, 0, :].reshape(x.shape)
+    return smoothed

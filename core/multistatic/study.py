@@ -1,6 +1,6 @@
-"""Monte Carlo accuracy study of the multistatic solvers (seed 001, Fig. 3, curves 1-6).
+"""Monte Carlo accuracy study of the multistatic solvers (Fadeev et al., Fig. 3, curves 1-6).
 
-Seed 001 judges its solvers along a target's track by six curves of the position error
+Fadeev et al. judge their solvers along a target's track by six curves of the position error
 against the target's position: 1, the single-shot CRLB; 2, the CRLB accumulated over the
 samples so far; 3, the ML trajectory (constant-velocity fit to the samples so far); 4,
 the ML single shot; 5, the sum-range closed form; 6, the difference-range closed form.
@@ -21,7 +21,7 @@ moving platforms, with the diagnostics that say whether a solver is efficient:
   time, against its own bound ``full_track_crlb``.
 
 Every solver runs batched over the runs; the noise is the same for every method.
-Curve 3 takes one batched :func:`core.multistatic.ml.trajectory_solve` per prefix
+Curve 3 takes one batched :func:`plotgate.core.multistatic.trajectory.trajectory_solve` per prefix
 0..i, started from the information-weighted line through the consistent single-shot
 positions of that prefix (what ``trajectory_solve`` starts from itself, computed here
 once for all prefixes with cumulative sums).
@@ -34,29 +34,27 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from core._validate import as_array, require_positive
-from core.errors import ParameterError
-from core.multistatic.closed_form import difference_range_solve, sum_range_solve
-from core.multistatic.crlb import (
-    _inverse_information,
-    _position_covariance,
-    _track_inputs,
-    crlb,
-    difference_crlb,
-)
-from core.multistatic.ml import _line_terms, ml_solve, trajectory_solve
-from core.multistatic.model import (
+from plotgate.core.errors import ParameterError
+from plotgate.core.multistatic.closed_form import difference_range_solve, sum_range_solve
+from plotgate.core.multistatic.crlb import crlb, difference_crlb
+from plotgate.core.multistatic.information import inverse_information, position_covariance
+from plotgate.core.multistatic.model import (
     BASELINE_SIGMAS,
-    _with_tx_axis,
     range_sum_jacobian,
     range_sums,
+    validate_track,
+    with_tx_axis,
 )
-from core.multistatic.noise import range_sum_noise
+from plotgate.core.multistatic.noise import range_sum_noise
+from plotgate.core.multistatic.position import ml_solve
+from plotgate.core.multistatic.track_start import line_terms
+from plotgate.core.multistatic.trajectory import trajectory_solve
+from plotgate.core.validation import as_array, require_positive
 
 __all__ = ["CURVES", "NOISE_WINDOW", "AccuracyStudy", "accuracy_study"]
 
 CURVES = ("ml_track", "ml_single", "sum_range", "difference_range")
-"""The solver curves of seed 001 Fig. 3: 3, 4, 5 and 6."""
+"""The solver curves of Fadeev et al., Fig. 3: 3, 4, 5 and 6."""
 
 NOISE_WINDOW = 50
 """Samples per window of the eq. 5 noise estimate (a quadratic fits a range-sum series
@@ -98,7 +96,7 @@ class AccuracyStudy:
     sum_range_unsolvable, difference_range_unsolvable : (T,) ndarray of int
         Closed-form runs with no consistent root.
     noise_sigma : tuple of float
-        Mean and standard deviation over the runs and pairs of the seed 001 eq. 5 noise
+        Mean and standard deviation over the runs and pairs of the Fadeev et al., eq. 5 noise
         estimate of each range-sum series (variances pooled over consecutive windows of
         NOISE_WINDOW samples).
     runs, seed : int
@@ -132,25 +130,27 @@ class AccuracyStudy:
 
 def _rmse(e: np.ndarray) -> np.ndarray:
     """(runs, T, D) errors -> (T, D) per-axis RMSE."""
-    return np.sqrt(np.mean(e * e, axis=0))
+    rmse: np.ndarray = np.sqrt(np.mean(e * e, axis=0))
+    return rmse
 
 
 def _mahalanobis(e: np.ndarray, J: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.maximum(np.einsum("...i,...ij,...j->...", e, J, e), 0.0))
+    distance: np.ndarray = np.sqrt(np.maximum(np.einsum("...i,...ij,...j->...", e, J, e), 0.0))
+    return distance
 
 
 def _count(mask: np.ndarray) -> np.ndarray:
-    return mask.sum(axis=0).astype(int)
+    count: np.ndarray = mask.sum(axis=0).astype(int)
+    return count
 
 
-def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarray
-                  ) -> np.ndarray:
+def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarray) -> np.ndarray:
     """(runs, T, 2D): for each prefix 0..i the information-weighted line x0 + tau v through
     the positions x (runs, T, D) with information W (runs, T, D, D), using the ``good``
     samples when at least two of them are in the prefix and all samples otherwise."""
 
     def sums(use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        M, b = _line_terms(x, W, tau, use)
+        M, b = line_terms(x, W, tau, use)
         return np.cumsum(M, axis=1), np.cumsum(b, axis=1)
 
     M_good, b_good = sums(good.astype(float))
@@ -158,7 +158,8 @@ def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarra
     enough = np.cumsum(good, axis=1) >= 2
     M = np.where(enough[..., None, None], M_good, M_all)
     b = np.where(enough[..., None], b_good, b_all)
-    return np.einsum("rtij,rtj->rti", _inverse_information(M), b)
+    lines: np.ndarray = np.einsum("rtij,rtj->rti", inverse_information(M), b)
+    return lines
 
 
 def accuracy_study(
@@ -173,7 +174,7 @@ def accuracy_study(
     alpha: float = 0.01,
     tracks: bool = True,
 ) -> AccuracyStudy:
-    """Seed 001 Fig. 3 (curves 1-6) by Monte Carlo for one transmitter and its receivers.
+    """Fadeev et al., Fig. 3 (curves 1-6) by Monte Carlo for one transmitter and its receivers.
 
     Parameters
     ----------
@@ -183,7 +184,7 @@ def accuracy_study(
         The transmitter (one point for every pair), fixed or per sample, m.
     rx : (P, D) or (T, P, D) array_like
         Receivers, fixed or per sample (e.g. from
-        :func:`core.multistatic.model.platform_positions`), m; P >= D + 1.
+        :func:`plotgate.core.multistatic.model.platform_positions`), m; P >= D + 1.
     x0, v : (D,) array_like
         Target position at t[0] (m) and constant velocity (m/s).
     sigma : float
@@ -212,7 +213,7 @@ def accuracy_study(
 
     References
     ----------
-    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, seed 001, Fig. 3: curves 1-6
+    .. [1] R. S. Fadeev, A. V. Myakinkov, A. G. Ogurtsov, Fig. 3: curves 1-6
        along the track of a target crossing the baselines of a multistatic system of
        moving platforms.
 
@@ -224,7 +225,7 @@ def accuracy_study(
     >>> bool(np.all(np.abs(s.rmse["ml_single"] / s.crlb - 1.0) < 0.25))
     True
     """
-    x0, v, t = _track_inputs(x0, v, t)
+    x0, v, t = validate_track(x0, v, t)
     if t.size < 2 or not np.all(np.diff(t) > 0.0):
         raise ParameterError("t", f"must be strictly increasing with T >= 2, got {t}")
     if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 2:
@@ -240,7 +241,7 @@ def accuracy_study(
     bd = difference_crlb(x, tx, rx, sigma)
     clean = range_sums(x, tx, rx)
     p = clean.shape[-1]
-    txb = np.broadcast_to(np.asarray(_with_tx_axis(tx), dtype=float), (n_t, p, d))
+    txb = np.broadcast_to(np.asarray(with_tx_axis(tx), dtype=float), (n_t, p, d))
     rxb = np.broadcast_to(np.asarray(rx, dtype=float), (n_t, p, d))
     noise = sigma * np.random.default_rng(seed).standard_normal((runs, n_t, p))
     L = clean + noise
@@ -251,13 +252,14 @@ def accuracy_study(
     # curves 4-6 and the reference minimum (Gauss-Newton from the truth)
     ml = ml_solve(flat, ftx, frx, sigma, alpha=alpha)
     truth = np.broadcast_to(x, (runs, n_t, d)).reshape(-1, d)
-    ref = ml_solve(flat, ftx, frx, sigma, x0=truth, alpha=alpha,
-                   closed_form_starts=False)
+    ref = ml_solve(flat, ftx, frx, sigma, x0=truth, alpha=alpha, closed_form_starts=False)
     single = ml.x.reshape(runs, n_t, d)
     e = {"ml_single": single - x}
     unsolvable = {}
-    for name, solver in (("sum_range", sum_range_solve),
-                         ("difference_range", difference_range_solve)):
+    for name, solver in (
+        ("sum_range", sum_range_solve),
+        ("difference_range", difference_range_solve),
+    ):
         sol = solver(flat, ftx, frx, baseline_tol=BASELINE_SIGMAS * sigma)
         e[name] = sol.x.reshape(runs, n_t, d) - x
         unsolvable[name] = _count(~sol.solvable.reshape(runs, n_t))
@@ -268,14 +270,14 @@ def accuracy_study(
     # accumulated bound and linearised track estimator for every prefix 0..i
     Hs = np.concatenate([Hw, tau[:, None, None] * Hw], axis=-1)  # (T, P, 2D)
     J = np.cumsum(np.einsum("tpi,tpj->tij", Hs, Hs), axis=0)
-    cov = _inverse_information(J)
+    cov = inverse_information(J)
     P_xv, tau3 = cov[:, :d, d:], tau[:, None, None]  # position bound at t_i, prefix 0..i
-    A_cov = (cov[:, :d, :d] + tau3 * (P_xv + np.swapaxes(P_xv, 1, 2))
-             + tau3 * tau3 * cov[:, d:, d:])
+    A_cov = cov[:, :d, :d] + tau3 * (P_xv + np.swapaxes(P_xv, 1, 2)) + tau3 * tau3 * cov[:, d:, d:]
     acc = np.sqrt(np.diagonal(A_cov, axis1=-2, axis2=-1)).copy()
     acc[0] = b1.sigma[0]
-    theta = np.einsum("tij,rtj->rti", cov,
-                      np.cumsum(np.einsum("tpi,rtp->rti", Hs, noise / sigma), axis=1))
+    theta = np.einsum(
+        "tij,rtj->rti", cov, np.cumsum(np.einsum("tpi,rtp->rti", Hs, noise / sigma), axis=1)
+    )
     e["linearised_track"] = theta[..., :d] + tau[:, None] * theta[..., d:]
 
     # curve 3: a batched trajectory solve per prefix, and the full track
@@ -287,22 +289,29 @@ def accuracy_study(
         W = np.einsum("rtpi,rtpj->rtij", Hx, Hx)
         starts = _prefix_lines(single, W, tau, ml.consistent.reshape(runs, n_t))
         for i in range(1, n_t):
-            fit = trajectory_solve(L[:, : i + 1], t[: i + 1], txb[: i + 1], rxb[: i + 1],
-                                   sigma, x0=starts[:, i], alpha=alpha)
+            fit = trajectory_solve(
+                L[:, : i + 1],
+                t[: i + 1],
+                txb[: i + 1],
+                rxb[: i + 1],
+                sigma,
+                x0=starts[:, i],
+                alpha=alpha,
+            )
             state[:, i] = fit.state
             track_ok[:, :, i] = fit.consistent, fit.converged
         full = state[:, -1]
         full_track = _rmse(full[:, None, :d] + tau[:, None] * full[:, None, d:] - x)
-        full_crlb = np.sqrt(np.diagonal(_position_covariance(cov[-1], tau), axis1=-2,
-                                        axis2=-1))
+        full_crlb = np.sqrt(np.diagonal(position_covariance(cov[-1], tau), axis1=-2, axis2=-1))
     e["ml_track"] = state[..., :d] + tau[:, None] * state[..., d:] - x
     e["linearised_track"][:, 0] = np.nan
     if not tracks:
         e["linearised_track"][:] = np.nan
 
     J1 = b1.information
-    false_min = ((_mahalanobis(single - ref.x.reshape(runs, n_t, d), J1) > 1.0)
-                 & (ml.cost > ref.cost + 1e-9).reshape(runs, n_t))
+    false_min = (_mahalanobis(single - ref.x.reshape(runs, n_t, d), J1) > 1.0) & (
+        ml.cost > ref.cost + 1e-9
+    ).reshape(runs, n_t)
     inconsistent = ~ml.consistent.reshape(runs, n_t)
     J_track = np.linalg.inv(A_cov[1:])
     track_distance = np.full(n_t, np.nan)
@@ -311,20 +320,37 @@ def accuracy_study(
     sq = np.sum(e["ml_single"] ** 2, axis=-1)
     series = np.moveaxis(L, 0, 1).reshape(n_t, -1)  # (T, runs P)
     w = min(NOISE_WINDOW, n_t)
-    est = np.sqrt(np.mean([range_sum_noise(t[i:i + w], series[i:i + w]).variance
-                           for i in range(0, n_t - w + 1, w)], axis=0))
+    est = np.sqrt(
+        np.mean(
+            [
+                range_sum_noise(t[i : i + w], series[i : i + w]).variance
+                for i in range(0, n_t - w + 1, w)
+            ],
+            axis=0,
+        )
+    )
     return AccuracyStudy(
-        t=t, x=x, crlb=b1.sigma, crlb_accumulated=acc, crlb_difference=bd.sigma,
+        t=t,
+        x=x,
+        crlb=b1.sigma,
+        crlb_accumulated=acc,
+        crlb_difference=bd.sigma,
         rmse={k: _rmse(v) for k, v in e.items()},
         rmse_se=sq.std(axis=0, ddof=1) / (2.0 * np.sqrt(runs) * sq.mean(axis=0)),
-        full_track=full_track, full_track_crlb=full_crlb,
+        full_track=full_track,
+        full_track_crlb=full_crlb,
         max_distance=_mahalanobis(e["ml_single"], J1).max(axis=0),
         max_track_distance=track_distance,
         gradient=np.linalg.norm(H, axis=-1),
         inconsistent=_count(inconsistent),
         not_converged=_count(~ml.converged.reshape(runs, n_t)),
-        false_minima=_count(false_min), false_unflagged=_count(false_min & ~inconsistent),
-        track_inconsistent=_count(~track_ok[0]), track_not_converged=_count(~track_ok[1]),
+        false_minima=_count(false_min),
+        false_unflagged=_count(false_min & ~inconsistent),
+        track_inconsistent=_count(~track_ok[0]),
+        track_not_converged=_count(~track_ok[1]),
         sum_range_unsolvable=unsolvable["sum_range"],
         difference_range_unsolvable=unsolvable["difference_range"],
-        noise_sigma=(float(est.mean()), float(est.std())), runs=int(runs), seed=int(seed))
+        noise_sigma=(float(est.mean()), float(est.std())),
+        runs=int(runs),
+        seed=int(seed),
+    )

@@ -1,46 +1,53 @@
-"""Track initiation, simulation and evaluation (seeds 002, 003, 000; DESIGN section 5).
+"""Track initiation, simulation and evaluation (Mu et al., the secondary-processing
+textbook, Konovalov).
 
-The wire's settings become :class:`core.initiation.InitiationConfig` (degrees nowhere:
-the settings carry no angles), its scans of Cartesian or polar plots become
-:class:`core.initiation.Scan` (each plot with its own sensor, converted as the gate
-operations do), and the typed ``state`` (:class:`service.schemas.SessionState`, its types
-and magnitudes checked by the schema) goes through :func:`core.initiation.state_from_json`,
+The wire's settings become :class:`plotgate.core.initiation.InitiationConfig` (degrees
+nowhere: the settings carry no angles), its scans become
+:class:`plotgate.core.initiation.Scan` (each plot with its own sensor; Cartesian plots as
+positions and covariances, polar plots as the ranges and azimuths measured), and the
+typed ``state`` (:class:`plotgate.service.schemas.SessionState`, its types and magnitudes
+checked by the schema) goes through :func:`plotgate.core.initiation.state_from_json`,
 which holds every field to its invariants and names it (``state.tracks.misses`` with row
 3: ``state.tracks.misses[3]``). The work is bounded by the state's ceilings: core stops at
 the first scan after which more tracks live than a state may carry
-(:data:`~service.schemas.MAX_STATE_TRACKS`, fewer for long histories) and the state a
-call returns is validated by the same schema on the way out; either refusal names
-``scans``, so every state answered is a state the next call takes.
+(:data:`~plotgate.service.schemas.MAX_STATE_TRACKS`, fewer for long histories) and the
+state a call returns is validated by the same schema on the way out; either refusal
+names ``scans``, so every state answered is a state the next call takes.
 
-Core errors name core arguments; :func:`initiate_field` maps them to the request: a
-setting to ``config.<name>``, ``state...`` to itself with its row, ``scans`` with an index to
-``scans[i]``, and a plot error (``z``) inside scan i to ``scans[i].plots[j]``; a plot's own
-covariance is checked before the scan is built (:func:`service.operations.plots.plot_arrays`)
-and named ``scans[i].plots[j].covariance`` (a polar plot: ``scans[i].plots[j]``).
+Core errors name core arguments; :data:`INITIATE_FIELDS` and :data:`SCENARIO_FIELDS` map
+them to the request. A plot's own covariance is checked before the scan is built
+(:func:`plotgate.service.operations.plots.plot_arrays`) and named
+``scans[i].plots[j].covariance`` (a polar plot: ``scans[i].plots[j]``).
 """
+
+from typing import Any
 
 import numpy as np
 from pydantic import ValidationError
 
-from core import ParameterError, PlotgateError
-from core.initiation import (
+from plotgate.core import ParameterError, PlotgateError
+from plotgate.core.frames import wrap_angle
+from plotgate.core.initiation import (
     InitiationConfig,
     InitiationState,
     Scan,
     ScanReport,
     cartesian_scan,
+    polar_scan,
     state_from_json,
 )
-from core.initiation import (
+from plotgate.core.initiation import (
     initiate as core_initiate,
 )
-from core.initiation.evaluate import evaluate as core_evaluate
-from core.initiation.simulate import Scenario
-from core.initiation.simulate import simulate as core_simulate
-from core.initiation.state import PLOT_STRIDE
-from service.operations.answers import checked
-from service.operations.plots import PlotError, plot_arrays
-from service.schemas import (
+from plotgate.core.initiation.evaluate import evaluate as core_evaluate
+from plotgate.core.initiation.scan import merged_scan
+from plotgate.core.initiation.simulate import Scenario
+from plotgate.core.initiation.simulate import simulate as core_simulate
+from plotgate.core.initiation.state import PLOT_STRIDE
+from plotgate.service.fields import FieldMap
+from plotgate.service.operations.answers import checked
+from plotgate.service.operations.plots import plot_arrays
+from plotgate.service.schemas import (
     EvaluateRequest,
     EvaluateResult,
     InitiateRequest,
@@ -50,25 +57,27 @@ from service.schemas import (
     ScanIn,
     ScanOutcome,
     ScenarioIn,
+    SessionInitiators,
     SessionState,
+    SessionTracks,
     SimulateRequest,
     SimulateResult,
 )
-from service.schemas.initiation_state import (
+from plotgate.service.schemas.initiation_state import (
     MAX_HISTORY_CELLS,
     MAX_STATE_INITIATORS,
     MAX_STATE_TRACKS,
 )
 
-__all__ = ["evaluate", "initiate", "initiate_field", "scenario_field", "simulate"]
-
-
-class _ScanError(PlotgateError):
-    """A plot error inside scan ``scan`` (re-raised with the scan's index)."""
-
-    def __init__(self, exc: PlotgateError, scan: int) -> None:
-        super().__init__(exc.field, exc.reason, exc.index)
-        self.scan = scan
+__all__ = [
+    "EVALUATE_FIELDS",
+    "SCENARIO_FIELDS",
+    "SIMULATE_FIELDS",
+    "INITIATE_FIELDS",
+    "evaluate",
+    "initiate",
+    "simulate",
+]
 
 
 def _config(settings: InitiationSettings) -> InitiationConfig:
@@ -78,32 +87,75 @@ def _config(settings: InitiationSettings) -> InitiationConfig:
 
 
 def _scan(i: int, scan: ScanIn) -> Scan:
+    """Scan i as core takes it: Cartesian plots as positions and covariances, polar plots
+    as the ranges and azimuths measured (azimuths beyond +-180 degrees wrapped), each
+    plot's own covariance checked first."""
     z, R, sensor = plot_arrays(scan.plots, lambda j: f"scans[{i}].plots[{j}]")
+    is_polar = np.array([isinstance(p, PolarPlot) for p in scan.plots], dtype=bool)
+    polar_plots = [p for p in scan.plots if isinstance(p, PolarPlot)]
+    measured = np.array([(p.r, p.az_deg, p.sigma_r, p.sigma_az_deg) for p in polar_plots])
+    r, az_deg, sigma_r, sigma_az_deg = measured.reshape(-1, 4).T
+    az = np.radians(az_deg)
+    az = np.where(np.abs(az) <= np.pi, az, wrap_angle(az))
+    rows = np.flatnonzero(~is_polar)
     try:
-        return cartesian_scan(scan.t, z, R, sensor)
-    except PlotgateError as exc:
-        raise _ScanError(exc, i) from exc
+        cartesian = cartesian_scan(scan.t, z[rows], R[rows], sensor[rows])
+        rows = np.flatnonzero(is_polar)
+        polar = polar_scan(scan.t, r, az, sigma_r, np.radians(sigma_az_deg), sensor[rows])
+    except PlotgateError as exc:  # named here: the error's index is the kind's, not the scan's
+        where = (
+            f"scans[{i}].plots" if exc.index is None else f"scans[{i}].plots[{rows[exc.index]}]"
+        )
+        raise type(exc)(f"scans[{i}].t" if exc.field == "t" else where, exc.reason) from exc
+    return merged_scan(cartesian, polar, is_polar)
 
 
 def _outcome(report: ScanReport) -> ScanOutcome:
-    return ScanOutcome(scan=report.scan, t=report.t, associated=report.associated.tolist(),
-                       initiators=report.initiators, started=report.started.tolist(),
-                       confirmed=report.confirmed.tolist(), dropped=report.dropped.tolist(),
-                       reasons=report.reasons.tolist())
+    return ScanOutcome(
+        scan=report.scan,
+        t=report.t,
+        associated=report.associated.tolist(),
+        initiators=report.initiators,
+        started=report.started.tolist(),
+        confirmed=report.confirmed.tolist(),
+        dropped=report.dropped.tolist(),
+        reasons=report.reasons.tolist(),
+    )
 
 
-def _tracks(state: InitiationState) -> list[dict]:
+def _tracks(state: InitiationState) -> list[dict[str, Any]]:
     """The live tracks as wire objects (:class:`TrackOut`), validated with the answer."""
     tr = state.tracks
-    plots = [[[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in row if p >= 0]
-             for row in tr.plots.tolist()]
-    return [{"id": i, "status": "confirmed" if c else "tentative", "position": x[:2],
-             "velocity": x[2:], "covariance": P, "plots": p, "n_plots": n, "misses": m,
-             "first_scan": f, "confirmed_scan": k if c else None}
-            for i, c, x, P, p, n, m, f, k in zip(
-                tr.id.tolist(), tr.confirmed.tolist(), tr.x.tolist(), tr.P.tolist(), plots,
-                tr.n.tolist(), tr.misses.tolist(), tr.first_scan.tolist(),
-                tr.confirmed_scan.tolist(), strict=True)]
+    plots = [
+        [[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in row if p >= 0]
+        for row in tr.plots.tolist()
+    ]
+    return [
+        {
+            "id": i,
+            "status": "confirmed" if c else "tentative",
+            "position": x[:2],
+            "velocity": x[2:],
+            "covariance": P,
+            "plots": p,
+            "n_plots": n,
+            "misses": m,
+            "first_scan": f,
+            "confirmed_scan": k if c else None,
+        }
+        for i, c, x, P, p, n, m, f, k in zip(
+            tr.id.tolist(),
+            tr.confirmed.tolist(),
+            tr.x.tolist(),
+            tr.P.tolist(),
+            plots,
+            tr.n.tolist(),
+            tr.misses.tolist(),
+            tr.first_scan.tolist(),
+            tr.confirmed_scan.tolist(),
+            strict=True,
+        )
+    ]
 
 
 def _answered(state: InitiationState) -> SessionState:
@@ -113,11 +165,14 @@ def _answered(state: InitiationState) -> SessionState:
     except ValidationError as exc:
         first = exc.errors(include_url=False)[0]
         where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"])
-        raise ParameterError("scans", f"would leave a state the next call could not take "
-                             f"back (state{where}: {first['msg']}); a state carries at "
-                             f"most {MAX_STATE_INITIATORS} initiators and "
-                             f"{MAX_STATE_TRACKS} tracks ({MAX_HISTORY_CELLS} history "
-                             "cells), its values within the schema's magnitudes") from None
+        raise ParameterError(
+            "scans",
+            f"would leave a state the next call could not take "
+            f"back (state{where}: {first['msg']}); a state carries at "
+            f"most {MAX_STATE_INITIATORS} initiators and "
+            f"{MAX_STATE_TRACKS} tracks ({MAX_HISTORY_CELLS} history "
+            "cells), its values within the schema's magnitudes",
+        ) from None
 
 
 @checked
@@ -127,77 +182,129 @@ def initiate(request: InitiateRequest) -> InitiateResult:
     state = None
     if request.state is not None:  # the validated lists as they are: no copy of the state
         wire = request.state
-        state = state_from_json({**dict(wire), "initiators": dict(wire.initiators),
-                                 "tracks": dict(wire.tracks)}, config)
+        state = state_from_json(
+            {**dict(wire), "initiators": dict(wire.initiators), "tracks": dict(wire.tracks)},
+            config,
+        )
     scans = [_scan(i, s) for i, s in enumerate(request.scans)]
     most = min(MAX_STATE_TRACKS, MAX_HISTORY_CELLS // config.history)
     state, reports = core_initiate(state, scans, config, max_tracks=most)
-    return InitiateResult.model_validate({"state": _answered(state), "tracks": _tracks(state),
-                                          "scans": [_outcome(r) for r in reports]})
-
-
-def initiate_field(request: InitiateRequest, exc: PlotgateError) -> str:
-    """``config.<name>``, ``state...``, ``scans[i]`` or ``scans[i].plots[j]...``."""
-    if isinstance(exc, PlotError):
-        return exc.field
-    if exc.field == "state" or exc.field.startswith("state."):
-        return exc.field if exc.index is None else f"{exc.field}[{exc.index}]"
-    if isinstance(exc, _ScanError):
-        where = f"scans[{exc.scan}]"
-        if exc.field == "t":
-            return f"{where}.t"
-        return f"{where}.plots" if exc.index is None else f"{where}.plots[{exc.index}]"
-    if exc.field == "scans":
-        return "scans" if exc.index is None else f"scans[{exc.index}]"
-    return f"config.{exc.field}"
+    return InitiateResult.model_validate(
+        {
+            "state": _answered(state),
+            "tracks": _tracks(state),
+            "scans": [_outcome(r) for r in reports],
+        }
+    )
 
 
 def _scenario(s: ScenarioIn) -> Scenario:
-    return Scenario(x0=np.array([t.position for t in s.targets], dtype=float).reshape(-1, 2),
-                    v=np.array([t.velocity for t in s.targets], dtype=float).reshape(-1, 2),
-                    scans=s.scans, interval=s.interval, P_D=s.P_D, clutter=s.clutter,
-                    region=np.array(s.region), sensor=np.array(s.sensor),
-                    sigma_r=s.sigma_r, sigma_az=np.radians(s.sigma_az_deg))
+    return Scenario(
+        x0=np.array([t.position for t in s.targets], dtype=float).reshape(-1, 2),
+        v=np.array([t.velocity for t in s.targets], dtype=float).reshape(-1, 2),
+        scans=s.scans,
+        interval=s.interval,
+        P_D=s.P_D,
+        clutter=s.clutter,
+        region=np.array(s.region),
+        sensor=np.array(s.sensor),
+        sigma_r=s.sigma_r,
+        sigma_az=np.radians(s.sigma_az_deg),
+    )
 
 
 def _azimuth_deg(az: np.ndarray) -> np.ndarray:
     """Azimuths in degrees, those beyond +-360 (noise of a sigma_az up to 180 degrees
     added to atan2's (-180, 180]) wrapped to [-180, 180), as a plot takes them."""
     deg = np.degrees(az)
-    return np.where(np.abs(deg) <= 360.0, deg, np.mod(deg + 180.0, 360.0) - 180.0)
+    wrapped: np.ndarray = np.where(np.abs(deg) <= 360.0, deg, np.mod(deg + 180.0, 360.0) - 180.0)
+    return wrapped
 
 
 @checked
 def simulate(request: SimulateRequest) -> SimulateResult:
     """Seeded scans of a scenario, every plot labelled."""
     sim = core_simulate(_scenario(request.scenario), request.seed)
-    scans = [ScanIn(t=s.t, plots=[
-        PolarPlot(frame="polar", r=float(r), az_deg=float(az), sigma_r=float(sr),
-                  sigma_az_deg=float(np.degrees(sa)), sensor=tuple(c))
-        for r, az, sr, sa, c in zip(s.r, _azimuth_deg(s.az), s.sigma_r, s.sigma_az,
-                                    s.sensor.tolist(), strict=True)]) for s in sim.scans]
-    return SimulateResult(scans=scans, labels=[lab.tolist() for lab in sim.labels],
-                          truth=sim.truth.tolist())
+    scans = [
+        ScanIn(
+            t=s.t,
+            plots=[
+                PolarPlot(
+                    frame="polar",
+                    r=float(r),
+                    az_deg=float(az),
+                    sigma_r=float(sr),
+                    sigma_az_deg=float(np.degrees(sa)),
+                    sensor=tuple(c),
+                )
+                for r, az, sr, sa, c in zip(
+                    s.r, _azimuth_deg(s.az), s.sigma_r, s.sigma_az, s.sensor.tolist(), strict=True
+                )
+            ],
+        )
+        for s in sim.scans
+    ]
+    return SimulateResult(
+        scans=scans, labels=[lab.tolist() for lab in sim.labels], truth=sim.truth.tolist()
+    )
 
 
 @checked
 def evaluate(request: EvaluateRequest) -> EvaluateResult:
     """Monte Carlo of initiation on a scenario."""
-    ev = core_evaluate(_scenario(request.scenario), _config(request.config), request.runs,
-                       request.seed, request.distance)
+    ev = core_evaluate(
+        _scenario(request.scenario),
+        _config(request.config),
+        request.runs,
+        request.seed,
+        request.distance,
+    )
     ttc = ev.mean_time_to_confirmation
     return EvaluateResult(
-        runs=ev.runs, targets=ev.targets, confirmable=ev.ceiling, mean_true=ev.mean_true,
-        mean_false=ev.mean_false, mean_true_by_distance=ev.mean_true_by_distance,
+        runs=ev.runs,
+        targets=ev.targets,
+        confirmable=ev.ceiling,
+        mean_true=ev.mean_true,
+        mean_false=ev.mean_false,
+        mean_true_by_distance=ev.mean_true_by_distance,
         mean_false_by_distance=ev.mean_false_by_distance,
-        mean_time_to_confirmation=None if np.isnan(ttc) else ttc)
+        mean_time_to_confirmation=None if np.isnan(ttc) else ttc,
+    )
 
 
-def scenario_field(request: SimulateRequest | EvaluateRequest, exc: PlotgateError) -> str:
-    """``scenario.<name>`` for a scenario error, ``config.<name>`` for a setting."""
-    names = {"x0": "targets", "v": "targets", "sigma_az": "sigma_az_deg"}
-    if exc.field in Scenario.__dataclass_fields__ or exc.field in names:
-        return f"scenario.{names.get(exc.field, exc.field)}"
-    if exc.field in ("runs", "seed", "distance"):
-        return exc.field
-    return f"config.{exc.field}"
+_STATE_ROWS = (("initiators", SessionInitiators), ("tracks", SessionTracks))
+
+INITIATE_FIELDS: FieldMap = {
+    **{name: f"config.{name}" for name in InitiationSettings.model_fields},
+    **{
+        f"state.{part}.{name}": f"state.{part}.{name}[{{i}}]"
+        for part, rows in _STATE_ROWS
+        for name in rows.model_fields
+    },
+    "scans": "scans[{i}]",
+}
+"""Where core's errors on an ``initiation.initiate`` request point
+(:mod:`plotgate.service.fields`): a setting to ``config.<name>``, a state row to its
+field and row (``state.tracks.misses[3]``), a scan to ``scans[i]``. Every other error
+already names its request path and is named as it is: the state's own fields
+(``state.config_digest``), and a plot or scan time, named by :func:`_scan`
+(``scans[0].plots[4].covariance``, ``scans[1].t``)."""
+
+_SCENARIO_NAMES = {"x0": "targets", "v": "targets", "sigma_az": "sigma_az_deg"}
+
+SCENARIO_FIELDS: FieldMap = {
+    **{name: f"config.{name}" for name in InitiationSettings.model_fields},
+    **{
+        name: f"scenario.{_SCENARIO_NAMES.get(name, name)}"
+        for name in Scenario.__dataclass_fields__
+    },
+}
+"""Where core's errors on an ``initiation.simulate`` or ``initiation.evaluate`` request
+point: a scenario argument to its ``scenario`` field (``x0`` and ``v`` to ``targets``), a
+setting to ``config.<name>``; ``runs``, ``seed`` and ``distance`` are named as they are."""
+
+SIMULATE_FIELDS: FieldMap = SCENARIO_FIELDS
+"""Where core's errors on an ``initiation.simulate`` request point."""
+
+EVALUATE_FIELDS: FieldMap = SCENARIO_FIELDS
+"""Where core's errors on an ``initiation.evaluate`` request point."""

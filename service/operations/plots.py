@@ -1,9 +1,9 @@
 """A request's plots as arrays, each plot's covariance checked on its own before any use.
 
 Cartesian plots carry their covariance; a polar plot (range, azimuth and their sigmas
-about its sensor) gets its covariance through the Jacobian of DESIGN section 2,
+about its sensor) gets its covariance through the Jacobian of docs/architecture.md (core),
 P = J diag(sigma_r^2, sigma_az^2) J^T, whose error ellipse has the axes sigma_r and
-r sigma_az. Every covariance passes :func:`core.check_covariance` (symmetric positive
+r sigma_az. Every covariance passes :func:`plotgate.core.check_covariance` (symmetric positive
 definite, axis ratio below about 10^6) here, before an operation adds two of them
 (B = P1 + P2, S = P_first + P_candidate) and whatever the gate kind: a sum can be
 positive definite when a term is not, and an error about the sum names neither input.
@@ -18,9 +18,9 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-import core
-from core import CovarianceError
-from service.schemas import Plot, PolarPlot
+from plotgate import core
+from plotgate.core import CovarianceError
+from plotgate.service.schemas import Plot, PolarPlot
 
 __all__ = ["PlotError", "first_thin_polar", "plot_arrays", "polar_ellipse_reason"]
 
@@ -29,8 +29,12 @@ class PlotError(CovarianceError):
     """A plot refused for its own covariance; ``field`` is the request path it names."""
 
 
-def polar_ellipse_reason(r: float, sigma_r: float, sigma_az_deg: float,
-                         names: tuple[str, str] = ("sigma_r", "sigma_az_deg")) -> str:
+def polar_ellipse_reason(
+    r: float,
+    sigma_r: float,
+    sigma_az_deg: float,
+    names: tuple[str, str] = ("sigma_r", "sigma_az_deg"),
+) -> str:
     """Why a polar measurement's own covariance is refused, in terms of its sigmas.
 
     Its error ellipse has the axes sigma_r and r sigma_az; ``names`` are the request's
@@ -38,19 +42,23 @@ def polar_ellipse_reason(r: float, sigma_r: float, sigma_az_deg: float,
     """
     across = r * np.radians(sigma_az_deg)
     ratio = max(sigma_r, across) / min(sigma_r, across)
-    return (f"{names[0]} = {sigma_r:.6g} m and {names[1]} = {sigma_az_deg:.6g} "
-            f"(r sigma_az = {across:.6g} m at r = {r:.6g} m) make an error ellipse with "
-            f"axis ratio {ratio:.3g}; it must stay below about "
-            f"{np.sqrt(core.MAX_CONDITION):.0e}, or its covariance is numerically singular")
+    return (
+        f"{names[0]} = {sigma_r:.6g} m and {names[1]} = {sigma_az_deg:.6g} "
+        f"(r sigma_az = {across:.6g} m at r = {r:.6g} m) make an error ellipse with "
+        f"axis ratio {ratio:.3g}; it must stay below about "
+        f"{np.sqrt(core.MAX_CONDITION):.0e}, or its covariance is numerically singular"
+    )
 
 
-def first_thin_polar(r: np.ndarray, az_deg: np.ndarray, sigma_r: np.ndarray,
-                     sigma_az_deg: np.ndarray) -> int | None:
+def first_thin_polar(
+    r: np.ndarray, az_deg: np.ndarray, sigma_r: np.ndarray, sigma_az_deg: np.ndarray
+) -> int | None:
     """Index of the first polar measurement (batched over ranges, azimuths, sigmas) whose
-    own covariance fails :func:`core.check_covariance`, the check core applies to every
+    own covariance fails :func:`plotgate.core.check_covariance`, the check core applies to every
     covariance; None when all pass."""
-    P = core.polar_covariance_to_cartesian(r, np.radians(az_deg), sigma_r,
-                                           np.radians(sigma_az_deg))
+    P = core.polar_covariance_to_cartesian(
+        r, np.radians(az_deg), sigma_r, np.radians(sigma_az_deg)
+    )
     try:
         core.check_covariance(P)
     except CovarianceError as exc:
@@ -64,12 +72,13 @@ def _refused(plot: Plot, path: str, exc: CovarianceError) -> PlotError:
     return PlotError(f"{path}.covariance", exc.reason)
 
 
-def plot_arrays(plots: Sequence[Plot], path: Callable[[int], str]
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def plot_arrays(
+    plots: Sequence[Plot], path: Callable[[int], str]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions (N, 2), covariances (N, 2, 2) and sensor positions (N, 2) of the plots.
 
     ``path(i)`` is plot i's request path (``candidates[2]``); a covariance that fails
-    :func:`core.check_covariance` raises :class:`PlotError` naming it.
+    :func:`plotgate.core.check_covariance` raises :class:`PlotError` naming it.
     """
     n = len(plots)
     z = np.empty((n, 2))

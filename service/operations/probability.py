@@ -1,27 +1,28 @@
-"""Gating probabilities, areas, false marks and gate design (seed 000; DESIGN section 4).
+"""Gating probabilities, areas, false marks and gate design (Konovalov).
 
-The wire's gate, mark and tau become core's gate region and :class:`core.MarkGeometry`;
+The wire's gate, mark and tau become core's gate region and :class:`plotgate.core.MarkGeometry`;
 angles arrive in degrees and go to core in radians. A velocity is speed (sin course,
 cos course), course clockwise from north. A curve is one vectorized core call: the
 geometry batched over the ranges, or one geometry repeated and the velocity batched over
 the speeds.
 
-Core errors name core arguments; :func:`field_of` and :func:`curve_field` turn them into
-request paths. Core checks v_min <= v_max with ``ParameterError("v_min", ...)`` both for
-a gate and for the prior; the error names the one whose bounds are inconsistent (the
-prior when both are, as core checks the prior first).
+Core errors name core arguments; :data:`PROBABILITY_FIELDS` and its variants map them to
+request paths.
 """
 
 import math
 from collections.abc import Callable
+from typing import Literal
 
 import numpy as np
 
-import core
-from core import PlotgateError
-from service.operations.answers import checked
-from service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
-from service.schemas import (
+from plotgate import core
+from plotgate.core import PlotgateError
+from plotgate.service.fields import FieldMap, resolve
+from plotgate.service.operations.answers import checked
+from plotgate.service.operations.gate_conversion import core_gate
+from plotgate.service.operations.plots import PlotError, first_thin_polar, polar_ellipse_reason
+from plotgate.service.schemas import (
     AreaApproximation,
     FalseMarks,
     GateAnalysisRequest,
@@ -32,91 +33,69 @@ from service.schemas import (
     GateProbabilityCurveRequest,
     GateProbabilityRequest,
     GateProbabilityResult,
-    GateRegion,
     Mark,
     Resolution,
     SpeedPrior,
 )
 
-__all__ = ["analysis", "curve", "curve_field", "design", "field_of", "probability"]
+__all__ = [
+    "DESIGN_FIELDS",
+    "ANALYSIS_FIELDS",
+    "CURVE_FIELDS",
+    "PROBABILITY_FIELDS",
+    "analysis",
+    "curve",
+    "design",
+    "probability",
+]
 
 DESIGN_M_MAX = 5
 """False-mark counts m = 0..5 reported by ``gates.design`` (its request has no m_max)."""
-
-_FIELDS = {
-    "tau": "tau",
-    "r": "mark.r",
-    "az": "mark.az_deg",
-    "sigma_r": "mark.sigma_r",
-    "sigma_az": "mark.sigma_az_deg",
-    "sigma_r2": "mark.sigma_r2",
-    "sigma_az2": "mark.sigma_az2_deg",
-    "B": "mark",
-    "geometry": "mark",
-    "P_G": "gate.P_G",
-    "p": "gate.p",
-    "k": "gate.k",
-    "K_R": "gate.K_R",
-    "K_az": "gate.K_az",
-    "offset": "gate.offset",
-    "velocity": "velocity",
-    "prior": "prior.kind",
-    "capture": "capture",
-    "P_D1": "P_D1",
-    "P_D2": "P_D2",
-    "F": "false_alarm",
-    "m_max": "m_max",
-    "dR": "resolution.range",
-    "dAz": "resolution.azimuth_deg",
-    "cells": "resolution",
-}
-"""Core argument -> request path, for every argument a request feeds core."""
-
-
-def _gate(gate: GateRegion) -> core.Gate:
-    """The core gate region of a wire gate."""
-    match gate.kind:
-        case "ring":
-            return core.RingGate(gate.v_min, gate.v_max)
-        case "combined":
-            return core.CombinedGate(gate.v_min, gate.v_max, gate.P_G)
-        case "expanded":
-            return core.ExpandedGate(gate.v_max, gate.p)
-        case "ellipse":
-            return core.EllipseGate(gate.P_G, gate.offset)
-        case "rectangular":
-            return core.RectangularGate(gate.k, gate.offset)
-        case "sector":
-            return core.SectorGate(gate.K_R, gate.K_az, gate.offset)
-        case "first_association":
-            return core.FirstAssociationGate(gate.v_max, gate.K_R, gate.K_az)
-    raise AssertionError(gate.kind)
 
 
 def _own_covariances(mark: Mark, r: np.ndarray, where: Callable[[int], str]) -> None:
     """Check each mark's own covariance (axes sigma_r and r sigma_az) before core forms
     B = P1 + P2, naming the mark (``where(i)`` at range r[i]) and the two sigmas."""
-    second = (("sigma_r" if mark.sigma_r2 is None else "sigma_r2",
-               "sigma_az_deg" if mark.sigma_az2_deg is None else "sigma_az2_deg"),
-              mark.sigma_r if mark.sigma_r2 is None else mark.sigma_r2,
-              mark.sigma_az_deg if mark.sigma_az2_deg is None else mark.sigma_az2_deg)
-    for names, sigma_r, sigma_az_deg in ((("sigma_r", "sigma_az_deg"), mark.sigma_r,
-                                          mark.sigma_az_deg), second):
-        i = first_thin_polar(r, np.full(r.shape, mark.az_deg), np.full(r.shape, sigma_r),
-                             np.full(r.shape, sigma_az_deg))
+    second = (
+        (
+            "sigma_r" if mark.sigma_r2 is None else "sigma_r2",
+            "sigma_az_deg" if mark.sigma_az2_deg is None else "sigma_az2_deg",
+        ),
+        mark.sigma_r if mark.sigma_r2 is None else mark.sigma_r2,
+        mark.sigma_az_deg if mark.sigma_az2_deg is None else mark.sigma_az2_deg,
+    )
+    for names, sigma_r, sigma_az_deg in (
+        (("sigma_r", "sigma_az_deg"), mark.sigma_r, mark.sigma_az_deg),
+        second,
+    ):
+        i = first_thin_polar(
+            r,
+            np.full(r.shape, mark.az_deg),
+            np.full(r.shape, sigma_r),
+            np.full(r.shape, sigma_az_deg),
+        )
         if i is not None:
-            raise PlotError(where(i), polar_ellipse_reason(float(r[i]), sigma_r,
-                                                           sigma_az_deg, names))
+            raise PlotError(
+                where(i), polar_ellipse_reason(float(r[i]), sigma_r, sigma_az_deg, names)
+            )
 
 
-def _geometry(mark: Mark, tau: float, r: np.ndarray | None = None,
-              where: Callable[[int], str] = lambda _: "mark") -> core.MarkGeometry:
+def _geometry(
+    mark: Mark,
+    tau: float,
+    r: np.ndarray | None = None,
+    where: Callable[[int], str] = lambda _: "mark",
+) -> core.MarkGeometry:
     """The mark's geometry; ``r`` (an array: one problem per range, problem i named
     ``where(i)``) replaces ``mark.r``."""
     _own_covariances(mark, np.array([mark.r]) if r is None else r, where)
     return core.mark_geometry(
-        mark.r if r is None else r, math.radians(mark.az_deg), mark.sigma_r,
-        math.radians(mark.sigma_az_deg), tau, mark.sigma_r2,
+        mark.r if r is None else r,
+        math.radians(mark.az_deg),
+        mark.sigma_r,
+        math.radians(mark.sigma_az_deg),
+        tau,
+        mark.sigma_r2,
         None if mark.sigma_az2_deg is None else math.radians(mark.sigma_az2_deg),
     )
 
@@ -127,17 +106,18 @@ def _velocity(speed: float | np.ndarray, course_deg: float) -> np.ndarray:
     return np.multiply.outer(speed, [math.sin(course), math.cos(course)])
 
 
-def _unconditional(gate: core.Gate, geometry: core.MarkGeometry,
-                   prior: SpeedPrior) -> core.GateProbability:
-    """Seed 000 eq. (3)-(6) over the prior's speeds and a uniform heading."""
+def _unconditional(
+    gate: core.Gate, geometry: core.MarkGeometry, prior: SpeedPrior
+) -> core.GateProbability:
+    """Konovalov, eq. 3-6, over the prior's speeds and a uniform heading."""
     return core.unconditional_probability(gate, geometry, prior.v_min, prior.v_max, prior.kind)
 
 
-def _false_marks(area: np.ndarray, r: float, resolution: Resolution, F: float,
-                 m_max: int) -> tuple[float, FalseMarks]:
-    """Cells S' = S / (dR R dAz) and the Poisson false marks in them (seed 000)."""
-    cells = core.resolution_cells(area, r, resolution.range,
-                                  math.radians(resolution.azimuth_deg))
+def _false_marks(
+    area: np.ndarray, r: float, resolution: Resolution, F: float, m_max: int
+) -> tuple[float, FalseMarks]:
+    """Cells S' = S / (dR R dAz) and the Poisson false marks in them (Konovalov)."""
+    cells = core.resolution_cells(area, r, resolution.range, math.radians(resolution.azimuth_deg))
     marks = core.false_marks(cells, F, m_max)
     return float(cells[0]), FalseMarks(
         mean=float(marks.mean[0]),
@@ -148,8 +128,8 @@ def _false_marks(area: np.ndarray, r: float, resolution: Resolution, F: float,
 
 @checked
 def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
-    """Conditional (seed 000 eq. 2) or unconditional (eq. 3-6) gating probability."""
-    gate = _gate(request.gate)
+    """Conditional (Konovalov, eq. 2) or unconditional (eq. 3-6) gating probability."""
+    gate = core_gate(request.gate)
     geometry = _geometry(request.mark, request.tau)
     if request.velocity is not None:
         v = request.velocity
@@ -166,8 +146,8 @@ def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
 
 @checked
 def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
-    """The probability at every value, in one vectorized core call (seed 000, Fig. 2 and 5)."""
-    gate = _gate(request.gate)
+    """The probability at every value, in one vectorized core call (Konovalov, Fig. 2 and 5)."""
+    gate = core_gate(request.gate)
     values = np.asarray(request.values, dtype=float)
     if request.against == "speed":
         geometry = _geometry(request.mark, request.tau, np.full(values.size, request.mark.r))
@@ -194,46 +174,71 @@ def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
 
 @checked
 def analysis(request: GateAnalysisRequest) -> GateAnalysisResult:
-    """Area, cells, false marks and capture probability P_gate P_D1 P_D2 (seed 000).
+    """Area, cells, false marks and capture probability P_gate P_D1 P_D2 (Konovalov).
 
     For the combined gate the paper's approximation S_ring + S_ellipse / 2 is given too.
     """
-    gate = _gate(request.gate)
+    gate = core_gate(request.gate)
     geometry = _geometry(request.mark, request.tau)
     gated = None if request.prior is None else _unconditional(gate, geometry, request.prior)
     area = core.gate_area(gate, geometry)
-    cells, marks = _false_marks(area, request.mark.r, request.resolution,
-                                request.false_alarm, request.m_max)
+    cells, marks = _false_marks(
+        area, request.mark.r, request.resolution, request.false_alarm, request.m_max
+    )
     approximation = None
     if isinstance(gate, core.CombinedGate):
         approx = core.combined_area_approximation(gate, geometry)
-        approx_cells, approx_marks = _false_marks(approx, request.mark.r, request.resolution,
-                                                  request.false_alarm, request.m_max)
-        approximation = AreaApproximation(area=float(approx[0]), cells=approx_cells,
-                                          false_marks=approx_marks)
+        approx_cells, approx_marks = _false_marks(
+            approx, request.mark.r, request.resolution, request.false_alarm, request.m_max
+        )
+        approximation = AreaApproximation(
+            area=float(approx[0]), cells=approx_cells, false_marks=approx_marks
+        )
     probabilities = {}
     if gated is not None:
         capture = core.capture_probability(gated.probability, request.P_D1, request.P_D2)
-        probabilities = {"gate_probability": float(gated.probability[0]),
-                         "error": float(gated.error[0]), "capture": float(capture[0])}
-    return GateAnalysisResult(area=float(area[0]), cells=cells, false_marks=marks,
-                              approximation=approximation, **probabilities)
+        probabilities = {
+            "gate_probability": float(gated.probability[0]),
+            "error": float(gated.error[0]),
+            "capture": float(capture[0]),
+        }
+    return GateAnalysisResult(
+        area=float(area[0]),
+        cells=cells,
+        false_marks=marks,
+        approximation=approximation,
+        **probabilities,
+    )
 
 
 @checked
 def design(request: GateDesignRequest) -> GateDesignResult:
     """The combined gate's P_G or the expanded gate's p reaching the wanted capture."""
     prior = request.prior
+    gate = core_gate(request.gate)
+    assert isinstance(gate, core.CombinedGate | core.ExpandedGate)  # DesignGate's kinds
     found = core.design_gate(
-        _gate(request.gate), _geometry(request.mark, request.tau), request.capture,
-        prior.v_min, prior.v_max, prior.kind, request.P_D1, request.P_D2,
+        gate,
+        _geometry(request.mark, request.tau),
+        request.capture,
+        prior.v_min,
+        prior.v_max,
+        prior.kind,
+        request.P_D1,
+        request.P_D2,
     )
+    parameter: Literal["P_G", "p"]
     if request.gate.kind == "combined":
         parameter, threshold = "P_G", core.gate_threshold(found.parameter, 2)
     else:
         parameter, threshold = "p", core.expansion_coefficient(found.parameter)
-    cells, marks = _false_marks(np.array([found.area]), request.mark.r, request.resolution,
-                                request.false_alarm, DESIGN_M_MAX)
+    cells, marks = _false_marks(
+        np.array([found.area]),
+        request.mark.r,
+        request.resolution,
+        request.false_alarm,
+        DESIGN_M_MAX,
+    )
     return GateDesignResult(
         parameter=parameter,
         value=found.parameter,
@@ -247,30 +252,74 @@ def design(request: GateDesignRequest) -> GateDesignResult:
     )
 
 
-def field_of(
-    request: GateProbabilityRequest | GateProbabilityCurveRequest | GateAnalysisRequest
-    | GateDesignRequest,
-    exc: PlotgateError,
-) -> str:
-    """The request field a core error concerns (``gate.v_min``, ``mark.sigma_r``, ``tau`` ...)."""
-    if isinstance(exc, PlotError):
-        return exc.field
-    if exc.field in ("v_min", "v_max"):
-        prior = getattr(request, "prior", None)
-        inconsistent = prior is not None and prior.v_min > prior.v_max
-        return ("prior." if inconsistent else "gate.") + exc.field
-    return _FIELDS.get(exc.field, exc.field)
+def _speed_bound(request: GateProbabilityRequest | GateAnalysisRequest, exc: PlotgateError) -> str:
+    """v_min or v_max: the prior's when its bounds are inconsistent, else the gate's."""
+    prior = getattr(request, "prior", None)
+    inconsistent = prior is not None and prior.v_min > prior.v_max
+    return ("prior." if inconsistent else "gate.") + exc.field
 
 
-def curve_field(request: GateProbabilityCurveRequest, exc: PlotgateError) -> str:
-    """As :func:`field_of`, with the per-value errors named ``values[i]``.
+def _against(
+    range_path: str, speed_path: str
+) -> Callable[[GateProbabilityCurveRequest, PlotgateError], str]:
+    """A curve argument's path: one when the values are ranges, another when speeds."""
 
-    Against range the geometry (``r``, ``B``) is per value; against speed the velocity
-    is; against range a conditional curve's velocity comes from ``speed``.
-    """
-    per_value = {"r", "B"} if request.against == "range" else {"velocity"}
-    if exc.field in per_value:
-        return "values" if exc.index is None else f"values[{exc.index}]"
-    if exc.field == "velocity":
-        return "speed"
-    return field_of(request, exc)
+    def field(request: GateProbabilityCurveRequest, exc: PlotgateError) -> str:
+        path = range_path if request.against == "range" else speed_path
+        return resolve({exc.field: path}, request, exc)
+
+    return field
+
+
+PROBABILITY_FIELDS: FieldMap = {
+    "tau": "tau",
+    "r": "mark.r",
+    "az": "mark.az_deg",
+    "sigma_r": "mark.sigma_r",
+    "sigma_az": "mark.sigma_az_deg",
+    "sigma_r2": "mark.sigma_r2",
+    "sigma_az2": "mark.sigma_az2_deg",
+    "B": "mark",
+    "geometry": "mark",
+    "P_G": "gate.P_G",
+    "p": "gate.p",
+    "k": "gate.k",
+    "K_R": "gate.K_R",
+    "K_az": "gate.K_az",
+    "offset": "gate.offset",
+    "velocity": "velocity",
+    "prior": "prior.kind",
+    "capture": "capture",
+    "P_D1": "P_D1",
+    "P_D2": "P_D2",
+    "F": "false_alarm",
+    "m_max": "m_max",
+    "dR": "resolution.range",
+    "dAz": "resolution.azimuth_deg",
+    "cells": "resolution",
+    "v_min": _speed_bound,
+    "v_max": _speed_bound,
+}
+"""Where core's errors point in a ``gates.probability`` request
+(:mod:`plotgate.service.fields`); every other request of the gating probabilities feeds
+core the same arguments. Core checks v_min <= v_max with ``ParameterError("v_min", ...)``
+both for a gate and for the prior; the error names the one whose bounds are inconsistent
+(the prior when both are, as core checks the prior first). A mark refused for its own
+covariance (:class:`~plotgate.service.operations.plots.PlotError`) already names its
+path, which no entry matches, so it is kept as it is."""
+
+CURVE_FIELDS: FieldMap = {
+    **PROBABILITY_FIELDS,
+    "r": _against("values[{i}]", "mark.r"),
+    "B": _against("values[{i}]", "mark"),
+    "velocity": _against("speed", "values[{i}]"),
+}
+"""As :data:`PROBABILITY_FIELDS`, with the per-value errors named ``values[i]``: against
+range the geometry (``r``, ``B``) is per value, against speed the velocity is; against
+range a conditional curve's velocity comes from ``speed``."""
+
+ANALYSIS_FIELDS: FieldMap = PROBABILITY_FIELDS
+"""Where core's errors point in a ``gates.analysis`` request (as :data:`PROBABILITY_FIELDS`)."""
+
+DESIGN_FIELDS: FieldMap = PROBABILITY_FIELDS
+"""Where core's errors point in a ``gates.design`` request (as :data:`PROBABILITY_FIELDS`)."""

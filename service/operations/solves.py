@@ -1,4 +1,4 @@
-"""Multistatic position solves, bounds and noise estimates (seed 001; DESIGN section 6).
+"""Multistatic position solves, bounds and noise estimates (Fadeev et al.).
 
 The wire's problems, platforms and series become core's arrays: range sums l (N, P),
 transmitters and receivers (N, P, D) and sigmas (N, P). Core solves a batch whose
@@ -7,7 +7,7 @@ problems share P, so ``solves.position`` groups the problems by their number of 
 group; error indices are mapped back to the request's problem numbers.
 
 Platforms given as a position plus a velocity are placed with
-:func:`core.multistatic.platform_positions` with ``t0 = sample_times[0]`` (the wire's
+:func:`plotgate.core.multistatic.platform_positions` with ``t0 = sample_times[0]`` (the wire's
 position is the one at the first sample time); per-sample positions are used as given.
 
 Decisions:
@@ -26,26 +26,28 @@ Decisions:
 - A problem's ``initial`` goes to core as ``x0`` with the closed form's roots as further
   starts (core's default): with a guess the answer never ends at a higher cost than
   without one, and ``alternative`` reports the best other minimum (see the schema).
-- The chi-square quantile is scipy's (``scipy.stats.chi2``), the one direct scipy use
-  of the service; core's own threshold is private.
+- The chi-square quantile is core's one threshold function,
+  :func:`plotgate.core.gates.thresholds.gate_threshold` of 1 - alpha.
 
 Core errors name core arguments (``l``, ``tx``, ``rx``, ``sigma``, ``x0``, ``t``, ``x``)
-with the batch index of the first bad problem or sample; the ``*_field`` functions turn
-them into request paths such as ``problems[3].receivers`` or ``range_sums[7]``.
+with the batch index of the first bad problem or sample; each operation's ``*_FIELDS``
+table (:mod:`plotgate.service.fields`) turns them into request paths such as
+``problems[3].receivers`` or ``range_sums[7]``.
 """
 
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
-from scipy import stats
 
-import core.multistatic as ms
-from core import PlotgateError
-from core.multistatic.model import BASELINE_SIGMAS
-from service.operations.answers import checked
-from service.schemas import (
+import plotgate.core.multistatic as ms
+from plotgate.core import PlotgateError
+from plotgate.core.gates.thresholds import gate_threshold
+from plotgate.core.multistatic.model import BASELINE_SIGMAS
+from plotgate.service.fields import FieldMap
+from plotgate.service.operations.answers import checked
+from plotgate.service.schemas import (
     AccumulatedBound,
     ClosedFormResult,
     CrlbRequest,
@@ -63,22 +65,37 @@ from service.schemas import (
 )
 
 __all__ = [
+    "CRLB_FIELDS",
+    "NOISE_FIELDS",
+    "POSITION_FIELDS",
+    "TRAJECTORY_FIELDS",
     "crlb",
-    "crlb_field",
     "noise",
-    "noise_field",
+    "platform_array",
     "position",
-    "position_field",
+    "sample_errors",
     "trajectory",
-    "trajectory_field",
 ]
 
 
-_CLOSED_FORMS = {"sum_range": ms.sum_range_solve,
-                 "difference_range": ms.difference_range_solve}
+_CLOSED_FORMS = {"sum_range": ms.sum_range_solve, "difference_range": ms.difference_range_solve}
+
+T = TypeVar("T")
 
 _PER_PROBLEM = {"l", "tx", "rx", "sigma", "x0"}
 """Core arguments that belong to one problem (or one sample) of a batch."""
+
+
+def _per_pair(many: list[T] | None, one: T | None, n: int) -> list[T]:
+    """A per-pair field of the wire: ``many`` as sent, or ``one`` repeated for the n pairs.
+
+    The schema sends exactly one of the two (``transmitter`` or ``transmitters``,
+    ``sigma`` or ``sigmas``), and ``many`` never empty.
+    """
+    if many:
+        return many
+    assert one is not None  # the schema sends exactly one of the two
+    return [one] * n
 
 
 @contextmanager
@@ -98,11 +115,12 @@ def _rows(rows: Sequence[int]) -> Iterator[None]:
 
 
 @contextmanager
-def _samples(t: np.ndarray | None, moving: bool) -> Iterator[None]:
+def sample_errors(t: np.ndarray | None, moving: bool) -> Iterator[None]:
     """Say at which sample a platform error occurred when the platforms move.
 
-    The field of a platform error names the platform list, not the sample, so the
-    sample number and time go into the reason.
+    The field of a platform error (core's ``tx`` or ``rx`` with a sample index) names
+    the platform list, not the sample, so the sample number and its time t[index] go
+    into the reason of the re-raised error.
     """
     try:
         yield
@@ -115,17 +133,12 @@ def _samples(t: np.ndarray | None, moving: bool) -> Iterator[None]:
         raise
 
 
-def _threshold(alpha: float, dof: int) -> float:
-    """chi2.ppf(1 - alpha, dof)."""
-    return float(stats.chi2.ppf(1.0 - alpha, dof))
-
-
 # --------------------------------------------------------------------------- solves.position
 
 
 @checked
 def position(request: PositionSolveRequest) -> PositionSolveResult:
-    """Maximum-likelihood positions (seed 001 eq. 4, 6), and a closed form on request."""
+    """Maximum-likelihood positions (Fadeev et al., eq. 4, 6), and a closed form on request."""
     problems = request.problems
     d = len(problems[0].receivers[0])
     groups: dict[tuple[int, bool], list[int]] = {}
@@ -135,38 +148,63 @@ def position(request: PositionSolveRequest) -> PositionSolveResult:
     for (n_pairs, guessed), rows in groups.items():
         group = [problems[i] for i in rows]
         ls = np.array([p.range_sums for p in group], dtype=float)
-        tx = np.array([p.transmitters or [p.transmitter] * n_pairs for p in group], dtype=float)
+        tx = np.array(
+            [_per_pair(p.transmitters, p.transmitter, n_pairs) for p in group], dtype=float
+        )
         rx = np.array([p.receivers for p in group], dtype=float)
-        sigma = np.array([p.sigmas or [p.sigma] * n_pairs for p in group], dtype=float)
+        sigma = np.array([_per_pair(p.sigmas, p.sigma, n_pairs) for p in group], dtype=float)
         x0 = np.array([p.initial for p in group], dtype=float) if guessed else None
         with _rows(rows):
-            ml = ms.ml_solve(ls, tx, rx, sigma, x0=x0, alpha=request.alpha,
-                             max_iter=request.max_iter)
+            ml = ms.ml_solve(
+                ls, tx, rx, sigma, x0=x0, alpha=request.alpha, max_iter=request.max_iter
+            )
             closed = None
             if request.method != "ml":
                 solve = _CLOSED_FORMS[request.method]
                 closed = solve(ls, tx, rx, baseline_tol=BASELINE_SIGMAS * sigma)
-        solvable = ml.cost <= _threshold(request.alpha, max(n_pairs - d, 1))
-        _require_finite(ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost,
-                        ml.alternative)
-        out = _columns(ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost,
-                       ml.consistent, solvable, ml.iterations, ml.converged,
-                       ml.alternative, ml.has_alternative)
+        solvable = ml.cost <= gate_threshold(1.0 - request.alpha, max(n_pairs - d, 1))
+        _require_finite(
+            ml.x, ml.covariance, ml.residuals, ml.cost, ml.normalized_cost, ml.alternative
+        )
+        out = _columns(
+            ml.x,
+            ml.covariance,
+            ml.residuals,
+            ml.cost,
+            ml.normalized_cost,
+            ml.consistent,
+            solvable,
+            ml.iterations,
+            ml.converged,
+            ml.alternative,
+            ml.has_alternative,
+        )
         forms = _closed_forms(request.method, closed) if closed is not None else None
         for j, i in enumerate(rows):
-            (x, cov, res, cost, norm, consistent, ok, iterations, converged, alt,
-             has_alt) = (column[j] for column in out)
+            (x, cov, res, cost, norm, consistent, ok, iterations, converged, alt, has_alt) = (
+                column[j] for column in out
+            )
             # checked above, so built without a second validation (10^4 problems)
             solutions[i] = PositionSolution.model_construct(
-                position=x, covariance=cov, residuals=res, cost=cost, normalized_cost=norm,
-                consistent=consistent, solvable=ok, iterations=iterations,
-                converged=converged, alternative=alt if has_alt else None,
+                position=x,
+                covariance=cov,
+                residuals=res,
+                cost=cost,
+                normalized_cost=norm,
+                consistent=consistent,
+                solvable=ok,
+                iterations=iterations,
+                converged=converged,
+                alternative=alt if has_alt else None,
                 closed_form=None if forms is None else forms[j],
             )
     done = [s for s in solutions if s is not None]
     return PositionSolveResult.model_construct(
-        method=request.method, dimensions=d, solutions=done,
-        count_solvable=sum(s.solvable for s in done))
+        method=request.method,
+        dimensions=d,
+        solutions=done,
+        count_solvable=sum(s.solvable for s in done),
+    )
 
 
 def _columns(*arrays: np.ndarray) -> list[list[Any]]:
@@ -187,11 +225,19 @@ def _require_finite(*arrays: np.ndarray) -> None:
 def _closed_forms(method: str, sol: Any) -> list[ClosedFormResult]:
     _require_finite(sol.x, sol.alternative, sol.residual, sol.alternative_residual)
     x, alt, has_alt, solvable, res, alt_res = _columns(
-        sol.x, sol.alternative, sol.has_alternative, sol.solvable, sol.residual,
-        sol.alternative_residual)
+        sol.x,
+        sol.alternative,
+        sol.has_alternative,
+        sol.solvable,
+        sol.residual,
+        sol.alternative_residual,
+    )
     return [
         ClosedFormResult.model_construct(
-            method=method, position=x[j], solvable=solvable[j], residual=res[j],
+            method=method,
+            position=x[j],
+            solvable=solvable[j],
+            residual=res[j],
             alternative=alt[j] if has_alt[j] else None,
             alternative_residual=alt_res[j] if has_alt[j] else None,
         )
@@ -199,26 +245,29 @@ def _closed_forms(method: str, sol: Any) -> list[ClosedFormResult]:
     ]
 
 
-def position_field(request: PositionSolveRequest, exc: PlotgateError) -> str:
-    """``problems[i].<field>`` for a problem's error, else the top-level field."""
-    if exc.field in _PER_PROBLEM and exc.index is not None:
-        p = request.problems[exc.index]
-        name = {
-            "l": "range_sums",
-            "tx": "transmitter" if p.transmitter is not None else "transmitters",
-            "rx": "receivers",
-            "sigma": "sigma" if p.sigma is not None else "sigmas",
-            "x0": "initial",
-        }[exc.field]
-        return f"problems[{exc.index}].{name}"
-    return exc.field if exc.field in ("alpha", "max_iter") else "problems"
+POSITION_FIELDS: FieldMap = {
+    "l": "problems[{i}].range_sums",
+    "tx": "problems[{i}].transmitter|transmitters",
+    "rx": "problems[{i}].receivers",
+    "sigma": "problems[{i}].sigma|sigmas",
+    "x0": "problems[{i}].initial",
+    "alpha": "alpha",
+    "max_iter": "max_iter",
+    "*": "problems",
+}
+"""Where core's errors on a ``solves.position`` request point: a problem's own field."""
 
 
 # --------------------------------------------------------------------------- platforms
 
 
-def _platform(platform: Platform, t: np.ndarray | None, n: int | None) -> np.ndarray:
-    """(D,) when no platform moves (n None), else (n, D): per sample, or at the times t."""
+def platform_array(platform: Platform, t: np.ndarray | None, n: int | None) -> np.ndarray:
+    """A wire platform as core's array: (D,) when no platform moves (n None), else (n, D).
+
+    Per-sample ``positions`` are used as given; a ``position`` with a ``velocity`` is
+    placed at the times t by :func:`plotgate.core.multistatic.platform_positions`, the
+    wire's position being the one at t[0]; a fixed position is repeated n times.
+    """
     if platform.positions is not None:
         return np.asarray(platform.positions, dtype=float)
     position = np.asarray(platform.position, dtype=float)
@@ -239,32 +288,27 @@ def _platforms(
     is the one at t[0].
     """
     p = len(request.receivers)
-    transmitters = request.transmitters or [request.transmitter] * p
+    transmitters = _per_pair(request.transmitters, request.transmitter, p)
     samples = n if _moving(request) else None
-    tx = np.stack([_platform(q, t, samples) for q in transmitters], axis=-2)
-    rx = np.stack([_platform(q, t, samples) for q in request.receivers], axis=-2)
+    tx = np.stack([platform_array(q, t, samples) for q in transmitters], axis=-2)
+    rx = np.stack([platform_array(q, t, samples) for q in request.receivers], axis=-2)
     return tx, rx
 
 
 def _moving(request: TrajectorySolveRequest | CrlbRequest) -> bool:
     """Some platform's position depends on time."""
-    return any(q.moving for q in (request.transmitter, *(request.transmitters or ()),
-                                  *request.receivers) if q is not None)
+    return any(
+        q.moving
+        for q in (request.transmitter, *(request.transmitters or ()), *request.receivers)
+        if q is not None
+    )
 
 
 def _sigma(request: TrajectorySolveRequest | CrlbRequest) -> float | np.ndarray:
-    return request.sigma if request.sigmas is None else np.asarray(request.sigmas, dtype=float)
-
-
-def _platform_field(request: Any, field: str) -> str | None:
-    """The request field of a platform or sigma argument (tx, rx, sigma)."""
-    if field == "tx":
-        return "transmitter" if request.transmitter is not None else "transmitters"
-    if field == "rx":
-        return "receivers"
-    if field == "sigma":
-        return "sigma" if request.sigma is not None else "sigmas"
-    return None
+    if request.sigmas is not None:
+        return np.asarray(request.sigmas, dtype=float)
+    assert request.sigma is not None  # the schema sends exactly one of sigma and sigmas
+    return request.sigma
 
 
 # --------------------------------------------------------------------------- solves.trajectory
@@ -272,16 +316,23 @@ def _platform_field(request: Any, field: str) -> str | None:
 
 @checked
 def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
-    """Constant-velocity track by maximum likelihood over all samples (seed 001)."""
+    """Constant-velocity track by maximum likelihood over all samples (Fadeev et al.)."""
     t = np.asarray(request.sample_times, dtype=float)
     tx, rx = _platforms(request, t, t.size)
     x0 = None
     if request.initial is not None:
         x0 = np.concatenate([request.initial.position, request.initial.velocity])
-    with _samples(t, _moving(request)):
-        sol = ms.trajectory_solve(np.asarray(request.range_sums, dtype=float), t, tx, rx,
-                                  _sigma(request), x0=x0, alpha=request.alpha,
-                                  max_iter=request.max_iter)
+    with sample_errors(t, _moving(request)):
+        sol = ms.trajectory_solve(
+            np.asarray(request.range_sums, dtype=float),
+            t,
+            tx,
+            rx,
+            _sigma(request),
+            x0=x0,
+            alpha=request.alpha,
+            max_iter=request.max_iter,
+        )
     times = request.sample_times if request.times is None else request.times
     positions, covariances = sol.at(np.asarray(times, dtype=float))
     return TrajectorySolveResult(
@@ -289,26 +340,27 @@ def trajectory(request: TrajectorySolveRequest) -> TrajectorySolveResult:
         state=FittedState(position=sol.position.tolist(), velocity=sol.velocity.tolist()),
         covariance=sol.covariance.tolist(),
         residuals=sol.residuals.tolist(),
-        cost=sol.cost,
-        normalized_cost=sol.normalized_cost,
-        consistent=sol.consistent,
-        converged=sol.converged,
-        iterations=sol.iterations,
+        cost=float(sol.cost),
+        normalized_cost=float(sol.normalized_cost),
+        consistent=bool(sol.consistent),
+        converged=bool(sol.converged),
+        iterations=int(sol.iterations),
         times=list(times),
         positions=positions.tolist(),
         covariances=covariances.tolist(),
     )
 
 
-def trajectory_field(request: TrajectorySolveRequest, exc: PlotgateError) -> str:
-    """``range_sums[i]``, ``sample_times``, the platform lists, ``sigma(s)``, ``initial``."""
-    if exc.field == "l":
-        return "range_sums" if exc.index is None else f"range_sums[{exc.index}]"
-    if exc.field == "t":
-        return "sample_times"
-    if exc.field == "x0":
-        return "initial"
-    return _platform_field(request, exc.field) or exc.field
+TRAJECTORY_FIELDS: FieldMap = {
+    "l": "range_sums[{i}]",
+    "t": "sample_times",
+    "x0": "initial",
+    "tx": "transmitter|transmitters",
+    "rx": "receivers",
+    "sigma": "sigma|sigmas",
+}
+"""Where core's errors on a ``solves.trajectory`` request point: ``range_sums[i]`` (the
+sample), ``sample_times``, ``initial``, the platform lists, ``sigma(s)``."""
 
 
 # --------------------------------------------------------------------------- solves.crlb
@@ -316,23 +368,32 @@ def trajectory_field(request: TrajectorySolveRequest, exc: PlotgateError) -> str
 
 @checked
 def crlb(request: CrlbRequest) -> CrlbResult:
-    """Cramer-Rao bounds (seed 001 eq. 3): single shot per sample, accumulated on a track."""
+    """Cramer-Rao bounds (Fadeev et al., eq. 3): single shot per sample, accumulated on a track."""
     t = None if request.sample_times is None else np.asarray(request.sample_times, dtype=float)
     if request.track is not None:
         assert t is not None  # the schema requires sample times with a track
         x = np.asarray(request.track.position) + np.multiply.outer(
-            t - t[0], np.asarray(request.track.velocity, dtype=float))
+            t - t[0], np.asarray(request.track.velocity, dtype=float)
+        )
     else:
         x = np.asarray(request.targets, dtype=float)
     tx, rx = _platforms(request, t, len(x))
     sigma = _sigma(request)
     bound = ms.difference_crlb if request.measurements == "difference" else ms.crlb
-    with _samples(t, _moving(request)):
+    with sample_errors(t, _moving(request)):
         single = bound(x, tx, rx, sigma)
         accumulated = None
         if request.track is not None:
-            acc = ms.trajectory_crlb(request.track.position, request.track.velocity, t, tx,
-                                     rx, sigma, measurements=request.measurements)
+            assert t is not None  # as above: a track has sample times
+            acc = ms.trajectory_crlb(
+                request.track.position,
+                request.track.velocity,
+                t,
+                tx,
+                rx,
+                sigma,
+                measurements=request.measurements,
+            )
             accumulated = AccumulatedBound(
                 t_ref=acc.t_ref,
                 state_covariance=acc.covariance.tolist(),
@@ -346,24 +407,35 @@ def crlb(request: CrlbRequest) -> CrlbResult:
         measurements=request.measurements,
         positions=x.tolist(),
         single_shot=SingleShotBound(
-            sigma=single.sigma.tolist(), gdop=single.gdop.tolist(),
-            covariance=single.covariance.tolist(), sigma_ref=single.sigma_ref.tolist(),
+            sigma=single.sigma.tolist(),
+            gdop=single.gdop.tolist(),
+            covariance=single.covariance.tolist(),
+            sigma_ref=single.sigma_ref.tolist(),
         ),
         accumulated=accumulated,
     )
 
 
-def crlb_field(request: CrlbRequest, exc: PlotgateError) -> str:
-    """``targets[i]`` (or ``track``), the platform lists, ``sigma(s)``, ``sample_times``."""
-    if exc.field in ("x", "x0", "v"):
-        if request.track is not None:
-            return {"x0": "track.position", "v": "track.velocity"}.get(exc.field, "track")
-        return "targets" if exc.index is None else f"targets[{exc.index}]"
-    if exc.field == "t":
-        return "sample_times"
-    if exc.field == "l":
-        return "receivers"
-    return _platform_field(request, exc.field) or exc.field
+def _crlb_target(request: CrlbRequest, exc: PlotgateError) -> str:
+    """A target position error: ``track`` for a track (any sample), else ``targets[i]``."""
+    if request.track is not None:
+        return "track"
+    return "targets" if exc.index is None else f"targets[{exc.index}]"
+
+
+CRLB_FIELDS: FieldMap = {
+    "x": _crlb_target,
+    "x0": "track.position",
+    "v": "track.velocity",
+    "t": "sample_times",
+    "l": "receivers",
+    "tx": "transmitter|transmitters",
+    "rx": "receivers",
+    "sigma": "sigma|sigmas",
+}
+"""Where core's errors on a ``solves.crlb`` request point: ``targets[i]`` or ``track``
+(which of the two a request holds is no template, hence the function), the platform
+lists, ``sigma(s)``, ``sample_times``; too few pairs (core's ``l``) at ``receivers``."""
 
 
 # --------------------------------------------------------------------------- solves.noise
@@ -371,23 +443,30 @@ def crlb_field(request: CrlbRequest, exc: PlotgateError) -> str:
 
 @checked
 def noise(request: NoiseRequest) -> NoiseResult:
-    """Noise of each range-sum series (seed 001 eq. 5) and smoothed coordinates."""
+    """Noise of each range-sum series (Fadeev et al., eq. 5) and smoothed coordinates."""
     t = np.asarray(request.sample_times, dtype=float)
     out: dict[str, Any] = {}
     if request.range_sums is not None:
         est = ms.range_sum_noise(t, np.asarray(request.range_sums, dtype=float), request.degree)
-        out.update(sigma=est.sigma.tolist(), variance=est.variance.tolist(), dof=est.dof,
-                   smoothed_range_sums=est.smoothed.tolist())
+        out.update(
+            sigma=est.sigma.tolist(),
+            variance=est.variance.tolist(),
+            dof=est.dof,
+            smoothed_range_sums=est.smoothed.tolist(),
+        )
     if request.positions is not None:
         assert request.window is not None  # the schema requires it with positions
-        smoothed = ms.smooth_positions(t, np.asarray(request.positions, dtype=float),
-                                       request.window, request.smoothing_degree)
+        smoothed = ms.smooth_positions(
+            t, np.asarray(request.positions, dtype=float), request.window, request.smoothing_degree
+        )
         out["smoothed_positions"] = smoothed.tolist()
     return NoiseResult(**out)
 
 
-def noise_field(request: NoiseRequest, exc: PlotgateError) -> str:
-    """``sample_times[i]``, ``range_sums``, ``positions``, ``window`` or a degree."""
-    if exc.field == "t":
-        return "sample_times" if exc.index is None else f"sample_times[{exc.index}]"
-    return {"l": "range_sums", "x": "positions"}.get(exc.field, exc.field)
+NOISE_FIELDS: FieldMap = {
+    "t": "sample_times[{i}]",
+    "l": "range_sums",
+    "x": "positions",
+}
+"""Where core's errors on a ``solves.noise`` request point: ``sample_times[i]``,
+``range_sums``, ``positions``; ``window`` and the degrees by their own names."""

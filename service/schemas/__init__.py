@@ -1,6 +1,6 @@
 """Wire models shared by the service and its clients; imports pydantic only."""
 
-from service.schemas.common import (
+from plotgate.service.schemas.common import (
     MAX_DISTANCE,
     MAX_PLOTS,
     MIN_RANGE,
@@ -12,22 +12,37 @@ from service.schemas.common import (
     Problem,
     Schema,
 )
-from service.schemas.endpoints import ENDPOINTS, Endpoint
-from service.schemas.gates import (
+from plotgate.service.schemas.crlb import (
+    AccumulatedBound,
+    CrlbRequest,
+    CrlbResult,
+    SingleShotBound,
+)
+from plotgate.service.schemas.endpoints import ENDPOINTS, Endpoint
+from plotgate.service.schemas.gates import (
     CombinedGate,
+    CombinedRegion,
+    DesignGate,
     EllipseGate,
+    EllipseRegion,
     ExpandedGate,
+    ExpandedRegion,
     FirstAssociationGate,
+    FirstAssociationRegion,
     Gate,
     GatePair,
     GatePairsRequest,
+    GateRegion,
     GateResults,
     GateTestRequest,
     RectangularGate,
+    RectangularRegion,
     RingGate,
+    RingRegion,
     SectorGate,
+    SectorRegion,
 )
-from service.schemas.identification import (
+from plotgate.service.schemas.identification import (
     MAX_PICTURE_SAMPLES,
     MAX_SIMULATED_SAMPLES,
     MAX_TRACK_SAMPLES,
@@ -39,7 +54,7 @@ from service.schemas.identification import (
     IdentifySimulateResult,
     SequentialHistory,
 )
-from service.schemas.initiation import (
+from plotgate.service.schemas.initiation import (
     MAX_EVALUATION_PLOTS,
     MAX_SCANS,
     EvaluateRequest,
@@ -55,23 +70,26 @@ from service.schemas.initiation import (
     TargetIn,
     TrackOut,
 )
-from service.schemas.initiation_state import (
+from plotgate.service.schemas.initiation_state import (
     MAX_STATE_INITIATORS,
     MAX_STATE_TRACKS,
     SessionInitiators,
     SessionState,
     SessionTracks,
 )
-from service.schemas.probability import (
+from plotgate.service.schemas.noise import NoiseRequest, NoiseResult
+from plotgate.service.schemas.position import (
+    ClosedFormResult,
+    PositionProblem,
+    PositionSolution,
+    PositionSolveRequest,
+    PositionSolveResult,
+)
+from plotgate.service.schemas.probability import (
     MAX_CURVE_POINTS,
     MAX_UNCONDITIONAL_POINTS,
     AreaApproximation,
-    CombinedRegion,
-    DesignGate,
-    EllipseRegion,
-    ExpandedRegion,
     FalseMarks,
-    FirstAssociationRegion,
     GateAnalysisRequest,
     GateAnalysisResult,
     GateDesignRequest,
@@ -80,45 +98,28 @@ from service.schemas.probability import (
     GateProbabilityCurveRequest,
     GateProbabilityRequest,
     GateProbabilityResult,
-    GateRegion,
     Mark,
-    RectangularRegion,
     Resolution,
-    RingRegion,
-    SectorRegion,
     SpeedPrior,
     Velocity,
 )
-from service.schemas.records import (
+from plotgate.service.schemas.records import (
     REQUEST_ID_PATTERN,
     RequestRecord,
     ResponseRecord,
     request_schema,
     response_schema,
 )
-from service.schemas.solves import (
+from plotgate.service.schemas.solves import (
     MAX_MEASUREMENTS,
     MAX_PROBLEMS,
     MAX_RANGE_SUMS,
     MAX_SAMPLES,
-    AccumulatedBound,
-    ClosedFormResult,
-    CrlbRequest,
-    CrlbResult,
     FittedState,
-    NoiseRequest,
-    NoiseResult,
     Platform,
-    PositionProblem,
-    PositionSolution,
-    PositionSolveRequest,
-    PositionSolveResult,
-    SingleShotBound,
     TargetState,
-    TrajectorySolveRequest,
-    TrajectorySolveResult,
 )
-from service.schemas.study import (
+from plotgate.service.schemas.study import (
     MAX_STUDY_RANGE_SUMS,
     MAX_STUDY_RUNS,
     MAX_STUDY_SAMPLES,
@@ -127,6 +128,7 @@ from service.schemas.study import (
     StudyResult,
     StudySample,
 )
+from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
 __all__ = [
     "ENDPOINTS",

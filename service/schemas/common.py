@@ -48,11 +48,15 @@ def invalid(model: str, errors: list[tuple[Loc, str, Any]]) -> ValidationError:
     Raised from a model validator, its locations are kept (prefixed by the enclosing
     model's own), so a rule over several fields still names the field it concerns.
     """
-    return ValidationError.from_exception_data(model, [
-        InitErrorDetails(type=PydanticCustomError("invalid_combination", reason), loc=loc,
-                         input=value)
-        for loc, reason, value in errors
-    ])
+    return ValidationError.from_exception_data(
+        model,
+        [
+            InitErrorDetails(
+                type=PydanticCustomError("invalid_combination", reason), loc=loc, input=value
+            )
+            for loc, reason, value in errors
+        ],
+    )
 
 
 class Schema(BaseModel):

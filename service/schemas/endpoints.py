@@ -1,7 +1,7 @@
 """The wire contract of every operation: name, path, request and response models.
 
 Clients read this table to call the service without importing it; the registry
-(:mod:`service.registry`) binds each endpoint to its handler.
+(:mod:`plotgate.service.registry`) binds each endpoint to its handler.
 """
 
 import copy
@@ -12,9 +12,10 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from service.schemas.examples import EXAMPLES
-from service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
-from service.schemas.identification import (
+from plotgate.service.schemas.crlb import CrlbRequest, CrlbResult
+from plotgate.service.schemas.examples import EXAMPLES
+from plotgate.service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
+from plotgate.service.schemas.identification import (
     IdentifyPairRequest,
     IdentifyPairResult,
     IdentifyPictureRequest,
@@ -22,7 +23,7 @@ from service.schemas.identification import (
     IdentifySimulateRequest,
     IdentifySimulateResult,
 )
-from service.schemas.initiation import (
+from plotgate.service.schemas.initiation import (
     EvaluateRequest,
     EvaluateResult,
     InitiateRequest,
@@ -30,7 +31,9 @@ from service.schemas.initiation import (
     SimulateRequest,
     SimulateResult,
 )
-from service.schemas.probability import (
+from plotgate.service.schemas.noise import NoiseRequest, NoiseResult
+from plotgate.service.schemas.position import PositionSolveRequest, PositionSolveResult
+from plotgate.service.schemas.probability import (
     GateAnalysisRequest,
     GateAnalysisResult,
     GateDesignRequest,
@@ -41,17 +44,8 @@ from service.schemas.probability import (
     GateProbabilityResult,
     unconditional_axis_ratio,
 )
-from service.schemas.solves import (
-    CrlbRequest,
-    CrlbResult,
-    NoiseRequest,
-    NoiseResult,
-    PositionSolveRequest,
-    PositionSolveResult,
-    TrajectorySolveRequest,
-    TrajectorySolveResult,
-)
-from service.schemas.study import StudyRequest, StudyResult
+from plotgate.service.schemas.study import StudyRequest, StudyResult
+from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
 __all__ = ["ENDPOINTS", "Endpoint"]
 
@@ -86,7 +80,8 @@ class Endpoint:
 
     @property
     def example(self) -> dict[str, Any]:
-        """A small valid request body (:data:`service.schemas.examples.EXAMPLES`), a copy."""
+        """A small valid request body (:data:`plotgate.service.schemas.examples.EXAMPLES`), a
+        copy."""
         return copy.deepcopy(EXAMPLES[self.name])
 
 
@@ -94,113 +89,175 @@ ENDPOINTS: dict[str, Endpoint] = {
     e.name: e
     for e in (
         Endpoint(
-            "gates.test", "/v1/gates/test", "Test one first plot against many candidate plots",
-            GateTestRequest, GateResults, work={"candidates": lambda r: len(r.candidates)},
+            "gates.test",
+            "/v1/gates/test",
+            "Test one first plot against many candidate plots",
+            GateTestRequest,
+            GateResults,
+            work={"candidates": lambda r: len(r.candidates)},
         ),
         Endpoint(
-            "gates.pairs", "/v1/gates/pairs", "Test many independent (first, second) plot pairs",
-            GatePairsRequest, GateResults, work={"pairs": lambda r: len(r.pairs)},
+            "gates.pairs",
+            "/v1/gates/pairs",
+            "Test many independent (first, second) plot pairs",
+            GatePairsRequest,
+            GateResults,
+            work={"pairs": lambda r: len(r.pairs)},
         ),
         Endpoint(
-            "gates.probability", "/v1/gates/probability",
+            "gates.probability",
+            "/v1/gates/probability",
             "Probability that the second mark falls in a gate, for a known velocity or over "
             "a speed prior",
-            GateProbabilityRequest, GateProbabilityResult, slow=True,
+            GateProbabilityRequest,
+            GateProbabilityResult,
+            slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
-            "gates.probability_curve", "/v1/gates/probability/curve",
+            "gates.probability_curve",
+            "/v1/gates/probability/curve",
             "Gating probability against target speed or the first mark's range",
-            GateProbabilityCurveRequest, GateProbabilityCurve, slow=True,
-            work={"values": lambda r: len(r.values),
-                  "mark.axis_ratio": unconditional_axis_ratio},
+            GateProbabilityCurveRequest,
+            GateProbabilityCurve,
+            slow=True,
+            work={"values": lambda r: len(r.values), "mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
-            "gates.analysis", "/v1/gates/analysis",
+            "gates.analysis",
+            "/v1/gates/analysis",
             "Gate area, resolution cells, false marks and capture probability",
-            GateAnalysisRequest, GateAnalysisResult, slow=True,
+            GateAnalysisRequest,
+            GateAnalysisResult,
+            slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
-            "gates.design", "/v1/gates/design",
+            "gates.design",
+            "/v1/gates/design",
             "Size a combined or expanded gate for a wanted capture probability",
-            GateDesignRequest, GateDesignResult, slow=True,
+            GateDesignRequest,
+            GateDesignResult,
+            slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
         ),
         Endpoint(
-            "solves.position", "/v1/solves/position",
+            "solves.position",
+            "/v1/solves/position",
             "Maximum-likelihood positions of a batch of multistatic range-sum problems, "
             "optionally with a closed-form solution",
-            PositionSolveRequest, PositionSolveResult, slow=True,
+            PositionSolveRequest,
+            PositionSolveResult,
+            slow=True,
             work={"problems": lambda r: len(r.problems)},
         ),
         Endpoint(
-            "solves.trajectory", "/v1/solves/trajectory",
+            "solves.trajectory",
+            "/v1/solves/trajectory",
             "Constant-velocity track from range sums at several sample times",
-            TrajectorySolveRequest, TrajectorySolveResult, slow=True,
+            TrajectorySolveRequest,
+            TrajectorySolveResult,
+            slow=True,
             work={"sample_times": lambda r: len(r.sample_times)},
         ),
         Endpoint(
-            "solves.crlb", "/v1/solves/crlb",
+            "solves.crlb",
+            "/v1/solves/crlb",
             "Cramer-Rao bound of multistatic positioning, single shot or along a track",
-            CrlbRequest, CrlbResult, slow=True,
-            work={"targets": lambda r: len(r.targets or ()),
-                  "sample_times": lambda r: len(r.sample_times or ())},
+            CrlbRequest,
+            CrlbResult,
+            slow=True,
+            work={
+                "targets": lambda r: len(r.targets or ()),
+                "sample_times": lambda r: len(r.sample_times or ()),
+            },
         ),
         Endpoint(
-            "solves.noise", "/v1/solves/noise",
-            "Range-sum noise from quadratic fits, and sliding-window smoothing of "
-            "coordinates",
-            NoiseRequest, NoiseResult, slow=True,
+            "solves.noise",
+            "/v1/solves/noise",
+            "Range-sum noise from quadratic fits, and sliding-window smoothing of coordinates",
+            NoiseRequest,
+            NoiseResult,
+            slow=True,
             work={"sample_times": lambda r: len(r.sample_times)},
         ),
         Endpoint(
-            "solves.study", "/v1/solves/study",
-            "Monte Carlo accuracy study of the multistatic solvers along a track (seed 001 "
-            "Fig. 3 curves 1-6)",
-            StudyRequest, StudyResult, slow=True,
+            "solves.study",
+            "/v1/solves/study",
+            "Monte Carlo accuracy study of the multistatic solvers along a track (Fadeev "
+            "et al., Fig. 3, curves 1-6)",
+            StudyRequest,
+            StudyResult,
+            slow=True,
             work={"runs": lambda r: r.runs, "sample_times": lambda r: len(r.sample_times)},
         ),
         Endpoint(
-            "initiation.initiate", "/v1/initiation/initiate",
+            "initiation.initiate",
+            "/v1/initiation/initiate",
             "Start and confirm tracks from scans of plots in clutter, continuing a state",
-            InitiateRequest, InitiateResult, slow=True,
-            work={"scans": lambda r: len(r.scans),
-                  "scans.plots": lambda r: max((len(s.plots) for s in r.scans), default=0),
-                  "state": lambda r: 0 if r.state is None else r.state.size()},
+            InitiateRequest,
+            InitiateResult,
+            slow=True,
+            work={
+                "scans": lambda r: len(r.scans),
+                "scans.plots": lambda r: max((len(s.plots) for s in r.scans), default=0),
+                "state": lambda r: 0 if r.state is None else r.state.size(),
+            },
         ),
         Endpoint(
-            "initiation.simulate", "/v1/initiation/simulate",
+            "initiation.simulate",
+            "/v1/initiation/simulate",
             "Seeded scans of targets in Poisson clutter, every plot labelled",
-            SimulateRequest, SimulateResult, slow=True,
+            SimulateRequest,
+            SimulateResult,
+            slow=True,
             work={"scenario.scans": lambda r: r.scenario.scans},
         ),
         Endpoint(
-            "initiation.evaluate", "/v1/initiation/evaluate",
+            "initiation.evaluate",
+            "/v1/initiation/evaluate",
             "Monte Carlo of track initiation: targets initiated, false tracks",
-            EvaluateRequest, EvaluateResult, slow=True,
-            work={"runs": lambda r: r.runs, "scenario.scans": lambda r: r.scenario.scans,
-                  "scenario.clutter": lambda r: math.ceil(r.scenario.clutter)},
+            EvaluateRequest,
+            EvaluateResult,
+            slow=True,
+            work={
+                "runs": lambda r: r.runs,
+                "scenario.scans": lambda r: r.scenario.scans,
+                "scenario.clutter": lambda r: math.ceil(r.scenario.clutter),
+            },
         ),
         Endpoint(
-            "identification.pair", "/v1/identification/pair",
+            "identification.pair",
+            "/v1/identification/pair",
             "Is a passive (ESM) track the same object as an active radar track? Fisher's "
             "Z-test on bearings",
-            IdentifyPairRequest, IdentifyPairResult, slow=True,
-            work={"passive_bearings_deg": lambda r: len(r.passive_bearings_deg),
-                  "active_bearings_deg": lambda r: len(r.active_bearings_deg)},
+            IdentifyPairRequest,
+            IdentifyPairResult,
+            slow=True,
+            work={
+                "passive_bearings_deg": lambda r: len(r.passive_bearings_deg),
+                "active_bearings_deg": lambda r: len(r.active_bearings_deg),
+            },
         ),
         Endpoint(
-            "identification.picture", "/v1/identification/picture",
+            "identification.picture",
+            "/v1/identification/picture",
             "Z matrix and one-to-one identification of many passive and active tracks",
-            IdentifyPictureRequest, IdentifyPictureResult, slow=True,
-            work={"passive_deg": lambda r: len(r.passive_deg),
-                  "active_deg": lambda r: len(r.active_deg)},
+            IdentifyPictureRequest,
+            IdentifyPictureResult,
+            slow=True,
+            work={
+                "passive_deg": lambda r: len(r.passive_deg),
+                "active_deg": lambda r: len(r.active_deg),
+            },
         ),
         Endpoint(
-            "identification.simulate", "/v1/identification/simulate",
-            "Seed 004's experiment by Monte Carlo: realized type I or type II error",
-            IdentifySimulateRequest, IdentifySimulateResult, slow=True,
+            "identification.simulate",
+            "/v1/identification/simulate",
+            "Kvasnov's experiment by Monte Carlo: realized type I or type II error",
+            IdentifySimulateRequest,
+            IdentifySimulateResult,
+            slow=True,
             work={"runs": lambda r: r.runs},
         ),
     )

@@ -1,9 +1,9 @@
-"""Wire models of passive/active mark identification (seed 004; DESIGN section 7).
+"""Wire models of passive/active mark identification (Kvasnov).
 
 Operations:
 
 - ``identification.pair``: one passive (ESM) track's bearings against one active radar
-  track's bearings (optionally elevations): Fisher's Z-test of seed 004 eq. 5 with its
+  track's bearings (optionally elevations): Fisher's Z-test of Kvasnov eq. 5 with its
   p-value, critical value and decision, beta and the m needed for a stated separation,
   the paper's conditions as numbers, and optionally the decision after each active
   sample (the sequential mode);
@@ -22,7 +22,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import Loc, Schema, invalid
+from plotgate.service.schemas.common import Loc, Schema, invalid
 
 __all__ = [
     "MAX_PICTURE_SAMPLES",
@@ -58,32 +58,41 @@ class IdentifyPairRequest(Schema):
     """One passive and one active track."""
 
     passive_bearings_deg: Samples = Field(
-        description="Passive bearings, degrees (the population: n >= 2, n >> m).")
+        description="Passive bearings, degrees (the population: n >= 2, n >> m)."
+    )
     active_bearings_deg: Samples = Field(description="Active bearings, degrees (m >= 2).")
     sigma_deg: Sigma | None = Field(
-        default=None, description="Bearing sigma of the population, degrees, in [1e-6, "
-        "180]; null: estimated from the passive bearings.")
-    alpha: Level = Field(default=0.05,
-                         description="Level of the two-sided test, in [1e-12, 1).")
+        default=None,
+        description="Bearing sigma of the population, degrees, in [1e-6, "
+        "180]; null: estimated from the passive bearings.",
+    )
+    alpha: Level = Field(default=0.05, description="Level of the two-sided test, in [1e-12, 1).")
     passive_elevations_deg: Samples | None = Field(
-        default=None, description="Passive elevations, degrees (with active ones).")
+        default=None, description="Passive elevations, degrees (with active ones)."
+    )
     active_elevations_deg: Samples | None = Field(
-        default=None, description="Active elevations, degrees (with passive ones).")
+        default=None, description="Active elevations, degrees (with passive ones)."
+    )
     sigma_elevation_deg: Sigma | None = Field(
-        default=None, description="Elevation sigma, degrees, in [1e-6, 180]; null: "
-        "estimated.")
+        default=None, description="Elevation sigma, degrees, in [1e-6, 180]; null: estimated."
+    )
     delta_deg: Annotated[float, Field(gt=0, le=180)] | None = Field(
-        default=None, description="Smallest bearing separation of two objects, degrees: "
-        "gives beta.")
+        default=None,
+        description="Smallest bearing separation of two objects, degrees: gives beta.",
+    )
     beta_max: Level | None = Field(
-        default=None, description="Wanted type II error, in [1e-12, 1): gives m_required "
-        "(needs delta_deg).")
-    ratio: float = Field(default=10.0, gt=1, le=1e6,
-                         description="The n / m that counts as 'n much larger than m'.")
+        default=None,
+        description="Wanted type II error, in [1e-12, 1): gives m_required (needs delta_deg).",
+    )
+    ratio: float = Field(
+        default=10.0, gt=1, le=1e6, description="The n / m that counts as 'n much larger than m'."
+    )
     normality_alpha: Level = Field(
-        default=0.05, description="Level of the Shapiro-Wilk normality check, in [1e-12, 1).")
-    sequential: bool = Field(default=False,
-                             description="Also return the decision after each active sample.")
+        default=0.05, description="Level of the Shapiro-Wilk normality check, in [1e-12, 1)."
+    )
+    sequential: bool = Field(
+        default=False, description="Also return the decision after each active sample."
+    )
 
 
 class SequentialHistory(Schema):
@@ -103,19 +112,22 @@ class IdentifyPairResult(Schema):
     critical: float = Field(description="z_{1 - alpha / (2k)}, k coordinates (Bonferroni).")
     identified: bool = Field(description="One object: every |Z| <= critical.")
     difference_deg: list[float] = Field(
-        description="Wrapped difference of the circular means, active minus passive.")
+        description="Wrapped difference of the circular means, active minus passive."
+    )
     sigma_deg: list[float] = Field(description="The sigma used per coordinate, degrees.")
     n: int = Field(description="Passive samples.")
     m: int = Field(description="Active samples.")
     n_over_m: float = Field(description="n / m.")
     large_population: bool = Field(description="n / m >= ratio.")
     normality_p: list[float | None] = Field(
-        description="Shapiro-Wilk p-value of the passive deviations (null when n < 3).")
+        description="Shapiro-Wilk p-value of the passive deviations (null when n < 3)."
+    )
     normal: bool = Field(description="Every normality_p >= normality_alpha.")
     beta: float | None = Field(description="Type II error at delta_deg, or null.")
     m_required: int | None = Field(description="Smallest m with beta <= beta_max, or null.")
     history: SequentialHistory | None = Field(
-        default=None, description="With sequential: the decision after each active sample.")
+        default=None, description="With sequential: the decision after each active sample."
+    )
 
 
 MAX_TRACKS = 10_000
@@ -129,8 +141,10 @@ class IdentifyPictureRequest(Schema):
     passive_deg: Tracks = Field(description="Bearings of each passive track, degrees.")
     active_deg: Tracks = Field(description="Bearings of each active track, degrees.")
     sigma_deg: Sigma | Annotated[list[Sigma], Field(max_length=MAX_TRACKS)] | None = Field(
-        default=None, description="Bearing sigma, degrees, each in [1e-6, 180]: one for "
-        "all, one per passive track, or null (estimated per passive track).")
+        default=None,
+        description="Bearing sigma, degrees, each in [1e-6, 180]: one for "
+        "all, one per passive track, or null (estimated per passive track).",
+    )
     alpha: Level = Field(default=0.05, description="Level of each pair's test, in [1e-12, 1).")
 
     @model_validator(mode="after")
@@ -138,12 +152,22 @@ class IdentifyPictureRequest(Schema):
         errors: list[tuple[Loc, str, Any]] = []
         total = sum(map(len, self.passive_deg)) + sum(map(len, self.active_deg))
         if total > MAX_PICTURE_SAMPLES:
-            errors.append((("passive_deg",), f"the picture carries {total} samples; at most "
-                           f"{MAX_PICTURE_SAMPLES}", total))
+            errors.append(
+                (
+                    ("passive_deg",),
+                    f"the picture carries {total} samples; at most {MAX_PICTURE_SAMPLES}",
+                    total,
+                )
+            )
         if isinstance(self.sigma_deg, list) and len(self.sigma_deg) != len(self.passive_deg):
-            errors.append((("sigma_deg",), f"must have {len(self.passive_deg)} entries, one "
-                           f"per passive track; got {len(self.sigma_deg)}",
-                           len(self.sigma_deg)))
+            errors.append(
+                (
+                    ("sigma_deg",),
+                    f"must have {len(self.passive_deg)} entries, one "
+                    f"per passive track; got {len(self.sigma_deg)}",
+                    len(self.sigma_deg),
+                )
+            )
         if errors:
             raise invalid("IdentifyPictureRequest", errors)
         return self
@@ -157,29 +181,36 @@ class IdentifyPictureResult(Schema):
     critical: float = Field(description="z_{1 - alpha/2}.")
     passes: list[list[bool]] = Field(description="|Z| <= critical.")
     pairs: list[Annotated[list[int], Field(min_length=2, max_length=2)]] = Field(
-        description="One-to-one identification [passive, active], by minimum total |Z|.")
+        description="One-to-one identification [passive, active], by minimum total |Z|."
+    )
     unassigned_passive: list[int] = Field(description="Passive tracks without a partner.")
     unassigned_active: list[int] = Field(description="Active tracks without a partner.")
     sigma_deg: list[float] = Field(description="Bearing sigma of each passive track.")
 
 
 class IdentifySimulateRequest(Schema):
-    """Seed 004's experiment: normal passive bearings, active ones uniform in a sector."""
+    """Kvasnov's experiment: normal passive bearings, active ones uniform in a sector."""
 
     n: int = Field(default=50, ge=2, le=MAX_TRACK_SAMPLES, description="Passive samples.")
     m: int = Field(default=5, ge=2, le=MAX_TRACK_SAMPLES, description="Active samples.")
-    sigma_deg: Sigma = Field(default=1.0,
-                             description="Passive bearing sigma, degrees, in [1e-6, 180].")
+    sigma_deg: Sigma = Field(
+        default=1.0, description="Passive bearing sigma, degrees, in [1e-6, 180]."
+    )
     separation_deg: Annotated[float, Field(ge=-180, le=180)] = Field(
-        default=0.0, description="Active object's bearing minus the passive one's: 0 "
-        "measures the type I error, else the type II error.")
+        default=0.0,
+        description="Active object's bearing minus the passive one's: 0 "
+        "measures the type I error, else the type II error.",
+    )
     width_deg: Annotated[float, Field(gt=0, le=360)] = Field(
-        default=3.0, description="Width of the active bearings' uniform sector, degrees.")
+        default=3.0, description="Width of the active bearings' uniform sector, degrees."
+    )
     law: Literal["uniform", "normal"] = Field(
-        default="uniform", description="Active bearings uniform in the sector (the paper) "
-        "or normal with sigma.")
-    estimate_sigma: bool = Field(default=False,
-                                 description="Estimate sigma from each passive sample.")
+        default="uniform",
+        description="Active bearings uniform in the sector (the paper) or normal with sigma.",
+    )
+    estimate_sigma: bool = Field(
+        default=False, description="Estimate sigma from each passive sample."
+    )
     alpha: Level = Field(default=0.05, description="Level of the test, in [1e-12, 1).")
     runs: int = Field(default=10_000, ge=1, le=10_000_000, description="Monte Carlo runs.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1, description="Seed.")
@@ -188,9 +219,16 @@ class IdentifySimulateRequest(Schema):
     def _work(self) -> "IdentifySimulateRequest":
         work = self.runs * (self.n + self.m)
         if work > MAX_SIMULATED_SAMPLES:
-            raise invalid("IdentifySimulateRequest", [(
-                ("runs",), f"runs x (n + m) is {work}; at most {MAX_SIMULATED_SAMPLES}",
-                self.runs)])
+            raise invalid(
+                "IdentifySimulateRequest",
+                [
+                    (
+                        ("runs",),
+                        f"runs x (n + m) is {work}; at most {MAX_SIMULATED_SAMPLES}",
+                        self.runs,
+                    )
+                ],
+            )
         return self
 
 
@@ -199,7 +237,9 @@ class IdentifySimulateResult(Schema):
 
     runs: int = Field(description="Monte Carlo runs.")
     identified: float = Field(
-        description="Fraction identified: the type II error beta when separation_deg != 0.")
+        description="Fraction identified: the type II error beta when separation_deg != 0."
+    )
     rejected: float = Field(
-        description="Fraction rejected: the realized type I error when separation_deg = 0.")
+        description="Fraction rejected: the realized type I error when separation_deg = 0."
+    )
     standard_error: float = Field(description="Binomial standard error of the fractions.")

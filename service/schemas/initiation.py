@@ -1,10 +1,10 @@
-"""Wire models of track initiation (DESIGN section 5; seeds 002, 003, 000).
+"""Wire models of track initiation (Mu et al.; the secondary-processing textbook; Konovalov).
 
 Operations:
 
 - ``initiation.initiate``: scans of plots (and the state of the previous call) in; the
   next state, what each scan did, and the tracks out. The state
-  (:class:`~service.schemas.initiation_state.SessionState`) is a typed, versioned JSON
+  (:class:`~plotgate.service.schemas.initiation_state.SessionState`) is a typed, versioned JSON
   object bound to the settings that made it: send it back unchanged with the next scans
   and the same ``config``; a malformed, foreign or inconsistent state answers 422 naming
   its own field (``state.tracks.misses[3]``).
@@ -21,7 +21,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import (
+from plotgate.service.schemas.common import (
     MAX_DISTANCE,
     MAX_PLOTS,
     Loc,
@@ -30,8 +30,8 @@ from service.schemas.common import (
     Schema,
     invalid,
 )
-from service.schemas.initiation_state import MAX_HISTORY, SessionState
-from service.schemas.solves import Time
+from plotgate.service.schemas.initiation_state import MAX_HISTORY, SessionState
+from plotgate.service.schemas.solves import Time
 
 __all__ = [
     "MAX_EVALUATION_PLOTS",
@@ -57,56 +57,102 @@ MAX_EVALUATION_PLOTS = 5_000_000
 MAX_SPEED = 1e6
 """Largest |velocity component| of a simulated target, m/s."""
 
+
 class InitiationSettings(Schema):
-    """The rules of initiation (defaults: Cartesian logic, ring capture 2/2, 3/4, l = 2)."""
+    """The rules of initiation (defaults: Cartesian logic, ring capture 2/2, 3/4, l = 2).
+
+    Field for field core's ``InitiationConfig``, and the service passes them to it by
+    name. The two are written out, not derived from each other: this model adds what
+    only the wire has (descriptions, each setting's ceiling on the work of one request,
+    JSON types) and schemas do not import core, while core's config is a plain frozen
+    dataclass with no pydantic in it. A test
+    (``tests/service/test_initiation_api.py``) holds them equal: the same names in the
+    same order, the same defaults, the same choices, and every lower bound (and the
+    probabilities' upper bounds) the same, listing the ceilings and floors only the wire
+    has.
+    """
 
     mode: Literal["cartesian", "polar"] = Field(
-        default="cartesian", description="cartesian: the logic method (capture gate, "
-        "constant-velocity filter, chi-square gates); polar: seed 002's method (sector "
-        "windows, range-only extrapolation, the acceleration check).")
+        default="cartesian",
+        description="cartesian: the logic method (capture gate, "
+        "constant-velocity filter, chi-square gates); polar: Mu et al.'s method (sector "
+        "windows, range-only extrapolation, the acceleration check).",
+    )
     v_min: float = Field(default=0.0, ge=0, le=1e6, description="Smallest target speed, m/s.")
     v_max: float = Field(default=50.0, gt=0, le=1e6, description="Largest target speed, m/s.")
     capture_gate: Literal["ring", "expanded", "combined"] = Field(
-        default="ring", description="Cartesian capture gate about an initiator (seed 000).")
-    capture_P_G: float = Field(default=0.99, gt=0, lt=1,
-                               description="Combined gate: ellipse-stage gating probability.")
-    capture_p: float = Field(default=0.95, gt=0, lt=1,
-                             description="Expanded gate: probability of its coefficient K_g.")
+        default="ring", description="Cartesian capture gate about an initiator (Konovalov)."
+    )
+    capture_P_G: float = Field(
+        default=0.99, gt=0, lt=1, description="Combined gate: ellipse-stage gating probability."
+    )
+    capture_p: float = Field(
+        default=0.95, gt=0, lt=1, description="Expanded gate: probability of its coefficient K_g."
+    )
     capture_scans: int = Field(default=2, ge=2, le=100, description="Criterion 2/N: N.")
     capture_time: float | None = Field(
-        default=None, gt=0, le=1e6,
-        description="Criterion 2/T: T in seconds, instead of 2/N; null: use 2/N.")
+        default=None,
+        gt=0,
+        le=1e6,
+        description="Criterion 2/T: T in seconds, instead of 2/N; null: use 2/N.",
+    )
     association: Literal["branch", "nearest"] = Field(
-        default="branch", description="branch: every plot in a capture gate starts a "
-        "tentative track (seed 003, approach 1); nearest: only the nearest one.")
+        default="branch",
+        description="branch: every plot in a capture gate starts a tentative track (the "
+        "secondary-processing textbook, approach 1); nearest: only the nearest one.",
+    )
     filter: Literal["kalman", "alpha_beta"] = Field(
-        default="kalman", description="Track filter: Kalman, or seed 003's alpha-beta.")
-    q: float = Field(default=1.0, gt=0, le=1e6,
-                     description="Kalman white-acceleration noise, m^2/s^3.")
+        default="kalman",
+        description="Track filter: Kalman, or the secondary-processing textbook's alpha-beta.",
+    )
+    q: float = Field(
+        default=1.0, gt=0, le=1e6, description="Kalman white-acceleration noise, m^2/s^3."
+    )
     alpha_min: float = Field(default=0.2, gt=0, le=1, description="Alpha-beta: alpha floor.")
     beta_min: float = Field(default=0.05, gt=0, le=1, description="Alpha-beta: beta floor.")
-    gate_P_G: float = Field(default=0.99, gt=0, lt=1,
-                            description="Gating probability of the track gates.")
+    gate_P_G: float = Field(
+        default=0.99, gt=0, lt=1, description="Gating probability of the track gates."
+    )
     gate_widening: list[float] = Field(
-        default=[1.0, 2.0, 4.0], min_length=1, max_length=10,
-        description="Gate threshold factors after 0, 1, 2... misses in a row (seed 003's "
-        "narrow, medium and wide gates); each >= 1, non-decreasing.")
+        default=[1.0, 2.0, 4.0],
+        min_length=1,
+        max_length=10,
+        description="Gate threshold factors after 0, 1, 2... misses in a row (the "
+        "secondary-processing textbook's narrow, medium and wide gates); each >= 1, "
+        "non-decreasing.",
+    )
     confirm_k: int = Field(default=3, ge=1, le=100, description="Confirmation k of k/m.")
     confirm_m: int = Field(default=4, ge=1, le=100, description="Confirmation m of k/m.")
-    drop_misses: int = Field(default=2, ge=1, le=100,
-                             description="l of k/m - l: misses in a row that drop a track.")
-    K_R: float | None = Field(default=None, ge=0.01, le=100,
-                              description="Polar range-window coefficient; null: from "
-                              "gate_P_G.")
-    K_az: float | None = Field(default=None, ge=0.01, le=100,
-                               description="Polar azimuth-window coefficient; null: from "
-                               "gate_P_G.")
-    a_max: float = Field(default=10.0, gt=0, le=1e4,
-                         description="Polar mode: largest radial acceleration, m/s^2.")
-    K_A: float = Field(default=3.0, gt=1, le=100,
-                       description="Polar mode: factor (> 1) of the acceleration check.")
-    history: int = Field(default=8, ge=2, le=MAX_HISTORY,
-                         description="Plots remembered per track (>= confirm_m and >= 2).")
+    drop_misses: int = Field(
+        default=2, ge=1, le=100, description="l of k/m - l: misses in a row that drop a track."
+    )
+    K_R: float | None = Field(
+        default=None,
+        ge=0.01,
+        le=100,
+        description="Polar range-window coefficient; null: from gate_P_G.",
+    )
+    K_az: float | None = Field(
+        default=None,
+        ge=0.01,
+        le=100,
+        description="Polar azimuth-window coefficient; null: from gate_P_G.",
+    )
+    a_max: float = Field(
+        default=10.0, gt=0, le=1e4, description="Polar mode: largest radial acceleration, m/s^2."
+    )
+    K_A: float = Field(
+        default=3.0,
+        gt=1,
+        le=100,
+        description="Polar mode: factor (> 1) of the acceleration check.",
+    )
+    history: int = Field(
+        default=8,
+        ge=2,
+        le=MAX_HISTORY,
+        description="Plots remembered per track (>= confirm_m and >= 2).",
+    )
 
 
 class ScanIn(Schema):
@@ -119,20 +165,31 @@ class ScanIn(Schema):
 class InitiateRequest(Schema):
     """Scans to run through initiation, continuing ``state`` when given."""
 
-    config: InitiationSettings = Field(default_factory=InitiationSettings,
-                                       description="The rules; the same for a whole session.")
+    config: InitiationSettings = Field(
+        default_factory=InitiationSettings, description="The rules; the same for a whole session."
+    )
     state: SessionState | None = Field(
-        default=None, description="The state returned by the previous call, unchanged; "
-        "null to start a session.")
-    scans: list[ScanIn] = Field(min_length=1, max_length=MAX_SCANS,
-                                description="The next scans, in time order.")
+        default=None,
+        description="The state returned by the previous call, unchanged; null to start a session.",
+    )
+    scans: list[ScanIn] = Field(
+        min_length=1, max_length=MAX_SCANS, description="The next scans, in time order."
+    )
 
     @model_validator(mode="after")
     def _total(self) -> "InitiateRequest":
         total = sum(len(s.plots) for s in self.scans)
         if total > MAX_PLOTS:
-            raise invalid("InitiateRequest", [(("scans",), f"carry {total} plots in all; "
-                                                f"at most {MAX_PLOTS} per request", total)])
+            raise invalid(
+                "InitiateRequest",
+                [
+                    (
+                        ("scans",),
+                        f"carry {total} plots in all; at most {MAX_PLOTS} per request",
+                        total,
+                    )
+                ],
+            )
         return self
 
 
@@ -142,14 +199,16 @@ class ScanOutcome(Schema):
     scan: int = Field(description="The scan's number in the session (0 for the first).")
     t: float = Field(description="Its time, s.")
     associated: list[int] = Field(
-        description="Per plot: the id of the track it updated or started, -1 if none.")
+        description="Per plot: the id of the track it updated or started, -1 if none."
+    )
     initiators: int = Field(description="Plots that became initiators.")
     started: list[int] = Field(description="Ids of tentative tracks started.")
     confirmed: list[int] = Field(description="Ids of tracks confirmed.")
     dropped: list[int] = Field(description="Ids of tracks dropped.")
     reasons: list[Literal["misses", "window", "acceleration", "pruned"]] = Field(
         description="Why each was dropped: misses in a row, k out of reach in m, the polar "
-        "acceleration check, sharing two plots with a confirmed track.")
+        "acceleration check, sharing two plots with a confirmed track."
+    )
 
 
 class TrackOut(Schema):
@@ -162,7 +221,8 @@ class TrackOut(Schema):
     covariance: list[list[float]] = Field(description="4 x 4 covariance of [x, y, vx, vy].")
     plots: list[Annotated[list[int], Field(min_length=2, max_length=2)]] = Field(
         description="Its most recent plots (up to config.history), oldest first, as "
-        "[scan number, plot index in that scan].")
+        "[scan number, plot index in that scan]."
+    )
     n_plots: int = Field(description="Plots taken so far.")
     misses: int = Field(description="Misses in a row.")
     first_scan: int = Field(description="Scan number of its first plot.")
@@ -186,29 +246,44 @@ class TargetIn(Schema):
 
     position: Position = Field(description="Position at the first scan, m.")
     velocity: tuple[Speed, Speed] = Field(
-        description="Velocity [vx, vy], m/s; |component| <= 1e6.")
+        description="Velocity [vx, vy], m/s; |component| <= 1e6."
+    )
 
 
 class ScenarioIn(Schema):
-    """Targets, one radar and Poisson clutter (seed 002's test by default)."""
+    """Targets, one radar and Poisson clutter (Mu et al.'s test by default)."""
 
     targets: list[TargetIn] = Field(
-        default_factory=lambda: [TargetIn(position=(5000.0 + 1000.0 * i, 10000.0 - 1000.0 * i),
-                                          velocity=(25.0, 0.0)) for i in range(5)],
-        max_length=1000, description="The targets (default: seed 002's five).")
+        default_factory=lambda: [
+            TargetIn(position=(5000.0 + 1000.0 * i, 10000.0 - 1000.0 * i), velocity=(25.0, 0.0))
+            for i in range(5)
+        ],
+        max_length=1000,
+        description="The targets (default: Mu et al.'s five).",
+    )
     scans: int = Field(default=4, ge=1, le=MAX_SCANS, description="Number of scans.")
     interval: float = Field(default=1.0, gt=0, le=1e6, description="Time between scans, s.")
     P_D: float = Field(default=0.8, ge=0, le=1, description="Detection probability.")
-    clutter: float = Field(default=20.0, ge=0, le=MAX_PLOTS,
-                           description="Mean clutter plots per scan (Poisson).")
+    clutter: float = Field(
+        default=20.0, ge=0, le=MAX_PLOTS, description="Mean clutter plots per scan (Poisson)."
+    )
     region: tuple[Coordinate, Coordinate, Coordinate, Coordinate] = Field(
         default=(0.0, 15000.0, 0.0, 15000.0),
-        description="Clutter rectangle (x_min, x_max, y_min, y_max), m; |coordinate| <= 1e9.")
+        description="Clutter rectangle (x_min, x_max, y_min, y_max), m; |coordinate| <= 1e9.",
+    )
     sensor: Position = Field(default=(0.0, 0.0), description="Radar position, m.")
-    sigma_r: float = Field(default=5.0, ge=1e-3, le=MAX_DISTANCE,
-                           description="Range sigma, m, from 1 mm (as a plot's).")
-    sigma_az_deg: float = Field(default=0.2, ge=1e-6, le=180,
-                                description="Azimuth sigma, degrees, from 1e-6 (as a plot's).")
+    sigma_r: float = Field(
+        default=5.0,
+        ge=1e-3,
+        le=MAX_DISTANCE,
+        description="Range sigma, m, from 1 mm (as a plot's).",
+    )
+    sigma_az_deg: float = Field(
+        default=0.2,
+        ge=1e-6,
+        le=180,
+        description="Azimuth sigma, degrees, from 1e-6 (as a plot's).",
+    )
 
     def plots(self) -> float:
         """Expected plots of the whole scenario (for the work limits)."""
@@ -225,17 +300,30 @@ class ScenarioIn(Schema):
         far = max(math.hypot(x - sx, y - sy) for x in (x_min, x_max) for y in (y_min, y_max))
         errors: list[tuple[Loc, str, Any]] = []
         if far > MAX_DISTANCE:
-            errors.append((("region",), f"reaches {far:.6g} m from the sensor; plots must lie "
-                           f"within {MAX_DISTANCE:g} m of it", list(self.region)))
+            errors.append(
+                (
+                    ("region",),
+                    f"reaches {far:.6g} m from the sensor; plots must lie "
+                    f"within {MAX_DISTANCE:g} m of it",
+                    list(self.region),
+                )
+            )
         span = self.interval * (self.scans - 1)
         for i, target in enumerate(self.targets):
             (x, y), (vx, vy) = target.position, target.velocity
-            reach = max(math.hypot(x - sx, y - sy),
-                        math.hypot(x + vx * span - sx, y + vy * span - sy))
+            reach = max(
+                math.hypot(x - sx, y - sy), math.hypot(x + vx * span - sx, y + vy * span - sy)
+            )
             if reach + 10.0 * self.sigma_r > MAX_DISTANCE:
-                errors.append((("targets", i), f"is {reach:.6g} m from the sensor within the "
-                               f"scans; with 10 sigma_r of noise its plots must stay within "
-                               f"{MAX_DISTANCE:g} m", None))
+                errors.append(
+                    (
+                        ("targets", i),
+                        f"is {reach:.6g} m from the sensor within the "
+                        f"scans; with 10 sigma_r of noise its plots must stay within "
+                        f"{MAX_DISTANCE:g} m",
+                        None,
+                    )
+                )
                 break
         if errors:
             raise invalid("ScenarioIn", errors)
@@ -251,9 +339,17 @@ class SimulateRequest(Schema):
     @model_validator(mode="after")
     def _size(self) -> "SimulateRequest":
         if self.scenario.plots() > MAX_PLOTS:
-            raise invalid("SimulateRequest", [(
-                ("scenario",), f"expects {self.scenario.plots():.0f} plots; at most "
-                f"{MAX_PLOTS} per request", self.scenario.plots())])
+            raise invalid(
+                "SimulateRequest",
+                [
+                    (
+                        ("scenario",),
+                        f"expects {self.scenario.plots():.0f} plots; at most "
+                        f"{MAX_PLOTS} per request",
+                        self.scenario.plots(),
+                    )
+                ],
+            )
         return self
 
 
@@ -263,27 +359,38 @@ class SimulateResult(Schema):
     scans: list[ScanIn] = Field(description="The scans, plots in random order.")
     labels: list[list[int]] = Field(description="Per scan and plot: target index or -1.")
     truth: list[list[Annotated[list[float], Field(min_length=2, max_length=2)]]] = Field(
-        description="Per scan, every target's true position, m.")
+        description="Per scan, every target's true position, m."
+    )
 
 
 class EvaluateRequest(Schema):
     """Monte Carlo of initiation on a scenario."""
 
     scenario: ScenarioIn = Field(default_factory=ScenarioIn, description="The scenario.")
-    config: InitiationSettings = Field(default_factory=InitiationSettings,
-                                       description="The rules evaluated.")
+    config: InitiationSettings = Field(
+        default_factory=InitiationSettings, description="The rules evaluated."
+    )
     runs: int = Field(default=100, ge=1, le=10_000, description="Monte Carlo runs.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1, description="Seed (run r: spawn r).")
-    distance: float = Field(default=100.0, gt=0, le=MAX_DISTANCE,
-                            description="Radius of the distance-based score, m.")
+    distance: float = Field(
+        default=100.0, gt=0, le=MAX_DISTANCE, description="Radius of the distance-based score, m."
+    )
 
     @model_validator(mode="after")
     def _work(self) -> "EvaluateRequest":
         work = self.runs * self.scenario.plots()
         if work > MAX_EVALUATION_PLOTS:
-            raise invalid("EvaluateRequest", [(
-                ("runs",), f"runs x expected plots per run is {work:.0f}; at most "
-                f"{MAX_EVALUATION_PLOTS}", self.runs)])
+            raise invalid(
+                "EvaluateRequest",
+                [
+                    (
+                        ("runs",),
+                        f"runs x expected plots per run is {work:.0f}; at most "
+                        f"{MAX_EVALUATION_PLOTS}",
+                        self.runs,
+                    )
+                ],
+            )
         return self
 
 
@@ -293,10 +400,12 @@ class EvaluateResult(Schema):
     runs: int = Field(description="Monte Carlo runs.")
     targets: int = Field(description="Targets in the scenario.")
     confirmable: float = Field(
-        description="Mean targets detected in k of the m scans from their first detection.")
+        description="Mean targets detected in k of the m scans from their first detection."
+    )
     mean_true: float = Field(description="Targets initiated per run (by plot labels).")
     mean_false: float = Field(description="False tracks per run (by plot labels).")
     mean_true_by_distance: float = Field(description="Targets initiated per run (by distance).")
     mean_false_by_distance: float = Field(description="False tracks per run (by distance).")
     mean_time_to_confirmation: float | None = Field(
-        description="Seconds from first detection to confirmation; null if none.")
+        description="Seconds from first detection to confirmation; null if none."
+    )

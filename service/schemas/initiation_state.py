@@ -8,8 +8,8 @@ lengths, ids, histories, covariances: ``core.initiation.state_json``). Each refu
 names the state's own field, ``state.tracks.misses[3]``.
 
 Magnitudes. Copies of plots keep the plots' bounds (sensors within
-:data:`~service.schemas.common.MAX_DISTANCE`, times within
-:data:`~service.schemas.solves.MAX_TIME`). What the service derives from a plot may
+:data:`~plotgate.service.schemas.common.MAX_DISTANCE`, times within
+:data:`~plotgate.service.schemas.solves.MAX_TIME`). What the service derives from a plot may
 reach further: a polar plot's position is up to twice MAX_DISTANCE from the origin and a
 Cartesian plot's range up to 2 sqrt(2) MAX_DISTANCE from its sensor, so derived positions,
 ranges and range sigmas are bounded by :data:`STATE_DISTANCE` (variances by its square),
@@ -29,8 +29,8 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, MAX_PLOTS, MIN_RANGE, Schema, invalid
-from service.schemas.solves import MAX_TIME
+from plotgate.service.schemas.common import MAX_DISTANCE, MAX_PLOTS, MIN_RANGE, Schema, invalid
+from plotgate.service.schemas.solves import MAX_TIME
 
 __all__ = [
     "MAX_HISTORY",
@@ -72,11 +72,15 @@ ScanNumber = Annotated[int, Field(ge=0, lt=MAX_SESSION_SCANS)]
 Seconds = Annotated[float, Field(ge=-MAX_TIME, le=MAX_TIME)]
 Distance = Annotated[float, Field(ge=-STATE_DISTANCE, le=STATE_DISTANCE)]
 Point = Annotated[list[Distance], Field(min_length=2, max_length=2)]
-Sensor = Annotated[list[Annotated[float, Field(ge=-MAX_DISTANCE, le=MAX_DISTANCE)]],
-                   Field(min_length=2, max_length=2)]
+Sensor = Annotated[
+    list[Annotated[float, Field(ge=-MAX_DISTANCE, le=MAX_DISTANCE)]],
+    Field(min_length=2, max_length=2),
+]
 Variance = Annotated[float, Field(ge=-(STATE_DISTANCE**2), le=STATE_DISTANCE**2)]
-Covariance2 = Annotated[list[Annotated[list[Variance], Field(min_length=2, max_length=2)]],
-                        Field(min_length=2, max_length=2)]
+Covariance2 = Annotated[
+    list[Annotated[list[Variance], Field(min_length=2, max_length=2)]],
+    Field(min_length=2, max_length=2),
+]
 Range = Annotated[float, Field(ge=MIN_RANGE, le=STATE_DISTANCE)]
 Azimuth = Annotated[float, Field(ge=-math.pi, le=math.pi)]
 SigmaR = Annotated[float, Field(gt=0, le=STATE_DISTANCE)]
@@ -89,24 +93,32 @@ Covariance4 = Annotated[list[Vector4], Field(min_length=4, max_length=4)]
 class SessionInitiators(Schema):
     """Single plots waiting for a second plot in a capture gate, one row each."""
 
-    plot: list[PlotId] = Field(max_length=MAX_STATE_INITIATORS,
-                               description="Plot id: scan * 2^20 + index in that scan.")
-    scan: list[ScanNumber] = Field(max_length=MAX_STATE_INITIATORS,
-                                   description="The plot's scan number in the session.")
+    plot: list[PlotId] = Field(
+        max_length=MAX_STATE_INITIATORS, description="Plot id: scan * 2^20 + index in that scan."
+    )
+    scan: list[ScanNumber] = Field(
+        max_length=MAX_STATE_INITIATORS, description="The plot's scan number in the session."
+    )
     t: list[Seconds] = Field(max_length=MAX_STATE_INITIATORS, description="Its time, s.")
     z: list[Point] = Field(max_length=MAX_STATE_INITIATORS, description="Its [x, y], m.")
-    R: list[Covariance2] = Field(max_length=MAX_STATE_INITIATORS,
-                                 description="Its 2 x 2 covariance, m^2.")
-    sensor: list[Sensor] = Field(max_length=MAX_STATE_INITIATORS,
-                                 description="Its sensor's [x, y], m.")
-    r: list[Range] = Field(max_length=MAX_STATE_INITIATORS,
-                           description="Its range from the sensor, m.")
-    az: list[Azimuth] = Field(max_length=MAX_STATE_INITIATORS,
-                              description="Its azimuth from the sensor, rad.")
-    sigma_r: list[SigmaR] = Field(max_length=MAX_STATE_INITIATORS,
-                                  description="Its range sigma, m.")
-    sigma_az: list[SigmaAz] = Field(max_length=MAX_STATE_INITIATORS,
-                                    description="Its azimuth sigma, rad.")
+    R: list[Covariance2] = Field(
+        max_length=MAX_STATE_INITIATORS, description="Its 2 x 2 covariance, m^2."
+    )
+    sensor: list[Sensor] = Field(
+        max_length=MAX_STATE_INITIATORS, description="Its sensor's [x, y], m."
+    )
+    r: list[Range] = Field(
+        max_length=MAX_STATE_INITIATORS, description="Its range from the sensor, m."
+    )
+    az: list[Azimuth] = Field(
+        max_length=MAX_STATE_INITIATORS, description="Its azimuth from the sensor, rad."
+    )
+    sigma_r: list[SigmaR] = Field(
+        max_length=MAX_STATE_INITIATORS, description="Its range sigma, m."
+    )
+    sigma_az: list[SigmaAz] = Field(
+        max_length=MAX_STATE_INITIATORS, description="Its azimuth sigma, rad."
+    )
 
 
 class SessionTracks(Schema):
@@ -114,46 +126,70 @@ class SessionTracks(Schema):
     oldest first, with -1 (plots) or null (ranges, times, sigma_r) before the first plot."""
 
     id: list[Annotated[int, Field(ge=0, lt=MAX_TRACK_ID)]] = Field(
-        max_length=MAX_STATE_TRACKS, description="Track id, increasing.")
+        max_length=MAX_STATE_TRACKS, description="Track id, increasing."
+    )
     confirmed: list[bool] = Field(max_length=MAX_STATE_TRACKS, description="Confirmed or not.")
-    x: list[Vector4] = Field(max_length=MAX_STATE_TRACKS,
-                             description="State [x, y, vx, vy] at the state's time, m, m/s.")
-    P: list[Covariance4] = Field(max_length=MAX_STATE_TRACKS,
-                                 description="Its 4 x 4 covariance.")
+    x: list[Vector4] = Field(
+        max_length=MAX_STATE_TRACKS,
+        description="State [x, y, vx, vy] at the state's time, m, m/s.",
+    )
+    P: list[Covariance4] = Field(max_length=MAX_STATE_TRACKS, description="Its 4 x 4 covariance.")
     t: list[Seconds] = Field(max_length=MAX_STATE_TRACKS, description="Time of x, s.")
     n: list[Annotated[int, Field(ge=2, le=MAX_SESSION_SCANS)]] = Field(
-        max_length=MAX_STATE_TRACKS, description="Plots taken so far.")
-    first_scan: list[ScanNumber] = Field(max_length=MAX_STATE_TRACKS,
-                                         description="Scan of the first plot.")
+        max_length=MAX_STATE_TRACKS, description="Plots taken so far."
+    )
+    first_scan: list[ScanNumber] = Field(
+        max_length=MAX_STATE_TRACKS, description="Scan of the first plot."
+    )
     confirmed_scan: list[Annotated[int, Field(ge=-1, lt=MAX_SESSION_SCANS)]] = Field(
-        max_length=MAX_STATE_TRACKS, description="Scan of confirmation, -1 while tentative.")
+        max_length=MAX_STATE_TRACKS, description="Scan of confirmation, -1 while tentative."
+    )
     misses: list[Annotated[int, Field(ge=0, lt=100)]] = Field(
-        max_length=MAX_STATE_TRACKS, description="Misses in a row.")
+        max_length=MAX_STATE_TRACKS, description="Misses in a row."
+    )
     cost: list[Annotated[float, Field(ge=0, le=MAX_TRACK_VALUE)]] = Field(
-        max_length=MAX_STATE_TRACKS, description="Sum of the association statistics.")
-    plots: list[Annotated[list[Annotated[int, Field(ge=-1, lt=MAX_PLOT_ID)]],
-                          Field(min_length=2, max_length=MAX_HISTORY)]] = Field(
-        max_length=MAX_STATE_TRACKS, description="Ids of its last plots.")
+        max_length=MAX_STATE_TRACKS, description="Sum of the association statistics."
+    )
+    plots: list[
+        Annotated[
+            list[Annotated[int, Field(ge=-1, lt=MAX_PLOT_ID)]],
+            Field(min_length=2, max_length=MAX_HISTORY),
+        ]
+    ] = Field(max_length=MAX_STATE_TRACKS, description="Ids of its last plots.")
     ranges: list[Annotated[list[Range | None], Field(min_length=2, max_length=MAX_HISTORY)]] = (
-        Field(max_length=MAX_STATE_TRACKS, description="Their ranges from their sensors, m."))
+        Field(max_length=MAX_STATE_TRACKS, description="Their ranges from their sensors, m.")
+    )
     times: list[Annotated[list[Seconds | None], Field(min_length=2, max_length=MAX_HISTORY)]] = (
-        Field(max_length=MAX_STATE_TRACKS, description="Their times, s."))
+        Field(max_length=MAX_STATE_TRACKS, description="Their times, s.")
+    )
     sigma_r: list[Annotated[list[SigmaR | None], Field(min_length=2, max_length=MAX_HISTORY)]] = (
-        Field(max_length=MAX_STATE_TRACKS, description="Their range sigmas, m."))
-    az: list[Azimuth] = Field(max_length=MAX_STATE_TRACKS,
-                              description="Azimuth of the last plot, rad.")
-    sigma_az: list[SigmaAz] = Field(max_length=MAX_STATE_TRACKS,
-                                    description="Its azimuth sigma, rad.")
-    sensor: list[Sensor] = Field(max_length=MAX_STATE_TRACKS,
-                                 description="The last plot's sensor [x, y], m.")
+        Field(max_length=MAX_STATE_TRACKS, description="Their range sigmas, m.")
+    )
+    az: list[Azimuth] = Field(
+        max_length=MAX_STATE_TRACKS, description="Azimuth of the last plot, rad."
+    )
+    sigma_az: list[SigmaAz] = Field(
+        max_length=MAX_STATE_TRACKS, description="Its azimuth sigma, rad."
+    )
+    sensor: list[Sensor] = Field(
+        max_length=MAX_STATE_TRACKS, description="The last plot's sensor [x, y], m."
+    )
 
     @model_validator(mode="after")
     def _cells(self) -> "SessionTracks":
         cells = sum(len(row) for row in self.plots)
         if cells > MAX_HISTORY_CELLS:
-            raise invalid("SessionTracks", [(
-                ("plots",), f"hold {cells} history cells (tracks x history); a state carries "
-                f"at most {MAX_HISTORY_CELLS}", len(self.plots))])
+            raise invalid(
+                "SessionTracks",
+                [
+                    (
+                        ("plots",),
+                        f"hold {cells} history cells (tracks x history); a state carries "
+                        f"at most {MAX_HISTORY_CELLS}",
+                        len(self.plots),
+                    )
+                ],
+            )
         return self
 
 
@@ -161,10 +197,12 @@ class SessionState(Schema):
     """Everything initiation remembers between calls (version 1)."""
 
     version: Literal[1] = Field(description="State format version.")
-    config_digest: str = Field(pattern=r"^[0-9a-f]{16}$",
-                               description="Fingerprint of the settings that made it.")
-    scans: int = Field(ge=0, le=MAX_SESSION_SCANS,
-                       description="Scans processed so far (the next scan's number).")
+    config_digest: str = Field(
+        pattern=r"^[0-9a-f]{16}$", description="Fingerprint of the settings that made it."
+    )
+    scans: int = Field(
+        ge=0, le=MAX_SESSION_SCANS, description="Scans processed so far (the next scan's number)."
+    )
     t: Seconds | None = Field(description="Time of the last scan, s; null before the first.")
     next_track: int = Field(ge=0, le=MAX_TRACK_ID, description="The next track id.")
     initiators: SessionInitiators = Field(description="Plots waiting for a second plot.")

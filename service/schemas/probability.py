@@ -1,11 +1,9 @@
-"""Wire models of the gating-probability operations (seed 000, eq. 1-6; DESIGN section 4).
+"""Wire models of the gating-probability operations (Konovalov, eq. 1-6).
 
 A problem is a first mark at range r and azimuth az from the radar, both marks' range
 and azimuth errors, the interval ``tau`` between the marks, and a gate built about the
-first mark. Unlike the gate-test models of :mod:`service.schemas.gates`, a gate here does
-not carry ``tau`` (the request does), and the tracking gates take the predicted
-displacement ``offset`` = z_pred - z1 instead of a predicted plot. The gate models are
-named ``*Region`` after the plane regions the probabilities integrate over.
+first mark: a :data:`plotgate.service.schemas.gates.GateRegion`, without ``tau`` (the
+request carries it) and, for a tracking gate, with the predicted displacement ``offset``.
 
 Operations: ``gates.probability`` (one probability, conditional on a velocity, eq. 2, or
 unconditional over a speed prior, eq. 3-6), ``gates.probability_curve`` (a probability
@@ -23,20 +21,15 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import MAX_DISTANCE, MIN_RANGE, Loc, Position, Schema, invalid
-from service.schemas.gates import Coefficient, Probability, Seconds, Speed
+from plotgate.service.schemas.common import MAX_DISTANCE, MIN_RANGE, Loc, Schema, invalid
+from plotgate.service.schemas.gates import DesignGate, GateRegion, Probability, Seconds, Speed
 
 __all__ = [
     "MAX_CURVE_POINTS",
     "MAX_SPEED",
     "MAX_UNCONDITIONAL_POINTS",
     "AreaApproximation",
-    "CombinedRegion",
-    "DesignGate",
-    "EllipseRegion",
-    "ExpandedRegion",
     "FalseMarks",
-    "FirstAssociationRegion",
     "GateAnalysisRequest",
     "GateAnalysisResult",
     "GateDesignRequest",
@@ -45,12 +38,8 @@ __all__ = [
     "GateProbabilityCurveRequest",
     "GateProbabilityRequest",
     "GateProbabilityResult",
-    "GateRegion",
     "Mark",
-    "RectangularRegion",
     "Resolution",
-    "RingRegion",
-    "SectorRegion",
     "SpeedPrior",
     "Velocity",
     "unconditional_axis_ratio",
@@ -65,93 +54,7 @@ MAX_SPEED = 1e6
 
 Angle = Annotated[float, Field(ge=-360, le=360)]
 DetectionProbability = Annotated[float, Field(gt=0, le=1)]
-Offset = Annotated[
-    Position,
-    Field(description="Predicted displacement z_pred - z1 (x east, y north), m."),
-]
 CurveValue = Annotated[float, Field(ge=0, le=MAX_DISTANCE)]
-
-
-class RingRegion(Schema):
-    """Ring v_min tau <= |z2 - z1| <= v_max tau (seed 000, Fig. 1)."""
-
-    kind: Literal["ring"] = Field(description="Discriminator: ring gate.")
-    v_min: Speed = Field(default=0.0, description="Smallest target speed, m/s.")
-    v_max: Speed = Field(description="Largest target speed, m/s.")
-
-
-class CombinedRegion(Schema):
-    """Two-stage gate of seed 000 (Fig. 4): the ring, else the P_G ellipse of B at its edge."""
-
-    kind: Literal["combined"] = Field(description="Discriminator: combined two-stage gate.")
-    v_min: Speed = Field(default=0.0, description="Smallest target speed, m/s.")
-    v_max: Speed = Field(description="Largest target speed, m/s.")
-    P_G: Probability = Field(
-        default=0.9, description="Gating probability of the second stage's ellipse."
-    )
-
-
-class ExpandedRegion(Schema):
-    """Ellipse with semi-axes v_max tau + K_g sigma along and across the line of sight."""
-
-    kind: Literal["expanded"] = Field(description="Discriminator: expanded ellipse gate.")
-    v_max: Speed = Field(description="Largest target speed, m/s.")
-    p: float = Field(
-        default=0.9, ge=1e-6, lt=1,
-        description="Probability p giving K_g = sqrt(-2 ln(1-p)) (seed 000 ref. [4]).",
-    )
-
-
-class EllipseRegion(Schema):
-    """Chi-square prediction gate nu^T B^-1 nu <= gamma(P_G) about z1 + offset."""
-
-    kind: Literal["ellipse"] = Field(description="Discriminator: chi-square ellipse gate.")
-    P_G: Probability = Field(default=0.99, description="Gating probability.")
-    offset: Offset = (0.0, 0.0)
-
-
-class RectangularRegion(Schema):
-    """|dx| <= k sigma_x and |dy| <= k sigma_y about z1 + offset, sigmas from B (seed 003)."""
-
-    kind: Literal["rectangular"] = Field(description="Discriminator: rectangular gate.")
-    k: Coefficient = Field(default=3.0, description="Half-width in sigmas.")
-    offset: Offset = (0.0, 0.0)
-
-
-class SectorRegion(Schema):
-    """Polar sector about the prediction z1 + offset (seed 002 eq. 1-2, seed 003)."""
-
-    kind: Literal["sector"] = Field(description="Discriminator: polar sector gate.")
-    K_R: Coefficient = Field(default=3.0, description="Range window in summed sigmas.")
-    K_az: Coefficient = Field(default=3.0, description="Azimuth window in summed sigmas.")
-    offset: Offset = (0.0, 0.0)
-
-
-class FirstAssociationRegion(Schema):
-    """Seed 002's first-association windows (eq. 3-4): v_max tau plus the errors."""
-
-    kind: Literal["first_association"] = Field(
-        description="Discriminator: first-association polar window."
-    )
-    v_max: Speed = Field(description="Largest target speed, m/s.")
-    K_R: Coefficient = Field(default=3.0, description="Range error window in sigmas.")
-    K_az: Coefficient = Field(default=3.0, description="Azimuth error window in sigmas.")
-
-
-GateRegion = Annotated[
-    RingRegion | CombinedRegion | ExpandedRegion | EllipseRegion | RectangularRegion
-    | SectorRegion | FirstAssociationRegion,
-    Field(discriminator="kind", description="The gate, chosen by kind; tau is the request's."),
-]
-
-DesignGate = Annotated[
-    CombinedRegion | ExpandedRegion,
-    Field(
-        discriminator="kind",
-        description="The gate to size: combined (its P_G is found) or expanded (its p is "
-        "found); the given P_G or p is only a template and may be omitted.",
-    ),
-]
 
 
 class Mark(Schema):
@@ -162,11 +65,15 @@ class Mark(Schema):
     sigma_r: float = Field(ge=1e-3, le=MAX_DISTANCE, description="Range error sigma, m.")
     sigma_az_deg: float = Field(ge=1e-6, le=180, description="Azimuth error sigma, degrees.")
     sigma_r2: float | None = Field(
-        default=None, ge=1e-3, le=MAX_DISTANCE,
+        default=None,
+        ge=1e-3,
+        le=MAX_DISTANCE,
         description="The second mark's range sigma, m; null: equal to the first's.",
     )
     sigma_az2_deg: float | None = Field(
-        default=None, ge=1e-6, le=180,
+        default=None,
+        ge=1e-6,
+        le=180,
         description="The second mark's azimuth sigma, degrees; null: equal to the first's.",
     )
 
@@ -175,12 +82,12 @@ class Mark(Schema):
 
         Both marks are seen at range ``r`` (default the mark's own), so B has
         sigma_r^2 + sigma_r2^2 along the line of sight and r^2 (sigma_az^2 + sigma_az2^2)
-        across it (DESIGN section 2's Jacobian): those are its eigenvalues.
+        across it (the polar-to-Cartesian Jacobian): those are its eigenvalues.
         """
         r = self.r if r is None else r
-        along = self.sigma_r**2 + (self.sigma_r if self.sigma_r2 is None else self.sigma_r2)**2
+        along = self.sigma_r**2 + (self.sigma_r if self.sigma_r2 is None else self.sigma_r2) ** 2
         az2 = self.sigma_az_deg if self.sigma_az2_deg is None else self.sigma_az2_deg
-        across = (r * math.radians(self.sigma_az_deg))**2 + (r * math.radians(az2))**2
+        across = (r * math.radians(self.sigma_az_deg)) ** 2 + (r * math.radians(az2)) ** 2
         return math.sqrt(max(along, across) / min(along, across))
 
 
@@ -192,7 +99,7 @@ class Velocity(Schema):
 
 
 class SpeedPrior(Schema):
-    """Uniform heading and a speed on [v_min, v_max] (seed 000, eq. 3-6)."""
+    """Uniform heading and a speed on [v_min, v_max] (Konovalov, eq. 3-6)."""
 
     kind: Literal["area", "speed"] = Field(
         default="area",
@@ -207,12 +114,14 @@ class Resolution(Schema):
     """The radar's resolution: a cell is range x (R azimuth) at the first mark's range R."""
 
     range: float = Field(
-        ge=1e-3, le=MAX_DISTANCE,
+        ge=1e-3,
+        le=MAX_DISTANCE,
         description="Range resolution dR, m, at least 1 mm (as sigma_r): finer, a gate's "
         "S / (dR R dAz) resolution cells could overflow double precision.",
     )
     azimuth_deg: float = Field(
-        ge=1e-6, le=360,
+        ge=1e-6,
+        le=360,
         description="Azimuth resolution dAz, degrees, at least 1e-6 (as sigma_az_deg).",
     )
 
@@ -234,9 +143,10 @@ class GateProbabilityRequest(Schema):
     def _one_of(self) -> "GateProbabilityRequest":
         if (self.velocity is None) == (self.prior is None):
             reason = "give exactly one of velocity and prior"
-            raise invalid(type(self).__name__, [
-                (("velocity",), reason, self.velocity), (("prior",), reason, self.prior)
-            ])
+            raise invalid(
+                type(self).__name__,
+                [(("velocity",), reason, self.velocity), (("prior",), reason, self.prior)],
+            )
         return self
 
 
@@ -263,7 +173,8 @@ class GateProbabilityCurveRequest(Schema):
     tau: Seconds
     against: Literal["speed", "range"] = Field(description="What the values are.")
     values: list[CurveValue] = Field(
-        min_length=1, max_length=MAX_CURVE_POINTS,
+        min_length=1,
+        max_length=MAX_CURVE_POINTS,
         description="Speeds (m/s) or ranges of the first mark (m).",
     )
     course_deg: Angle = Field(default=0.0, description="Course, degrees clockwise from north.")
@@ -284,20 +195,36 @@ class GateProbabilityCurveRequest(Schema):
         if self.against == "speed":
             for name in ("speed", "prior"):
                 if getattr(self, name) is not None:
-                    errors.append(((name,), "must be absent when against is speed: the "
-                                   "values are the speeds", getattr(self, name)))
-            errors += [(("values", i), f"a speed must not exceed {MAX_SPEED:g} m/s", v)
-                       for i, v in enumerate(self.values) if v > MAX_SPEED]
+                    errors.append(
+                        (
+                            (name,),
+                            "must be absent when against is speed: the values are the speeds",
+                            getattr(self, name),
+                        )
+                    )
+            errors += [
+                (("values", i), f"a speed must not exceed {MAX_SPEED:g} m/s", v)
+                for i, v in enumerate(self.values)
+                if v > MAX_SPEED
+            ]
         else:
             if (self.speed is None) == (self.prior is None):
                 reason = "give exactly one of speed and prior when against is range"
                 errors += [(("speed",), reason, self.speed), (("prior",), reason, self.prior)]
-            errors += [(("values", i), f"a range must be at least {MIN_RANGE:g} m", v)
-                       for i, v in enumerate(self.values) if v < MIN_RANGE]
+            errors += [
+                (("values", i), f"a range must be at least {MIN_RANGE:g} m", v)
+                for i, v in enumerate(self.values)
+                if v < MIN_RANGE
+            ]
             if self.prior is not None and len(self.values) > MAX_UNCONDITIONAL_POINTS:
-                errors.append((("values",), f"an unconditional curve takes at most "
-                               f"{MAX_UNCONDITIONAL_POINTS} values, got {len(self.values)}",
-                               len(self.values)))
+                errors.append(
+                    (
+                        ("values",),
+                        f"an unconditional curve takes at most "
+                        f"{MAX_UNCONDITIONAL_POINTS} values, got {len(self.values)}",
+                        len(self.values),
+                    )
+                )
         if errors:
             raise invalid(type(self).__name__, errors)
         return self
@@ -314,7 +241,7 @@ class GateProbabilityCurve(Schema):
 
 
 class FalseMarks(Schema):
-    """Poisson false marks in a gate of S' cells: mean F S' (seed 000)."""
+    """Poisson false marks in a gate of S' cells: mean F S' (Konovalov)."""
 
     mean: float = Field(description="Expected number F S' of false marks in the gate.")
     probabilities: list[float] = Field(
@@ -345,7 +272,8 @@ class GateAnalysisRequest(Schema):
         default=5, ge=0, le=1000, description="Largest false-mark count given a probability."
     )
     prior: SpeedPrior | None = Field(
-        default=None, description="Speed prior: also compute the unconditional gating and "
+        default=None,
+        description="Speed prior: also compute the unconditional gating and "
         "capture probabilities.",
     )
     P_D1: DetectionProbability = Field(
@@ -416,7 +344,9 @@ class GateDesignResult(Schema):
 
 
 def unconditional_axis_ratio(
-    request: GateProbabilityRequest | GateProbabilityCurveRequest | GateAnalysisRequest
+    request: GateProbabilityRequest
+    | GateProbabilityCurveRequest
+    | GateAnalysisRequest
     | GateDesignRequest,
 ) -> int:
     """The work size ``mark.axis_ratio``: the largest axis ratio of B (rounded up) over the
@@ -429,6 +359,9 @@ def unconditional_axis_ratio(
     """
     if request.prior is None:
         return 1
-    ranges = (request.values if isinstance(request, GateProbabilityCurveRequest)
-              and request.against == "range" else [request.mark.r])
+    ranges = (
+        request.values
+        if isinstance(request, GateProbabilityCurveRequest) and request.against == "range"
+        else [request.mark.r]
+    )
     return math.ceil(max(request.mark.axis_ratio(r) for r in ranges))

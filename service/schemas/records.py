@@ -17,10 +17,15 @@ from typing import Any, Generic, TypeVar
 
 from pydantic import BaseModel, Field
 
-from service.schemas.common import Problem
+from plotgate.service.schemas.common import Problem
 
-__all__ = ["REQUEST_ID_PATTERN", "RequestRecord", "ResponseRecord", "request_schema",
-           "response_schema"]
+__all__ = [
+    "REQUEST_ID_PATTERN",
+    "RequestRecord",
+    "ResponseRecord",
+    "request_schema",
+    "response_schema",
+]
 
 REQUEST_ID_PATTERN = r"^[A-Za-z0-9._:-]{1,128}$"
 """Request ids the service takes from ``X-Request-ID`` (otherwise it makes one), and the
@@ -36,9 +41,11 @@ class RequestRecord(BaseModel, Generic[Req]):
     request_id: str = Field(pattern=REQUEST_ID_PATTERN)
     operation: str
     replay_of: str | None = Field(
-        default=None, pattern=REQUEST_ID_PATTERN,
+        default=None,
+        pattern=REQUEST_ID_PATTERN,
         description="For a replay (X-Plotgate-Replay-Of): the request id of the exchange "
-        "it replays.")
+        "it replays.",
+    )
     body: Req | None = Field(default=None, description="The JSON body as received.")
     raw: str | None = Field(default=None, description="The body when it was not JSON.")
 
@@ -54,8 +61,7 @@ class ResponseRecord(BaseModel, Generic[Resp]):
     error: Problem | None = Field(default=None, description="The problem, when it failed.")
 
 
-def _embedded(envelope: type[BaseModel], models: dict[str, type[BaseModel]]
-              ) -> dict[str, Any]:
+def _embedded(envelope: type[BaseModel], models: dict[str, type[BaseModel]]) -> dict[str, Any]:
     """The envelope's JSON schema with each named property replaced by its model's schema
     (their definitions merged into the envelope's ``$defs``)."""
     schema = envelope.model_json_schema()

@@ -1,10 +1,10 @@
-"""Wire models of ``solves.study``: the Monte Carlo accuracy study of seed 001 Fig. 3.
+"""Wire models of ``solves.study``: the Monte Carlo accuracy study of Fadeev et al., Fig. 3.
 
 One transmitter and its receivers (fixed, or moving at constant velocity from their
 positions at ``sample_times[0]``, or given per sample) watch a constant-velocity target;
 the study simulates ``runs`` noisy range-sum series (seeded) and reports, at every sample,
 the six curves of the paper's Fig. 3 and the diagnostics of
-:func:`core.multistatic.study.accuracy_study`. Positions are 2D or 3D, metres.
+:func:`plotgate.core.multistatic.study.accuracy_study`. Positions are 2D or 3D, metres.
 
 Work limits: runs x samples x pairs <= :data:`MAX_STUDY_RANGE_SUMS` (the simulated range
 sums), and with ``tracks`` (one trajectory solve per prefix of the samples) runs x
@@ -16,18 +16,16 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import Loc, Schema
-from service.schemas.solves import (
+from plotgate.service.schemas.common import Loc, Schema
+from plotgate.service.schemas.solves import (
     MAX_MEASUREMENTS,
     Alpha,
     Platform,
     Sigma,
     TargetState,
     Time,
-    _dimension,
-    _length,
-    _raise,
 )
+from plotgate.service.schemas.validation import dimension, length, raise_errors
 
 __all__ = [
     "MAX_STUDY_RANGE_SUMS",
@@ -51,11 +49,12 @@ MAX_STUDY_TRACK_WORK = 120_000_000
 
 
 class StudyRequest(Schema):
-    """A seed 001 Fig. 3 accuracy study: geometry, target, noise and Monte Carlo size."""
+    """A Fadeev et al., Fig. 3 accuracy study: geometry, target, noise and Monte Carlo size."""
 
     transmitter: Platform = Field(description="The one transmitter of every pair.")
     receivers: list[Platform] = Field(
-        min_length=2, max_length=MAX_MEASUREMENTS,
+        min_length=2,
+        max_length=MAX_MEASUREMENTS,
         description="The receivers, one per pair; at least D + 1 (the difference-range "
         "method needs them).",
     )
@@ -63,7 +62,8 @@ class StudyRequest(Schema):
         description="The target: position at sample_times[0] and constant velocity."
     )
     sample_times: list[Time] = Field(
-        min_length=2, max_length=MAX_STUDY_SAMPLES,
+        min_length=2,
+        max_length=MAX_STUDY_SAMPLES,
         description="Sample times, s, strictly increasing.",
     )
     sigma: Sigma = Field(description="Range-sum noise standard deviation, m.")
@@ -80,28 +80,48 @@ class StudyRequest(Schema):
     def _rules(self) -> "StudyRequest":
         t, p = len(self.sample_times), len(self.receivers)
         errors: list[tuple[Loc, str, Any]] = []
-        for loc, platform in [(("transmitter",), self.transmitter),
-                              *((("receivers", k), q) for k, q in enumerate(self.receivers))]:
+        for loc, platform in [
+            (("transmitter",), self.transmitter),
+            *((("receivers", k), q) for k, q in enumerate(self.receivers)),
+        ]:
             if platform.positions is not None:
-                errors += _length((*loc, "positions"), platform.positions, t, "sample time")
+                errors += length((*loc, "positions"), platform.positions, t, "sample time")
         work = self.runs * t * p
         if work > MAX_STUDY_RANGE_SUMS:
-            errors.append((("runs",), f"{self.runs} runs x {t} samples x {p} pairs is {work} "
-                           f"range sums; at most {MAX_STUDY_RANGE_SUMS}", self.runs))
+            errors.append(
+                (
+                    ("runs",),
+                    f"{self.runs} runs x {t} samples x {p} pairs is {work} "
+                    f"range sums; at most {MAX_STUDY_RANGE_SUMS}",
+                    self.runs,
+                )
+            )
         elif self.tracks and work * t > MAX_STUDY_TRACK_WORK:
-            errors.append((("runs",), f"with tracks, runs x samples^2 x pairs is "
-                           f"{work * t}; at most {MAX_STUDY_TRACK_WORK} (or set tracks "
-                           f"false)", self.runs))
+            errors.append(
+                (
+                    ("runs",),
+                    f"with tracks, runs x samples^2 x pairs is "
+                    f"{work * t}; at most {MAX_STUDY_TRACK_WORK} (or set tracks "
+                    f"false)",
+                    self.runs,
+                )
+            )
         if not errors:
-            own = [(("target", "position"), self.target.position),
-                   (("target", "velocity"), self.target.velocity)]
-            platforms = [*self.transmitter.vectors(("transmitter",)),
-                         *(v for k, q in enumerate(self.receivers)
-                           for v in q.vectors(("receivers", k)))]
-            sizes = [{len(v) for _, v in own}, self.transmitter.sizes(),
-                     *(q.sizes() for q in self.receivers)]
-            errors += _dimension(sizes, lambda: iter([*own, *platforms]))
-        _raise(self, errors)
+            own = [
+                (("target", "position"), self.target.position),
+                (("target", "velocity"), self.target.velocity),
+            ]
+            platforms = [
+                *self.transmitter.vectors(("transmitter",)),
+                *(v for k, q in enumerate(self.receivers) for v in q.vectors(("receivers", k))),
+            ]
+            sizes = [
+                {len(v) for _, v in own},
+                self.transmitter.sizes(),
+                *(q.sizes() for q in self.receivers),
+            ]
+            errors += dimension(sizes, lambda: iter([*own, *platforms]))
+        raise_errors(self, errors)
         return self
 
 

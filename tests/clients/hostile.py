@@ -31,9 +31,9 @@ from mcap.records import Message
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from service.recorder import request_record, response_record
-from service.registry import OPERATIONS
-from service.schemas import request_schema, response_schema
+from plotgate.service.recorder import request_record, response_record
+from plotgate.service.registry import OPERATIONS
+from plotgate.service.schemas import request_schema, response_schema
 
 MAGIC = b"\x89MCAP0\r\n"
 CHUNK, MESSAGE_INDEX = 6, 7
@@ -70,8 +70,13 @@ def chunk_ids(data: bytes) -> list[set[str]]:
     ids = []
     for record in StreamReader(io.BytesIO(data), emit_chunks=True).records:
         if isinstance(record, Chunk):
-            ids.append({json.loads(inner.data)["request_id"] for inner in breakup_chunk(record)
-                        if isinstance(inner, Message)})
+            ids.append(
+                {
+                    json.loads(inner.data)["request_id"]
+                    for inner in breakup_chunk(record)
+                    if isinstance(inner, Message)
+                }
+            )
     return ids
 
 
@@ -102,18 +107,22 @@ class _Session:
         self.writer.start(library="hostile")
         self.channels = {}
         for kind, schema in (("request", request_schema), ("response", response_schema)):
-            model = OPERATIONS["gates.test"].request if kind == "request" else (
-                OPERATIONS["gates.test"].response)
-            sid = self.writer.register_schema(f"plotgate.gates.test.{kind}", "jsonschema",
-                                              json.dumps(schema(model)).encode())
-            self.channels[kind] = self.writer.register_channel(f"gates.test/{kind}", "json",
-                                                               sid)
+            model = (
+                OPERATIONS["gates.test"].request
+                if kind == "request"
+                else (OPERATIONS["gates.test"].response)
+            )
+            sid = self.writer.register_schema(
+                f"plotgate.gates.test.{kind}", "jsonschema", json.dumps(schema(model)).encode()
+            )
+            self.channels[kind] = self.writer.register_channel(f"gates.test/{kind}", "json", sid)
         self.t = 1_700_000_000_000_000_000
 
     def add(self, kind: str, data: bytes, channel: int | None = None) -> None:
         self.t += 1000
-        self.writer.add_message(self.channels[kind] if channel is None else channel, self.t,
-                                data, self.t)
+        self.writer.add_message(
+            self.channels[kind] if channel is None else channel, self.t, data, self.t
+        )
 
     def exchange(self, rid: str, body: bytes, status: int, answer: bytes) -> None:
         self.add("request", request_record(rid, "gates.test", body))
@@ -142,8 +151,13 @@ def _lz4_bomb(size: int) -> bytes:
 
 def _chunk(data: bytes, compression: str, size: int, crc: int) -> bytes:
     name = compression.encode()
-    content = (struct.pack("<QQQI", 0, 0, size, crc) + struct.pack("<I", len(name)) + name
-               + struct.pack("<Q", len(data)) + data)
+    content = (
+        struct.pack("<QQQI", 0, 0, size, crc)
+        + struct.pack("<I", len(name))
+        + name
+        + struct.pack("<Q", len(data))
+        + data
+    )
     return struct.pack("<BQ", CHUNK, len(content)) + content
 
 
@@ -168,8 +182,10 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
         files[f"cut-at-{pos:07d}"] = (sound[:pos], Expect(exchanges=answered(sound[:pos])))
         if opcode == CHUNK:
             middle = pos + 9 + length // 2
-            files[f"cut-inside-chunk-{pos:07d}"] = (sound[:middle],
-                                                    Expect(exchanges=answered(sound[:middle])))
+            files[f"cut-inside-chunk-{pos:07d}"] = (
+                sound[:middle],
+                Expect(exchanges=answered(sound[:middle])),
+            )
     files["cut-before-the-closing-magic"] = (sound[:-4], Expect(exchanges=total))
 
     chunks = [(pos, length) for pos, opcode, length in layout if opcode == CHUNK]
@@ -181,51 +197,82 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
         return Expect(exchanges=total - len(in_chunk[chunks.index(chunk)]))
 
     def patched(at: int, value: bytes) -> bytes:
-        return sound[:at] + value + sound[at + len(value):]
+        return sound[:at] + value + sound[at + len(value) :]
 
     # wrong lengths and CRCs
-    for name, value in (("huge", 2**63 - 1), ("past-the-end", len(sound)), ("one-more", None),
-                        ("one-less", None), ("zero", 0)):
+    for name, value in (
+        ("huge", 2**63 - 1),
+        ("past-the-end", len(sound)),
+        ("one-more", None),
+        ("one-less", None),
+        ("zero", 0),
+    ):
         for which, (pos, length) in (("first", first), ("middle", second)):
             declared = value if value is not None else length + (1 if name == "one-more" else -1)
             files[f"chunk-length-{name}-{which}"] = (
-                patched(pos + 1, struct.pack("<Q", declared)), without((pos, length)))
+                patched(pos + 1, struct.pack("<Q", declared)),
+                without((pos, length)),
+            )
     pos, length = second
     files["chunk-crc"] = (patched(pos + 9 + 24, struct.pack("<I", 12345)), without(second))
-    files["chunk-uncompressed-size"] = (patched(pos + 9 + 16, struct.pack("<Q", 2**40)),
-                                        without(second))
-    files["chunk-compressed-byte"] = (patched(pos + 9 + length - 5,
-                                              bytes([sound[pos + 9 + length - 5] ^ 0xFF])),
-                                      without(second))
+    files["chunk-uncompressed-size"] = (
+        patched(pos + 9 + 16, struct.pack("<Q", 2**40)),
+        without(second),
+    )
+    files["chunk-compressed-byte"] = (
+        patched(pos + 9 + length - 5, bytes([sound[pos + 9 + length - 5] ^ 0xFF])),
+        without(second),
+    )
     files["chunk-compression-name"] = (patched(pos + 9 + 32, b"zip"), without(second))
-    files["footer-summary-crc"] = (patched(len(sound) - 8 - 4, b"\0\0\0\1"),
-                                   Expect(exchanges=total))
+    files["footer-summary-crc"] = (
+        patched(len(sound) - 8 - 4, b"\0\0\0\1"),
+        Expect(exchanges=total),
+    )
     files["footer-summary-start-past-end"] = (
-        patched(len(sound) - 8 - 20, struct.pack("<Q", 2**62)), Expect(exchanges=total))
+        patched(len(sound) - 8 - 20, struct.pack("<Q", 2**62)),
+        Expect(exchanges=total),
+    )
     index = next(pos for pos, opcode, _ in layout if opcode == MESSAGE_INDEX)
-    files["message-index-length"] = (patched(index + 1, struct.pack("<Q", 2**40)),
-                                     Expect(exchanges=total))
-    files["header-length"] = (patched(len(MAGIC) + 1, struct.pack("<Q", 2**50)),
-                              Expect(exchanges=total))
+    files["message-index-length"] = (
+        patched(index + 1, struct.pack("<Q", 2**40)),
+        Expect(exchanges=total),
+    )
+    files["header-length"] = (
+        patched(len(MAGIC) + 1, struct.pack("<Q", 2**50)),
+        Expect(exchanges=total),
+    )
     files["flipped-bytes-everywhere"] = (
-        bytes(b ^ 0x5A if i % 997 == 500 else b for i, b in enumerate(sound)), Expect())
+        bytes(b ^ 0x5A if i % 997 == 500 else b for i, b in enumerate(sound)),
+        Expect(),
+    )
 
     # compression bombs: a GiB of zeros in 4 MiB of LZ4
     bomb = _lz4_bomb(2**30)
     files["bomb-lz4-lies-about-its-size"] = (
-        _with_chunk(sound, _chunk(bomb, "lz4", 2**20, 0)), Expect(exchanges=total))
+        _with_chunk(sound, _chunk(bomb, "lz4", 2**20, 0)),
+        Expect(exchanges=total),
+    )
     files["bomb-lz4-declares-a-terabyte"] = (
-        _with_chunk(sound, _chunk(bomb, "lz4", 2**40, 0)), Expect(exchanges=total))
+        _with_chunk(sound, _chunk(bomb, "lz4", 2**40, 0)),
+        Expect(exchanges=total),
+    )
     files["bomb-lz4-honest-gibibyte-of-zeros"] = (  # no CRC: zeros are not records
-        _with_chunk(sound, _chunk(bomb, "lz4", 2**30, 0)), Expect(exchanges=total))
+        _with_chunk(sound, _chunk(bomb, "lz4", 2**30, 0)),
+        Expect(exchanges=total),
+    )
     zstd_bomb = zstandard.ZstdCompressor().compress(b"\0" * 2**26)
     files["bomb-zstd-lies-about-its-size"] = (
-        _with_chunk(sound, _chunk(zstd_bomb, "zstd", 2**16, 0)), Expect(exchanges=total))
+        _with_chunk(sound, _chunk(zstd_bomb, "zstd", 2**16, 0)),
+        Expect(exchanges=total),
+    )
 
     body, status, answer = good
 
-    def session(build: Callable[[_Session], None], n: int = 3,
-                compression: CompressionType = CompressionType.LZ4) -> bytes:
+    def session(
+        build: Callable[[_Session], None],
+        n: int = 3,
+        compression: CompressionType = CompressionType.LZ4,
+    ) -> bytes:
         s = _Session(compression)
         _sound_exchanges(s, good, n)
         build(s)
@@ -236,42 +283,66 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
         s.add("request", request_record("x", "gates.test", body), channel=99)
 
     def foreign_topic(s: _Session) -> None:
-        s.add("request", b'{"request_id": "x", "operation": "gates.test"}',
-              channel=s.writer.register_channel("/camera/image", "json", 0))
+        s.add(
+            "request",
+            b'{"request_id": "x", "operation": "gates.test"}',
+            channel=s.writer.register_channel("/camera/image", "json", 0),
+        )
 
     def protobuf(s: _Session) -> None:
         sid = s.writer.register_schema("x", "protobuf", b"\x01\x02")
-        s.add("request", b"\x08\x01",
-              channel=s.writer.register_channel("gates.test/request", "protobuf", sid))
+        s.add(
+            "request",
+            b"\x08\x01",
+            channel=s.writer.register_channel("gates.test/request", "protobuf", sid),
+        )
 
     def missing_schema(s: _Session) -> None:
-        s.add("request", request_record("x", "gates.pairs", body),
-              channel=s.writer.register_channel("gates.pairs/request", "json", 77))
+        s.add(
+            "request",
+            request_record("x", "gates.pairs", body),
+            channel=s.writer.register_channel("gates.pairs/request", "json", 77),
+        )
 
     def unknown_operation(s: _Session) -> None:
-        sid = s.writer.register_schema("plotgate.gates.nothing.request", "jsonschema",
-                                       b'{"type": "object"}')
-        s.add("request", b'{"request_id": "x", "operation": "gates.nothing", "body": {}}',
-              channel=s.writer.register_channel("gates.nothing/request", "json", sid))
+        sid = s.writer.register_schema(
+            "plotgate.gates.nothing.request", "jsonschema", b'{"type": "object"}'
+        )
+        s.add(
+            "request",
+            b'{"request_id": "x", "operation": "gates.nothing", "body": {}}',
+            channel=s.writer.register_channel("gates.nothing/request", "json", sid),
+        )
 
-    for name, build in (("message-on-undeclared-channel", undeclared),
-                        ("foreign-topic", foreign_topic), ("protobuf-channel", protobuf),
-                        ("channel-with-missing-schema", missing_schema),
-                        ("unknown-operation-never-answered", unknown_operation)):
-        files[name] = (session(build), Expect(exchanges=3,
-                                              damaged=name != "unknown-operation-never-answered"))
+    for name, build in (
+        ("message-on-undeclared-channel", undeclared),
+        ("foreign-topic", foreign_topic),
+        ("protobuf-channel", protobuf),
+        ("channel-with-missing-schema", missing_schema),
+        ("unknown-operation-never-answered", unknown_operation),
+    ):
+        files[name] = (
+            session(build),
+            Expect(exchanges=3, damaged=name != "unknown-operation-never-answered"),
+        )
     plain = session(lambda s: None, compression=CompressionType.NONE)
     at = next(pos for pos, opcode, _ in records(plain) if opcode == CHUNK)
     for name, opcode in (("unknown-opcode", 0x42), ("private-opcode", 0x85), ("opcode-zero", 0)):
         stray = struct.pack("<BQ", opcode, 4) + b"junk"
         files[name] = (plain[:at] + stray + plain[at:], Expect(exchanges=3))
     files["uncompressed-chunks-sound"] = (plain, Expect(exchanges=3, damaged=False))
-    files["zstd-chunks-sound"] = (session(lambda s: None, compression=CompressionType.ZSTD),
-                                  Expect(exchanges=3, damaged=False))
+    files["zstd-chunks-sound"] = (
+        session(lambda s: None, compression=CompressionType.ZSTD),
+        Expect(exchanges=3, damaged=False),
+    )
 
     # every wrong shape of message JSON, among three sound exchanges
-    deep = b'{"request_id": "x", "operation": "gates.test", "body": ' + b"[" * 10**5 + \
-        b"]" * 10**5 + b"}"
+    deep = (
+        b'{"request_id": "x", "operation": "gates.test", "body": '
+        + b"[" * 10**5
+        + b"]" * 10**5
+        + b"}"
+    )
     shapes = {
         "not-json": b'{"request_id": ',
         "not-utf8": b'{"request_id": "x\xff", "operation": "gates.test", "body": {}}',
@@ -284,24 +355,27 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
         "missing-request-id": b'{"operation": "gates.test", "body": {}}',
         "request-id-a-number": b'{"request_id": 7, "operation": "gates.test", "body": {}}',
         "request-id-too-long": b'{"request_id": "' + b"a" * 200 + b'", "operation": '
-                               b'"gates.test", "body": {}}',
-        "request-id-with-spaces": b'{"request_id": "a b", "operation": "gates.test", '
-                                  b'"body": {}}',
+        b'"gates.test", "body": {}}',
+        "request-id-with-spaces": b'{"request_id": "a b", "operation": "gates.test", "body": {}}',
         "operation-of-another-channel": b'{"request_id": "x", "operation": "solves.noise", '
-                                        b'"body": {}}',
+        b'"body": {}}',
         "5000-digit-integer": b'{"request_id": "x", "operation": "gates.test", "body": '
-                              b'{"candidates": ' + b"7" * 5000 + b"}}",
+        b'{"candidates": ' + b"7" * 5000 + b"}}",
         "nested-1e5-deep": deep,
         "nested-300-deep": b'{"request_id": "x", "operation": "gates.test", "body": '
-                           + b"[" * 300 + b"]" * 300 + b"}",
+        + b"[" * 300
+        + b"]" * 300
+        + b"}",
         "nan-token": b'{"request_id": "x", "operation": "gates.test", "body": {"a": NaN}}',
         "raw-not-text": b'{"request_id": "x", "operation": "gates.test", "raw": [1]}',
         "replay-of-not-an-id": b'{"request_id": "x", "operation": "gates.test", "body": {}, '
-                               b'"replay_of": {"a": 1}}',
+        b'"replay_of": {"a": 1}}',
     }
     for name, data in shapes.items():
-        files[f"request-{name}"] = (session(lambda s, d=data: s.add("request", d)),
-                                    Expect(exchanges=3))
+        files[f"request-{name}"] = (
+            session(lambda s, d=data: s.add("request", d)),
+            Expect(exchanges=3),
+        )
     responses = {
         "status-a-string": b'"200", "duration_s": 0.1, "result": {}}',
         "status-999": b'999, "duration_s": 0.1, "result": {}}',
@@ -312,17 +386,22 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
         "422-error-without-fields": b'422, "duration_s": 0.1, "error": {"errors": 5}}',
     }
     for name, tail in responses.items():
+
         def build(s: _Session, tail: bytes = tail) -> None:
             s.add("request", request_record("y", "gates.test", body))
-            s.add("response", b'{"request_id": "y", "operation": "gates.test", "status": '
-                  + tail)
+            s.add("response", b'{"request_id": "y", "operation": "gates.test", "status": ' + tail)
+
         files[f"response-{name}"] = (session(build), Expect(exchanges=3))
 
     # files that are not MCAP at all
-    for name, data in (("empty-file", b""), ("json-file", b'{"request_id": "x"}'),
-                       ("text-file", b"plotgate recordings\n" * 50),
-                       ("png-file", b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4),
-                       ("magic-cut", MAGIC[:5]), ("zeros", b"\0" * 4096)):
+    for name, data in (
+        ("empty-file", b""),
+        ("json-file", b'{"request_id": "x"}'),
+        ("text-file", b"plotgate recordings\n" * 50),
+        ("png-file", b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4),
+        ("magic-cut", MAGIC[:5]),
+        ("zeros", b"\0" * 4096),
+    ):
         files[f"not-mcap-{name}"] = (data, Expect(mcap=False))
     files["magic-only"] = (MAGIC, Expect(exchanges=0))
     files["magic-then-garbage"] = (MAGIC + bytes(range(256)) * 16, Expect(exchanges=0))
@@ -342,7 +421,7 @@ def _peak_kb() -> int:
 
 def run(args: list[str]) -> dict:
     """Run ``plotgate ARGS`` in this process: its exit status, output, peak memory."""
-    from clients.cli import main
+    from plotgate.clients.cli import main
 
     Path("/proc/self/clear_refs").write_text("5")  # peak resident memory from now on
     stdout = io.TextIOWrapper(io.BytesIO(), encoding="utf-8")
@@ -356,9 +435,14 @@ def run(args: list[str]) -> dict:
         except BaseException as exc:  # noqa: BLE001 - what must never happen
             code, escaped = None, f"{type(exc).__name__}: {exc}"
     stdout.flush()
-    return {"args": args, "code": code, "escaped": escaped, "peak_kb": _peak_kb(),
-            "stdout": stdout.buffer.getvalue().decode("utf-8", "replace")[-20_000:],
-            "stderr": stderr.getvalue()[-20_000:]}
+    return {
+        "args": args,
+        "code": code,
+        "escaped": escaped,
+        "peak_kb": _peak_kb(),
+        "stdout": stdout.buffer.getvalue().decode("utf-8", "replace")[-20_000:],
+        "stderr": stderr.getvalue()[-20_000:],
+    }
 
 
 if __name__ == "__main__":

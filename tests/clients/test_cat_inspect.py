@@ -7,12 +7,15 @@ from datetime import datetime
 
 from fastapi.testclient import TestClient
 
-from clients.cli import main
-from service.app import create_app
+from plotgate.clients.cli import main
+from plotgate.service.app import create_app
 from tests.service.test_recording import BAD_COV, GOOD
 
-PAIR = {"passive_bearings_deg": [1.0, 1.1, 0.9, 1.0], "active_bearings_deg": [1.0, 1.05],
-        "delta_deg": 0.5}
+PAIR = {
+    "passive_bearings_deg": [1.0, 1.1, 0.9, 1.0],
+    "active_bearings_deg": [1.0, 1.05],
+    "delta_deg": 0.5,
+}
 
 
 def _session(settings) -> float:
@@ -24,8 +27,11 @@ def _session(settings) -> float:
         middle = time.time()
         time.sleep(0.05)
         pretty = json.dumps(GOOD, indent=2).encode()  # newlines in the recorded body
-        c.post("/v1/gates/test", content=pretty, headers={
-            "x-request-id": "c", "content-type": "application/json"})
+        c.post(
+            "/v1/gates/test",
+            content=pretty,
+            headers={"x-request-id": "c", "content-type": "application/json"},
+        )
         c.post("/v1/identification/pair", json=PAIR, headers={"x-request-id": "d"})
     return middle
 
@@ -46,12 +52,21 @@ def test_cat_prints_each_exchange_as_one_json_line(settings, capsys):
         assert abs(datetime.fromisoformat(x["time"]).timestamp() * 1e9 - x["log_time"]) < 1e4
 
     main(["cat", str(settings.log_dir), "--operation", "gates.test", "--since", str(middle)])
-    assert [json.loads(line)["request_id"] for line in capsys.readouterr().out.splitlines()] \
-        == ["c"]
-    main(["cat", str(settings.log_dir), "--until", datetime.fromtimestamp(middle).astimezone()
-          .isoformat()])
-    assert [json.loads(line)["request_id"] for line in capsys.readouterr().out.splitlines()] \
-        == ["a", "b"]
+    assert [json.loads(line)["request_id"] for line in capsys.readouterr().out.splitlines()] == [
+        "c"
+    ]
+    main(
+        [
+            "cat",
+            str(settings.log_dir),
+            "--until",
+            datetime.fromtimestamp(middle).astimezone().isoformat(),
+        ]
+    )
+    assert [json.loads(line)["request_id"] for line in capsys.readouterr().out.splitlines()] == [
+        "a",
+        "b",
+    ]
 
 
 def test_inspect_shows_time_ranges_and_filters(settings, capsys):
@@ -70,9 +85,14 @@ def test_inspect_shows_time_ranges_and_filters(settings, capsys):
     assert main(["inspect", str(settings.log_dir), "--since", str(middle)]) == 0
     out = capsys.readouterr().out
     assert f"{f['first_time']} to {f['last_time']}" in out  # each file's whole time range
-    rows = {line.split()[0]: line.split()[1] for line in out.splitlines()
-            if line.startswith(("gates.", "identification."))}
+    rows = {
+        line.split()[0]: line.split()[1]
+        for line in out.splitlines()
+        if line.startswith(("gates.", "identification."))
+    }
     assert rows == {"gates.test": "1", "identification.pair": "1"}
-    assert main(["inspect", str(settings.log_dir), "--operation", "identification.pair",
-                 "--json"]) == 0
+    assert (
+        main(["inspect", str(settings.log_dir), "--operation", "identification.pair", "--json"])
+        == 0
+    )
     assert list(json.loads(capsys.readouterr().out)["operations"]) == ["identification.pair"]

@@ -5,14 +5,17 @@ import json
 import numpy as np
 import pytest
 
-from clients.cli import main
+from plotgate.clients.cli import main
 
 TX = np.array([0.0, 0.0])
 RX = np.array([[10_000.0, 0.0], [0.0, 10_000.0], [10_000.0, 10_000.0]])
 TARGET = np.array([4_000.0, 3_000.0])
 SUMS = (np.linalg.norm(TARGET - RX, axis=1) + np.linalg.norm(TARGET - TX)).tolist()
-REQUEST = {"problems": [{"range_sums": SUMS, "transmitter": TX.tolist(),
-                         "receivers": RX.tolist(), "sigma": 0.5}]}
+REQUEST = {
+    "problems": [
+        {"range_sums": SUMS, "transmitter": TX.tolist(), "receivers": RX.tolist(), "sigma": 0.5}
+    ]
+}
 
 
 def test_call_solves_in_process(tmp_path, capsys):
@@ -42,7 +45,7 @@ class _Bytes:
 
 @pytest.mark.slow
 def test_call_on_a_live_server(tmp_path, capsys):
-    from tests.conftest import serve
+    from tests.servers import serve
 
     path = tmp_path / "request.json"
     path.write_text(json.dumps(REQUEST))

@@ -6,7 +6,7 @@ import math
 import httpx
 import pytest
 
-from clients import (
+from plotgate.clients import (
     AsyncClient,
     Client,
     InvalidInputError,
@@ -14,9 +14,9 @@ from clients import (
     ServerError,
     TransportError,
 )
-from service.app import create_app
-from service.config import Settings
-from service.schemas import CartesianPlot, EllipseGate, GatePair, RingGate
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
+from plotgate.service.schemas import CartesianPlot, EllipseGate, GatePair, RingGate
 
 
 def _plot(x: float, y: float) -> CartesianPlot:
@@ -37,7 +37,8 @@ async def _async_calls(app) -> None:
     async with AsyncClient("http://plotgate", transport=transport) as client:
         result = await client.test_gate(
             RingGate(kind="ring", tau=5.0, v_min=100.0, v_max=500.0),
-            _plot(0.0, 0.0), [_plot(0.0, 1000.0), _plot(0.0, 100.0)],
+            _plot(0.0, 0.0),
+            [_plot(0.0, 1000.0), _plot(0.0, 100.0)],
         )
         assert result.inside == [True, False]
         assert result.statistic == pytest.approx([1000.0, 100.0])
@@ -47,7 +48,8 @@ async def _async_calls(app) -> None:
         with pytest.raises(InvalidInputError) as err:
             await client.test_gate(
                 RingGate(kind="ring", tau=5.0, v_min=600.0, v_max=500.0),
-                _plot(0.0, 0.0), [_plot(0.0, 1000.0)],
+                _plot(0.0, 0.0),
+                [_plot(0.0, 1000.0)],
             )
         assert err.value.problem.errors[0].field == "gate.v_min"
         assert "gate.v_min" in str(err.value)
@@ -64,8 +66,10 @@ GATE = RingGate(kind="ring", tau=1.0, v_max=10.0)
 
 
 def test_recording_unavailable():
-    body = (b'{"type":"urn:plotgate:problem:recording-unavailable","title":"Recording '
-            b'unavailable","status":503,"detail":"disk full","request_id":"r1"}')
+    body = (
+        b'{"type":"urn:plotgate:problem:recording-unavailable","title":"Recording '
+        b'unavailable","status":503,"detail":"disk full","request_id":"r1"}'
+    )
     with _client(503, body) as client, pytest.raises(RecordingUnavailable, match="r1"):
         client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
 
@@ -91,8 +95,11 @@ def test_wrong_request_type():
         client.call("gates.test", GATE)
 
 
-PROBLEM = {"gate": {"kind": "ring", "v_min": 100.0, "v_max": 500.0},
-           "mark": {"r": 50_000.0, "sigma_r": 200.0, "sigma_az_deg": 0.5}, "tau": 5.0}
+PROBLEM = {
+    "gate": {"kind": "ring", "v_min": 100.0, "v_max": 500.0},
+    "mark": {"r": 50_000.0, "sigma_r": 200.0, "sigma_az_deg": 0.5},
+    "tau": 5.0,
+}
 PROBABILITY = {**PROBLEM, "velocity": {"speed": 300.0, "course_deg": 0.0}}
 RESOLUTION = {"range": 500.0, "azimuth_deg": 1.5}
 PRIOR = {"v_min": 100.0, "v_max": 500.0}
@@ -100,21 +107,22 @@ PRIOR = {"v_min": 100.0, "v_max": 500.0}
 
 def _in_process() -> Client:
     """A sync client whose transport runs each request through the registry."""
-    from service.registry import OPERATIONS, execute
+    from plotgate.service.registry import OPERATIONS, execute
 
     by_path = {op.path: op for op in OPERATIONS.values()}
 
     def handler(request: httpx.Request) -> httpx.Response:
         outcome = execute(by_path[request.url.path], request.content)
         kind = "application/json" if outcome.ok else "application/problem+json"
-        return httpx.Response(outcome.status, content=outcome.content,
-                              headers={"content-type": kind})
+        return httpx.Response(
+            outcome.status, content=outcome.content, headers={"content-type": kind}
+        )
 
     return Client("http://plotgate", transport=httpx.MockTransport(handler))
 
 
 def test_probability_methods_take_a_model_or_a_dict():
-    from service.schemas import (
+    from plotgate.service.schemas import (
         GateAnalysisResult,
         GateProbabilityCurve,
         GateProbabilityRequest,
@@ -133,8 +141,14 @@ def test_probability_methods_take_a_model_or_a_dict():
         assert curve.probability[1] == pytest.approx(from_dict.probability, abs=1e-12)
         analysis = client.gate_analysis({**PROBLEM, "resolution": RESOLUTION})
         assert isinstance(analysis, GateAnalysisResult) and analysis.capture is None
-        design = {**PROBLEM, "gate": {"kind": "combined", "v_max": 500.0}, "capture": 0.95,
-                  "P_D1": 0.9, "resolution": RESOLUTION, "prior": PRIOR}
+        design = {
+            **PROBLEM,
+            "gate": {"kind": "combined", "v_max": 500.0},
+            "capture": 0.95,
+            "P_D1": 0.9,
+            "resolution": RESOLUTION,
+            "prior": PRIOR,
+        }
         with pytest.raises(InvalidInputError) as err:
             client.gate_design(design)
         assert err.value.problem.errors[0].field == "capture"
@@ -154,8 +168,13 @@ def test_async_probability_methods(app):
             assert analysis.area == pytest.approx(math.pi * (2500**2 - 500**2))
             with pytest.raises(InvalidInputError) as err:
                 await client.gate_design(
-                    {**PROBLEM, "gate": {"kind": "expanded", "v_max": 500.0}, "capture": 0.5,
-                     "prior": PRIOR, "resolution": RESOLUTION}
+                    {
+                        **PROBLEM,
+                        "gate": {"kind": "expanded", "v_max": 500.0},
+                        "capture": 0.5,
+                        "prior": PRIOR,
+                        "resolution": RESOLUTION,
+                    }
                 )
             assert err.value.problem.errors[0].field == "capture"
 

@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from service.app import create_app
-from service.registry import OPERATIONS, execute
+from plotgate.service.app import create_app
+from plotgate.service.registry import OPERATIONS, execute
 from tests.clients.hostile import corpus
 from tests.service.test_recording import BAD_COV, GOOD
 
@@ -29,7 +29,7 @@ models) plus what reading holds. Before the reader was bounded one file took 3.3
 
 @pytest.fixture(scope="module")
 def hostile(tmp_path_factory):
-    from service.config import Settings
+    from plotgate.service.config import Settings
 
     tmp = tmp_path_factory.mktemp("hostile")
     settings = Settings(log_dir=tmp / "sound", git_commit="test")
@@ -55,8 +55,13 @@ def test_the_corpus(hostile):
 def _run_all(jobs: list[list[str]], tmp_path: Path) -> list[dict]:
     spec = tmp_path / "jobs.json"
     spec.write_text(json.dumps(jobs))
-    run = subprocess.run([sys.executable, "-m", "tests.clients.hostile", str(spec)], cwd=ROOT,
-                         capture_output=True, text=True, timeout=1800)
+    run = subprocess.run(
+        [sys.executable, "-m", "tests.clients.hostile", str(spec)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
     assert run.returncode == 0, run.stderr[-5000:]
     return [json.loads(line) for line in run.stdout.splitlines()]
 
@@ -71,8 +76,12 @@ def test_every_command_ends_every_hostile_file_as_contracted(hostile, tmp_path):
         copy = copies / path.name
         shutil.copyfile(path, copy)
         report = tmp_path / f"{name}.json"
-        jobs += [["inspect", str(path)], ["cat", str(path)],
-                 ["replay", str(path), "--report", str(report)], ["recover", str(copy)]]
+        jobs += [
+            ["inspect", str(path)],
+            ["cat", str(path)],
+            ["replay", str(path), "--report", str(report)],
+            ["recover", str(copy)],
+        ]
     results = _run_all(jobs, tmp_path)
     assert len(results) == len(jobs)
 
@@ -119,16 +128,19 @@ def test_the_independent_reader_rejects_every_hostile_file(hostile, mcap_check):
     names = list(expect)
     code, reports = mcap_check.many([files / f"{name}.mcap" for name in names])
     assert code == 1
-    wrong = [(name, report["errors"]) for name, report in zip(names, reports, strict=True)
-             if report["ok"] != (expect[name].mcap and not expect[name].damaged)]
+    wrong = [
+        (name, report["errors"])
+        for name, report in zip(names, reports, strict=True)
+        if report["ok"] != (expect[name].mcap and not expect[name].damaged)
+    ]
     assert not wrong, wrong[:10]
 
 
 def test_what_recover_writes_from_any_of_them_is_sound(hostile, tmp_path, mcap_check):
     """recover keeps the intact plotgate records and drops the rest: the independent reader
     accepts every copy, and replay finds in it the exchanges the original holds intact."""
-    from clients.recordings import Reader
-    from clients.recover import recover
+    from plotgate.clients.recordings import Reader
+    from plotgate.clients.recover import recover
 
     files, expect = hostile
     outputs = {}

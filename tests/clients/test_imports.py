@@ -9,9 +9,15 @@ import pytest
 @pytest.mark.parametrize(
     ("module", "forbidden"),
     [
-        ("clients", ["fastapi", "starlette", "uvicorn", "core", "service.registry"]),
-        ("service.schemas", ["fastapi", "core", "numpy"]),
-        ("core", ["pydantic", "fastapi", "service", "clients", "mcap", "httpx"]),
+        (
+            "plotgate.clients",
+            ["fastapi", "starlette", "uvicorn", "plotgate.core", "plotgate.service.registry"],
+        ),
+        ("plotgate.service.schemas", ["fastapi", "plotgate.core", "numpy"]),
+        (
+            "plotgate.core",
+            ["pydantic", "fastapi", "plotgate.service", "plotgate.clients", "mcap", "httpx"],
+        ),
     ],
 )
 def test_imports_flow_one_way(module, forbidden):

@@ -6,9 +6,9 @@ import sys
 
 import pytest
 
-from clients import InvalidInputError
-from clients.cli import main
-from clients.plots import (
+from plotgate.clients import InvalidInputError
+from plotgate.clients.cli import main
+from plotgate.clients.plots import (
     FIGURES,
     INSTALL_HINT,
     OPERATION,
@@ -17,9 +17,9 @@ from clients.plots import (
     figure_requests,
     plot,
 )
-from clients.runners import http_runner, in_process_runner
-from service.schemas import ENDPOINTS
-from tests.conftest import serve
+from plotgate.clients.runners import http_runner, in_process_runner
+from plotgate.service.schemas import ENDPOINTS
+from tests.servers import serve
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -67,8 +67,12 @@ def test_curve_requests_match_the_wire_contract(figure):
                 assert len(body["values"]) <= 1000
             assert body["mark"]["r"] == body["values"][0] or body["against"] == "speed"
     kinds = {body["gate"]["kind"] for p in panels for _, body in p.curves}
-    assert kinds == {"fig2": {"ring"}, "fig5": {"combined"},
-                     "compare": {"ring", "combined", "expanded"}}[figure]
+    assert (
+        kinds
+        == {"fig2": {"ring"}, "fig5": {"combined"}, "compare": {"ring", "combined", "expanded"}}[
+            figure
+        ]
+    )
 
 
 def test_points_sets_the_curve_length():
@@ -99,7 +103,7 @@ def test_a_refused_request_is_reported(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_server_answers_match_in_process(tmp_path, capsys):
-    from clients import Client
+    from plotgate.clients import Client
 
     with serve(tmp_path / "recordings", "--no-record") as (_, url):
         out = tmp_path / "fig5.png"

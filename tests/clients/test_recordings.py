@@ -4,12 +4,15 @@ import pytest
 from fastapi.testclient import TestClient
 from mcap.reader import make_reader
 
-from clients.recordings import Reader, read_recording
-from service.app import create_app
+from plotgate.clients.recordings import Reader, read_recording
+from plotgate.service.app import create_app
 from tests.conftest import cartesian
 
-BODY = {"gate": {"kind": "ring", "tau": 1.0, "v_max": 10.0}, "first": cartesian(0.0, 0.0),
-        "candidates": [cartesian(0.0, 5.0)]}
+BODY = {
+    "gate": {"kind": "ring", "tau": 1.0, "v_max": 10.0},
+    "first": cartesian(0.0, 0.0),
+    "candidates": [cartesian(0.0, 5.0)],
+}
 
 
 def _recorded(settings, n: int):
@@ -24,13 +27,15 @@ def _recorded(settings, n: int):
 # Chunk record: opcode 1, length 8, start and end times 8 + 8, uncompressed size 8, then
 # its CRC (4 bytes, at +33); compression name 4 + 3 ("lz4"), data length 8, then the LZ4
 # frame, whose magic number starts at +52.
-@pytest.mark.parametrize(("at", "damage"), [(33, "CRC mismatch"), (52, "does not decompress")],
-                         ids=["crc", "lz4"])
+@pytest.mark.parametrize(
+    ("at", "damage"), [(33, "CRC mismatch"), (52, "does not decompress")], ids=["crc", "lz4"]
+)
 def test_a_flipped_byte_drops_its_chunk_only(settings, at, damage):
     path = _recorded(settings, 8)
     with open(path, "rb") as f:
-        indexes = sorted(make_reader(f).get_summary().chunk_indexes,
-                         key=lambda c: c.chunk_start_offset)
+        indexes = sorted(
+            make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset
+        )
     middle = indexes[len(indexes) // 2]
     data = bytearray(path.read_bytes())
     data[middle.chunk_start_offset + at] ^= 0xFF
@@ -64,8 +69,8 @@ def test_cut_anywhere_keeps_a_prefix(settings):
 def test_a_response_in_the_next_file_pairs_with_its_request(settings, tmp_path):
     """Rotation: the request record in one file, its response in the next, read as one
     exchange; a request record written again after its file was lost counts once."""
-    from service.recorder import Recorder, request_record, response_record
-    from service.registry import OPERATIONS
+    from plotgate.service.recorder import Recorder, request_record, response_record
+    from plotgate.service.registry import OPERATIONS
 
     recorder = Recorder(tmp_path / "rec", OPERATIONS.values(), max_bytes=1).start()
     body = b'{"gate": {}}'
@@ -75,9 +80,17 @@ def test_a_response_in_the_next_file_pairs_with_its_request(settings, tmp_path):
     recorder.response(first, response_record("a", "gates.test", 200, 0.1, b"{}"), 3000)
     recorder.flush()
     again = recorder.request("gates.test", request_record("b", "gates.test", body), 2000)
-    recorder.response(second, response_record("b", "gates.test", 422, 0.1,
-                                               b'{"type": "t", "title": "t", "status": 422, '
-                                               b'"detail": "d"}'), 4000)
+    recorder.response(
+        second,
+        response_record(
+            "b",
+            "gates.test",
+            422,
+            0.1,
+            b'{"type": "t", "title": "t", "status": 422, "detail": "d"}',
+        ),
+        4000,
+    )
     recorder.flush()
     recorder.forget(again)
     recorder.close()
@@ -85,7 +98,6 @@ def test_a_response_in_the_next_file_pairs_with_its_request(settings, tmp_path):
     assert len(files) >= 3
     reader = Reader(files)
     exchanges = list(reader)
-    assert [(ex.request_id, ex.response["status"]) for ex in exchanges] == [("a", 200),
-                                                                            ("b", 422)]
+    assert [(ex.request_id, ex.response["status"]) for ex in exchanges] == [("a", 200), ("b", 422)]
     assert reader.written_twice == 1
     assert all(rec.complete and not rec.damage for rec in reader.files)

@@ -9,10 +9,10 @@ from mcap.reader import make_reader
 from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
-from clients.cli import main
-from clients.recordings import Reader
-from clients.recover import recover
-from service.app import create_app
+from plotgate.clients.cli import main
+from plotgate.clients.recordings import Reader
+from plotgate.clients.recover import recover
+from plotgate.service.app import create_app
 from tests.service.test_recording import GOOD
 
 
@@ -28,21 +28,27 @@ def test_a_file_that_is_not_mcap_is_refused_and_left_alone(tmp_path, capsys):
     assert main(["recover", str(tmp_path / "missing.mcap")]) == 2
 
 
-def test_flipped_bytes_drop_their_chunks_and_keep_every_intact_chunk(settings, tmp_path,
-                                                                     capsys, mcap_check):
+def test_flipped_bytes_drop_their_chunks_and_keep_every_intact_chunk(
+    settings, tmp_path, capsys, mcap_check
+):
     with TestClient(create_app(settings)) as c:
         for i in range(120):
-            assert c.post("/v1/gates/test", json=GOOD,
-                          headers={"x-request-id": f"r{i}"}).status_code == 200
+            assert (
+                c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": f"r{i}"}).status_code
+                == 200
+            )
     [path] = settings.log_dir.glob("*.mcap")
     data = bytearray(path.read_bytes())
     with open(path, "rb") as f:
-        chunks = sorted(make_reader(f).get_summary().chunk_indexes,
-                        key=lambda c: c.chunk_start_offset)
+        chunks = sorted(
+            make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset
+        )
     # the messages of each chunk, by mcap's own reader, before any damage
-    per_chunk = [[m for m in breakup_chunk(r) if isinstance(m, Message)]
-                 for r in StreamReader(io.BytesIO(bytes(data)), emit_chunks=True).records
-                 if isinstance(r, Chunk)]
+    per_chunk = [
+        [m for m in breakup_chunk(r) if isinstance(m, Message)]
+        for r in StreamReader(io.BytesIO(bytes(data)), emit_chunks=True).records
+        if isinstance(r, Chunk)
+    ]
     assert len(per_chunk) == len(chunks) > 100
     hit = [0, len(chunks) // 3, 2 * len(chunks) // 3]  # the first holds every channel too
     for k in hit:

@@ -12,13 +12,13 @@ from hypothesis import settings as hsettings
 from hypothesis import strategies as st
 from mcap.writer import CompressionType, Writer
 
-from clients.cli import main
-from clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
-from service import registry
-from service.app import create_app
-from service.recorder import request_record, response_record
-from service.registry import OPERATIONS, execute
-from service.schemas import request_schema, response_schema
+from plotgate.clients.cli import main
+from plotgate.clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
+from plotgate.service import registry
+from plotgate.service.app import create_app
+from plotgate.service.recorder import request_record, response_record
+from plotgate.service.registry import OPERATIONS, execute
+from plotgate.service.schemas import request_schema, response_schema
 from tests.service.test_recording import BAD_COV, GOOD
 
 OP = "gates.test"
@@ -31,9 +31,11 @@ def _answers() -> dict[str, tuple[bytes, int, bytes]]:
     good, bad = execute(OPERATIONS[OP], GOOD_BODY), execute(OPERATIONS[OP], BAD_BODY)
     changed = json.loads(good.content)
     changed["statistic"][0] += 1.0
-    return {"ok": (GOOD_BODY, good.status, good.content),
-            "refused": (BAD_BODY, bad.status, bad.content),
-            "changed": (GOOD_BODY, good.status, json.dumps(changed).encode())}
+    return {
+        "ok": (GOOD_BODY, good.status, good.content),
+        "refused": (BAD_BODY, bad.status, bad.content),
+        "changed": (GOOD_BODY, good.status, json.dumps(changed).encode()),
+    }
 
 
 def write_files(folder: Path, events: list[tuple[int, str, bytes]], cuts: set[int]) -> None:
@@ -47,8 +49,10 @@ def write_files(folder: Path, events: list[tuple[int, str, bytes]], cuts: set[in
             writer = Writer(stream, compression=CompressionType.LZ4)
             writer.start()
             channels = {}
-            for k, schema, model in (("request", request_schema, OPERATIONS[OP].request),
-                                     ("response", response_schema, OPERATIONS[OP].response)):
+            for k, schema, model in (
+                ("request", request_schema, OPERATIONS[OP].request),
+                ("response", response_schema, OPERATIONS[OP].response),
+            ):
                 sid = writer.register_schema(k, "jsonschema", json.dumps(schema(model)).encode())
                 channels[k] = writer.register_channel(f"{OP}/{k}", "json", sid)
         writer.add_message(channels[kind], t, data, t)
@@ -83,9 +87,11 @@ def sessions(draw):
         count[kind] += 1
         if kind == "timeout":
             events.append((t, "request", request_record(rid, OP, GOOD_BODY[:20], False)))
-            problem = b'{"type": "urn:plotgate:problem:request-timeout", "title": "t", ' \
-                      b'"status": 408, "detail": "d", "errors": [{"field": "body", ' \
-                      b'"reason": "r"}]}'
+            problem = (
+                b'{"type": "urn:plotgate:problem:request-timeout", "title": "t", '
+                b'"status": 408, "detail": "d", "errors": [{"field": "body", '
+                b'"reason": "r"}]}'
+            )
             events.append((t + delay, "response", response_record(rid, OP, 408, 30.0, problem)))
             continue
         body, status, answer = answers["ok" if kind == "never" else kind]
@@ -95,8 +101,7 @@ def sessions(draw):
             events.append((t, "request", request))  # written again after a lost file
             count["twice"] += 1
         if answered:
-            events.append((t + delay, "response", response_record(rid, OP, status, 0.001,
-                                                                  answer)))
+            events.append((t + delay, "response", response_record(rid, OP, status, 0.001, answer)))
     events.sort(key=lambda e: e[0])
     cuts = set(draw(st.lists(st.integers(0, len(events) - 1), max_size=6)))
     return events, cuts, count
@@ -105,8 +110,12 @@ def sessions(draw):
 _ANSWERS = _answers()
 
 
-@hsettings(max_examples=150, deadline=None, derandomize=True,
-           suppress_health_check=[HealthCheck.function_scoped_fixture])
+@hsettings(
+    max_examples=150,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
 @given(session=sessions())
 def test_the_tally_adds_up_and_counts_each_exchange_once(tmp_path_factory, session):
     events, cuts, count = session
@@ -130,8 +139,11 @@ def test_the_tally_adds_up_and_counts_each_exchange_once(tmp_path_factory, sessi
 def _session(settings, bodies: list[bytes]) -> Path:
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         for i, body in enumerate(bodies):
-            c.post("/v1/gates/test", content=body, headers={
-                "x-request-id": f"r{i}", "content-type": "application/json"})
+            c.post(
+                "/v1/gates/test",
+                content=body,
+                headers={"x-request-id": f"r{i}", "content-type": "application/json"},
+            )
     return settings.log_dir
 
 
@@ -161,8 +173,9 @@ def test_unchanged_changed_and_unreadable(settings, tmp_path, capsys):
     assert (tally["exchanges"], tally["compared"], tally["unchanged"]) == (3, 3, 3)
     altered = tmp_path / "altered"
     events = [(t, kind, data) for t, kind, data in _events(folder)]
-    events = [(t, k, d.replace(b'"inside":[true,true]', b'"inside":[true,false]'))
-              for t, k, d in events]
+    events = [
+        (t, k, d.replace(b'"inside":[true,true]', b'"inside":[true,false]')) for t, k, d in events
+    ]
     write_files(altered, events, set())
     assert main(["replay", str(altered)]) == 1
     out = capsys.readouterr().out
@@ -182,15 +195,15 @@ def _events(folder: Path) -> list[tuple[int, str, bytes]]:
     return out
 
 
-def test_a_recorded_500_replays_by_the_contract_without_a_traceback(settings, monkeypatch,
-                                                                     capsys):
+def test_a_recorded_500_replays_by_the_contract_without_a_traceback(settings, monkeypatch, capsys):
     op = registry.OPERATIONS[OP]
 
     def broken(request):
         raise RuntimeError("boom")
 
-    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, broken,
-                                                                    op.field_of))
+    monkeypatch.setitem(
+        registry.OPERATIONS, OP, registry.Operation(op.endpoint, broken, op.fields)
+    )
     folder = _session(settings, [GOOD_BODY, BAD_BODY])
     capsys.readouterr()
     # the bug is still there: the same 500 again, unchanged
@@ -208,16 +221,24 @@ def test_a_recorded_500_replays_by_the_contract_without_a_traceback(settings, mo
 
 
 def test_an_operation_this_build_lacks_is_a_change(tmp_path):
-    events = [(1, "request", b'{"request_id": "x", "operation": "gates.gone", "body": {}}'),
-              (2, "response", b'{"request_id": "x", "operation": "gates.gone", "status": 200, '
-                              b'"duration_s": 0.1, "result": {}}')]
+    events = [
+        (1, "request", b'{"request_id": "x", "operation": "gates.gone", "body": {}}'),
+        (
+            2,
+            "response",
+            b'{"request_id": "x", "operation": "gates.gone", "status": 200, '
+            b'"duration_s": 0.1, "result": {}}',
+        ),
+    ]
     folder = tmp_path / "gone"
     folder.mkdir()
     with open(folder / "a.mcap", "wb") as stream:
         writer = Writer(stream)
         writer.start()
-        channels = {k: writer.register_channel(f"gates.gone/{k}", "json", 0)
-                    for k in ("request", "response")}
+        channels = {
+            k: writer.register_channel(f"gates.gone/{k}", "json", 0)
+            for k in ("request", "response")
+        }
         for t, kind, data in events:
             writer.add_message(channels[kind], t, data, t)
         writer.finish()
@@ -229,15 +250,31 @@ def test_an_operation_this_build_lacks_is_a_change(tmp_path):
 def test_body_timeouts_are_not_compared(tmp_path):
     folder = tmp_path / "timeouts"
     problem = execute(OPERATIONS[OP], GOOD_BODY).content
-    write_files(folder, [
-        (1, "request", request_record("half", OP, GOOD_BODY[:30], False)),
-        (2, "response", response_record("half", OP, 408, 30.0, (
-            b'{"type": "urn:plotgate:problem:request-timeout", "title": "Request timeout", '
-            b'"status": 408, "detail": "body: ...", "errors": [{"field": "body", '
-            b'"reason": "did not arrive"}]}'))),
-        (3, "request", request_record("whole", OP, GOOD_BODY)),
-        (4, "response", response_record("whole", OP, 200, 0.01, problem)),
-    ], set())
+    write_files(
+        folder,
+        [
+            (1, "request", request_record("half", OP, GOOD_BODY[:30], False)),
+            (
+                2,
+                "response",
+                response_record(
+                    "half",
+                    OP,
+                    408,
+                    30.0,
+                    (
+                        b'{"type": "urn:plotgate:problem:request-timeout", '
+                        b'"title": "Request timeout", '
+                        b'"status": 408, "detail": "body: ...", "errors": [{"field": "body", '
+                        b'"reason": "did not arrive"}]}'
+                    ),
+                ),
+            ),
+            (3, "request", request_record("whole", OP, GOOD_BODY)),
+            (4, "response", response_record("whole", OP, 200, 0.01, problem)),
+        ],
+        set(),
+    )
     report = replay(folder, progress=False)
     assert report.not_compared == {BODY_TIMEOUT: 1}
     assert (report.compared, report.unchanged, report.exit_code()) == (1, 1, 0)
@@ -250,8 +287,7 @@ def test_timeout_and_work_caps(settings, monkeypatch, capsys):
     def slow(request):
         time.sleep(30)
 
-    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, slow,
-                                                                    op.field_of))
+    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, slow, op.fields))
     capsys.readouterr()
     started = time.monotonic()
     assert main(["replay", str(folder), "--timeout", "0.2"]) == 1
@@ -276,9 +312,15 @@ def test_filters_pick_operations_and_times(settings, tmp_path):
         middle = time.time()
         time.sleep(0.05)
         c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "late"})
-        c.post("/v1/identification/pair", json={
-            "passive_bearings_deg": [1.0, 1.1, 0.9, 1.0], "active_bearings_deg": [1.0, 1.05],
-            "delta_deg": 0.5}, headers={"x-request-id": "pair"})
+        c.post(
+            "/v1/identification/pair",
+            json={
+                "passive_bearings_deg": [1.0, 1.1, 0.9, 1.0],
+                "active_bearings_deg": [1.0, 1.05],
+                "delta_deg": 0.5,
+            },
+            headers={"x-request-id": "pair"},
+        )
     folder = settings.log_dir
     report = tmp_path / "r.json"
 

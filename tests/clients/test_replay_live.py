@@ -10,15 +10,18 @@ from pathlib import Path
 
 import httpx
 
-from clients.cli import main
-from clients.recordings import Reader, read_recording
-from clients.replay import REPLAYED_ORIGINAL
-from tests.conftest import free_port, serve
+from plotgate.clients.cli import main
+from plotgate.clients.recordings import Reader, read_recording
+from plotgate.clients.replay import REPLAYED_ORIGINAL
+from tests.servers import free_port, serve
 from tests.service.test_recording import BAD_COV, GOOD
 
 ROOT = Path(__file__).resolve().parents[2]
-PAIR = {"passive_bearings_deg": [1.0, 1.1, 0.9, 1.0], "active_bearings_deg": [1.0, 1.05],
-        "delta_deg": 0.5}
+PAIR = {
+    "passive_bearings_deg": [1.0, 1.1, 0.9, 1.0],
+    "active_bearings_deg": [1.0, 1.05],
+    "delta_deg": 0.5,
+}
 BODIES = [json.dumps(GOOD).encode()] * 4 + [json.dumps(BAD_COV).encode(), b'{"gate": ']
 
 
@@ -39,8 +42,11 @@ def test_a_folder_replayed_into_itself_twice(tmp_path, mcap_check):
     with serve(folder) as (_, url):
         with httpx.Client(base_url=url) as http:
             for rid, body in zip(ids, BODIES, strict=True):
-                http.post("/v1/gates/test", content=body, headers={
-                    "x-request-id": rid, "content-type": "application/json"})
+                http.post(
+                    "/v1/gates/test",
+                    content=body,
+                    headers={"x-request-id": rid, "content-type": "application/json"},
+                )
         first, second = tmp_path / "first.json", tmp_path / "second.json"
         assert main(["replay", str(folder), "--server", url, "--report", str(first)]) == 0
         assert main(["replay", str(folder), "--server", url, "--report", str(second)]) == 0
@@ -66,16 +72,21 @@ def test_a_folder_replayed_into_itself_twice(tmp_path, mcap_check):
 def test_rotation_under_load_hides_no_exchange(tmp_path, mcap_check):
     folder = tmp_path / "recordings"
     clients, each = 10, 200
-    calls = [("/v1/gates/test", json.dumps(GOOD).encode()),
-             ("/v1/identification/pair", json.dumps(PAIR).encode())]  # slow: in a thread
+    calls = [
+        ("/v1/gates/test", json.dumps(GOOD).encode()),
+        ("/v1/identification/pair", json.dumps(PAIR).encode()),
+    ]  # slow: in a thread
     errors: list[str] = []
 
     def client(k: int, url: str) -> None:
         with httpx.Client(base_url=url, timeout=60) as http:
             for i in range(each):
                 path, body = calls[i % 2]
-                r = http.post(path, content=body, headers={
-                    "content-type": "application/json", "x-request-id": f"c{k}-{i}"})
+                r = http.post(
+                    path,
+                    content=body,
+                    headers={"content-type": "application/json", "x-request-id": f"c{k}-{i}"},
+                )
                 if r.status_code != 200:
                     errors.append(r.text)
 
@@ -96,19 +107,32 @@ def test_rotation_under_load_hides_no_exchange(tmp_path, mcap_check):
     assert _tally(report) == (clients * each, clients * each, clients * each, 0, {})
 
     # the CLI in a pipe that closes early ends quietly, with its own exit status
-    for command in (["cat", str(folder)], ["inspect", "--json", str(folder)],
-                    ["replay", str(folder), "--operation", "gates.test"]):
+    for command in (
+        ["cat", str(folder)],
+        ["inspect", "--json", str(folder)],
+        ["replay", str(folder), "--operation", "gates.test"],
+    ):
         run = subprocess.run(
-            ["bash", "-c", f'"{sys.executable}" -m clients.cli "$@" | head -c 100 > /dev/null; '
-             'exit "${PIPESTATUS[0]}"', "pipe", *command],
-            cwd=ROOT, capture_output=True, text=True, timeout=300)
+            [
+                "bash",
+                "-c",
+                f'"{sys.executable}" -m clients.cli "$@" | head -c 100 > /dev/null; '
+                'exit "${PIPESTATUS[0]}"',
+                "pipe",
+                *command,
+            ],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         assert run.returncode == 0 and run.stderr == "", (command, run.stderr[-2000:])
 
 
 def test_an_unreachable_server_is_one_line_and_exit_2(settings, tmp_path, capsys):
     from fastapi.testclient import TestClient
 
-    from service.app import create_app
+    from plotgate.service.app import create_app
 
     with TestClient(create_app(settings)) as c:
         c.post("/v1/gates/test", json=GOOD)

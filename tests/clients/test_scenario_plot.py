@@ -1,7 +1,7 @@
 """``plotgate scenario``: simulate, initiate and draw a PNG, in-process or on a server."""
 
-from clients.cli import main
-from tests.conftest import serve
+from plotgate.clients.cli import main
+from tests.servers import serve
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -19,8 +19,22 @@ def test_scenario_png_on_a_server_with_own_settings(tmp_path, capsys):
     config.write_text('{"mode": "cartesian", "capture_gate": "expanded", "v_max": 30.0}')
     out = tmp_path / "scenario.png"
     with serve(tmp_path / "rec", "--no-record") as (_, url):
-        assert main(["scenario", "--clutter", "20", "--config", str(config), "--out",
-                     str(out), "--server", url]) == 0
+        assert (
+            main(
+                [
+                    "scenario",
+                    "--clutter",
+                    "20",
+                    "--config",
+                    str(config),
+                    "--out",
+                    str(out),
+                    "--server",
+                    url,
+                ]
+            )
+            == 0
+        )
     assert out.read_bytes()[:8] == PNG_SIGNATURE
 
 

@@ -1,4 +1,4 @@
-"""core.initiation.assignment.one_to_one against scipy's dense linear_sum_assignment.
+"""plotgate.core.initiation.assignment.one_to_one against scipy's dense linear_sum_assignment.
 
 The oracle is the formulation it replaced: a tracks x plots cost matrix with a large
 cost where no pair exists, assigned by ``linear_sum_assignment``, pairs at that cost
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from core.errors import ParameterError
-from core.initiation import assignment
-from core.initiation.assignment import one_to_one
+from plotgate.core.errors import ParameterError
+from plotgate.core.initiation import assignment
+from plotgate.core.initiation.assignment import one_to_one
 
 
 def dense(rows, cols, s):

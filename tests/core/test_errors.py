@@ -4,11 +4,18 @@ import pickle
 
 import pytest
 
-from core import CovarianceError, GeometryError, NonFiniteError, ParameterError, PlotgateError
+from plotgate.core import (
+    CovarianceError,
+    GeometryError,
+    NonFiniteError,
+    ParameterError,
+    PlotgateError,
+)
 
 
 @pytest.mark.parametrize(
-    "cls", [NonFiniteError, CovarianceError, ParameterError, GeometryError],
+    "cls",
+    [NonFiniteError, CovarianceError, ParameterError, GeometryError],
     ids=lambda c: c.__name__,
 )
 def test_every_error_is_a_plotgate_value_error(cls):

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from core import (
+from plotgate.core import (
     GeometryError,
     NonFiniteError,
     ParameterError,
@@ -74,8 +74,9 @@ def test_polar_covariance_matches_monte_carlo():
     rng = np.random.default_rng(13)
     r, az, sigma_r, sigma_az = 20_000.0, 0.7, 5.0, 2e-4
     samples = 400_000
-    xy = polar_to_cartesian(r + sigma_r * rng.standard_normal(samples),
-                            az + sigma_az * rng.standard_normal(samples))
+    xy = polar_to_cartesian(
+        r + sigma_r * rng.standard_normal(samples), az + sigma_az * rng.standard_normal(samples)
+    )
     sample_cov = np.cov(xy.T)
     P = polar_covariance_to_cartesian(r, az, sigma_r, sigma_az)
     # whitened sample covariance is the identity to within a few standard errors
@@ -119,8 +120,16 @@ def test_covariance_transform_broadcasts_one_sigma_over_many_marks():
 
 @pytest.mark.parametrize(
     ("angle", "wrapped"),
-    [(np.pi, np.pi), (-np.pi, np.pi), (3 * np.pi, np.pi), (-3 * np.pi, np.pi),
-     (2 * np.pi, 0.0), (0.0, 0.0), (-0.5, -0.5), (7.0, 7.0 - 2 * np.pi)],
+    [
+        (np.pi, np.pi),
+        (-np.pi, np.pi),
+        (3 * np.pi, np.pi),
+        (-3 * np.pi, np.pi),
+        (2 * np.pi, 0.0),
+        (0.0, 0.0),
+        (-0.5, -0.5),
+        (7.0, 7.0 - 2 * np.pi),
+    ],
     ids=["pi", "-pi", "3pi", "-3pi", "2pi", "0", "-0.5", "7"],
 )
 def test_wrap_angle_edges(angle, wrapped):
@@ -130,12 +139,14 @@ def test_wrap_angle_edges(angle, wrapped):
 
 def test_wrap_angle_keeps_every_value_in_half_open_interval():
     rng = np.random.default_rng(16)
-    a = np.concatenate([
-        rng.uniform(-1e4, 1e4, 100_000),
-        np.pi + np.arange(-5, 6) * np.spacing(np.pi),
-        -np.pi + np.arange(-5, 6) * np.spacing(np.pi),
-        2 * np.pi * np.arange(-3, 4) + np.spacing(2 * np.pi),
-    ])
+    a = np.concatenate(
+        [
+            rng.uniform(-1e4, 1e4, 100_000),
+            np.pi + np.arange(-5, 6) * np.spacing(np.pi),
+            -np.pi + np.arange(-5, 6) * np.spacing(np.pi),
+            2 * np.pi * np.arange(-3, 4) + np.spacing(2 * np.pi),
+        ]
+    )
     w = wrap_angle(a)
     assert np.all(w > -np.pi) and np.all(w <= np.pi)
     np.testing.assert_allclose(np.sin(w), np.sin(a), atol=1e-11)
@@ -193,7 +204,11 @@ def test_polar_covariance_of_mark_at_sensor_is_a_geometry_error():
 def test_ill_conditioned_covariance_is_refused_not_rotated():
     """An error ellipse 1 mm by 3000 km turned by a few degrees: rounding of the long axis
     (about 1e-16 * 1e13 m^2) would swamp the 1e-6 m^2 short axis, even make it negative."""
-    from core import CovarianceError, cartesian_covariance_to_polar, polar_covariance_to_cartesian
+    from plotgate.core import (
+        CovarianceError,
+        cartesian_covariance_to_polar,
+        polar_covariance_to_cartesian,
+    )
 
     P = polar_covariance_to_cartesian(1e9, 0.0, 1e-3, 3e-3)
     with pytest.raises(CovarianceError, match=r"^P: is numerically singular"):

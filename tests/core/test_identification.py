@@ -1,12 +1,12 @@
-"""The Z-test of seed 004: numbers against scipy.stats.norm, wrap-around, beta against
+"""The Z-test of Kvasnov: numbers against scipy.stats.norm, wrap-around, beta against
 Monte Carlo, the assignment of a hand-made picture, the sequential mode, bad input."""
 
 import numpy as np
 import pytest
 from scipy import stats
 
-from core.errors import NonFiniteError, ParameterError
-from core.identification import (
+from plotgate.core.errors import NonFiniteError, ParameterError
+from plotgate.core.identification import (
     experiment,
     identify_picture,
     required_samples,
@@ -78,8 +78,9 @@ def test_required_samples_is_the_smallest_m():
         m = required_samples(delta * DEG, 1.0 * DEG, 0.05, beta_max)
         assert type_two_error(delta * DEG, DEG, m, 0.05) <= beta_max
         assert m == 1 or type_two_error(delta * DEG, DEG, m - 1, 0.05) > beta_max
-    t = z_test(np.linspace(-1, 1, 50) * DEG, [0.0, 0.1 * DEG], sigma=DEG, delta=0.5 * DEG,
-               beta_max=0.05)
+    t = z_test(
+        np.linspace(-1, 1, 50) * DEG, [0.0, 0.1 * DEG], sigma=DEG, delta=0.5 * DEG, beta_max=0.05
+    )
     assert t.m_required == required_samples(0.5 * DEG, DEG, 0.05, 0.05, n=50)
     assert t.beta == pytest.approx(float(type_two_error(0.5 * DEG, DEG, 2, 0.05, n=50)))
     for n in (20, 500):  # with the passive mean's error, more active samples are needed
@@ -94,8 +95,9 @@ def test_conditions_are_reported_with_numbers():
     normal = z_test(rng.normal(0, DEG, 200), rng.normal(0, DEG, 40), ratio=10.0)
     assert normal.normal and normal.normality_p[0] > 0.05
     assert normal.n_over_m == 5.0 and not normal.large_population
-    lumpy = np.concatenate([rng.normal(-3 * DEG, 0.2 * DEG, 100),
-                            rng.normal(3 * DEG, 0.2 * DEG, 100)])
+    lumpy = np.concatenate(
+        [rng.normal(-3 * DEG, 0.2 * DEG, 100), rng.normal(3 * DEG, 0.2 * DEG, 100)]
+    )
     two_peaks = z_test(lumpy, rng.normal(0, DEG, 5))
     assert not two_peaks.normal and two_peaks.normality_p[0] < 1e-6
 
@@ -105,8 +107,9 @@ def test_a_hand_made_picture_is_assigned_one_to_one():
     centres_p = np.array([10.0, 20.0, 30.0, 40.0])
     centres_a = np.array([30.0, 10.0, 55.0])  # passive 1 and 3 have no partner; 55 is new
     passive = (centres_p[:, None] + 0.2 * rng.standard_normal((4, 50))) * DEG
-    active = [(c + 0.2 * rng.standard_normal(k)) * DEG for c, k in zip(centres_a, (5, 3, 8),
-                                                                       strict=True)]
+    active = [
+        (c + 0.2 * rng.standard_normal(k)) * DEG for c, k in zip(centres_a, (5, 3, 8), strict=True)
+    ]
     pic = identify_picture(passive, active, sigma=0.2 * DEG)
     assert pic.z.shape == (4, 3)
     assert sorted(pic.pairs.tolist()) == [[0, 1], [2, 0]]
@@ -132,24 +135,27 @@ def test_sequential_decisions_are_the_prefix_tests():
         assert seq.identified[k - 2] == t.identified
 
 
-@pytest.mark.parametrize(("kwargs", "error", "field"), [
-    ({"active": [0.1]}, ParameterError, "active"),
-    ({"passive": [0.1]}, ParameterError, "passive"),
-    ({"sigma": 0.0}, ParameterError, "sigma"),
-    ({"sigma": -0.01}, ParameterError, "sigma"),
-    ({"alpha": 1.0}, ParameterError, "alpha"),
-    ({"alpha": 0.0}, ParameterError, "alpha"),
-    ({"active": [0.1, np.nan]}, NonFiniteError, "active"),
-    ({"passive": [0.1, np.inf, 0.2]}, NonFiniteError, "passive"),
-    ({"passive_elevation": [0.1, 0.2, 0.3]}, ParameterError, "active_elevation"),
-    ({"beta_max": 0.05}, ParameterError, "beta_max"),
-    ({"delta": 0.0, "beta_max": 0.05}, ParameterError, "delta"),
-    # m ~ ((z_a + z_b) sigma / delta)^2 overflows: refused, not an OverflowError
-    ({"delta": 1e-300, "beta_max": 0.05}, ParameterError, "beta_max"),
-    ({"delta": 1e-6, "beta_max": 0.05}, ParameterError, "beta_max"),
-    # angles equal to rounding: a sigma of 5e-324 would make Z infinite
-    ({"passive": [0.0, 5e-324, 0.0]}, ParameterError, "sigma"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "error", "field"),
+    [
+        ({"active": [0.1]}, ParameterError, "active"),
+        ({"passive": [0.1]}, ParameterError, "passive"),
+        ({"sigma": 0.0}, ParameterError, "sigma"),
+        ({"sigma": -0.01}, ParameterError, "sigma"),
+        ({"alpha": 1.0}, ParameterError, "alpha"),
+        ({"alpha": 0.0}, ParameterError, "alpha"),
+        ({"active": [0.1, np.nan]}, NonFiniteError, "active"),
+        ({"passive": [0.1, np.inf, 0.2]}, NonFiniteError, "passive"),
+        ({"passive_elevation": [0.1, 0.2, 0.3]}, ParameterError, "active_elevation"),
+        ({"beta_max": 0.05}, ParameterError, "beta_max"),
+        ({"delta": 0.0, "beta_max": 0.05}, ParameterError, "delta"),
+        # m ~ ((z_a + z_b) sigma / delta)^2 overflows: refused, not an OverflowError
+        ({"delta": 1e-300, "beta_max": 0.05}, ParameterError, "beta_max"),
+        ({"delta": 1e-6, "beta_max": 0.05}, ParameterError, "beta_max"),
+        # angles equal to rounding: a sigma of 5e-324 would make Z infinite
+        ({"passive": [0.0, 5e-324, 0.0]}, ParameterError, "sigma"),
+    ],
+)
 def test_bad_input_is_named(kwargs, error, field):
     args = {"passive": [0.1, 0.2, 0.15], "active": [0.12, 0.14]}
     args.update(kwargs)

@@ -8,19 +8,21 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from core.errors import ParameterError
-from core.initiation import (
+from plotgate.core.errors import ParameterError
+from plotgate.core.initiation import (
     InitiationConfig,
     cartesian_scan,
     empty_state,
     initiate,
-    logic,
     polar_scan,
+    search,
     state_from_json,
 )
-from core.initiation.evaluate import evaluate
-from core.initiation.logic import _Index, _predict, _track_pairs
-from core.initiation.simulate import Scenario, seed_002_scenario, simulate
+from plotgate.core.initiation.evaluate import evaluate
+from plotgate.core.initiation.filter import predict
+from plotgate.core.initiation.pairs import track_pairs, window_coefficients
+from plotgate.core.initiation.search import PlotIndex
+from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
 
 R4 = np.eye(2) * 4.0  # plot covariance, m^2 (2 m sigma)
 
@@ -97,8 +99,9 @@ def test_the_ring_refuses_plots_too_far_or_too_slow():
     far = (target(1)[0] + 15.0, 2000.0)  # 25 m in 1 s > v_max = 20 m/s
     _, reports = run(CONFIG, scan(0, target(0)), scan(1, far))
     assert reports[1].started.size == 0
-    _, reports = run(InitiationConfig(v_min=15.0, v_max=20.0), scan(0, target(0)),
-                     scan(1, target(1)))  # 10 m/s < v_min
+    _, reports = run(
+        InitiationConfig(v_min=15.0, v_max=20.0), scan(0, target(0)), scan(1, target(1))
+    )  # 10 m/s < v_min
     assert reports[1].started.size == 0
 
 
@@ -107,13 +110,13 @@ def test_gates_widen_after_a_miss():
     # medium one after a miss (gamma x 2: 4.29)
     state, _ = run(CONFIG, *[scan(t, target(t)) for t in range(3)])
     tr = state.tracks
-    xp, Pp = _predict(tr.x, tr.P, np.array([1.0]), CONFIG.q)
+    xp, Pp = predict(tr.x, tr.P, np.array([1.0]), CONFIG.q)
     sd = np.sqrt(Pp[0, 1, 1] + 4.0)
     off = (xp[0, 0], xp[0, 1] + 3.4 * sd)
     _, (narrow,) = initiate(state, [scan(3, off)], CONFIG)
     assert narrow.associated.tolist() == [-1]
     missed, _ = initiate(state, [scan(3)], CONFIG)
-    xp, Pp = _predict(missed.tracks.x, missed.tracks.P, np.array([1.0]), CONFIG.q)
+    xp, Pp = predict(missed.tracks.x, missed.tracks.P, np.array([1.0]), CONFIG.q)
     sd = np.sqrt(Pp[0, 1, 1] + 4.0)
     _, (wide,) = initiate(missed, [scan(4, (xp[0, 0], xp[0, 1] + 3.4 * sd))], CONFIG)
     assert wide.associated.tolist() == [0]
@@ -124,8 +127,12 @@ def test_scans_from_two_sensors_with_their_own_times_build_one_track():
     def from_b(t, xy):
         return cartesian_scan(t, [xy], [R4], sensor=(20000.0, 0.0))
 
-    scans = [scan(0.0, target(0.0)), from_b(0.5, target(0.5)), scan(1.0, target(1.0)),
-             from_b(1.5, target(1.5))]
+    scans = [
+        scan(0.0, target(0.0)),
+        from_b(0.5, target(0.5)),
+        scan(1.0, target(1.0)),
+        from_b(1.5, target(1.5)),
+    ]
     state, reports = run(InitiationConfig(v_max=20.0, confirm_k=3, confirm_m=3), *scans)
     assert reports[1].started.tolist() == [0] and reports[2].confirmed.tolist() == [0]
     assert reports[3].associated.tolist() == [0]
@@ -139,8 +146,11 @@ def test_branch_starts_a_track_per_candidate_and_nearest_only_one():
     candidates = [target(1), (1000.0, 2015.0)]  # 10 m and 15 m from the initiator
     _, reports = run(CONFIG, scan(0, target(0)), scan(1, *candidates))
     assert reports[1].started.tolist() == [0, 1]
-    state, reports = run(InitiationConfig(v_max=20.0, association="nearest"),
-                         scan(0, target(0)), scan(1, *candidates))
+    state, reports = run(
+        InitiationConfig(v_max=20.0, association="nearest"),
+        scan(0, target(0)),
+        scan(1, *candidates),
+    )
     assert reports[1].started.tolist() == [0]
     np.testing.assert_allclose(state.tracks.x[0], [1010.0, 2000.0, 10.0, 0.0])
     assert reports[1].associated.tolist() == [0, -1]  # the far candidate is an initiator
@@ -150,8 +160,12 @@ def test_branch_starts_a_track_per_candidate_and_nearest_only_one():
 def test_a_confirmed_track_owns_its_plots_and_prunes_tentative_branches():
     # two branches from one initiator share the initiator's plot; both take the third
     # plot, so both could confirm: the better one does, the other shares two plots
-    scans = [scan(0, target(0)), scan(1, target(1), (1011.0, 2001.5)), scan(2, target(2)),
-             scan(3, target(3))]
+    scans = [
+        scan(0, target(0)),
+        scan(1, target(1), (1011.0, 2001.5)),
+        scan(2, target(2)),
+        scan(3, target(3)),
+    ]
     state, reports = run(CONFIG, *scans)
     assert reports[1].started.tolist() == [0, 1]
     assert reports[2].confirmed.tolist() == [0]
@@ -176,7 +190,7 @@ def test_confirmed_tracks_take_plots_one_to_one():
 def test_plots_too_dense_for_the_gates_are_refused_naming_the_scan(monkeypatch):
     # 30 plots at one spot: 30 initiators x 30 plots = 900 capture pairs in scan 1; with
     # at most 500 pairs a search (10^9 pairs for 1000 such plots would exhaust memory)
-    monkeypatch.setattr(logic, "MAX_CANDIDATES", 500)
+    monkeypatch.setattr(search, "MAX_CANDIDATES", 500)
     z = np.full((30, 2), 5000.0)
     scans = [cartesian_scan(float(t), z, np.broadcast_to(R4, (30, 2, 2))) for t in range(3)]
     with pytest.raises(ParameterError) as info:
@@ -194,8 +208,8 @@ def test_candidate_search_finds_exactly_the_brute_force_gate_members():
     s = cartesian_scan(3.0, z, np.broadcast_to(R4, (4000, 2, 2)))
     tr = state.tracks
     dt = s.t - tr.t
-    xp, Pp = _predict(tr.x, tr.P, dt, CONFIG.q)
-    rows, cols, stat = _track_pairs(tr, xp, Pp, dt, s, _Index(s, CONFIG), CONFIG)
+    xp, Pp = predict(tr.x, tr.P, dt, CONFIG.q)
+    rows, cols, stat = track_pairs(tr, xp, Pp, dt, s, PlotIndex(s, None), CONFIG)
     nu = s.z - xp[0, :2]
     rho = np.einsum("ni,ij,nj->n", nu, np.linalg.inv(Pp[0, :2, :2] + R4), nu)
     brute = np.flatnonzero(rho <= stats.chi2.ppf(CONFIG.gate_P_G, 2))
@@ -216,8 +230,8 @@ def test_polar_candidate_search_finds_exactly_the_window_members_across_north():
     s = polar_scan(2.0, r, az, np.full(r.size, SR), np.full(r.size, SAZ))
     tr = state.tracks
     dt = s.t - tr.t
-    xp, Pp = _predict(tr.x, tr.P, dt, POLAR.q)
-    rows, cols, _ = _track_pairs(tr, xp, Pp, dt, s, _Index(s, POLAR), POLAR)
+    xp, Pp = predict(tr.x, tr.P, dt, POLAR.q)
+    rows, cols, _ = track_pairs(tr, xp, Pp, dt, s, PlotIndex(s, window_coefficients(POLAR)), POLAR)
     k = np.sqrt(stats.chi2.ppf(POLAR.gate_P_G, 2))
     r_pred = 10020.0
     W_R = k * np.sqrt(SR**2 + 4 * SR**2 + SR**2)
@@ -249,7 +263,7 @@ def test_kalman_track_is_the_textbook_filter():
     np.testing.assert_allclose(state.tracks.P[0], P, rtol=1e-9)
 
 
-def test_alpha_beta_gains_of_seed_003():
+def test_alpha_beta_gains_of_the_secondary_processing_textbook():
     zs = [(1000.0, 2000.0), (1010.0, 2000.0), (1026.0, 2006.0)]
     config = InitiationConfig(v_max=20.0, filter="alpha_beta")
     state, _ = run(config, *[scan(t, z) for t, z in enumerate(zs)])
@@ -312,14 +326,13 @@ def test_polar_acceleration_check_drops_jerky_tracks():
 
 
 def _clutter_session(seed=3):
-    sim = simulate(seed_002_scenario(250.0, scans=6), seed)
+    sim = simulate(mu_scenario(250.0, scans=6), seed)
     return sim.scans
 
 
 def test_scans_one_by_one_equal_scans_all_at_once():
     scans = _clutter_session()
-    for config in (InitiationConfig(mode="cartesian", capture_gate="combined", v_max=30.0),
-                   POLAR):
+    for config in (InitiationConfig(mode="cartesian", capture_gate="combined", v_max=30.0), POLAR):
         whole, reports = initiate(None, scans, config)
         state, pieces = None, []
         for s in scans:
@@ -340,12 +353,14 @@ def test_foreign_or_malformed_states_are_refused():
     with pytest.raises(ParameterError, match="other settings") as info:
         state_from_json(data, InitiationConfig(v_max=21.0))
     assert info.value.field == "state.config_digest"
-    for change, field in (({"version": 99}, "state.version"), ({"scans": -1}, "state.scans"),
-                          ({"t": None}, "state.t"),
-                          ({"tracks": dict(data["tracks"], x=[[1.0]])}, "state.tracks.x"),
-                          ({"initiators": dict(data["initiators"], z="nope")},
-                           "state.initiators.z"),
-                          ({"tracks": {"id": []}}, "state.tracks.confirmed")):
+    for change, field in (
+        ({"version": 99}, "state.version"),
+        ({"scans": -1}, "state.scans"),
+        ({"t": None}, "state.t"),
+        ({"tracks": dict(data["tracks"], x=[[1.0]])}, "state.tracks.x"),
+        ({"initiators": dict(data["initiators"], z="nope")}, "state.initiators.z"),
+        ({"tracks": {"id": []}}, "state.tracks.confirmed"),
+    ):
         with pytest.raises(ParameterError) as info:
             state_from_json({**data, **change}, CONFIG)
         assert info.value.field == field
@@ -369,13 +384,21 @@ def test_scans_must_come_in_time_order():
     assert info.value.field == "scans" and info.value.index == 1
 
 
-@pytest.mark.parametrize(("change", "field"), [
-    ({"mode": "spherical"}, "mode"), ({"v_max": -1.0}, "v_max"),
-    ({"v_min": 60.0}, "v_max"), ({"confirm_k": 5}, "confirm_k"),
-    ({"gate_widening": (2.0, 1.0)}, "gate_widening"), ({"K_A": 1.0}, "K_A"),
-    ({"capture_scans": 1}, "capture_scans"), ({"history": 2}, "history"),
-    ({"gate_P_G": 1.0}, "gate_P_G"), ({"capture_time": 0.0}, "capture_time"),
-])
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"mode": "spherical"}, "mode"),
+        ({"v_max": -1.0}, "v_max"),
+        ({"v_min": 60.0}, "v_max"),
+        ({"confirm_k": 5}, "confirm_k"),
+        ({"gate_widening": (2.0, 1.0)}, "gate_widening"),
+        ({"K_A": 1.0}, "K_A"),
+        ({"capture_scans": 1}, "capture_scans"),
+        ({"history": 2}, "history"),
+        ({"gate_P_G": 1.0}, "gate_P_G"),
+        ({"capture_time": 0.0}, "capture_time"),
+    ],
+)
 def test_bad_settings_are_named(change, field):
     with pytest.raises(ParameterError) as info:
         InitiationConfig(**change)
@@ -388,10 +411,18 @@ def test_bad_settings_are_named(change, field):
 def test_simulator_draws_detections_and_clutter_at_their_rates():
     # 2000 scans: detections ~ Binomial(5 x 2000, 0.8), clutter ~ Poisson(2000 x 30);
     # both means within 4 standard errors
-    s = Scenario(x0=np.array([[5000.0, 5000.0]] * 5), v=np.zeros((5, 2)), scans=2000,
-                 interval=1.0, P_D=0.8, clutter=30.0,
-                 region=np.array([0.0, 10000.0, 0.0, 10000.0]), sensor=np.zeros(2),
-                 sigma_r=5.0, sigma_az=np.radians(0.2))
+    s = Scenario(
+        x0=np.array([[5000.0, 5000.0]] * 5),
+        v=np.zeros((5, 2)),
+        scans=2000,
+        interval=1.0,
+        P_D=0.8,
+        clutter=30.0,
+        region=np.array([0.0, 10000.0, 0.0, 10000.0]),
+        sensor=np.zeros(2),
+        sigma_r=5.0,
+        sigma_az=np.radians(0.2),
+    )
     sim = simulate(s, 11)
     labels = np.concatenate(sim.labels)
     assert abs((labels >= 0).sum() - 8000) < 4 * np.sqrt(10000 * 0.8 * 0.2)
@@ -399,15 +430,17 @@ def test_simulator_draws_detections_and_clutter_at_their_rates():
     z = np.concatenate([sc.z for sc in sim.scans])[labels < 0]
     assert z.min() >= 0.0 and z.max() <= 10000.0
     again = simulate(s, 11)
-    np.testing.assert_array_equal(np.concatenate([sc.r for sc in again.scans]),
-                                  np.concatenate([sc.r for sc in sim.scans]))
+    np.testing.assert_array_equal(
+        np.concatenate([sc.r for sc in again.scans]), np.concatenate([sc.r for sc in sim.scans])
+    )
 
 
 def test_evaluation_without_clutter_initiates_every_target():
-    s = seed_002_scenario(0.0)
+    s = mu_scenario(0.0)
     s = Scenario(**{**s.__dict__, "P_D": 1.0})
-    ev = evaluate(s, InitiationConfig(mode="polar", v_max=30.0, a_max=10.0, K_A=3.0),
-                  runs=5, seed=1)
+    ev = evaluate(
+        s, InitiationConfig(mode="polar", v_max=30.0, a_max=10.0, K_A=3.0), runs=5, seed=1
+    )
     assert ev.mean_true == 5.0 and ev.mean_false == 0.0 and ev.ceiling == 5.0
     # by distance (100 m) one track in 25 confirmed is too far: at 11 km the azimuth
     # error alone is 38 m and a three-plot velocity extrapolates it

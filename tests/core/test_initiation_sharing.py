@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from core.initiation.sharing import keep_greedy, plot_pairs, shares_two
+from plotgate.core.initiation.sharing import keep_greedy, plot_pairs, shares_two
 
 
 def _histories(rng: np.random.Generator, p: int, H: int, pool: int) -> np.ndarray:
@@ -11,7 +11,7 @@ def _histories(rng: np.random.Generator, p: int, H: int, pool: int) -> np.ndarra
     out = np.full((p, H), -1, dtype=np.int64)
     for i in range(p):
         h = rng.integers(0, H + 1)
-        out[i, H - h:] = np.sort(rng.choice(pool, h, replace=False)) * (1 << 20) + 3
+        out[i, H - h :] = np.sort(rng.choice(pool, h, replace=False)) * (1 << 20) + 3
     return out
 
 

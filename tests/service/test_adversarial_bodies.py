@@ -10,9 +10,9 @@ from pathlib import Path
 
 import httpx
 
-from clients.recordings import read_recording
-from service.registry import OPERATIONS, execute
-from tests.conftest import serve
+from plotgate.clients.recordings import read_recording
+from plotgate.service.registry import OPERATIONS, execute
+from tests.servers import serve
 
 SIZE = 60 * 2**20  # just under the 64 MiB default limit
 HEALTH_WITHIN_S = 0.1
@@ -61,15 +61,24 @@ print(worst)
 
 def test_absurd_bodies_are_refused_with_bounded_memory_and_a_live_health_check(tmp_path):
     stop = tmp_path / "stop"
-    with serve(tmp_path / "recordings") as (proc, url), \
-            httpx.Client(base_url=url, timeout=120) as http:
+    with (
+        serve(tmp_path / "recordings") as (proc, url),
+        httpx.Client(base_url=url, timeout=120) as http,
+    ):
         # /healthz is timed from another process, so this one's sending does not delay it
-        watcher = subprocess.Popen([sys.executable, "-c", _WATCH, url, str(stop)],
-                                   stdout=subprocess.PIPE, text=True)
+        watcher = subprocess.Popen(
+            [sys.executable, "-c", _WATCH, url, str(stop)], stdout=subprocess.PIPE, text=True
+        )
         try:
             for name, (body, field) in SHAPES.items():
-                r = http.post("/v1/gates/test", content=body, headers={
-                    "content-type": "application/json", "x-request-id": name.replace(" ", "-")})
+                r = http.post(
+                    "/v1/gates/test",
+                    content=body,
+                    headers={
+                        "content-type": "application/json",
+                        "x-request-id": name.replace(" ", "-"),
+                    },
+                )
                 assert r.status_code == 422, (name, r.status_code, r.text[:300])
                 assert r.json()["errors"][0]["field"] == field, (name, r.text[:300])
         finally:
@@ -79,8 +88,11 @@ def test_absurd_bodies_are_refused_with_bounded_memory_and_a_live_health_check(t
     print(f"peak RSS {peak / 2**20:.0f} MiB, /healthz at most {worst * 1e3:.0f} ms")
     assert peak < 10 * SIZE, f"peak RSS {peak / 2**20:.0f} MiB for {SIZE / 2**20:.0f} MiB bodies"
     assert worst < HEALTH_WITHIN_S, f"/healthz took {worst:.3f} s"
-    recorded = {ex.request_id: ex for f in (tmp_path / "recordings").glob("*.mcap")
-                for ex in read_recording(f).exchanges}
+    recorded = {
+        ex.request_id: ex
+        for f in (tmp_path / "recordings").glob("*.mcap")
+        for ex in read_recording(f).exchanges
+    }
     assert len(recorded) == len(SHAPES)  # refusals of requests that reached an operation
     assert all(ex.response is not None for ex in recorded.values())
     for name, (body, _) in SHAPES.items():  # the part received up to the refusal

@@ -5,10 +5,10 @@ import math
 
 import pytest
 
-from service.operations.answers import checked
-from service.registry import OPERATIONS
-from service.schemas import GateProbabilityRequest, GateProbabilityResult
-from service.schemas.examples import EXAMPLES
+from plotgate.service.operations.answers import checked
+from plotgate.service.registry import OPERATIONS
+from plotgate.service.schemas import GateProbabilityRequest, GateProbabilityResult
+from plotgate.service.schemas.examples import EXAMPLES
 
 
 def test_an_invalid_answer_is_a_runtime_error_not_a_validation_error():

@@ -7,7 +7,7 @@ import random
 
 import pytest
 
-from service.bodies import (
+from plotgate.service.bodies import (
     MAX_BODY_VALUES,
     SLICE_BYTES,
     ShapeScan,
@@ -16,8 +16,8 @@ from service.bodies import (
     value_ceiling,
     value_count,
 )
-from service.recorder import request_record
-from service.registry import OPERATIONS, execute, parse
+from plotgate.service.recorder import request_record
+from plotgate.service.registry import OPERATIONS, execute, parse
 from tests.service.test_recording import GOOD
 
 
@@ -35,7 +35,7 @@ def _document(rng: random.Random, depth: int = 0) -> object:
     if kind == 0:
         return rng.uniform(-1e6, 1e6)
     if kind == 1:
-        return rng.choice(["", "a,b", "[{", "x\\\"y", "é"])
+        return rng.choice(["", "a,b", "[{", 'x\\"y', "é"])
     if kind == 2:
         return rng.choice([True, None, 0])
     if kind in (3, 4):
@@ -63,10 +63,13 @@ def test_the_ceiling_counts_every_field_and_list_at_its_longest():
         assert 1 < value_ceiling(op.request) <= MAX_BODY_VALUES, op.name
 
 
-@pytest.mark.parametrize("body", [
-    b'{"gate": [' + b"{}," * 2_000_000 + b"{}]}",
-    b'{"candidates": [' + b"0," * 3_000_000 + b"0]}",
-])
+@pytest.mark.parametrize(
+    "body",
+    [
+        b'{"gate": [' + b"{}," * 2_000_000 + b"{}]}",
+        b'{"candidates": [' + b"0," * 3_000_000 + b"0]}",
+    ],
+)
 def test_a_body_with_more_values_than_any_valid_request_is_refused_unparsed(body):
     op = OPERATIONS["gates.test"]
     outcome = execute(op, body)
@@ -80,13 +83,21 @@ def test_a_megabyte_without_structure_is_refused_and_a_shorter_run_is_not():
     assert shape_problem(b" " * (3 * SLICE_BYTES) + b"[]", 10) is not None
 
 
-@pytest.mark.parametrize("body", [
-    json.dumps(GOOD).encode(),  # strict JSON, valid
-    json.dumps(dict(GOOD, extra="NaN")).encode(),  # strict JSON holding the letters
-    b'{"gate": NaN}', b'{"gate": -Infinity}',  # JSON to pydantic, not strict JSON
-    b'{"gate": 1e400}',  # strict JSON (a number too large for a double)
-    b'{"gate": 1', b"\xff\xfe", b'"\\u0001 \\" \\\\"', b'{"gate": "caf\xc3\xa9"}', b"",
-])
+@pytest.mark.parametrize(
+    "body",
+    [
+        json.dumps(GOOD).encode(),  # strict JSON, valid
+        json.dumps(dict(GOOD, extra="NaN")).encode(),  # strict JSON holding the letters
+        b'{"gate": NaN}',
+        b'{"gate": -Infinity}',  # JSON to pydantic, not strict JSON
+        b'{"gate": 1e400}',  # strict JSON (a number too large for a double)
+        b'{"gate": 1',
+        b"\xff\xfe",
+        b'"\\u0001 \\" \\\\"',
+        b'{"gate": "caf\xc3\xa9"}',
+        b"",
+    ],
+)
 def test_parsing_once_tells_strict_json_as_a_full_check_would(body):
     parsed = parse(OPERATIONS["gates.test"], body)
     assert parsed.json == is_strict_json(body)

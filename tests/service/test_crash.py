@@ -6,10 +6,10 @@ import time
 
 import httpx
 
-from clients import Client
-from clients.recordings import read_recording
-from service.schemas import CombinedGate, GateTestRequest
-from tests.conftest import serve
+from plotgate.clients import Client
+from plotgate.clients.recordings import read_recording
+from plotgate.service.schemas import CombinedGate, GateTestRequest
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 
@@ -25,8 +25,11 @@ def test_sigkill_keeps_every_answered_exchange(tmp_path, mcap_check):
                     return
                 rid = f"w{worker}-{i}"
                 try:
-                    r = http.post("/v1/gates/test", content=body, headers={
-                        "x-request-id": rid, "content-type": "application/json"})
+                    r = http.post(
+                        "/v1/gates/test",
+                        content=body,
+                        headers={"x-request-id": rid, "content-type": "application/json"},
+                    )
                 except httpx.TransportError:
                     return
                 if r.status_code == 200:
@@ -59,7 +62,7 @@ def test_sigkill_keeps_every_answered_exchange(tmp_path, mcap_check):
 
     # plotgate recover: a complete, indexed copy the independent checker accepts, holding
     # every answered exchange; the original is set aside, so replay reads each once
-    from clients.cli import main
+    from plotgate.clients.cli import main
 
     assert main(["recover", str(path)]) == 0
     copy = path.with_name(f"{path.stem}.recovered.mcap")
@@ -68,7 +71,8 @@ def test_sigkill_keeps_every_answered_exchange(tmp_path, mcap_check):
     assert code == 0 and report["ok"] and not report["truncated"], report["errors"]
     fixed = read_recording(copy)
     assert fixed.complete and not set(answered) - {
-        ex.request_id for ex in fixed.exchanges if ex.response is not None}
+        ex.request_id for ex in fixed.exchanges if ex.response is not None
+    }
     assert fixed.metadata["plotgate"] == rec.metadata["plotgate"]
     assert sorted(p.name for p in tmp_path.glob("*.mcap")) == [copy.name]
 
@@ -84,7 +88,7 @@ def test_sync_client_against_a_live_server(tmp_path):
 
 
 def test_replay_reads_a_truncated_file(tmp_path, capsys):
-    from clients.cli import main
+    from plotgate.clients.cli import main
 
     body = json.dumps(GOOD).encode()
     with serve(tmp_path) as (proc, url), httpx.Client(base_url=url) as http:
@@ -103,8 +107,11 @@ def test_workers_write_their_own_files(tmp_path):
     ids = [f"r{i}" for i in range(60)]
     with serve(tmp_path, "--workers", "2") as (_, url):
         for rid in ids:  # a new connection each time, so both workers take requests
-            r = httpx.post(url + "/v1/gates/test", content=body,
-                           headers={"content-type": "application/json", "x-request-id": rid})
+            r = httpx.post(
+                url + "/v1/gates/test",
+                content=body,
+                headers={"content-type": "application/json", "x-request-id": rid},
+            )
             assert r.status_code == 200
     files = sorted(tmp_path.glob("*.mcap"))
     pids = {f.name.split("-pid")[1].split("-")[0] for f in files}
@@ -116,14 +123,15 @@ def test_workers_write_their_own_files(tmp_path):
 
 
 def test_replay_against_a_live_server(tmp_path, capsys):
-    from clients.cli import main
+    from plotgate.clients.cli import main
 
     body = json.dumps(GOOD).encode()
     recorded = tmp_path / "recorded"
     with serve(recorded) as (_, url), httpx.Client(base_url=url) as http:
         for content in (body, b"{not json", json.dumps(dict(GOOD, first={})).encode()):
-            http.post("/v1/gates/test", content=content,
-                      headers={"content-type": "application/json"})
+            http.post(
+                "/v1/gates/test", content=content, headers={"content-type": "application/json"}
+            )
     with serve(tmp_path / "replayed") as (_, url):
         capsys.readouterr()
         assert main(["replay", str(recorded), "--server", url]) == 0
@@ -137,8 +145,12 @@ def test_sigterm_finishes_in_flight_requests_and_finalizes_the_file(tmp_path):
     slow = {"scenario": {"clutter": 50}, "runs": 150, "seed": 1}  # about a second
 
     def call(url: str) -> None:
-        r = httpx.post(url + "/v1/initiation/evaluate", json=slow, timeout=60,
-                       headers={"x-request-id": "in-flight"})
+        r = httpx.post(
+            url + "/v1/initiation/evaluate",
+            json=slow,
+            timeout=60,
+            headers={"x-request-id": "in-flight"},
+        )
         result["status"] = r.status_code
 
     with serve(tmp_path) as (proc, url):

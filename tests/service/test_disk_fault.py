@@ -12,8 +12,8 @@ from collections import Counter
 
 import httpx
 
-from clients.recordings import read_recording
-from tests.conftest import serve
+from plotgate.clients.recordings import read_recording
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 FILE_LIMIT = 256 * 1024  # bytes per file; a few hundred exchanges
@@ -34,8 +34,11 @@ def test_no_acknowledged_exchange_is_lost_when_the_disk_fills(tmp_path):
         with httpx.Client(base_url=url, timeout=60) as http:
             for i in range(150):
                 rid = f"c{k}-{i}"
-                r = http.post("/v1/gates/test", content=body, headers={
-                    "content-type": "application/json", "x-request-id": rid})
+                r = http.post(
+                    "/v1/gates/test",
+                    content=body,
+                    headers={"content-type": "application/json", "x-request-id": rid},
+                )
                 with lock:
                     statuses[r.status_code] += 1
                     if r.status_code == 200:
@@ -51,13 +54,20 @@ def test_no_acknowledged_exchange_is_lost_when_the_disk_fills(tmp_path):
         for t in threads:
             t.join(timeout=300)
         assert httpx.get(url + "/readyz").status_code == 200  # recovered by itself
-        after = httpx.post(url + "/v1/gates/test", content=body,
-                           headers={"content-type": "application/json", "x-request-id": "after"})
+        after = httpx.post(
+            url + "/v1/gates/test",
+            content=body,
+            headers={"content-type": "application/json", "x-request-id": "after"},
+        )
         assert after.status_code == 200
         answered.append("after")
     assert statuses[200] > 0 and set(statuses) <= {200, 503}
-    recorded = {ex.request_id for f in sorted(tmp_path.glob("*.mcap"))
-                for ex in read_recording(f).exchanges if ex.response is not None}
+    recorded = {
+        ex.request_id
+        for f in sorted(tmp_path.glob("*.mcap"))
+        for ex in read_recording(f).exchanges
+        if ex.response is not None
+    }
     missing = set(answered) - recorded
     assert not missing, f"{len(missing)} acknowledged exchanges missing: {sorted(missing)[:5]}"
     assert len(list(tmp_path.glob("*.mcap"))) > 1  # the fault happened: a new file each time

@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from service.registry import OPERATIONS
-from service.schemas import ENDPOINTS
-from service.schemas.examples import EXAMPLES
+from plotgate.service.registry import OPERATIONS
+from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.schemas.examples import EXAMPLES
 from tests.conftest import answer
 
 

@@ -6,9 +6,9 @@ import json
 from fastapi.testclient import TestClient
 from mcap.writer import Writer
 
-from clients.recordings import read_recording
-from service import registry
-from service.app import create_app
+from plotgate.clients.recordings import read_recording
+from plotgate.service import registry
+from plotgate.service.app import create_app
 from tests.service.test_recording import GOOD
 
 
@@ -59,9 +59,10 @@ def test_a_bug_answers_500_and_is_recorded(settings, monkeypatch):
     def broken(request):
         raise RuntimeError("boom")
 
-    monkeypatch.setitem(registry.OPERATIONS, "gates.test",
-                        registry.Operation(op.endpoint, broken, op.field_of))
-    monkeypatch.setattr("service.routes.OPERATIONS", registry.OPERATIONS)
+    monkeypatch.setitem(
+        registry.OPERATIONS, "gates.test", registry.Operation(op.endpoint, broken, op.fields)
+    )
+    monkeypatch.setattr("plotgate.service.routes.OPERATIONS", registry.OPERATIONS)
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "bug"})
     assert r.status_code == 500 and r.json()["type"] == "urn:plotgate:problem:internal"

@@ -18,11 +18,11 @@ import pytest
 from fastapi.testclient import TestClient
 from mcap.writer import Writer
 
-from clients.recordings import read_recording
-from service.app import create_app
-from service.recorder import Recorder, RecordingError
-from service.registry import OPERATIONS
-from tests.conftest import serve
+from plotgate.clients.recordings import read_recording
+from plotgate.service.app import create_app
+from plotgate.service.recorder import Recorder, RecordingError
+from plotgate.service.registry import OPERATIONS
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 CLIENTS, EACH = 10, 60
@@ -32,8 +32,12 @@ RECOVERY_S = 2.5
 
 def _answered(folder: Path) -> dict[str, dict]:
     """Request id -> request record, for every exchange with both records on disk."""
-    return {ex.request_id: ex.request for f in sorted(folder.glob("*.mcap"))
-            for ex in read_recording(f).exchanges if ex.response is not None}
+    return {
+        ex.request_id: ex.request
+        for f in sorted(folder.glob("*.mcap"))
+        for ex in read_recording(f).exchanges
+        if ex.response is not None
+    }
 
 
 def _remove(folder: Path) -> None:
@@ -56,8 +60,11 @@ def test_folder_deleted_under_load_loses_no_answered_exchange(tmp_path):
             for i in range(EACH):
                 rid = f"c{k}-{i}"
                 after = deleted.is_set()
-                r = http.post("/v1/gates/test", content=body, headers={
-                    "content-type": "application/json", "x-request-id": rid})
+                r = http.post(
+                    "/v1/gates/test",
+                    content=body,
+                    headers={"content-type": "application/json", "x-request-id": rid},
+                )
                 with lock:
                     statuses[r.status_code] += 1
                     if r.status_code == 200:
@@ -86,8 +93,11 @@ def test_folder_deleted_under_load_loses_no_answered_exchange(tmp_path):
             assert time.monotonic() - gone_at < RECOVERY_S, "the folder was not re-created"
             time.sleep(0.02)
         assert httpx.get(url + "/readyz").status_code == 200
-        last = httpx.post(url + "/v1/gates/test", content=body, headers={
-            "content-type": "application/json", "x-request-id": "last"})
+        last = httpx.post(
+            url + "/v1/gates/test",
+            content=body,
+            headers={"content-type": "application/json", "x-request-id": "last"},
+        )
         assert last.status_code == 200
     assert statuses[200] >= CLIENTS * EACH * 0.9, statuses  # refusals are rare races at most
     assert len(sent_after) > CLIENTS  # the fault happened mid-load
@@ -102,8 +112,11 @@ def test_in_flight_exchange_is_written_again_after_its_file_is_deleted(tmp_path)
     early = recorder.request("gates.test", b'{"request_id": "early", "operation": "gates.test"}')
     recorder.flush()
     shutil.rmtree(folder)
-    recorder.response(early, b'{"request_id": "early", "operation": "gates.test", '
-                             b'"status": 200, "duration_s": 0.1, "result": {}}')
+    recorder.response(
+        early,
+        b'{"request_id": "early", "operation": "gates.test", '
+        b'"status": 200, "duration_s": 0.1, "result": {}}',
+    )
     recorder.flush()
     recorder.close()
     [path] = folder.glob("*.mcap")
@@ -171,8 +184,12 @@ def test_a_failed_write_is_written_again_to_a_new_file(tmp_path, monkeypatch):
     recorder.close()
     files = sorted(tmp_path.glob("*.mcap"))
     assert len(files) == 2
-    answered = [ex.request_id for f in files for ex in read_recording(f).exchanges
-                if ex.response is not None]
+    answered = [
+        ex.request_id
+        for f in files
+        for ex in read_recording(f).exchanges
+        if ex.response is not None
+    ]
     assert sorted(answered) == ["before", "during"]
 
 

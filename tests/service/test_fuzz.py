@@ -2,7 +2,7 @@
 
 All three of Schemathesis' phases run on every operation, with positive and negative
 data: *examples* sends each operation's OpenAPI example
-(:data:`service.schemas.examples.EXAMPLES`), *coverage* the schema's boundary values
+(:data:`plotgate.service.schemas.examples.EXAMPLES`), *coverage* the schema's boundary values
 and violations around it, *fuzzing* Hypothesis-generated bodies. A positive body is
 first repaired (:func:`tests.service.valid_bodies.repaired`) to pass the rules over
 several fields that JSON Schema cannot say (matching lengths, one dimension, exactly one
@@ -36,9 +36,9 @@ from hypothesis import HealthCheck, settings
 from schemathesis import GenerationMode
 from schemathesis.checks import positive_data_acceptance
 
-from service.app import create_app
-from service.config import Settings
-from service.registry import OPERATIONS
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
+from plotgate.service.registry import OPERATIONS
 from tests.service.valid_bodies import repaired
 
 MAX_EXAMPLES = int(os.environ.get("PLOTGATE_FUZZ_EXAMPLES", "12"))
@@ -57,8 +57,12 @@ CAPS = {
 APP = create_app(Settings(record=False, limits=CAPS))
 schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
 schema.config.generation.update(modes=[GenerationMode.POSITIVE, GenerationMode.NEGATIVE])
-BUDGET = settings(max_examples=MAX_EXAMPLES, deadline=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
+BUDGET = settings(
+    max_examples=MAX_EXAMPLES,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=list(HealthCheck),
+)
 OPERATION_OF = {op.path: op.name for op in OPERATIONS.values()}
 ANSWERED: Counter[tuple[str, int]] = Counter()
 """(operation, status) -> answers, over the whole module."""
@@ -72,8 +76,12 @@ def _positive(case) -> bool:
 @schema.parametrize()
 @BUDGET
 def test_operation(case):
-    if case.path in OPERATION_OF and case.method.upper() == "POST" and _positive(case) \
-            and isinstance(case.body, dict):
+    if (
+        case.path in OPERATION_OF
+        and case.method.upper() == "POST"
+        and _positive(case)
+        and isinstance(case.body, dict)
+    ):
         case.body = repaired(case.path, case.body, CAPS.get(OPERATION_OF[case.path]))
     response = case.call_and_validate(excluded_checks=[positive_data_acceptance])
     if case.path in OPERATION_OF:
@@ -104,7 +112,8 @@ def test_every_operation_answered_a_valid_request():
         with open(report, "w") as out:
             json.dump(tally, out, indent=1)
     fuzzed = {name for name, _ in ANSWERED}
-    assert fuzzed == set(OPERATIONS), f"not fuzzed (run the whole module): " \
-                                      f"{sorted(set(OPERATIONS) - fuzzed)}"
+    assert fuzzed == set(OPERATIONS), (
+        f"not fuzzed (run the whole module): {sorted(set(OPERATIONS) - fuzzed)}"
+    )
     valid = {name for (name, status), n in ANSWERED.items() if 200 <= status < 300 and n}
     assert valid == set(OPERATIONS), f"no 2xx answer: {sorted(set(OPERATIONS) - valid)}"

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-import core
+from plotgate import core
 from tests.conftest import cartesian, polar
 
 COMBINED = {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0, "P_G": 0.9}
@@ -15,10 +15,15 @@ def test_combined_gate_stages(client):
     # First mark at 50 km north; ring 500..2500 m. Candidates: in the ring, just inside the
     # inner circle, just outside the outer circle, and far away.
     first = cartesian(0.0, 50_000.0)
-    candidates = [cartesian(0.0, 51_000.0), cartesian(0.0, 50_450.0),
-                  cartesian(0.0, 52_600.0), cartesian(0.0, 60_000.0)]
-    r = client.post("/v1/gates/test", json={"gate": COMBINED, "first": first,
-                                            "candidates": candidates})
+    candidates = [
+        cartesian(0.0, 51_000.0),
+        cartesian(0.0, 50_450.0),
+        cartesian(0.0, 52_600.0),
+        cartesian(0.0, 60_000.0),
+    ]
+    r = client.post(
+        "/v1/gates/test", json={"gate": COMBINED, "first": first, "candidates": candidates}
+    )
     assert r.status_code == 200, r.text
     body = r.json()
     assert body["stage"] == ["ring", "inner_ellipse", "outer_ellipse", "none"]
@@ -34,12 +39,13 @@ def test_pairs_match_core(client):
     rng = np.random.default_rng(7)
     z1 = rng.uniform(-5e4, 5e4, (20, 2))
     z2 = z1 + rng.uniform(-3e3, 3e3, (20, 2))
-    pairs = [{"first": cartesian(*a), "second": cartesian(*b)}
-             for a, b in zip(z1, z2, strict=True)]
+    pairs = [
+        {"first": cartesian(*a), "second": cartesian(*b)} for a, b in zip(z1, z2, strict=True)
+    ]
     r = client.post("/v1/gates/pairs", json={"gate": COMBINED, "pairs": pairs})
     assert r.status_code == 200, r.text
     P = np.diag([1e4, 1e4])
-    expected = core.combined_gate(z1, P, z2, P, 5.0, 100.0, 500.0, 0.9)
+    expected = core.CombinedGate(100.0, 500.0, 0.9).test(z1, P, z2, P, 5.0)
     assert r.json()["inside"] == expected.inside.tolist()
     np.testing.assert_allclose(r.json()["statistic"], expected.statistic, rtol=1e-12)
 
@@ -75,8 +81,11 @@ TRACK_NEAR = polar(10_010.0, 45.01)  # within the errors of the first mark
     ids=["ring", "expanded", "combined", "ellipse", "rectangular", "sector", "first_assoc"],
 )
 def test_every_gate_kind_answers(client, gate, near):
-    body = {"gate": gate, "first": polar(10_000.0, 45.0),
-            "candidates": [near, polar(30_000.0, 200.0)]}
+    body = {
+        "gate": gate,
+        "first": polar(10_000.0, 45.0),
+        "candidates": [near, polar(30_000.0, 200.0)],
+    }
     r = client.post("/v1/gates/test", json=body)
     assert r.status_code == 200, r.text
     assert r.json()["kind"] == gate["kind"]
@@ -94,23 +103,28 @@ def _problem(r, status: int, field: str) -> dict:
 
 
 def _request(**changes) -> dict:
-    body = {"gate": COMBINED, "first": cartesian(0.0, 50_000.0),
-            "candidates": [cartesian(0.0, 51_000.0), cartesian(10.0, 51_000.0)]}
+    body = {
+        "gate": COMBINED,
+        "first": cartesian(0.0, 50_000.0),
+        "candidates": [cartesian(0.0, 51_000.0), cartesian(10.0, 51_000.0)],
+    }
     body.update(changes)
     return body
 
 
 def test_malformed_json(client):
-    r = client.post("/v1/gates/test", content=b'{"gate": ',
-                    headers={"content-type": "application/json"})
+    r = client.post(
+        "/v1/gates/test", content=b'{"gate": ', headers={"content-type": "application/json"}
+    )
     _problem(r, 400, "body")
 
 
 @pytest.mark.parametrize("token", ["NaN", "Infinity", "-Infinity"])
 def test_non_finite_tokens(client, token):
     text = json.dumps(_request()).replace("51000.0", token, 1)
-    r = client.post("/v1/gates/test", content=text.encode(),
-                    headers={"content-type": "application/json"})
+    r = client.post(
+        "/v1/gates/test", content=text.encode(), headers={"content-type": "application/json"}
+    )
     assert r.status_code in (400, 422)
     assert r.headers["content-type"].startswith("application/problem+json")
     if r.status_code == 422:
@@ -119,22 +133,30 @@ def test_non_finite_tokens(client, token):
 
 def test_negative_sigma(client):
     bad = polar(10_000.0, 10.0, sigma_r=-5.0)
-    _problem(client.post("/v1/gates/test", json=_request(candidates=[bad])), 422,
-             "candidates[0].polar.sigma_r")
+    _problem(
+        client.post("/v1/gates/test", json=_request(candidates=[bad])),
+        422,
+        "candidates[0].polar.sigma_r",
+    )
 
 
 @pytest.mark.parametrize(
     ("cov", "where"),
-    [([[1e4, 0.0], [0.0, -1e4]], ".cartesian.covariance[1][1]"),  # schema: variance > 0
-     ([[1e4, 2e4], [2e4, 1e4]], ".covariance"),  # core: indefinite
-     ([[1e4, 5.0], [0.0, 1e4]], ".covariance")],  # core: not symmetric
+    [
+        ([[1e4, 0.0], [0.0, -1e4]], ".cartesian.covariance[1][1]"),  # schema: variance > 0
+        ([[1e4, 2e4], [2e4, 1e4]], ".covariance"),  # core: indefinite
+        ([[1e4, 5.0], [0.0, 1e4]], ".covariance"),
+    ],  # core: not symmetric
     ids=["negative", "indefinite", "asymmetric"],
 )
 def test_bad_covariance(client, cov, where):
     bad = {"frame": "cartesian", "x": 0.0, "y": 51_000.0, "covariance": cov}
     good = cartesian(0.0, 51_000.0)
-    _problem(client.post("/v1/gates/test", json=_request(candidates=[good, bad])), 422,
-             "candidates[1]" + where)
+    _problem(
+        client.post("/v1/gates/test", json=_request(candidates=[good, bad])),
+        422,
+        "candidates[1]" + where,
+    )
     pair = {"first": good, "second": bad}
     r = client.post("/v1/gates/pairs", json={"gate": COMBINED, "pairs": [pair, pair]})
     _problem(r, 422, "pairs[0].second" + where)
@@ -175,7 +197,7 @@ def test_unknown_field(client):
 
 
 def test_oversize_array(client):
-    from service.schemas import MAX_PLOTS
+    from plotgate.service.schemas import MAX_PLOTS
 
     one = cartesian(0.0, 51_000.0)
     r = client.post("/v1/gates/test", json=_request(candidates=[one] * (MAX_PLOTS + 1)))
@@ -188,8 +210,11 @@ def test_empty_candidates(client):
 
 def test_expanded_gate_at_the_sensor(client):
     gate = {"kind": "expanded", "tau": 5.0, "v_max": 500.0}
-    _problem(client.post("/v1/gates/test", json=_request(gate=gate, first=cartesian(0.0, 0.0))),
-             422, "first")
+    _problem(
+        client.post("/v1/gates/test", json=_request(gate=gate, first=cartesian(0.0, 0.0))),
+        422,
+        "first",
+    )
 
 
 def test_unknown_route_and_method(client):
@@ -207,7 +232,7 @@ def test_health_and_readiness(client):
 
 
 def test_openapi_documents_every_operation(client):
-    from service.registry import OPERATIONS
+    from plotgate.service.registry import OPERATIONS
 
     spec = client.get("/openapi.json").json()
     for op in OPERATIONS.values():
@@ -226,19 +251,32 @@ def test_out_of_range_magnitudes(client):
     far = dict(cartesian(0.0, 51_000.0), x=2e9)
     _problem(client.post("/v1/gates/test", json=_request(first=far)), 422, "first.cartesian.x")
     close = polar(0.5, 10.0)
-    _problem(client.post("/v1/gates/test", json=_request(candidates=[close])), 422,
-             "candidates[0].polar.r")
+    _problem(
+        client.post("/v1/gates/test", json=_request(candidates=[close])),
+        422,
+        "candidates[0].polar.r",
+    )
 
 
 def test_numerically_singular_covariance(client):
-    thin = {"frame": "cartesian", "x": 0.0, "y": 51_000.0,
-            "covariance": [[1e-6, 0.0], [0.0, 1e12]]}
-    body = _problem(client.post("/v1/gates/test", json=_request(candidates=[thin])), 422,
-                    "candidates[0].covariance")
+    thin = {
+        "frame": "cartesian",
+        "x": 0.0,
+        "y": 51_000.0,
+        "covariance": [[1e-6, 0.0], [0.0, 1e12]],
+    }
+    body = _problem(
+        client.post("/v1/gates/test", json=_request(candidates=[thin])),
+        422,
+        "candidates[0].covariance",
+    )
     assert "numerically singular" in body["detail"]
 
 
 def test_sector_gate_refuses_a_plot_on_the_sensor(client):
-    body = {"gate": {"kind": "sector"}, "first": polar(10_000.0, 45.0),
-            "candidates": [cartesian(0.0, 0.2)]}
+    body = {
+        "gate": {"kind": "sector"},
+        "first": polar(10_000.0, 45.0),
+        "candidates": [cartesian(0.0, 0.2)],
+    }
     _problem(client.post("/v1/gates/test", json=body), 422, "candidates[0]")

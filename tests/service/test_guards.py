@@ -3,9 +3,9 @@
 import pytest
 from fastapi.testclient import TestClient
 
-from service.app import create_app
-from service.config import Settings
-from service.registry import OPERATIONS
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
+from plotgate.service.registry import OPERATIONS
 
 KEY, TOKEN = "k3y-0f-the-day", "t0ken-0f-the-day"
 
@@ -20,21 +20,24 @@ def _problem(r, status: int, kind: str, field: str) -> dict:
 
 
 def _client(tmp_path, **settings) -> TestClient:
-    return TestClient(create_app(Settings(log_dir=tmp_path / "rec", git_commit="test",
-                                          **settings)))
+    return TestClient(
+        create_app(Settings(log_dir=tmp_path / "rec", git_commit="test", **settings))
+    )
 
 
 def test_a_body_over_the_limit_is_refused_before_it_is_read(tmp_path):
     with _client(tmp_path, max_body_bytes=1000) as c:
-        r = c.post("/v1/gates/test", content=b"x" * 2000,
-                   headers={"content-type": "application/json", "x-request-id": "big-1"})
+        r = c.post(
+            "/v1/gates/test",
+            content=b"x" * 2000,
+            headers={"content-type": "application/json", "x-request-id": "big-1"},
+        )
         body = _problem(r, 413, "payload-too-large", "body")
         assert "at most 1000" in body["errors"][0]["reason"]
         assert r.headers["x-request-id"] == "big-1"
         # streamed without a Content-Length: refused as soon as it passes the limit
         chunks = (b"x" * 300 for _ in range(10))
-        r = c.post("/v1/gates/test", content=chunks,
-                   headers={"content-type": "application/json"})
+        r = c.post("/v1/gates/test", content=chunks, headers={"content-type": "application/json"})
         _problem(r, 413, "payload-too-large", "body")
         # under the limit the operation answers as usual (here: 422, not JSON)
         assert c.post("/v1/gates/test", content=b"{}").status_code == 422
@@ -44,16 +47,21 @@ def test_a_body_over_the_limit_is_refused_before_it_is_read(tmp_path):
 def test_every_operation_refuses_missing_or_wrong_credentials(tmp_path, op):
     path = OPERATIONS[op].path
     with _client(tmp_path, api_key=KEY, bearer_token=TOKEN) as c:
-        for headers in ({}, {"x-api-key": "wrong"}, {"authorization": "Bearer wrong"},
-                        {"authorization": f"Basic {TOKEN}"}):
+        for headers in (
+            {},
+            {"x-api-key": "wrong"},
+            {"authorization": "Bearer wrong"},
+            {"authorization": f"Basic {TOKEN}"},
+        ):
             r = c.post(path, json={}, headers=headers)
             _problem(r, 401, "unauthorized", "credentials")
             assert r.headers["www-authenticate"].startswith("Bearer")
         # the right key or token reaches the operation (which refuses the field: 422)
         odd = {"no_such_field": 1}
         assert c.post(path, json=odd, headers={"x-api-key": KEY}).status_code == 422
-        assert c.post(path, json=odd,
-                      headers={"authorization": f"Bearer {TOKEN}"}).status_code == 422
+        assert (
+            c.post(path, json=odd, headers={"authorization": f"Bearer {TOKEN}"}).status_code == 422
+        )
 
 
 def test_health_stays_open_and_the_key_is_never_recorded(tmp_path):
@@ -79,22 +87,27 @@ def test_metrics_count_requests_latencies_and_the_recorder(tmp_path):
     assert "plotgate_recorder_queue_depth 0.0" in text
     assert "plotgate_recorder_ready 1.0" in text
     assert "plotgate_recorder_flush_seconds_count" in text
-    written = [line for line in text.splitlines()
-               if line.startswith("plotgate_recorder_bytes_total")]
+    written = [
+        line for line in text.splitlines() if line.startswith("plotgate_recorder_bytes_total")
+    ]
     assert float(written[0].split()[-1]) > 0
 
 
 def test_every_response_carries_a_request_id(tmp_path):
     with _client(tmp_path, api_key=KEY, max_body_bytes=100) as c:
-        for method, path, kwargs in (("get", "/healthz", {}), ("get", "/metrics", {}),
-                                     ("get", "/nowhere", {}),
-                                     ("post", "/v1/gates/test", {"json": {}}),
-                                     ("post", "/v1/gates/test",
-                                      {"content": b"x" * 200, "headers": {"x-api-key": KEY}})):
+        for method, path, kwargs in (
+            ("get", "/healthz", {}),
+            ("get", "/metrics", {}),
+            ("get", "/nowhere", {}),
+            ("post", "/v1/gates/test", {"json": {}}),
+            ("post", "/v1/gates/test", {"content": b"x" * 200, "headers": {"x-api-key": KEY}}),
+        ):
             r = getattr(c, method)(path, **kwargs)
             assert len(r.headers["x-request-id"]) == 32  # a new id: none was sent
-            r = getattr(c, method)(path, **{**kwargs, "headers": {
-                **kwargs.get("headers", {}), "x-request-id": "given-1"}})
+            r = getattr(c, method)(
+                path,
+                **{**kwargs, "headers": {**kwargs.get("headers", {}), "x-request-id": "given-1"}},
+            )
             assert r.headers["x-request-id"] == "given-1"
             if r.status_code >= 400 and path != "/nowhere":
                 assert r.json()["request_id"] == "given-1"
@@ -108,19 +121,31 @@ def test_operators_cap_work_per_operation(tmp_path):
         r = c.post("/v1/initiation/evaluate", json={"runs": 20})
         body = _problem(r, 422, "invalid-input", "runs")
         assert "at most 10" in body["errors"][0]["reason"]
-        one = {"gate": {"kind": "ring", "tau": 5.0, "v_min": 0.0, "v_max": 100.0},
-               "first": {"frame": "cartesian", "x": 0.0, "y": 1000.0,
-                         "covariance": [[1.0, 0.0], [0.0, 1.0]]}}
+        one = {
+            "gate": {"kind": "ring", "tau": 5.0, "v_min": 0.0, "v_max": 100.0},
+            "first": {
+                "frame": "cartesian",
+                "x": 0.0,
+                "y": 1000.0,
+                "covariance": [[1.0, 0.0], [0.0, 1.0]],
+            },
+        }
         two = dict(one, candidates=[one["first"], one["first"]])
         _problem(c.post("/v1/gates/test", json=two), 422, "invalid-input", "candidates")
         single = c.post("/v1/gates/test", json=dict(one, candidates=[one["first"]]))
         assert single.status_code == 200
         spec = c.get("/openapi.json").json()["paths"]
         assert spec["/v1/initiation/evaluate"]["post"]["x-plotgate-limits"] == {
-            "runs": 10, "scenario.scans": None, "scenario.clutter": None}
+            "runs": 10,
+            "scenario.scans": None,
+            "scenario.clutter": None,
+        }
         assert spec["/v1/gates/pairs"]["post"]["x-plotgate-limits"] == {"pairs": None}
-    for bad in ({"no.such": {"runs": 1}}, {"initiation.evaluate": {"plots": 1}},
-                {"initiation.evaluate": {"runs": 0}}):
+    for bad in (
+        {"no.such": {"runs": 1}},
+        {"initiation.evaluate": {"plots": 1}},
+        {"initiation.evaluate": {"runs": 0}},
+    ):
         with pytest.raises(ValueError, match="PLOTGATE_LIMITS"):
             create_app(Settings(log_dir=tmp_path, limits=bad))
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core.initiation import (
+from plotgate.core.initiation import (
     PLOT_STRIDE,
     InitiationConfig,
     Initiators,
@@ -18,13 +18,13 @@ from core.initiation import (
     empty_state,
     initiate,
 )
-from core.initiation import state as core_state
-from core.initiation.simulate import seed_002_scenario, simulate
-from core.initiation.state_json import state_from_json
-from service.app import create_app
-from service.config import Settings
-from service.schemas import MAX_STATE_INITIATORS, MAX_STATE_TRACKS, SessionState
-from service.schemas import initiation_state as wire
+from plotgate.core.initiation import state as core_state
+from plotgate.core.initiation.simulate import mu_scenario, simulate
+from plotgate.core.initiation.state_json import state_from_json
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
+from plotgate.service.schemas import MAX_STATE_INITIATORS, MAX_STATE_TRACKS, SessionState
+from plotgate.service.schemas import initiation_state as wire
 from tests.conftest import answer, cartesian, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0}
@@ -40,11 +40,15 @@ def client(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def session(client) -> tuple[dict, list[dict]]:
-    """A real state after 3 scans of seed 002's scene (clutter 20), and the next scans."""
-    sim = answer(client.post("/v1/initiation/simulate", json={
-        "scenario": {"clutter": 20.0, "scans": 5}, "seed": 4}))
-    body = answer(client.post("/v1/initiation/initiate",
-                              json={"config": POLAR, "scans": sim["scans"][:3]}))
+    """A real state after 3 scans of Mu et al.'s scene (clutter 20), and the next scans."""
+    sim = answer(
+        client.post(
+            "/v1/initiation/simulate", json={"scenario": {"clutter": 20.0, "scans": 5}, "seed": 4}
+        )
+    )
+    body = answer(
+        client.post("/v1/initiation/initiate", json={"config": POLAR, "scans": sim["scans"][:3]})
+    )
     state = body["state"]
     assert len(state["tracks"]["id"]) >= 3 and len(state["initiators"]["plot"]) > INI
     assert not state["tracks"]["confirmed"][TRACK] and any(state["tracks"]["confirmed"])
@@ -52,19 +56,22 @@ def session(client) -> tuple[dict, list[dict]]:
 
 
 def _post(client, state, scans, config=POLAR):
-    return client.post("/v1/initiation/initiate",
-                       json={"config": config, "state": state, "scans": scans})
+    return client.post(
+        "/v1/initiation/initiate", json={"config": config, "state": state, "scans": scans}
+    )
 
 
 def _set(part: str, name: str, row: int, value) -> callable:
     def change(s: dict) -> None:
         s[part][name][row] = value(s[part][name][row]) if callable(value) else value
+
     return change
 
 
 def _top(name: str, value) -> callable:
     def change(s: dict) -> None:
         s[name] = value(s) if callable(value) else value
+
     return change
 
 
@@ -123,92 +130,176 @@ MUTATIONS = [
     # initiators
     ("initiator plot negative", _set("initiators", "plot", INI, -1), "state.initiators.plot[3]"),
     ("initiator plot 2**63", _set("initiators", "plot", INI, 2**63), "state.initiators.plot[3]"),
-    ("initiator plot of another scan", _set("initiators", "plot", INI, lambda v: v + PLOT_STRIDE),
-     "state.initiators.plot[3]"),
-    ("initiator plot twice", lambda s: s["initiators"]["plot"].__setitem__(
-        INI, s["initiators"]["plot"][INI - 1]), "state.initiators.plot[3]"),
+    (
+        "initiator plot of another scan",
+        _set("initiators", "plot", INI, lambda v: v + PLOT_STRIDE),
+        "state.initiators.plot[3]",
+    ),
+    (
+        "initiator plot twice",
+        lambda s: s["initiators"]["plot"].__setitem__(INI, s["initiators"]["plot"][INI - 1]),
+        "state.initiators.plot[3]",
+    ),
     ("initiator plot a track holds", _track_plot, "state.initiators.plot[3]"),
     ("initiator scan negative", _set("initiators", "scan", INI, -1), "state.initiators.scan[3]"),
-    ("initiator scan after the counter", _set("initiators", "scan", INI, 3),
-     "state.initiators.scan[3]"),
+    (
+        "initiator scan after the counter",
+        _set("initiators", "scan", INI, 3),
+        "state.initiators.scan[3]",
+    ),
     ("initiator time a string", _set("initiators", "t", INI, "now"), "state.initiators.t[3]"),
-    ("initiator time after the state", _set("initiators", "t", INI, lambda v: v + 1.0),
-     "state.initiators.t[3]"),
+    (
+        "initiator time after the state",
+        _set("initiators", "t", INI, lambda v: v + 1.0),
+        "state.initiators.t[3]",
+    ),
     ("initiator z short", _set("initiators", "z", INI, [1.0]), "state.initiators.z[3]"),
     ("initiator z huge", _set("initiators", "z", INI, [1e20, 0.0]), "state.initiators.z[3][0]"),
-    ("initiator R indefinite", _set("initiators", "R", INI, [[1.0, 2.0], [2.0, 1.0]]),
-     "state.initiators.R[3]"),
-    ("initiator R asymmetric", _set("initiators", "R", INI, [[1.0, 0.5], [0.0, 1.0]]),
-     "state.initiators.R[3]"),
-    ("initiator R thin", _set("initiators", "R", INI, [[1e-6, 0.0], [0.0, 1e12]]),
-     "state.initiators.R[3]"),
-    ("initiator sensor far", _set("initiators", "sensor", INI, [2e9, 0.0]),
-     "state.initiators.sensor[3][0]"),
+    (
+        "initiator R indefinite",
+        _set("initiators", "R", INI, [[1.0, 2.0], [2.0, 1.0]]),
+        "state.initiators.R[3]",
+    ),
+    (
+        "initiator R asymmetric",
+        _set("initiators", "R", INI, [[1.0, 0.5], [0.0, 1.0]]),
+        "state.initiators.R[3]",
+    ),
+    (
+        "initiator R thin",
+        _set("initiators", "R", INI, [[1e-6, 0.0], [0.0, 1e12]]),
+        "state.initiators.R[3]",
+    ),
+    (
+        "initiator sensor far",
+        _set("initiators", "sensor", INI, [2e9, 0.0]),
+        "state.initiators.sensor[3][0]",
+    ),
     ("initiator range at the sensor", _set("initiators", "r", INI, 0.5), "state.initiators.r[3]"),
-    ("initiator azimuth out of [-pi, pi]", _set("initiators", "az", INI, 4.0),
-     "state.initiators.az[3]"),
-    ("initiator sigma_r zero", _set("initiators", "sigma_r", INI, 0.0),
-     "state.initiators.sigma_r[3]"),
-    ("initiator sigma_az negative", _set("initiators", "sigma_az", INI, -1.0),
-     "state.initiators.sigma_az[3]"),
+    (
+        "initiator azimuth out of [-pi, pi]",
+        _set("initiators", "az", INI, 4.0),
+        "state.initiators.az[3]",
+    ),
+    (
+        "initiator sigma_r zero",
+        _set("initiators", "sigma_r", INI, 0.0),
+        "state.initiators.sigma_r[3]",
+    ),
+    (
+        "initiator sigma_az negative",
+        _set("initiators", "sigma_az", INI, -1.0),
+        "state.initiators.sigma_az[3]",
+    ),
     ("initiator times one short", _shorten("initiators", "t"), "state.initiators.t"),
     # tracks
     ("track id negative", _set("tracks", "id", TRACK, -1), "state.tracks.id[1]"),
-    ("track id repeated", lambda s: s["tracks"]["id"].__setitem__(TRACK, s["tracks"]["id"][0]),
-     "state.tracks.id[1]"),
+    (
+        "track id repeated",
+        lambda s: s["tracks"]["id"].__setitem__(TRACK, s["tracks"]["id"][0]),
+        "state.tracks.id[1]",
+    ),
     ("track id 2**63", _set("tracks", "id", TRACK, 2**63), "state.tracks.id[1]"),
     ("confirmed an integer", _set("tracks", "confirmed", TRACK, 1), "state.tracks.confirmed[1]"),
-    ("confirmed without a confirmation scan", _set("tracks", "confirmed", TRACK, True),
-     "state.tracks.confirmed_scan[1]"),
+    (
+        "confirmed without a confirmation scan",
+        _set("tracks", "confirmed", TRACK, True),
+        "state.tracks.confirmed_scan[1]",
+    ),
     ("x short", _set("tracks", "x", TRACK, [0.0, 0.0, 0.0]), "state.tracks.x[1]"),
     ("x huge", _set("tracks", "x", TRACK, [1e200, 0.0, 0.0, 0.0]), "state.tracks.x[1][0]"),
     ("P not positive definite", _not_spd, "state.tracks.P[1]"),
     ("P asymmetric", _asymmetric, "state.tracks.P[1]"),
     ("P a 3 x 3", _set("tracks", "P", TRACK, [[1.0, 0.0, 0.0]] * 3), "state.tracks.P[1][0]"),
-    ("track time off the state's", _set("tracks", "t", TRACK, lambda v: v - 1.0),
-     "state.tracks.t[1]"),
+    (
+        "track time off the state's",
+        _set("tracks", "t", TRACK, lambda v: v - 1.0),
+        "state.tracks.t[1]",
+    ),
     ("n negative", _set("tracks", "n", TRACK, -1), "state.tracks.n[1]"),
     ("n 2**63", _set("tracks", "n", TRACK, 2**63), "state.tracks.n[1]"),
     ("n more than its plots", _set("tracks", "n", TRACK, lambda v: v + 1), "state.tracks.n[1]"),
     ("first_scan negative", _set("tracks", "first_scan", TRACK, -1), "state.tracks.first_scan[1]"),
-    ("first_scan after the counter", _set("tracks", "first_scan", TRACK, 7),
-     "state.tracks.first_scan[1]"),
-    ("first_scan off its first plot", _set("tracks", "first_scan", TRACK, lambda v: v - 1),
-     "state.tracks.first_scan[1]"),
-    ("confirmed_scan below -1", _set("tracks", "confirmed_scan", TRACK, -2),
-     "state.tracks.confirmed_scan[1]"),
-    ("confirmed_scan on a tentative track", _set("tracks", "confirmed_scan", TRACK, 2),
-     "state.tracks.confirmed_scan[1]"),
+    (
+        "first_scan after the counter",
+        _set("tracks", "first_scan", TRACK, 7),
+        "state.tracks.first_scan[1]",
+    ),
+    (
+        "first_scan off its first plot",
+        _set("tracks", "first_scan", TRACK, lambda v: v - 1),
+        "state.tracks.first_scan[1]",
+    ),
+    (
+        "confirmed_scan below -1",
+        _set("tracks", "confirmed_scan", TRACK, -2),
+        "state.tracks.confirmed_scan[1]",
+    ),
+    (
+        "confirmed_scan on a tentative track",
+        _set("tracks", "confirmed_scan", TRACK, 2),
+        "state.tracks.confirmed_scan[1]",
+    ),
     ("misses negative", _set("tracks", "misses", TRACK, -5), "state.tracks.misses[1]"),
     ("misses 2**63", _set("tracks", "misses", TRACK, 2**63), "state.tracks.misses[1]"),
     ("misses beyond drop_misses", _set("tracks", "misses", TRACK, 5), "state.tracks.misses[1]"),
-    ("misses off its last plot", _set("tracks", "misses", TRACK, lambda v: v + 1),
-     "state.tracks.misses[1]"),
+    (
+        "misses off its last plot",
+        _set("tracks", "misses", TRACK, lambda v: v + 1),
+        "state.tracks.misses[1]",
+    ),
     ("cost negative", _set("tracks", "cost", TRACK, -1.0), "state.tracks.cost[1]"),
-    ("plot id beyond 2**52", _set("tracks", "plots", TRACK, lambda row: [*row[:-1], 2**60]),
-     "state.tracks.plots[1][7]"),
-    ("plot id below -1", _set("tracks", "plots", TRACK, lambda row: [-2, *row[1:]]),
-     "state.tracks.plots[1][0]"),
-    ("plot from a future scan", _set("tracks", "plots", TRACK,
-                                     lambda row: [*row[:-1], 9 * PLOT_STRIDE]),
-     "state.tracks.plots[1]"),
-    ("plots not from increasing scans", _set("tracks", "plots", TRACK,
-                                             lambda row: [*row[:-2], row[-1], row[-2]]),
-     "state.tracks.plots[1]"),
+    (
+        "plot id beyond 2**52",
+        _set("tracks", "plots", TRACK, lambda row: [*row[:-1], 2**60]),
+        "state.tracks.plots[1][7]",
+    ),
+    (
+        "plot id below -1",
+        _set("tracks", "plots", TRACK, lambda row: [-2, *row[1:]]),
+        "state.tracks.plots[1][0]",
+    ),
+    (
+        "plot from a future scan",
+        _set("tracks", "plots", TRACK, lambda row: [*row[:-1], 9 * PLOT_STRIDE]),
+        "state.tracks.plots[1]",
+    ),
+    (
+        "plots not from increasing scans",
+        _set("tracks", "plots", TRACK, lambda row: [*row[:-2], row[-1], row[-2]]),
+        "state.tracks.plots[1]",
+    ),
     ("a -1 after the first plot", _hole, "state.tracks.plots[1]"),
-    ("history one short", _set("tracks", "plots", TRACK, lambda row: row[1:]),
-     "state.tracks.plots[1]"),
-    ("history one wide", _set("tracks", "ranges", TRACK, lambda row: [None, *row]),
-     "state.tracks.ranges[1]"),
-    ("range null where a plot is",
-     _set("tracks", "ranges", TRACK, lambda row: [*row[:-1], None]), "state.tracks.ranges[1]"),
-    ("range at the sensor", _set("tracks", "ranges", TRACK, lambda row: [*row[:-1], 0.5]),
-     "state.tracks.ranges[1][7]"),
-    ("time after the state's", _set("tracks", "times", TRACK,
-                                    lambda row: [*row[:-1], row[-1] + 5.0]),
-     "state.tracks.times[1]"),
-    ("sigma_r zero", _set("tracks", "sigma_r", TRACK, lambda row: [*row[:-1], 0.0]),
-     "state.tracks.sigma_r[1][7]"),
+    (
+        "history one short",
+        _set("tracks", "plots", TRACK, lambda row: row[1:]),
+        "state.tracks.plots[1]",
+    ),
+    (
+        "history one wide",
+        _set("tracks", "ranges", TRACK, lambda row: [None, *row]),
+        "state.tracks.ranges[1]",
+    ),
+    (
+        "range null where a plot is",
+        _set("tracks", "ranges", TRACK, lambda row: [*row[:-1], None]),
+        "state.tracks.ranges[1]",
+    ),
+    (
+        "range at the sensor",
+        _set("tracks", "ranges", TRACK, lambda row: [*row[:-1], 0.5]),
+        "state.tracks.ranges[1][7]",
+    ),
+    (
+        "time after the state's",
+        _set("tracks", "times", TRACK, lambda row: [*row[:-1], row[-1] + 5.0]),
+        "state.tracks.times[1]",
+    ),
+    (
+        "sigma_r zero",
+        _set("tracks", "sigma_r", TRACK, lambda row: [*row[:-1], 0.0]),
+        "state.tracks.sigma_r[1][7]",
+    ),
     ("azimuth out of [-pi, pi]", _set("tracks", "az", TRACK, 7.0), "state.tracks.az[1]"),
     ("sigma_az zero", _set("tracks", "sigma_az", TRACK, 0.0), "state.tracks.sigma_az[1]"),
     ("sensor short", _set("tracks", "sensor", TRACK, [0.0]), "state.tracks.sensor[1]"),
@@ -217,8 +308,9 @@ MUTATIONS = [
 ]
 
 
-@pytest.mark.parametrize(("change", "field"), [m[1:] for m in MUTATIONS],
-                         ids=[m[0] for m in MUTATIONS])
+@pytest.mark.parametrize(
+    ("change", "field"), [m[1:] for m in MUTATIONS], ids=[m[0] for m in MUTATIONS]
+)
 def test_each_mutated_field_is_named(client, session, change, field):
     state, scans = session
     hostile = copy.deepcopy(state)
@@ -238,8 +330,11 @@ def test_non_finite_tokens_in_a_state_are_refused(client, session):
         text = json.dumps({"config": POLAR, "state": state, "scans": scans})
         cost = json.dumps(state["tracks"]["cost"][0])
         text = text.replace(f'"cost": [{cost}', f'"cost": [{token}', 1)
-        r = client.post("/v1/initiation/initiate", content=text.encode(),
-                        headers={"content-type": "application/json"})
+        r = client.post(
+            "/v1/initiation/initiate",
+            content=text.encode(),
+            headers={"content-type": "application/json"},
+        )
         assert r.status_code in (400, 422), r.text
         if r.status_code == 422:
             invalid_input(r, "state.tracks.cost[0]")
@@ -249,8 +344,33 @@ def test_random_mutations_never_fail_the_server(client, session):
     """Seeded: any field, any row, values from the edges; 422 naming a state field, or 200."""
     state, scans = session
     rnd = random.Random(12)
-    values = [-1, 0, 1, 2, 3, 2**31, 2**32, 2**52, 2**53, 2**63, -(2**63), 1e-300, -0.0,
-              0.5, 3.15, 1e9, 1e100, 1e300, -1e300, None, True, "x", [], [1.0], {}]
+    values = [
+        -1,
+        0,
+        1,
+        2,
+        3,
+        2**31,
+        2**32,
+        2**52,
+        2**53,
+        2**63,
+        -(2**63),
+        1e-300,
+        -0.0,
+        0.5,
+        3.15,
+        1e9,
+        1e100,
+        1e300,
+        -1e300,
+        None,
+        True,
+        "x",
+        [],
+        [1.0],
+        {},
+    ]
     statuses = set()
     for _ in range(150):
         hostile = copy.deepcopy(state)
@@ -280,8 +400,9 @@ def test_the_state_counts_against_the_work_cap(session, tmp_path):
     state, scans = session
     size = len(state["tracks"]["id"]) + len(state["initiators"]["plot"])
     assert size > 20
-    settings = Settings(log_dir=tmp_path, git_commit="test",
-                        limits={"initiation.initiate": {"state": 20}})
+    settings = Settings(
+        log_dir=tmp_path, git_commit="test", limits={"initiation.initiate": {"state": 20}}
+    )
     with TestClient(create_app(settings), raise_server_exceptions=False) as capped:
         body = invalid_input(_post(capped, state, scans), "state")
         assert f"is {size}" in body["detail"] and "at most 20" in body["detail"]
@@ -313,14 +434,23 @@ def test_a_call_that_would_hold_too_many_tracks_is_refused(client):
     """One initiator and MAX_STATE_TRACKS + 1 plots in its ring (branch): the scan would
     leave more live tracks than a state may carry, so the call stops there, naming it,
     rather than work on (or answer a state the next call could not take)."""
-    first = answer(client.post("/v1/initiation/initiate", json={
-        "config": {"v_max": 1e4}, "scans": [{"t": 0.0, "plots": [cartesian(0.0, 5e4)]}]}))
+    first = answer(
+        client.post(
+            "/v1/initiation/initiate",
+            json={"config": {"v_max": 1e4}, "scans": [{"t": 0.0, "plots": [cartesian(0.0, 5e4)]}]},
+        )
+    )
     rng = np.random.default_rng(1)
     xy = rng.uniform(-1000.0, 1000.0, (MAX_STATE_TRACKS + 1, 2)) + [0.0, 5e4]
     plots = [cartesian(float(x), float(y), 1.0, 1.0) for x, y in xy]
-    r = client.post("/v1/initiation/initiate", json={
-        "config": {"v_max": 1e4}, "state": first["state"],
-        "scans": [{"t": 1.0, "plots": plots}]})
+    r = client.post(
+        "/v1/initiation/initiate",
+        json={
+            "config": {"v_max": 1e4},
+            "state": first["state"],
+            "scans": [{"t": 1.0, "plots": plots}],
+        },
+    )
     body = invalid_input(r, "scans[0]")
     assert f"leaves {MAX_STATE_TRACKS + 1} live tracks" in body["detail"]
 
@@ -330,34 +460,59 @@ def test_a_call_that_would_answer_too_many_initiators_is_refused(client):
     captures: the answer's state would carry 50 initiators too many."""
     config = InitiationConfig(v_max=50.0, capture_scans=3)
     m = MAX_STATE_INITIATORS - 50
-    xy = np.column_stack([np.arange(m) % 1000 * 100.0 + 1e4, np.arange(m) // 1000 * 100.0
-                          + 1e4])
+    xy = np.column_stack([np.arange(m) % 1000 * 100.0 + 1e4, np.arange(m) // 1000 * 100.0 + 1e4])
     r = np.hypot(*xy.T)
-    ini = Initiators(plot=np.arange(m, dtype=np.int64), scan=np.zeros(m, dtype=np.int64),
-                     t=np.zeros(m), z=xy, R=np.tile(np.eye(2) * 100.0, (m, 1, 1)),
-                     sensor=np.zeros((m, 2)), r=r, az=np.arctan2(*xy.T),
-                     sigma_r=np.full(m, 10.0), sigma_az=10.0 / r)
+    ini = Initiators(
+        plot=np.arange(m, dtype=np.int64),
+        scan=np.zeros(m, dtype=np.int64),
+        t=np.zeros(m),
+        z=xy,
+        R=np.tile(np.eye(2) * 100.0, (m, 1, 1)),
+        sensor=np.zeros((m, 2)),
+        r=r,
+        az=np.arctan2(*xy.T),
+        sigma_r=np.full(m, 10.0),
+        sigma_az=10.0 / r,
+    )
     state = empty_state(config).replace(scans=1, t=0.0, initiators=ini)
     check_state(state, config)
     far = [cartesian(-5e5 + 1000.0 * j, -5e5) for j in range(100)]
-    body = invalid_input(client.post("/v1/initiation/initiate", json={
-        "config": {"v_max": 50.0, "capture_scans": 3}, "state": state.to_json(),
-        "scans": [{"t": 1.0, "plots": far}]}), "scans")
+    body = invalid_input(
+        client.post(
+            "/v1/initiation/initiate",
+            json={
+                "config": {"v_max": 50.0, "capture_scans": 3},
+                "state": state.to_json(),
+                "scans": [{"t": 1.0, "plots": far}],
+            },
+        ),
+        "scans",
+    )
     assert "state.initiators.plot" in body["detail"]
     assert str(MAX_STATE_INITIATORS) in body["detail"]
 
 
-@pytest.mark.parametrize(("interval", "field", "says"), [
-    (1e-300, "scans[1]", "beyond double precision"),  # tau^2 underflows: P_vv = inf
-    (1e-150, "scans", "state.tracks.x[0][2]"),  # v = 10 m / tau = 1e151 m/s: finite, absurd
-])
+@pytest.mark.parametrize(
+    ("interval", "field", "says"),
+    [
+        (1e-300, "scans[1]", "beyond double precision"),  # tau^2 underflows: P_vv = inf
+        (1e-150, "scans", "state.tracks.x[0][2]"),  # v = 10 m / tau = 1e151 m/s: finite, absurd
+    ],
+)
 def test_plots_too_close_in_time_for_a_velocity_are_refused(client, interval, field, says):
     """Two plots 10 m apart, tau seconds apart, in the expanded gate (10 m sigma): no
     numpy warning escapes, and no state beyond the schema's magnitudes is answered."""
-    scans = [{"t": 0.0, "plots": [cartesian(1000.0, 2000.0, 100.0, 100.0)]},
-             {"t": interval, "plots": [cartesian(1010.0, 2000.0, 100.0, 100.0)]}]
-    body = invalid_input(client.post("/v1/initiation/initiate", json={
-        "config": {"capture_gate": "expanded"}, "scans": scans}), field)
+    scans = [
+        {"t": 0.0, "plots": [cartesian(1000.0, 2000.0, 100.0, 100.0)]},
+        {"t": interval, "plots": [cartesian(1010.0, 2000.0, 100.0, 100.0)]},
+    ]
+    body = invalid_input(
+        client.post(
+            "/v1/initiation/initiate",
+            json={"config": {"capture_gate": "expanded"}, "scans": scans},
+        ),
+        field,
+    )
     assert says in body["detail"]
 
 
@@ -367,21 +522,40 @@ def test_schema_bounds_match_core():
     assert wire.MAX_PLOT_ID == core_state.MAX_SESSION_SCANS * PLOT_STRIDE
 
 
-@pytest.mark.parametrize("config", [
-    InitiationConfig(mode="polar", v_max=30.0),
-    InitiationConfig(v_max=30.0, capture_gate="combined"),
-    InitiationConfig(v_max=30.0, capture_gate="expanded", filter="alpha_beta",
-                     association="nearest"),
-    InitiationConfig(v_max=30.0, capture_scans=4, history=4, confirm_k=2, confirm_m=4,
-                     drop_misses=5, capture_time=None),
-    InitiationConfig(mode="polar", v_max=30.0, capture_time=2.5, confirm_k=4, confirm_m=6,
-                     history=6, drop_misses=3),
-], ids=["polar", "combined", "expanded-alpha-beta-nearest", "long-history", "polar-2-over-T"])
+@pytest.mark.parametrize(
+    "config",
+    [
+        InitiationConfig(mode="polar", v_max=30.0),
+        InitiationConfig(v_max=30.0, capture_gate="combined"),
+        InitiationConfig(
+            v_max=30.0, capture_gate="expanded", filter="alpha_beta", association="nearest"
+        ),
+        InitiationConfig(
+            v_max=30.0,
+            capture_scans=4,
+            history=4,
+            confirm_k=2,
+            confirm_m=4,
+            drop_misses=5,
+            capture_time=None,
+        ),
+        InitiationConfig(
+            mode="polar",
+            v_max=30.0,
+            capture_time=2.5,
+            confirm_k=4,
+            confirm_m=6,
+            history=6,
+            drop_misses=3,
+        ),
+    ],
+    ids=["polar", "combined", "expanded-alpha-beta-nearest", "long-history", "polar-2-over-T"],
+)
 def test_every_state_initiation_produces_passes_every_check(config):
     """After each of 12 scans of a cluttered scene (clutter 250, two seeds), the state
     passes the invariants and the wire schema: what a call answers, the next takes."""
     for seed in (0, 1):
-        sim = simulate(seed_002_scenario(250.0, scans=12), seed)
+        sim = simulate(mu_scenario(250.0, scans=12), seed)
         state = None
         for scan in sim.scans:
             state, _ = initiate(state, [scan], config)

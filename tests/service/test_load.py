@@ -6,8 +6,8 @@ from collections import Counter
 
 import httpx
 
-from clients.recordings import read_recording
-from tests.conftest import serve
+from plotgate.clients.recordings import read_recording
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 CLIENTS, EACH = 50, 12
@@ -23,8 +23,11 @@ def test_fifty_clients_every_exchange_recorded_once(tmp_path, mcap_check):
         with httpx.Client(base_url=url, timeout=60) as http:
             for i in range(EACH):
                 try:
-                    r = http.post("/v1/gates/test", content=body, headers={
-                        "content-type": "application/json", "x-request-id": f"c{k}-{i}"})
+                    r = http.post(
+                        "/v1/gates/test",
+                        content=body,
+                        headers={"content-type": "application/json", "x-request-id": f"c{k}-{i}"},
+                    )
                 except httpx.HTTPError as exc:  # pragma: no cover - the failure we test for
                     with lock:
                         errors.append(repr(exc))

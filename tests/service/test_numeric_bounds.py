@@ -1,6 +1,6 @@
 """Every numeric field of every operation, driven to its bounds and to IEEE extremes.
 
-Each operation starts from its OpenAPI example (:data:`service.schemas.examples.EXAMPLES`)
+Each operation starts from its OpenAPI example (:data:`plotgate.service.schemas.examples.EXAMPLES`)
 and the few variants below that reach the other branches of its schema (gate kinds, plot
 frames, optional fields). Every number in a base (its defaults included) is replaced, one
 at a time, by
@@ -17,7 +17,7 @@ the first segment of each field is a field of the request model (never a respons
 such as ``probability``).
 
 Runtime is kept bounded (under a minute on two cores) in two ways. Requests run
-in-process through :func:`service.registry.execute`, as the HTTP route runs them. And
+in-process through :func:`plotgate.service.registry.execute`, as the HTTP route runs them. And
 each operation runs under ``PLOTGATE_LIMITS``-style caps (:data:`CAPS`) on its declared
 work sizes, so driving a work-size field (Monte Carlo ``runs``, ``scenario.scans``,
 ``scenario.clutter``) to its bound answers a quick 422 naming it instead of computing
@@ -40,12 +40,11 @@ from typing import Any
 import pytest
 from pydantic import BaseModel
 
-from service.registry import OPERATIONS, execute
+from plotgate.service.registry import OPERATIONS, execute
 
 Path = tuple[str | int, ...]
 
-SPECIALS = [0.0, 5e-324, 2.2250738585072014e-308, 1e-300, 1e-160, 1e300,
-            1.7976931348623157e308]
+SPECIALS = [0.0, 5e-324, 2.2250738585072014e-308, 1e-300, 1e-160, 1e300, 1.7976931348623157e308]
 FLOATS = SPECIALS + [-x for x in SPECIALS]
 INTS = [0, -1, 2**63]
 
@@ -63,10 +62,21 @@ CAPS: dict[str, dict[str, int]] = {
 
 # --- bases: the example and the variants reaching the rest of each schema ----------------
 
-_POLAR = {"frame": "polar", "r": 20_000.0, "az_deg": 30.0, "sigma_r": 100.0,
-          "sigma_az_deg": 0.3, "sensor": [100.0, -50.0]}
-_CARTESIAN = {"frame": "cartesian", "x": 1000.0, "y": 20_000.0,
-              "covariance": [[4e4, 1e3], [1e3, 9e4]], "sensor": [0.0, 0.0]}
+_POLAR = {
+    "frame": "polar",
+    "r": 20_000.0,
+    "az_deg": 30.0,
+    "sigma_r": 100.0,
+    "sigma_az_deg": 0.3,
+    "sensor": [100.0, -50.0],
+}
+_CARTESIAN = {
+    "frame": "cartesian",
+    "x": 1000.0,
+    "y": 20_000.0,
+    "covariance": [[4e4, 1e3], [1e3, 9e4]],
+    "sensor": [0.0, 0.0],
+}
 _GATES = [
     {"kind": "ring", "tau": 5.0, "v_min": 100.0, "v_max": 500.0},
     {"kind": "expanded", "tau": 5.0, "v_max": 500.0, "p": 0.9},
@@ -85,8 +95,14 @@ _REGIONS = [
     {"kind": "sector", "K_R": 3.0, "K_az": 3.0, "offset": [300.0, -200.0]},
     {"kind": "first_association", "v_max": 500.0, "K_R": 3.0, "K_az": 3.0},
 ]
-_MARK2 = {"r": 30_000.0, "az_deg": 45.0, "sigma_r": 150.0, "sigma_az_deg": 0.4,
-          "sigma_r2": 120.0, "sigma_az2_deg": 0.3}
+_MARK2 = {
+    "r": 30_000.0,
+    "az_deg": 45.0,
+    "sigma_r": 150.0,
+    "sigma_az_deg": 0.4,
+    "sigma_r2": 120.0,
+    "sigma_az2_deg": 0.3,
+}
 _VELOCITY = {"speed": 300.0, "course_deg": 30.0}
 _PRIOR = {"kind": "speed", "v_min": 100.0, "v_max": 500.0}
 _TX = [0.0, 0.0]
@@ -105,27 +121,35 @@ def _conditional(op: str) -> list[Variant]:
     if op == "gates.probability":
         return [_with(gate=g, mark=_MARK2, prior=None, velocity=_VELOCITY) for g in _REGIONS]
     if op == "gates.probability_curve":
-        return [*(_with(gate=g, mark=_MARK2) for g in _REGIONS),
-                _with(against="range", values=[20_000.0, 40_000.0], speed=300.0),
-                _with(against="range", values=[50_000.0], prior=_PRIOR)]
+        return [
+            *(_with(gate=g, mark=_MARK2) for g in _REGIONS),
+            _with(against="range", values=[20_000.0, 40_000.0], speed=300.0),
+            _with(against="range", values=[50_000.0], prior=_PRIOR),
+        ]
     return [_with(gate=g, mark=_MARK2, prior=None) for g in _REGIONS]  # gates.analysis
 
 
 def _platforms(example: dict[str, Any], times: int) -> dict[str, Any]:
     """Moving and per-sample platforms, several transmitters and sigmas."""
-    return {**example, "transmitter": None,
-            "transmitters": [{"positions": [[10.0, 20.0]] * times},
-                             {"position": [0.0, 0.0]}, {"position": [-20.0, 5.0]}],
-            "receivers": [{"position": p, "velocity": [1.0, 2.0]} for p in _RX],
-            "sigma": None, "sigmas": [0.5, 0.6, 0.7]}
+    return {
+        **example,
+        "transmitter": None,
+        "transmitters": [
+            {"positions": [[10.0, 20.0]] * times},
+            {"position": [0.0, 0.0]},
+            {"position": [-20.0, 5.0]},
+        ],
+        "receivers": [{"position": p, "velocity": [1.0, 2.0]} for p in _RX],
+        "sigma": None,
+        "sigmas": [0.5, 0.6, 0.7],
+    }
 
 
 def _state(example: dict[str, Any]) -> dict[str, Any]:
     """initiation.initiate continuing the state its example returns."""
     answer = execute(OPERATIONS["initiation.initiate"], json.dumps(example).encode())
     assert answer.status == 200, answer.content
-    return {**example, "state": answer.json()["state"],
-            "scans": [{"t": 3.0, "plots": [_POLAR]}]}
+    return {**example, "state": answer.json()["state"], "scans": [{"t": 3.0, "plots": [_POLAR]}]}
 
 
 _POLAR_CONFIG = {"mode": "polar", "capture_time": 2.0, "K_R": 3.0, "K_az": 3.0}
@@ -135,47 +159,86 @@ def _polar_state(example: dict[str, Any]) -> dict[str, Any]:
     """Continuing a polar session's state: a track with its ranges and times, and a plot
     far from it still waiting as an initiator."""
     far = {**_POLAR, "r": _POLAR["r"] + 5000.0}
-    return _state({**example, "config": _POLAR_CONFIG,
-                   "scans": [{"t": 0.0, "plots": [_POLAR]}, {"t": 1.0, "plots": [_POLAR]},
-                             {"t": 2.0, "plots": [_POLAR, far]}]})
+    return _state(
+        {
+            **example,
+            "config": _POLAR_CONFIG,
+            "scans": [
+                {"t": 0.0, "plots": [_POLAR]},
+                {"t": 1.0, "plots": [_POLAR]},
+                {"t": 2.0, "plots": [_POLAR, far]},
+            ],
+        }
+    )
 
 
 VARIANTS: dict[str, list[Variant]] = {
     "gates.test": [_with(gate=g, first=_CARTESIAN, candidates=[_POLAR]) for g in _GATES],
-    "gates.pairs": [_with(gate=g, pairs=[{"first": _POLAR, "second": _CARTESIAN}])
-                    for g in _GATES],
+    "gates.pairs": [
+        _with(gate=g, pairs=[{"first": _POLAR, "second": _CARTESIAN}]) for g in _GATES
+    ],
     "gates.probability": _conditional("gates.probability"),
     "gates.probability_curve": _conditional("gates.probability_curve"),
     "gates.analysis": _conditional("gates.analysis"),
-    "gates.design": [_with(gate={"kind": "combined", "v_min": 0.0, "v_max": 300.0,
-                                 "P_G": 0.9}, mark=_MARK2)],
-    "solves.position": [lambda e: {**e, "problems": [{
-        "range_sums": e["problems"][0]["range_sums"], "transmitters": [_TX] * 3,
-        "receivers": _RX, "sigmas": [0.5, 0.5, 0.5], "initial": [3100.0, 3900.0]}]}],
+    "gates.design": [
+        _with(gate={"kind": "combined", "v_min": 0.0, "v_max": 300.0, "P_G": 0.9}, mark=_MARK2)
+    ],
+    "solves.position": [
+        lambda e: {
+            **e,
+            "problems": [
+                {
+                    "range_sums": e["problems"][0]["range_sums"],
+                    "transmitters": [_TX] * 3,
+                    "receivers": _RX,
+                    "sigmas": [0.5, 0.5, 0.5],
+                    "initial": [3100.0, 3900.0],
+                }
+            ],
+        }
+    ],
     "solves.trajectory": [
-        lambda e: {**_platforms(e, 4), "initial": {"position": [3000.0, 4000.0],
-                                                    "velocity": [50.0, -20.0]}}],
+        lambda e: {
+            **_platforms(e, 4),
+            "initial": {"position": [3000.0, 4000.0], "velocity": [50.0, -20.0]},
+        }
+    ],
     "solves.crlb": [
-        _with(targets=None, track={"position": [3000.0, 4000.0], "velocity": [50.0, -20.0]},
-              sample_times=[0.0, 1.0, 2.0], measurements="difference"),
+        _with(
+            targets=None,
+            track={"position": [3000.0, 4000.0], "velocity": [50.0, -20.0]},
+            sample_times=[0.0, 1.0, 2.0],
+            measurements="difference",
+        ),
         lambda e: {**_platforms(e, 2), "sample_times": [0.0, 1.0]},
     ],
     "solves.study": [
-        _with(transmitter={"position": [0.0, 0.0], "velocity": [5.0, -3.0]},
-              receivers=[{"positions": [[10_000.0, 0.0]] * 4},
-                         {"position": [0.0, 10_000.0], "velocity": [1.0, 2.0]},
-                         {"position": [-8000.0, -6000.0]}], tracks=False),
+        _with(
+            transmitter={"position": [0.0, 0.0], "velocity": [5.0, -3.0]},
+            receivers=[
+                {"positions": [[10_000.0, 0.0]] * 4},
+                {"position": [0.0, 10_000.0], "velocity": [1.0, 2.0]},
+                {"position": [-8000.0, -6000.0]},
+            ],
+            tracks=False,
+        ),
     ],
     "initiation.initiate": [
-        _with(config=_POLAR_CONFIG,
-              scans=[{"t": 0.0, "plots": [_POLAR]}, {"t": 1.0, "plots": [_POLAR]}]),
+        _with(
+            config=_POLAR_CONFIG,
+            scans=[{"t": 0.0, "plots": [_POLAR]}, {"t": 1.0, "plots": [_POLAR]}],
+        ),
         _state,
         _polar_state,
     ],
     "initiation.evaluate": [_with(config={"capture_time": 2.0, "K_R": 3.0, "K_az": 3.0})],
     "identification.pair": [
-        _with(sigma_deg=0.2, passive_elevations_deg=[1.0, 1.2, 0.9, 1.1, 1.0, 0.8],
-              active_elevations_deg=[1.0, 1.1], sigma_elevation_deg=0.1),
+        _with(
+            sigma_deg=0.2,
+            passive_elevations_deg=[1.0, 1.2, 0.9, 1.1, 1.0, 0.8],
+            active_elevations_deg=[1.0, 1.1],
+            sigma_elevation_deg=0.1,
+        ),
     ],
     "identification.picture": [_with(sigma_deg=[0.2, 0.3])],
 }
@@ -210,11 +273,16 @@ def _leaves(model: BaseModel, body: dict[str, Any]) -> Iterator[Leaf]:
             yield path, model, field, path[depth:], data
         elif isinstance(node, BaseModel):
             for field in type(node).model_fields:
-                yield from walk(getattr(node, field), data[field], (*path, field),
-                                (type(node).__name__, field, len(path) + 1))
+                yield from walk(
+                    getattr(node, field),
+                    data[field],
+                    (*path, field),
+                    (type(node).__name__, field, len(path) + 1),
+                )
         elif isinstance(data, list) and data:
-            numbers = all(x is None or isinstance(x, int | float) and not isinstance(x, bool)
-                          for x in data)  # a numeric row, gaps (null) allowed
+            numbers = all(
+                x is None or isinstance(x, int | float) and not isinstance(x, bool) for x in data
+            )  # a numeric row, gaps (null) allowed
             every = isinstance(node, tuple) or numbers
             for i in range(len(data) if every else 1):
                 yield from walk(node[i], data[i], (*path, i), owner)
@@ -227,8 +295,11 @@ def _number_schema(schema: dict[str, Any], rest: Path, value: Any) -> dict[str, 
     for key in ("anyOf", "oneOf"):
         if key in schema:
             want = "array" if rest else ("integer" if isinstance(value, int) else "number")
-            branches = [b for b in schema[key] if b.get("type") in
-                        ({want, "number"} if want == "integer" else {want})]
+            branches = [
+                b
+                for b in schema[key]
+                if b.get("type") in ({want, "number"} if want == "integer" else {want})
+            ]
             return _number_schema(branches[0], rest, value)
     if not rest:
         return schema
@@ -237,8 +308,9 @@ def _number_schema(schema: dict[str, Any], rest: Path, value: Any) -> dict[str, 
     return _number_schema(item, rest[1:], value)
 
 
-def _bounds(schemas: dict[str, dict[str, Any]], model: str, field: str, rest: Path,
-            value: Any) -> dict[str, Any]:
+def _bounds(
+    schemas: dict[str, dict[str, Any]], model: str, field: str, rest: Path, value: Any
+) -> dict[str, Any]:
     """The schema of a leaf: its type and bounds."""
     return _number_schema(schemas[model]["properties"][field], rest, value)
 
@@ -247,8 +319,12 @@ def _values(schema: dict[str, Any], value: Any) -> list[Any]:
     """The values a number is driven to: IEEE extremes and the schema's own bounds."""
     integer = isinstance(value, int) and schema.get("type") != "number"
     out: list[Any] = list(INTS) if integer else list(FLOATS)
-    for key, inward in (("minimum", 1), ("exclusiveMinimum", 1), ("maximum", -1),
-                        ("exclusiveMaximum", -1)):
+    for key, inward in (
+        ("minimum", 1),
+        ("exclusiveMinimum", 1),
+        ("maximum", -1),
+        ("exclusiveMaximum", -1),
+    ):
         if key not in schema:
             continue
         bound = schema[key]
@@ -256,8 +332,11 @@ def _values(schema: dict[str, Any], value: Any) -> list[Any]:
             out += [bound - 1, bound, bound + 1]
         else:
             bound = float(bound)
-            out += [bound, math.nextafter(bound, inward * math.inf),
-                    math.nextafter(bound, -inward * math.inf)]
+            out += [
+                bound,
+                math.nextafter(bound, inward * math.inf),
+                math.nextafter(bound, -inward * math.inf),
+            ]
     return list(dict.fromkeys(out))
 
 
@@ -289,8 +368,12 @@ def _numeric(schema: Any) -> bool:
 
 
 def _numeric_fields(request: type[BaseModel]) -> set[tuple[str, str]]:
-    return {(model, field) for model, schema in _model_schemas(request).items()
-            for field, prop in schema.get("properties", {}).items() if _numeric(prop)}
+    return {
+        (model, field)
+        for model, schema in _model_schemas(request).items()
+        for field, prop in schema.get("properties", {}).items()
+        if _numeric(prop)
+    }
 
 
 # --- the test ------------------------------------------------------------------------------
@@ -330,8 +413,12 @@ def _drive(name: str) -> set[tuple[str, str]]:
                 elif outcome.status >= 400:
                     problem = outcome.json()
                     fields = [e["field"] for e in problem.get("errors", [])]
-                    if (outcome.error is None or problem["status"] != outcome.status
-                            or not fields or not {_top(f) for f in fields} <= request_fields):
+                    if (
+                        outcome.error is None
+                        or problem["status"] != outcome.status
+                        or not fields
+                        or not {_top(f) for f in fields} <= request_fields
+                    ):
                         failures.append(f"{where}: {outcome.status} names {fields}")
     assert not failures, f"{len(failures)} bad answers:\n" + "\n".join(failures[:40])
     return mutated

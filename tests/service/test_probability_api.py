@@ -1,4 +1,4 @@
-"""Gating probabilities, curves, analysis and design over HTTP (seed 000, eq. 1-6).
+"""Gating probabilities, curves, analysis and design over HTTP (Konovalov, eq. 1-6).
 
 Numbers are checked against core called directly and against the paper's worked
 example (tau 5 s, v 100..500 m/s, sigma_r 200 m, sigma_az 0.5 deg); bad input answers a
@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-import core
-from clients.cli import main
-from clients.recordings import read_recording
-from service.app import create_app
-from service.config import Settings
-from service.schemas import MAX_CURVE_POINTS, MAX_UNCONDITIONAL_POINTS, Mark
+from plotgate import core
+from plotgate.clients.cli import main
+from plotgate.clients.recordings import read_recording
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
+from plotgate.service.schemas import MAX_CURVE_POINTS, MAX_UNCONDITIONAL_POINTS, Mark
 from tests.conftest import answer, invalid_input
 
 TAU = 5.0
@@ -40,34 +40,45 @@ def _velocity(speed, course_deg):
 
 
 def _probability(**changes) -> dict:
-    return {"gate": RING, "mark": MARK, "tau": TAU, "velocity": {"speed": 200.0},
-            **changes}
+    return {"gate": RING, "mark": MARK, "tau": TAU, "velocity": {"speed": 200.0}, **changes}
 
 
 # --- gates.probability -----------------------------------------------------------------
 
 
 def test_paper_ring_gate_unconditional(client):
-    # seed 000: ring gate, area prior, R = 50 km -> 0.82
-    body = answer(client.post("/v1/gates/probability",
-                           json={"gate": RING, "mark": MARK, "tau": TAU, "prior": AREA}))
+    # Konovalov: ring gate, area prior, R = 50 km -> 0.82
+    body = answer(
+        client.post(
+            "/v1/gates/probability", json={"gate": RING, "mark": MARK, "tau": TAU, "prior": AREA}
+        )
+    )
     assert body["conditional"] is False
     assert body["probability"] == pytest.approx(0.82, abs=0.01)
     assert body["error"] < 1e-6
-    expected = core.unconditional_probability(core.RingGate(100.0, 500.0), _geometry(),
-                                              100.0, 500.0, "area")
+    expected = core.unconditional_probability(
+        core.RingGate(100.0, 500.0), _geometry(), 100.0, 500.0, "area"
+    )
     assert body["probability"] == pytest.approx(expected.probability[0], abs=1e-12)
 
 
 def test_conditional_matches_core(client):
     mark = dict(MARK, az_deg=20.0, sigma_r2=300.0, sigma_az2_deg=0.25)
-    body = answer(client.post("/v1/gates/probability", json=_probability(
-        gate=COMBINED, mark=mark, velocity={"speed": 450.0, "course_deg": 30.0})))
+    body = answer(
+        client.post(
+            "/v1/gates/probability",
+            json=_probability(
+                gate=COMBINED, mark=mark, velocity={"speed": 450.0, "course_deg": 30.0}
+            ),
+        )
+    )
     assert body["conditional"] is True
-    geometry = core.mark_geometry(50_000.0, np.radians(20.0), 200.0, SIGMA_AZ, TAU,
-                                  300.0, np.radians(0.25))
-    expected = core.conditional_probability(core.CombinedGate(100.0, 500.0, 0.9), geometry,
-                                            _velocity(450.0, 30.0))
+    geometry = core.mark_geometry(
+        50_000.0, np.radians(20.0), 200.0, SIGMA_AZ, TAU, 300.0, np.radians(0.25)
+    )
+    expected = core.conditional_probability(
+        core.CombinedGate(100.0, 500.0, 0.9), geometry, _velocity(450.0, 30.0)
+    )
     assert body["probability"] == pytest.approx(expected.probability[0], abs=1e-12)
     assert body["error"] == pytest.approx(expected.error[0], abs=1e-15)
 
@@ -77,28 +88,41 @@ def test_course_is_clockwise_from_north(client):
     speed, course = 300.0, 60.0
     offset = [float(x) for x in _velocity(speed, course) * TAU]
     gate = {"kind": "ellipse", "P_G": 0.9, "offset": offset}
-    body = answer(client.post("/v1/gates/probability", json=_probability(
-        gate=gate, velocity={"speed": speed, "course_deg": course})))
+    body = answer(
+        client.post(
+            "/v1/gates/probability",
+            json=_probability(gate=gate, velocity={"speed": speed, "course_deg": course}),
+        )
+    )
     assert body["probability"] == pytest.approx(0.9, abs=1e-9)
 
 
 @pytest.mark.parametrize(
     "gate",
-    [{"kind": "expanded", "v_max": 500.0, "p": 0.9},
-     {"kind": "rectangular", "k": 3.0, "offset": [500.0, 800.0]},
-     {"kind": "sector", "K_R": 3.0, "K_az": 3.0, "offset": [500.0, 800.0]},
-     {"kind": "first_association", "v_max": 500.0, "K_R": 3.0, "K_az": 3.0}],
+    [
+        {"kind": "expanded", "v_max": 500.0, "p": 0.9},
+        {"kind": "rectangular", "k": 3.0, "offset": [500.0, 800.0]},
+        {"kind": "sector", "K_R": 3.0, "K_az": 3.0, "offset": [500.0, 800.0]},
+        {"kind": "first_association", "v_max": 500.0, "K_R": 3.0, "K_az": 3.0},
+    ],
     ids=lambda g: g["kind"],
 )
 def test_every_gate_kind(client, gate):
-    body = answer(client.post("/v1/gates/probability", json=_probability(
-        gate=gate, velocity={"speed": 190.0, "course_deg": 32.0})))
-    kinds = {"expanded": lambda: core.ExpandedGate(500.0, 0.9),
-             "rectangular": lambda: core.RectangularGate(3.0, (500.0, 800.0)),
-             "sector": lambda: core.SectorGate(3.0, 3.0, (500.0, 800.0)),
-             "first_association": lambda: core.FirstAssociationGate(500.0, 3.0, 3.0)}
-    expected = core.conditional_probability(kinds[gate["kind"]](), _geometry(),
-                                            _velocity(190.0, 32.0))
+    body = answer(
+        client.post(
+            "/v1/gates/probability",
+            json=_probability(gate=gate, velocity={"speed": 190.0, "course_deg": 32.0}),
+        )
+    )
+    kinds = {
+        "expanded": lambda: core.ExpandedGate(500.0, 0.9),
+        "rectangular": lambda: core.RectangularGate(3.0, (500.0, 800.0)),
+        "sector": lambda: core.SectorGate(3.0, 3.0, (500.0, 800.0)),
+        "first_association": lambda: core.FirstAssociationGate(500.0, 3.0, 3.0),
+    }
+    expected = core.conditional_probability(
+        kinds[gate["kind"]](), _geometry(), _velocity(190.0, 32.0)
+    )
     assert body["probability"] == pytest.approx(expected.probability[0], abs=1e-12)
     assert 0.5 < body["probability"] < 1.0
 
@@ -107,14 +131,22 @@ def test_every_gate_kind(client, gate):
 
 
 def _curve(**changes) -> dict:
-    return {"gate": RING, "mark": MARK, "tau": TAU, "against": "speed",
-            "values": [100.0, 200.0, 300.0, 400.0, 500.0], "course_deg": 0.0, **changes}
+    return {
+        "gate": RING,
+        "mark": MARK,
+        "tau": TAU,
+        "against": "speed",
+        "values": [100.0, 200.0, 300.0, 400.0, 500.0],
+        "course_deg": 0.0,
+        **changes,
+    }
 
 
 def test_speed_curve_matches_core(client):
     speeds = [50.0, 100.0, 250.0, 499.0, 600.0]
-    body = answer(client.post("/v1/gates/probability/curve",
-                           json=_curve(values=speeds, course_deg=45.0)))
+    body = answer(
+        client.post("/v1/gates/probability/curve", json=_curve(values=speeds, course_deg=45.0))
+    )
     assert body["against"] == "speed" and body["conditional"] is True
     assert body["values"] == speeds
     gate = core.RingGate(100.0, 500.0)
@@ -127,8 +159,14 @@ def test_speed_curve_matches_core(client):
 
 def test_range_curve_conditional_matches_core(client):
     ranges = [5_000.0, 20_000.0, 50_000.0, 100_000.0]
-    body = answer(client.post("/v1/gates/probability/curve", json=_curve(
-        gate=COMBINED, against="range", values=ranges, speed=300.0, course_deg=90.0)))
+    body = answer(
+        client.post(
+            "/v1/gates/probability/curve",
+            json=_curve(
+                gate=COMBINED, against="range", values=ranges, speed=300.0, course_deg=90.0
+            ),
+        )
+    )
     assert body["conditional"] is True and body["values"] == ranges
     gate = core.CombinedGate(100.0, 500.0, 0.9)
     for r, p in zip(ranges, body["probability"], strict=True):
@@ -137,9 +175,13 @@ def test_range_curve_conditional_matches_core(client):
 
 
 def test_range_curve_unconditional_paper_values(client):
-    # seed 000: ring gate, area prior: 0.90 at 20 km, 0.82 at 50 km
-    body = answer(client.post("/v1/gates/probability/curve", json=_curve(
-        against="range", values=[20_000.0, 50_000.0], prior=AREA)))
+    # Konovalov: ring gate, area prior: 0.90 at 20 km, 0.82 at 50 km
+    body = answer(
+        client.post(
+            "/v1/gates/probability/curve",
+            json=_curve(against="range", values=[20_000.0, 50_000.0], prior=AREA),
+        )
+    )
     assert body["conditional"] is False
     assert body["probability"] == pytest.approx([0.90, 0.82], abs=0.01)
     assert max(body["error"]) < 1e-6
@@ -149,8 +191,14 @@ def test_range_curve_unconditional_paper_values(client):
 
 
 def _analysis(**changes) -> dict:
-    return {"gate": COMBINED, "mark": MARK, "tau": TAU, "resolution": RESOLUTION,
-            "false_alarm": 1e-4, **changes}
+    return {
+        "gate": COMBINED,
+        "mark": MARK,
+        "tau": TAU,
+        "resolution": RESOLUTION,
+        "false_alarm": 1e-4,
+        **changes,
+    }
 
 
 def test_analysis_combined_gate(client):
@@ -162,21 +210,22 @@ def test_analysis_combined_gate(client):
     assert body["area"] == pytest.approx(area[0], rel=1e-12)
     assert body["cells"] == pytest.approx(cells[0], rel=1e-12)
     assert body["false_marks"]["mean"] == pytest.approx(1e-4 * cells[0], rel=1e-12)
-    np.testing.assert_allclose(body["false_marks"]["probabilities"], marks.probabilities[0],
-                               rtol=1e-12)
-    assert body["false_marks"]["at_least_one"] == pytest.approx(marks.at_least_one[0],
-                                                                rel=1e-12)
+    np.testing.assert_allclose(
+        body["false_marks"]["probabilities"], marks.probabilities[0], rtol=1e-12
+    )
+    assert body["false_marks"]["at_least_one"] == pytest.approx(marks.at_least_one[0], rel=1e-12)
     # the paper's approximation S_ring + S_e / 2: about 31 cells, P(>= 1) = 0.0031
     approx = body["approximation"]
     assert approx["area"] == pytest.approx(
-        core.combined_area_approximation(gate, geometry)[0], rel=1e-12)
+        core.combined_area_approximation(gate, geometry)[0], rel=1e-12
+    )
     assert approx["cells"] == pytest.approx(31.0, abs=0.5)
     assert approx["false_marks"]["at_least_one"] == pytest.approx(0.0031, abs=5e-5)
     assert body["gate_probability"] is None and body["capture"] is None
 
 
 def test_analysis_expanded_gate_paper_cells(client):
-    # seed 000: the expanded gate (p = 0.9) covers about 49 cells, P(>= 1) = 0.0049
+    # Konovalov: the expanded gate (p = 0.9) covers about 49 cells, P(>= 1) = 0.0049
     gate = {"kind": "expanded", "v_max": 500.0, "p": 0.9}
     body = answer(client.post("/v1/gates/analysis", json=_analysis(gate=gate)))
     assert body["cells"] == pytest.approx(49.0, abs=1.0)
@@ -186,8 +235,11 @@ def test_analysis_expanded_gate_paper_cells(client):
 
 
 def test_analysis_with_prior_gives_capture(client):
-    body = answer(client.post("/v1/gates/analysis", json=_analysis(
-        gate=RING, prior=AREA, P_D1=0.9, P_D2=0.8)))
+    body = answer(
+        client.post(
+            "/v1/gates/analysis", json=_analysis(gate=RING, prior=AREA, P_D1=0.9, P_D2=0.8)
+        )
+    )
     assert body["gate_probability"] == pytest.approx(0.82, abs=0.01)
     assert body["error"] < 1e-6
     assert body["capture"] == pytest.approx(body["gate_probability"] * 0.72, rel=1e-12)
@@ -198,8 +250,15 @@ def test_analysis_with_prior_gives_capture(client):
 
 
 def _design(**changes) -> dict:
-    return {"gate": {"kind": "combined", "v_min": 100.0, "v_max": 500.0}, "mark": MARK,
-            "tau": TAU, "capture": 0.99, "prior": AREA, "resolution": RESOLUTION, **changes}
+    return {
+        "gate": {"kind": "combined", "v_min": 100.0, "v_max": 500.0},
+        "mark": MARK,
+        "tau": TAU,
+        "capture": 0.99,
+        "prior": AREA,
+        "resolution": RESOLUTION,
+        **changes,
+    }
 
 
 def test_design_combined_gate(client):
@@ -219,8 +278,10 @@ def test_design_combined_gate(client):
 
 @pytest.mark.parametrize(
     "changes",
-    [{"capture": 0.95, "P_D1": 0.9},  # above P_D1 P_D2: unreachable
-     {"capture": 0.5}],  # the ring alone already gives 0.82
+    [
+        {"capture": 0.95, "P_D1": 0.9},  # above P_D1 P_D2: unreachable
+        {"capture": 0.5},
+    ],  # the ring alone already gives 0.82
     ids=["unreachable", "first-stage-suffices"],
 )
 def test_design_capture_out_of_reach(client, changes):
@@ -237,8 +298,9 @@ def test_design_takes_only_combined_or_expanded(client):
 
 def test_v_min_above_v_max_in_the_gate(client):
     gate = dict(RING, v_min=600.0)
-    body = invalid_input(client.post("/v1/gates/probability", json=_probability(gate=gate)),
-                    "gate.v_min")
+    body = invalid_input(
+        client.post("/v1/gates/probability", json=_probability(gate=gate)), "gate.v_min"
+    )
     assert "600" in body["detail"]
     r = client.post("/v1/gates/analysis", json=_analysis(gate=dict(COMBINED, v_min=600.0)))
     invalid_input(r, "gate.v_min")
@@ -246,10 +308,12 @@ def test_v_min_above_v_max_in_the_gate(client):
 
 @pytest.mark.parametrize(
     ("path", "body"),
-    [("/v1/gates/probability", {"gate": RING, "mark": MARK, "tau": TAU}),
-     ("/v1/gates/probability/curve", _curve(against="range", values=[5e4])),
-     ("/v1/gates/analysis", _analysis()),
-     ("/v1/gates/design", _design())],
+    [
+        ("/v1/gates/probability", {"gate": RING, "mark": MARK, "tau": TAU}),
+        ("/v1/gates/probability/curve", _curve(against="range", values=[5e4])),
+        ("/v1/gates/analysis", _analysis()),
+        ("/v1/gates/design", _design()),
+    ],
     ids=["probability", "curve", "analysis", "design"],
 )
 def test_v_min_above_v_max_in_the_prior(client, path, body):
@@ -263,15 +327,21 @@ def test_v_min_above_v_max_in_the_prior(client, path, body):
 @pytest.mark.parametrize("P_G", [0.0, 1.0, 1.5, -0.1])
 def test_probability_outside_unit_interval(client, P_G):
     gate = dict(COMBINED, P_G=P_G)
-    invalid_input(client.post("/v1/gates/probability", json=_probability(gate=gate)),
-                  "gate.combined.P_G")
+    invalid_input(
+        client.post("/v1/gates/probability", json=_probability(gate=gate)), "gate.combined.P_G"
+    )
     invalid_input(client.post("/v1/gates/design", json=_design(gate=gate)), "gate.combined.P_G")
 
 
 @pytest.mark.parametrize(
     ("field", "value", "where"),
-    [("capture", 1.0, "capture"), ("capture", 0.0, "capture"), ("P_D1", 0.0, "P_D1"),
-     ("P_D2", 1.2, "P_D2"), ("false_alarm", 0.0, "false_alarm")],
+    [
+        ("capture", 1.0, "capture"),
+        ("capture", 0.0, "capture"),
+        ("P_D1", 0.0, "P_D1"),
+        ("P_D2", 1.2, "P_D2"),
+        ("false_alarm", 0.0, "false_alarm"),
+    ],
 )
 def test_design_probabilities_outside_unit_interval(client, field, value, where):
     invalid_input(client.post("/v1/gates/design", json=_design(**{field: value})), where)
@@ -279,13 +349,20 @@ def test_design_probabilities_outside_unit_interval(client, field, value, where)
 
 @pytest.mark.parametrize(
     ("field", "value"),
-    [("sigma_r", 0.0), ("sigma_r", -5.0), ("sigma_az_deg", 0.0), ("sigma_az_deg", -0.5),
-     ("sigma_r2", 0.0), ("sigma_az2_deg", -1.0)],
+    [
+        ("sigma_r", 0.0),
+        ("sigma_r", -5.0),
+        ("sigma_az_deg", 0.0),
+        ("sigma_az_deg", -0.5),
+        ("sigma_r2", 0.0),
+        ("sigma_az2_deg", -1.0),
+    ],
 )
 def test_zero_or_negative_sigma(client, field, value):
     mark = dict(MARK, **{field: value})
-    invalid_input(client.post("/v1/gates/probability", json=_probability(mark=mark)),
-                  f"mark.{field}")
+    invalid_input(
+        client.post("/v1/gates/probability", json=_probability(mark=mark)), f"mark.{field}"
+    )
     invalid_input(client.post("/v1/gates/analysis", json=_analysis(mark=mark)), f"mark.{field}")
 
 
@@ -299,11 +376,17 @@ def test_tau_not_positive(client, tau):
 @pytest.mark.parametrize("token", ["NaN", "Infinity", "-Infinity"])
 @pytest.mark.parametrize(
     ("path", "body", "marker", "field"),
-    [("/v1/gates/probability", _probability(tau=1234.5), "1234.5", "tau"),
-     ("/v1/gates/probability", _probability(velocity={"speed": 1234.5}), "1234.5",
-      "velocity.speed"),
-     ("/v1/gates/probability/curve", _curve(values=[100.0, 1234.5]), "1234.5", "values[1]"),
-     ("/v1/gates/analysis", _analysis(mark=dict(MARK, r=1234.5)), "1234.5", "mark.r")],
+    [
+        ("/v1/gates/probability", _probability(tau=1234.5), "1234.5", "tau"),
+        (
+            "/v1/gates/probability",
+            _probability(velocity={"speed": 1234.5}),
+            "1234.5",
+            "velocity.speed",
+        ),
+        ("/v1/gates/probability/curve", _curve(values=[100.0, 1234.5]), "1234.5", "values[1]"),
+        ("/v1/gates/analysis", _analysis(mark=dict(MARK, r=1234.5)), "1234.5", "mark.r"),
+    ],
     ids=["tau", "speed", "curve-value", "range"],
 )
 def test_non_finite_numbers(client, token, path, body, marker, field):
@@ -317,8 +400,9 @@ def test_gate_carries_no_tau(client):
     invalid_input(client.post("/v1/gates/probability", json=body), "gate.ring.tau")
 
 
-@pytest.mark.parametrize("given", [{}, {"velocity": {"speed": 200.0}, "prior": AREA}],
-                         ids=["neither", "both"])
+@pytest.mark.parametrize(
+    "given", [{}, {"velocity": {"speed": 200.0}, "prior": AREA}], ids=["neither", "both"]
+)
 def test_exactly_one_of_velocity_and_prior(client, given):
     body = {"gate": RING, "mark": MARK, "tau": TAU, **given}
     problem = invalid_input(client.post("/v1/gates/probability", json=body), "velocity")
@@ -327,16 +411,26 @@ def test_exactly_one_of_velocity_and_prior(client, given):
 
 @pytest.mark.parametrize(
     ("changes", "field"),
-    [({"speed": 200.0}, "speed"),
-     ({"prior": AREA}, "prior"),
-     ({"against": "range", "values": [5e4]}, "speed"),
-     ({"against": "range", "values": [5e4], "speed": 200.0, "prior": AREA}, "prior"),
-     ({"against": "range", "values": [5e4, 0.5], "speed": 200.0}, "values[1]"),
-     ({"values": [100.0, 2e6]}, "values[1]"),
-     ({"values": []}, "values"),
-     ({"against": "altitude"}, "against")],
-    ids=["speed-given", "prior-given", "neither", "both", "range-too-small",
-         "speed-too-large", "empty", "unknown-against"],
+    [
+        ({"speed": 200.0}, "speed"),
+        ({"prior": AREA}, "prior"),
+        ({"against": "range", "values": [5e4]}, "speed"),
+        ({"against": "range", "values": [5e4], "speed": 200.0, "prior": AREA}, "prior"),
+        ({"against": "range", "values": [5e4, 0.5], "speed": 200.0}, "values[1]"),
+        ({"values": [100.0, 2e6]}, "values[1]"),
+        ({"values": []}, "values"),
+        ({"against": "altitude"}, "against"),
+    ],
+    ids=[
+        "speed-given",
+        "prior-given",
+        "neither",
+        "both",
+        "range-too-small",
+        "speed-too-large",
+        "empty",
+        "unknown-against",
+    ],
 )
 def test_curve_rules(client, changes, field):
     invalid_input(client.post("/v1/gates/probability/curve", json=_curve(**changes)), field)
@@ -358,78 +452,122 @@ def test_numerically_singular_mark(client):
     # r sigma_az / sigma_r above 10^6: B cannot be used (core names B)
     mark = dict(MARK, sigma_r=1e-3, sigma_az_deg=1e-3, r=1e8)
     invalid_input(client.post("/v1/gates/probability", json=_probability(mark=mark)), "mark")
-    body = _curve(against="range", values=[5e4, 1e8], speed=200.0,
-                  mark=dict(mark, r=5e4))
+    body = _curve(against="range", values=[5e4, 1e8], speed=200.0, mark=dict(mark, r=5e4))
     invalid_input(client.post("/v1/gates/probability/curve", json=body), "values[1]")
 
 
 # --- the unconditional quadrature's work: the axis ratio of B ---------------------------
 
 
-@pytest.mark.parametrize(("r", "sigma_r", "sigma_az_deg", "sigma_r2", "sigma_az2_deg"), [
-    (50_000.0, 200.0, 0.5, None, None), (50_000.0, 1e-3, 0.5, 20.0, None),
-    (1.0, 200.0, 1e-6, None, 3.0), (1e9, 5.0, 180.0, 1e9, 1e-6)])
+@pytest.mark.parametrize(
+    ("r", "sigma_r", "sigma_az_deg", "sigma_r2", "sigma_az2_deg"),
+    [
+        (50_000.0, 200.0, 0.5, None, None),
+        (50_000.0, 1e-3, 0.5, 20.0, None),
+        (1.0, 200.0, 1e-6, None, 3.0),
+        (1e9, 5.0, 180.0, 1e9, 1e-6),
+    ],
+)
 def test_axis_ratio_is_that_of_cores_B(r, sigma_r, sigma_az_deg, sigma_r2, sigma_az2_deg):
-    mark = Mark(r=r, az_deg=33.0, sigma_r=sigma_r, sigma_az_deg=sigma_az_deg,
-                sigma_r2=sigma_r2, sigma_az2_deg=sigma_az2_deg)
-    g = core.mark_geometry(r, math.radians(33.0), sigma_r, math.radians(sigma_az_deg), TAU,
-                           sigma_r2, None if sigma_az2_deg is None
-                           else math.radians(sigma_az2_deg))
+    mark = Mark(
+        r=r,
+        az_deg=33.0,
+        sigma_r=sigma_r,
+        sigma_az_deg=sigma_az_deg,
+        sigma_r2=sigma_r2,
+        sigma_az2_deg=sigma_az2_deg,
+    )
+    g = core.mark_geometry(
+        r,
+        math.radians(33.0),
+        sigma_r,
+        math.radians(sigma_az_deg),
+        TAU,
+        sigma_r2,
+        None if sigma_az2_deg is None else math.radians(sigma_az2_deg),
+    )
     B = np.array([[g.B.xx[0], g.B.xy[0]], [g.B.xy[0], g.B.yy[0]]])
     lam = np.linalg.eigvalsh(B)  # exact enough below a ratio of ~1e6
     if lam[0] > 1e-12 * lam[1]:
         assert mark.axis_ratio() == pytest.approx(math.sqrt(lam[1] / lam[0]), rel=1e-6)
-    along = sigma_r**2 + (sigma_r if sigma_r2 is None else sigma_r2)**2
-    assert mark.axis_ratio()**2 == pytest.approx(max(along, np.trace(B) - along)
-                                                 / min(along, np.trace(B) - along), rel=1e-6)
+    along = sigma_r**2 + (sigma_r if sigma_r2 is None else sigma_r2) ** 2
+    assert mark.axis_ratio() ** 2 == pytest.approx(
+        max(along, np.trace(B) - along) / min(along, np.trace(B) - along), rel=1e-6
+    )
 
 
 def test_operators_cap_the_axis_ratio_of_unconditional_probabilities(tmp_path):
-    limits = {name: {"mark.axis_ratio": 10} for name in
-              ("gates.probability", "gates.probability_curve", "gates.analysis",
-               "gates.design")}
+    limits = {
+        name: {"mark.axis_ratio": 10}
+        for name in (
+            "gates.probability",
+            "gates.probability_curve",
+            "gates.analysis",
+            "gates.design",
+        )
+    }
     thin = dict(MARK, sigma_r=1.0)  # B: 617 m by 1.4 m sigmas, a ratio of 437: minutes
     with TestClient(create_app(Settings(log_dir=tmp_path, limits=limits))) as c:
-        body = invalid_input(c.post("/v1/gates/probability", json={
-            "gate": RING, "mark": thin, "tau": TAU, "prior": AREA}), "mark.axis_ratio")
+        body = invalid_input(
+            c.post(
+                "/v1/gates/probability",
+                json={"gate": RING, "mark": thin, "tau": TAU, "prior": AREA},
+            ),
+            "mark.axis_ratio",
+        )
         assert "is 437; this server allows at most 10" in body["detail"]
         invalid_input(c.post("/v1/gates/design", json=_design(mark=thin)), "mark.axis_ratio")
-        invalid_input(c.post("/v1/gates/analysis", json=_analysis(mark=thin, prior=AREA)),
-                      "mark.axis_ratio")
+        invalid_input(
+            c.post("/v1/gates/analysis", json=_analysis(mark=thin, prior=AREA)), "mark.axis_ratio"
+        )
         # conditional probabilities and areas cost milliseconds at any ratio: not capped
         answer(c.post("/v1/gates/probability", json=_probability(mark=thin)))
         answer(c.post("/v1/gates/analysis", json=_analysis(mark=thin)))
         answer(c.post("/v1/gates/probability/curve", json=_curve(mark=thin)))
         spec = c.get("/openapi.json").json()["paths"]
-        assert spec["/v1/gates/design"]["post"]["x-plotgate-limits"] == {
-            "mark.axis_ratio": 10}
+        assert spec["/v1/gates/design"]["post"]["x-plotgate-limits"] == {"mark.axis_ratio": 10}
 
 
 # --- recording and replay --------------------------------------------------------------
 
 SESSION = [
     ("p-cond", "/v1/gates/probability", _probability(gate=COMBINED)),
-    ("p-uncond", "/v1/gates/probability", {"gate": RING, "mark": MARK, "tau": TAU,
-                                           "prior": AREA}),
+    ("p-uncond", "/v1/gates/probability", {"gate": RING, "mark": MARK, "tau": TAU, "prior": AREA}),
     ("curve", "/v1/gates/probability/curve", _curve(values=[100.0, 300.0, 600.0])),
     ("analysis", "/v1/gates/analysis", _analysis()),
-    ("design", "/v1/gates/design",
-     _design(gate={"kind": "expanded", "v_max": 500.0}, capture=0.9, P_D1=0.99)),
+    (
+        "design",
+        "/v1/gates/design",
+        _design(gate={"kind": "expanded", "v_max": 500.0}, capture=0.9, P_D1=0.99),
+    ),
     ("bad", "/v1/gates/probability", _probability(gate=dict(RING, v_min=600.0))),
 ]
 
 
 def test_session_is_recorded_and_replays(settings, tmp_path, capsys):
     with TestClient(create_app(settings)) as c:
-        statuses = {rid: c.post(path, json=body, headers={"x-request-id": rid}).status_code
-                    for rid, path, body in SESSION}
-    assert statuses == {"p-cond": 200, "p-uncond": 200, "curve": 200, "analysis": 200,
-                        "design": 200, "bad": 422}
+        statuses = {
+            rid: c.post(path, json=body, headers={"x-request-id": rid}).status_code
+            for rid, path, body in SESSION
+        }
+    assert statuses == {
+        "p-cond": 200,
+        "p-uncond": 200,
+        "curve": 200,
+        "analysis": 200,
+        "design": 200,
+        "bad": 422,
+    }
     [path] = sorted(settings.log_dir.glob("*.mcap"))
     ops = {e.request_id: e.operation for e in read_recording(path).exchanges}
-    assert ops == {"p-cond": "gates.probability", "p-uncond": "gates.probability",
-                   "curve": "gates.probability_curve", "analysis": "gates.analysis",
-                   "design": "gates.design", "bad": "gates.probability"}
+    assert ops == {
+        "p-cond": "gates.probability",
+        "p-uncond": "gates.probability",
+        "curve": "gates.probability_curve",
+        "analysis": "gates.analysis",
+        "design": "gates.design",
+        "bad": "gates.probability",
+    }
 
     report = tmp_path / "report.json"
     assert main(["replay", str(path), "--report", str(report)]) == 0
@@ -438,6 +576,5 @@ def test_session_is_recorded_and_replays(settings, tmp_path, capsys):
     capsys.readouterr()
     assert main(["inspect", str(path)]) == 0
     out = capsys.readouterr().out
-    for op in ("gates.probability", "gates.probability_curve", "gates.analysis",
-               "gates.design"):
+    for op in ("gates.probability", "gates.probability_curve", "gates.analysis", "gates.design"):
         assert op in out

@@ -5,10 +5,10 @@ replay of its original."""
 import pytest
 from fastapi.testclient import TestClient
 
-from clients.recordings import read_recording
-from service.app import create_app
-from service.registry import OPERATIONS
-from service.schemas import Problem, request_schema, response_schema
+from plotgate.clients.recordings import read_recording
+from plotgate.service.app import create_app
+from plotgate.service.registry import OPERATIONS
+from plotgate.service.schemas import Problem, request_schema, response_schema
 from tests.service.test_recording import GOOD
 
 
@@ -60,8 +60,12 @@ def test_the_independent_reader_sees_typed_bodies(settings, mcap_check):
 
 def test_a_replay_is_recorded_as_a_replay_of_its_original(settings):
     with TestClient(create_app(settings)) as c:
-        for rid, replay_of in (("first", None), ("again", "first"), ("odd", "not an id"),
-                               ("long", "x" * 200)):
+        for rid, replay_of in (
+            ("first", None),
+            ("again", "first"),
+            ("odd", "not an id"),
+            ("long", "x" * 200),
+        ):
             headers = {"x-request-id": rid}
             if replay_of is not None:
                 headers["x-plotgate-replay-of"] = replay_of

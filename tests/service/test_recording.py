@@ -8,16 +8,22 @@ from fastapi.testclient import TestClient
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from clients.cli import main
-from service.app import create_app
-from service.config import Settings
+from plotgate.clients.cli import main
+from plotgate.service.app import create_app
+from plotgate.service.config import Settings
 from tests.conftest import cartesian
 
-GOOD = {"gate": {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0},
-        "first": cartesian(0.0, 50_000.0),
-        "candidates": [cartesian(0.0, 51_000.0), cartesian(0.0, 52_600.0)]}
-BAD_COV = dict(GOOD, candidates=[{"frame": "cartesian", "x": 0.0, "y": 5e4,
-                                  "covariance": [[1.0, 2.0], [2.0, 1.0]]}])
+GOOD = {
+    "gate": {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0},
+    "first": cartesian(0.0, 50_000.0),
+    "candidates": [cartesian(0.0, 51_000.0), cartesian(0.0, 52_600.0)],
+}
+BAD_COV = dict(
+    GOOD,
+    candidates=[
+        {"frame": "cartesian", "x": 0.0, "y": 5e4, "covariance": [[1.0, 2.0], [2.0, 1.0]]}
+    ],
+)
 
 
 def _session(settings: Settings, n: int = 12) -> list[str]:
@@ -35,8 +41,14 @@ def _session(settings: Settings, n: int = 12) -> list[str]:
                 content = json.dumps(GOOD).encode()
             path = "/v1/gates/pairs" if i == 7 else "/v1/gates/test"
             if i == 7:
-                content = json.dumps({"gate": GOOD["gate"], "pairs": [
-                    {"first": GOOD["first"], "second": c_} for c_ in GOOD["candidates"]]}).encode()
+                content = json.dumps(
+                    {
+                        "gate": GOOD["gate"],
+                        "pairs": [
+                            {"first": GOOD["first"], "second": c_} for c_ in GOOD["candidates"]
+                        ],
+                    }
+                ).encode()
             c.post(path, content=content, headers=headers)
             ids.append(rid)
     return ids
@@ -59,8 +71,9 @@ def test_every_exchange_is_recorded(settings, mcap_check):
     assert responses["req-2"]["status"] == 400 and responses["req-5"]["status"] == 422
     assert responses["req-5"]["error"]["errors"][0]["field"] == "candidates[0].covariance"
     assert responses["req-0"]["result"]["inside"] == [True, True]
-    request_2 = next(d for t, d in messages
-                     if t.endswith("/request") and d["request_id"] == "req-2")
+    request_2 = next(
+        d for t, d in messages if t.endswith("/request") and d["request_id"] == "req-2"
+    )
     assert request_2["raw"] == '{"gate": {"kind": "combined", '
     assert {s.encoding for s in summary.schemas.values()} == {"jsonschema"}
     assert {c.message_encoding for c in summary.channels.values()} == {"json"}
@@ -89,8 +102,12 @@ def test_replay_unchanged_then_changed(settings, tmp_path, capsys):
     assert "req-4" in out and "statistic[1]" in out and "1 changed" in out
 
     failing = tmp_path / "failing.mcap"
-    _rewrite(path, failing, "req-5",
-             lambda d: d["error"]["errors"][0].__setitem__("field", "first.covariance"))
+    _rewrite(
+        path,
+        failing,
+        "req-5",
+        lambda d: d["error"]["errors"][0].__setitem__("field", "first.covariance"),
+    )
     assert main(["replay", str(failing)]) == 1
     assert "req-5" in capsys.readouterr().out
 
@@ -141,14 +158,20 @@ def _rewrite(src: Path, dst: Path, request_id: str, change) -> None:
         channels: dict[int, int] = {}
         for schema, channel, message in make_reader(f).iter_messages():
             if schema.id not in schemas:
-                schemas[schema.id] = writer.register_schema(schema.name, schema.encoding,
-                                                            schema.data)
+                schemas[schema.id] = writer.register_schema(
+                    schema.name, schema.encoding, schema.data
+                )
             if channel.id not in channels:
                 channels[channel.id] = writer.register_channel(
-                    channel.topic, channel.message_encoding, schemas[schema.id])
+                    channel.topic, channel.message_encoding, schemas[schema.id]
+                )
             data = json.loads(message.data)
             if channel.topic.endswith("/response") and data["request_id"] == request_id:
                 change(data)
-            writer.add_message(channels[channel.id], message.log_time,
-                               json.dumps(data).encode(), message.publish_time)
+            writer.add_message(
+                channels[channel.id],
+                message.log_time,
+                json.dumps(data).encode(),
+                message.publish_time,
+            )
         writer.finish()

@@ -14,8 +14,8 @@ import time
 
 import httpx
 
-from clients.recordings import read_recording
-from tests.conftest import serve
+from plotgate.clients.recordings import read_recording
+from tests.servers import serve
 from tests.service.test_recording import GOOD
 
 HALF_SENT = 300
@@ -24,8 +24,10 @@ DEADLINE_S = 1.0
 
 def _half_sent(port: int, i: int) -> socket.socket:
     body = json.dumps(GOOD).encode()
-    head = (f"POST /v1/gates/test HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\n"
-            f"x-request-id: half-{i}\r\ncontent-length: {len(body)}\r\n\r\n").encode()
+    head = (
+        f"POST /v1/gates/test HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\n"
+        f"x-request-id: half-{i}\r\ncontent-length: {len(body)}\r\n\r\n"
+    ).encode()
     conn = socket.create_connection(("127.0.0.1", port))
     conn.sendall(head + body[: len(body) // 2])
     return conn
@@ -60,8 +62,9 @@ def test_half_sent_bodies_are_answered_408_and_dropped_after_the_deadline(tmp_pa
         problem = json.loads(body)
         assert problem["type"] == "urn:plotgate:problem:request-timeout"
         assert problem["errors"][0]["field"] == "body"
-    recorded = {ex.request_id: ex for f in tmp_path.glob("*.mcap")
-                for ex in read_recording(f).exchanges}
+    recorded = {
+        ex.request_id: ex for f in tmp_path.glob("*.mcap") for ex in read_recording(f).exchanges
+    }
     for i in range(HALF_SENT):
         exchange = recorded[f"half-{i}"]
         assert exchange.response["status"] == 408

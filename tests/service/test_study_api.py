@@ -10,47 +10,58 @@ import pytest
 from fastapi.testclient import TestClient
 from pydantic import ValidationError
 
-from clients import AsyncClient
-from clients.cli import main
-from clients.recordings import read_recording
-from clients.study import DEFAULT_REQUEST, checks, table
-from core.multistatic import accuracy_study, platform_positions
-from service.app import create_app
-from service.schemas import MAX_STUDY_RUNS, StudyRequest
+from plotgate.clients import AsyncClient
+from plotgate.clients.cli import main
+from plotgate.clients.recordings import read_recording
+from plotgate.clients.study import DEFAULT_REQUEST, checks, table
+from plotgate.core.multistatic import accuracy_study, platform_positions
+from plotgate.service.app import create_app
+from plotgate.service.schemas import MAX_STUDY_RUNS, StudyRequest
 from tests.conftest import answer, invalid_input
-from tests.service.test_solves_api import _finite
+from tests.service.test_solves_api import assert_finite
 
 TIMES = [0.0, 0.5, 1.0, 1.5, 2.0, 2.5]
 BODY = {
     "transmitter": {"position": [9900.0, 1000.0], "velocity": [-5.0, 8.66]},
-    "receivers": [{"position": [150.0, -500.0], "velocity": [5.0, 8.66]},
-                  {"position": [600.0, 1000.0]},
-                  {"positions": [[150.0, 2500.0 + 10.0 * k] for k in range(6)]}],
+    "receivers": [
+        {"position": [150.0, -500.0], "velocity": [5.0, 8.66]},
+        {"position": [600.0, 1000.0]},
+        {"positions": [[150.0, 2500.0 + 10.0 * k] for k in range(6)]},
+    ],
     "target": {"position": [5000.0, 500.0], "velocity": [0.0, 80.0]},
     "sample_times": [100.0 + t for t in TIMES],
-    "sigma": 0.5, "runs": 50, "seed": 3,
+    "sigma": 0.5,
+    "runs": 50,
+    "seed": 3,
 }
 
 
 def test_study_is_cores_study(client):
     body = answer(client.post("/v1/solves/study", json=BODY))
-    _finite(body)
+    assert_finite(body)
     t = np.array(BODY["sample_times"])
     tx = platform_positions([9900.0, 1000.0], [-5.0, 8.66], t, t0=t[0])[:, None]
-    rx = np.stack([platform_positions([150.0, -500.0], [5.0, 8.66], t, t0=t[0]),
-                   np.broadcast_to([600.0, 1000.0], (6, 2)),
-                   np.array(BODY["receivers"][2]["positions"])], axis=1)
+    rx = np.stack(
+        [
+            platform_positions([150.0, -500.0], [5.0, 8.66], t, t0=t[0]),
+            np.broadcast_to([600.0, 1000.0], (6, 2)),
+            np.array(BODY["receivers"][2]["positions"]),
+        ],
+        axis=1,
+    )
     s = accuracy_study(t, tx, rx, [5000.0, 500.0], [0.0, 80.0], 0.5, 50, 3)
     samples = body["samples"]
     assert body["runs"] == 50 and body["seed"] == 3 and len(samples) == 6
     assert body["noise_sigma"] == pytest.approx(s.noise_sigma[0], rel=1e-12)
     for key in ("ml_single", "sum_range", "difference_range", "linearised"):
         np.testing.assert_allclose([r[key] for r in samples], s.rmse[key], rtol=1e-12)
-    np.testing.assert_allclose([r["ml_track"] for r in samples[1:]], s.rmse["ml_track"][1:],
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        [r["ml_track"] for r in samples[1:]], s.rmse["ml_track"][1:], rtol=1e-12
+    )
     assert samples[0]["ml_track"] is None and samples[0]["max_track_distance"] is None
-    np.testing.assert_allclose([r["crlb_accumulated"] for r in samples], s.crlb_accumulated,
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        [r["crlb_accumulated"] for r in samples], s.crlb_accumulated, rtol=1e-12
+    )
     assert [r["inconsistent"] for r in samples] == s.inconsistent.tolist()
 
 
@@ -62,17 +73,29 @@ def test_study_without_tracks_leaves_them_null(client):
 def test_bad_studies_are_named(client):
     post = lambda **changes: client.post("/v1/solves/study", json=dict(BODY, **changes))  # noqa: E731
     invalid_input(post(runs=1), "runs")
-    invalid_input(post(runs=MAX_STUDY_RUNS, sample_times=[0.1 * k for k in range(100)],
-                       tracks=False, receivers=[{"position": [150.0 * k, 0.0]}
-                                                for k in range(1, 4)]), "runs")
-    invalid_input(post(runs=400, sample_times=[0.1 * k for k in range(500)],
-                       receivers=BODY["receivers"][:2] + [{"position": [150.0, 2500.0]}]),
-                  "runs")  # 400 x 500 x 3 range sums, but with tracks x 500 is too much
+    invalid_input(
+        post(
+            runs=MAX_STUDY_RUNS,
+            sample_times=[0.1 * k for k in range(100)],
+            tracks=False,
+            receivers=[{"position": [150.0 * k, 0.0]} for k in range(1, 4)],
+        ),
+        "runs",
+    )
+    invalid_input(
+        post(
+            runs=400,
+            sample_times=[0.1 * k for k in range(500)],
+            receivers=BODY["receivers"][:2] + [{"position": [150.0, 2500.0]}],
+        ),
+        "runs",
+    )  # 400 x 500 x 3 range sums, but with tracks x 500 is too much
     invalid_input(post(sigma=0.0), "sigma")
     invalid_input(post(sample_times=TIMES[:5]), "receivers[2].positions")
     invalid_input(post(sample_times=TIMES[::-1]), "sample_times")
-    invalid_input(post(target={"position": [5000.0, 500.0, 0.0], "velocity": [0.0, 80.0]}),
-                  "target.position")
+    invalid_input(
+        post(target={"position": [5000.0, 500.0, 0.0], "velocity": [0.0, 80.0]}), "target.position"
+    )
     invalid_input(post(receivers=BODY["receivers"][:2]), "receivers")  # P < D + 1
     through = {"position": [600.0, 1000.0], "velocity": [0.0, 0.0]}
     invalid_input(post(target=through), "target")
@@ -114,8 +137,9 @@ def test_plotgate_study_writes_table_and_png(tmp_path, capsys):
     request = tmp_path / "study.json"
     request.write_text(json.dumps(BODY))
     md, png = tmp_path / "out" / "t.md", tmp_path / "out" / "f.png"
-    assert main(["study", str(request), "--runs", "40", "--table", str(md), "--png",
-                 str(png)]) == 0
+    assert (
+        main(["study", str(request), "--runs", "40", "--table", str(md), "--png", str(png)]) == 0
+    )
     printed = capsys.readouterr().out
     assert "no ML solution more than 10 CRLB away" in printed and str(png) in printed
     text = md.read_text()
@@ -124,14 +148,36 @@ def test_plotgate_study_writes_table_and_png(tmp_path, capsys):
 
 
 def test_checks_judge_the_limits():
-    sample = {"t": 0.0, "position": [0.0, 0.0], "crlb": [1.0, 0.0], "ml_single": [1.2, 0.0],
-              "linearised": [1.0, 0.0], "crlb_accumulated": [1.0, 0.0], "ml_track": None,
-              "linearised_track": None, "sum_range": [1.5, 0.0], "max_distance": 3.0,
-              "difference_range": [2.0, 0.0], "crlb_difference": [2.0, 0.0],
-              "ml_single_se": 0.02, "full_track": None, "false_minima": 2,
-              "false_unflagged": 0, "gradient": [1.0], "inconsistent": 2}
+    sample = {
+        "t": 0.0,
+        "position": [0.0, 0.0],
+        "crlb": [1.0, 0.0],
+        "ml_single": [1.2, 0.0],
+        "linearised": [1.0, 0.0],
+        "crlb_accumulated": [1.0, 0.0],
+        "ml_track": None,
+        "linearised_track": None,
+        "sum_range": [1.5, 0.0],
+        "max_distance": 3.0,
+        "difference_range": [2.0, 0.0],
+        "crlb_difference": [2.0, 0.0],
+        "ml_single_se": 0.02,
+        "full_track": None,
+        "false_minima": 2,
+        "false_unflagged": 0,
+        "gradient": [1.0],
+        "inconsistent": 2,
+    }
     verdicts = [c.passed for c in checks({"samples": [sample, sample]})]
     assert verdicts == [False, False, True, True, True]  # 1.2 is 20 % off; no track checks
-    text = table({"samples": [sample, sample], "runs": 2, "seed": 0, "sigma": 0.5,
-                  "noise_sigma": 0.5, "noise_sigma_spread": 0.0})
+    text = table(
+        {
+            "samples": [sample, sample],
+            "runs": 2,
+            "seed": 0,
+            "sigma": 0.5,
+            "noise_sigma": 0.5,
+            "noise_sigma_spread": 0.0,
+        }
+    )
     assert "| 1 | 0 |  | 1 | 1 | — | 1.2 | 1.5 | 2 | 2 | 1.200 | 1.200 | — | — | 1.000 |" in text

@@ -7,7 +7,7 @@ anything else) into an ``Any`` field, and an untyped object or array carries the
 
 import pytest
 
-from service.schemas import ENDPOINTS
+from plotgate.service.schemas import ENDPOINTS
 
 TYPING = {"type", "$ref", "anyOf", "oneOf", "allOf", "enum", "const"}
 
@@ -43,19 +43,43 @@ def test_every_request_field_is_typed(name):
     assert untyped(schema) == [], f"{name}: untyped fields"
 
 
-@pytest.mark.parametrize(("schema", "expected"), [
-    ({"type": "object", "properties": {"state": {"description": "anything"}}}, [".state"]),
-    ({"type": "object", "properties": {"s": {"type": "object",
-                                             "additionalProperties": True}}},
-     [".s{} (object of anything)"]),
-    ({"type": "object", "properties": {"s": {"anyOf": [{"type": "object",
-                                                         "additionalProperties": True},
-                                                        {"type": "null"}]}}},
-     [".s/anyOf[0]{} (object of anything)"]),
-    ({"type": "object", "properties": {"a": {"type": "array"}}}, [".a[] (array of anything)"]),
-    ({"type": "object", "properties": {"a": {"type": "array", "items": {}}}}, [".a[]"]),
-    ({"type": "object", "properties": {"a": {"type": "array", "items": {"type": "number"}}},
-      "additionalProperties": False}, []),
-], ids=["any", "dict-of-any", "optional-dict-of-any", "bare-array", "array-of-any", "typed"])
+@pytest.mark.parametrize(
+    ("schema", "expected"),
+    [
+        ({"type": "object", "properties": {"state": {"description": "anything"}}}, [".state"]),
+        (
+            {
+                "type": "object",
+                "properties": {"s": {"type": "object", "additionalProperties": True}},
+            },
+            [".s{} (object of anything)"],
+        ),
+        (
+            {
+                "type": "object",
+                "properties": {
+                    "s": {
+                        "anyOf": [
+                            {"type": "object", "additionalProperties": True},
+                            {"type": "null"},
+                        ]
+                    }
+                },
+            },
+            [".s/anyOf[0]{} (object of anything)"],
+        ),
+        ({"type": "object", "properties": {"a": {"type": "array"}}}, [".a[] (array of anything)"]),
+        ({"type": "object", "properties": {"a": {"type": "array", "items": {}}}}, [".a[]"]),
+        (
+            {
+                "type": "object",
+                "properties": {"a": {"type": "array", "items": {"type": "number"}}},
+                "additionalProperties": False,
+            },
+            [],
+        ),
+    ],
+    ids=["any", "dict-of-any", "optional-dict-of-any", "bare-array", "array-of-any", "typed"],
+)
 def test_the_walk_finds_untyped_fields(schema, expected):
     assert untyped(schema) == expected

@@ -46,8 +46,9 @@ def _times(times: list[float], least: int) -> list[float]:
 def _ordered(node: Any) -> None:
     """Swap every v_min > v_max pair in place (gates, priors, settings)."""
     if isinstance(node, dict):
-        if isinstance(node.get("v_min"), float | int) and isinstance(node.get("v_max"),
-                                                                     float | int):
+        if isinstance(node.get("v_min"), float | int) and isinstance(
+            node.get("v_max"), float | int
+        ):
             lo, hi = sorted((node["v_min"], node["v_max"]))
             node["v_min"], node["v_max"] = lo, hi
         for value in node.values():
@@ -94,8 +95,7 @@ def _platforms(body: Body, d: int, pairs: int, n: int | None) -> None:
         body["transmitters"] = _fit([_platform(p, d, n) for p in body["transmitters"]], pairs)
     else:
         # absent: a transmitter off the origin, where generated targets like to sit
-        body["transmitter"] = _platform(body.get("transmitter") or {"position": [1000.0]},
-                                        d, n)
+        body["transmitter"] = _platform(body.get("transmitter") or {"position": [1000.0]}, d, n)
     _either(body, "sigmas", "sigma", 1.0)
     if body.get("sigmas") is not None:
         body["sigmas"] = _fit(body["sigmas"], pairs)
@@ -133,8 +133,13 @@ def _trajectory(body: Body) -> Body:
 
 
 def _crlb(body: Body) -> Body:
-    d = len(_first_vector(*(body.get("targets") or []),
-                          (body.get("track") or {}).get("position"), *body["receivers"]))
+    d = len(
+        _first_vector(
+            *(body.get("targets") or []),
+            (body.get("track") or {}).get("position"),
+            *body["receivers"],
+        )
+    )
     least = d + 1 if body.get("measurements") == "difference" else d
     body["receivers"] = _fit(body["receivers"], max(len(body["receivers"]), least))
     p = len(body["receivers"])
@@ -142,9 +147,14 @@ def _crlb(body: Body) -> Body:
         body["track"] = None
         body["targets"] = [_point(x, d) for x in body["targets"]]
         n = len(body["targets"])
-        moving = any(q.get("velocity") is not None for q in
-                     [*body["receivers"], *(body.get("transmitters") or []),
-                      body.get("transmitter") or {}])
+        moving = any(
+            q.get("velocity") is not None
+            for q in [
+                *body["receivers"],
+                *(body.get("transmitters") or []),
+                body.get("transmitter") or {},
+            ]
+        )
         if body.get("sample_times") is not None or moving:
             body["sample_times"] = _fit(_times(body.get("sample_times") or [0.0], 1), n)
     else:
@@ -217,8 +227,9 @@ def _pair(body: Body) -> Body:
         body.update(dict.fromkeys(elevations))
     else:
         for side in ("passive", "active"):
-            body[f"{side}_elevations_deg"] = _fit(body[f"{side}_elevations_deg"],
-                                                  len(body[f"{side}_bearings_deg"]))
+            body[f"{side}_elevations_deg"] = _fit(
+                body[f"{side}_elevations_deg"], len(body[f"{side}_bearings_deg"])
+            )
     return body
 
 

@@ -1,12 +1,12 @@
-"""Tests of core.multistatic.closed_form (seed 001): sum-range and difference-range solves."""
+"""Tests of core.multistatic.closed_form (Fadeev et al.): sum-range and difference-range solves."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from core.errors import GeometryError, NonFiniteError, ParameterError
-from core.multistatic import (
+from plotgate.core.errors import GeometryError, NonFiniteError, ParameterError
+from plotgate.core.multistatic import (
     ClosedFormSolution,
     difference_range_solve,
     range_sums,
@@ -54,8 +54,9 @@ def assert_well_formed(sol, n, d):
     for field in dataclasses.fields(sol):
         assert np.isfinite(getattr(sol, field.name)).all(), field.name
     assert not (sol.has_alternative & ~sol.solvable).any()
-    np.testing.assert_array_equal(sol.alternative[~sol.has_alternative],
-                                  sol.x[~sol.has_alternative])
+    np.testing.assert_array_equal(
+        sol.alternative[~sol.has_alternative], sol.x[~sol.has_alternative]
+    )
 
 
 # ---------------------------------------------------------------- exact, overdetermined
@@ -87,17 +88,24 @@ def test_three_dimensional_with_three_receivers_exact(solve):
     sol = solve(ls, tx, rx)
     assert_well_formed(sol, 100, 3)
     assert sol.solvable.all()
-    best = np.minimum(dist(sol.x, x), np.where(sol.has_alternative, dist(sol.alternative, x),
-                                               np.inf))
+    best = np.minimum(
+        dist(sol.x, x), np.where(sol.has_alternative, dist(sol.alternative, x), np.inf)
+    )
     assert best.max() <= ATOL
 
 
 # ---------------------------------------------------------------- square systems: two roots
 
 
-@pytest.mark.parametrize(("solve", "d"), [(sum_range_solve, 2), (sum_range_solve, 3),
-                                          (difference_range_solve, 2),
-                                          (difference_range_solve, 3)])
+@pytest.mark.parametrize(
+    ("solve", "d"),
+    [
+        (sum_range_solve, 2),
+        (sum_range_solve, 3),
+        (difference_range_solve, 2),
+        (difference_range_solve, 3),
+    ],
+)
 def test_square_system_reports_both_roots(solve, d):
     p = d + MIN_P[solve]
     x, tx, rx, ls = scene(300 + d, 200, d, p)
@@ -113,14 +121,12 @@ def test_square_system_reports_both_roots(solve, d):
     if solve is sum_range_solve:
         # Both ellipse intersections fit every range sum exactly.
         np.testing.assert_allclose(fit, ls[sol.has_alternative], atol=ATOL)
-        np.testing.assert_allclose(sol.alternative_residual[sol.has_alternative], 0.0,
-                                   atol=ATOL)
+        np.testing.assert_allclose(sol.alternative_residual[sol.has_alternative], 0.0, atol=ATOL)
     else:
         # The mirror root fits the differences exactly, and the transmitter (range sums)
         # picks the true one as x.
         diff = ls[:, 1:] - ls[:, :1]
-        np.testing.assert_allclose(fit[:, 1:] - fit[:, :1], diff[sol.has_alternative],
-                                   atol=ATOL)
+        np.testing.assert_allclose(fit[:, 1:] - fit[:, :1], diff[sol.has_alternative], atol=ATOL)
         assert (err_x <= ATOL).all()
 
 
@@ -157,8 +163,14 @@ def test_two_ellipse_intersections_known_case():
 @pytest.mark.parametrize("d", [2, 3])
 def test_target_near_a_baseline(solve, offset, d):
     tx = np.zeros(d)
-    rx = np.array([[10000.0, 0.0, 0.0], [-3000.0, 9000.0, 500.0], [-4000.0, -8000.0, -800.0],
-                   [2000.0, 7000.0, 2500.0]])[:, :d]
+    rx = np.array(
+        [
+            [10000.0, 0.0, 0.0],
+            [-3000.0, 9000.0, 500.0],
+            [-4000.0, -8000.0, -800.0],
+            [2000.0, 7000.0, 2500.0],
+        ]
+    )[:, :d]
     if d == 2:
         rx = rx[:3]
     # Target on / just off the tx - rx_1 segment: the ellipse of rx_1 degenerates there.
@@ -177,8 +189,12 @@ def test_coplanar_platforms_3d_give_mirror_images():
     # All platforms at one altitude: the target and its mirror image fit equally;
     # the one above the plane is chosen, the other reported.
     tx = [0.0, 0.0, 1000.0]
-    rx = [[9000.0, 1000.0, 1000.0], [-2000.0, 9500.0, 1000.0], [-6000.0, -7000.0, 1000.0],
-          [5000.0, -8000.0, 1000.0]]
+    rx = [
+        [9000.0, 1000.0, 1000.0],
+        [-2000.0, 9500.0, 1000.0],
+        [-6000.0, -7000.0, 1000.0],
+        [5000.0, -8000.0, 1000.0],
+    ]
     x_true = np.array([3000.0, 4000.0, 3500.0])
     mirror = np.array([3000.0, 4000.0, -1500.0])
     for solve, p in ((sum_range_solve, 3), (sum_range_solve, 4), (difference_range_solve, 4)):

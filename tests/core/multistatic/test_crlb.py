@@ -1,4 +1,4 @@
-"""Tests of core.multistatic.crlb (seed 001, eq. 3): single-shot, difference and track bounds.
+"""Tests of core.multistatic.crlb (Fadeev et al., eq. 3): single-shot, difference and track bounds.
 
 The bounds are checked against scalar references (finite-difference gradients and
 explicit loops) and against the Monte Carlo covariance of the estimators they bound:
@@ -12,11 +12,18 @@ eigenvalues of a 2x2 Wishart sample from 2000 draws spread by about +-6 %).
 import numpy as np
 import pytest
 
-from core.errors import GeometryError, NonFiniteError, ParameterError
-from core.multistatic.closed_form import difference_range_solve
-from core.multistatic.crlb import CRLB, TrajectoryCRLB, crlb, difference_crlb, trajectory_crlb
-from core.multistatic.ml import ml_solve
-from core.multistatic.model import range_sums
+from plotgate.core.errors import GeometryError, NonFiniteError, ParameterError
+from plotgate.core.multistatic.closed_form import difference_range_solve
+from plotgate.core.multistatic.crlb import (
+    CRLB,
+    TrajectoryCRLB,
+    crlb,
+    difference_crlb,
+    trajectory_crlb,
+)
+from plotgate.core.multistatic.information import symmetric_eigh
+from plotgate.core.multistatic.model import range_sums
+from plotgate.core.multistatic.position import ml_solve
 
 SIGMA = 0.5
 TX = np.array([0.0, 0.0])
@@ -37,7 +44,7 @@ def reference_jacobian(x, tx, rx, step=1e-3):
 
 
 def reference_information(x, tx, rx, sigma):
-    """Seed 001 eq. 3 term by term: sum_p (1/sigma_p^2) grad l_p grad l_p^T."""
+    """Fadeev et al., eq. 3 term by term: sum_p (1/sigma_p^2) grad l_p grad l_p^T."""
     H = reference_jacobian(x, tx, rx)
     J = np.zeros((H.shape[1], H.shape[1]))
     for p in range(H.shape[0]):
@@ -78,8 +85,10 @@ def test_gdop_is_geometry_only():
     np.testing.assert_allclose(b.sigma_ref, SIGMA)
     H = np.stack([reference_jacobian(xi, TX[None], RX) for xi in np.asarray(x)])
     np.testing.assert_allclose(
-        b.gdop, np.sqrt(np.trace(np.linalg.inv(np.swapaxes(H, 1, 2) @ H), axis1=1, axis2=2)),
-        rtol=1e-6)
+        b.gdop,
+        np.sqrt(np.trace(np.linalg.inv(np.swapaxes(H, 1, 2) @ H), axis1=1, axis2=2)),
+        rtol=1e-6,
+    )
     # scaling every sigma scales the bound, not the GDOP
     sig = np.array([0.5, 1.0, 2.0])
     b1, b10 = crlb(x, TX, RX, sig), crlb(x, TX, RX, 10.0 * sig)
@@ -104,7 +113,7 @@ def test_ml_monte_carlo_covariance_matches_the_crlb():
 
 
 def test_bound_grows_where_the_target_crosses_the_baselines():
-    # seed 001, Fig. 3 curves 1: a transmitter ~9.8 km east of three receivers; a
+    # Fadeev et al., Fig. 3 curves 1: a transmitter ~9.8 km east of three receivers; a
     # target flying north at x = 5 km crosses the baselines at y = 997, 1251, 1500 m
     tx = np.array([9900.0, 1500.0])
     rx = np.array([[150.0, 500.0], [70.0, 1000.0], [150.0, 1500.0]])
@@ -181,7 +190,7 @@ def test_trajectory_crlb_accumulates_eq_3_over_the_samples():
     for i, ti in enumerate(t):
         A = np.hstack([np.eye(2), (ti - t[0]) * np.eye(2)])
         np.testing.assert_allclose(b.position_covariance[i], A @ cov @ A.T, rtol=1e-5)
-    # accumulating samples beats every single shot (seed 001, Fig. 3 curves 2 vs 1)
+    # accumulating samples beats every single shot (Fadeev et al., Fig. 3 curves 2 vs 1)
     single = crlb(x0 + (t - t[0])[:, None] * v, tx, rx, sigma)
     gap = single.covariance - b.position_covariance
     assert np.linalg.eigvalsh(gap).min() > 0.0
@@ -205,8 +214,8 @@ def test_accumulated_difference_bound_is_the_dense_model_of_all_differences():
     for i in range(8):
         tau = t[i] - t[0]
         H = reference_jacobian(x0 + tau * v, tx[i], rx[i])
-        G[2 * i:2 * i + 2] = A @ np.hstack([H, tau * H])
-        C[2 * i:2 * i + 2, 2 * i:2 * i + 2] = A @ np.diag(sigma[i] ** 2) @ A.T
+        G[2 * i : 2 * i + 2] = A @ np.hstack([H, tau * H])
+        C[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = A @ np.diag(sigma[i] ** 2) @ A.T
     J = G.T @ np.linalg.solve(C, G)
     np.testing.assert_allclose(b.information, J, rtol=1e-6)
     # differencing drops information: the bound is never below the range-sum one
@@ -259,8 +268,14 @@ def test_bounds_refuse_bad_input(func, kwargs, error, field):
     ],
 )
 def test_trajectory_crlb_refuses_bad_input(kwargs, field):
-    args = {"x0": [3000.0, 4000.0], "v": [0.0, 80.0], "t": [0.0, 1.0, 2.0], "tx": TX,
-            "rx": RX, "sigma": SIGMA}
+    args = {
+        "x0": [3000.0, 4000.0],
+        "v": [0.0, 80.0],
+        "t": [0.0, 1.0, 2.0],
+        "tx": TX,
+        "rx": RX,
+        "sigma": SIGMA,
+    }
     args.update(kwargs)
     with pytest.raises(ParameterError) as info:
         trajectory_crlb(**args)
@@ -268,15 +283,17 @@ def test_trajectory_crlb_refuses_bad_input(kwargs, field):
 
 
 def test_closed_form_2x2_eigen_decomposition_matches_lapack():
-    from core.multistatic.crlb import _symmetric_eigh
-
     rng = np.random.default_rng(21)
     A = rng.normal(size=(500, 2, 2))
     A = A + np.swapaxes(A, 1, 2)
-    A[:4] = [[[1.0, 0.0], [0.0, 1.0]], [[2.0, 0.0], [0.0, 1.0]], [[1.0, 0.0], [0.0, 2.0]],
-             [[0.0, 0.0], [0.0, 0.0]]]  # repeated, ordered, reversed, zero
+    A[:4] = [
+        [[1.0, 0.0], [0.0, 1.0]],
+        [[2.0, 0.0], [0.0, 1.0]],
+        [[1.0, 0.0], [0.0, 2.0]],
+        [[0.0, 0.0], [0.0, 0.0]],
+    ]  # repeated, ordered, reversed, zero
     A[4] = [[1.0, 1.0 - 1e-12], [1.0 - 1e-12, 1.0]]  # nearly singular
-    w, V = _symmetric_eigh(A)
+    w, V = symmetric_eigh(A)
     assert np.abs(w - np.linalg.eigvalsh(A)).max() < 1e-14 * 8
     assert np.abs(np.einsum("nik,nk,njk->nij", V, w, V) - A).max() < 1e-14 * 8
     assert np.abs(np.einsum("nki,nkj->nij", V, V) - np.eye(2)).max() < 1e-15 * 4

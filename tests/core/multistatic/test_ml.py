@@ -1,8 +1,8 @@
-"""Tests of core.multistatic.ml (seed 001, eqs. 4 and 6): ML position and track solves.
+"""Tests of plotgate.core.multistatic.position and .trajectory (Fadeev et al., eqs. 4, 6).
 
 Geometries: a well-conditioned one (a transmitter at the centre of three receivers
-10 km out) and a seed-001-like one (Fig. 2: a transmitter about 9.7 km east of three
-receivers, all moving at 10 m/s, and a target flying north at 80 m/s across the three
+10 km out) and one like the paper's (Fadeev et al., Fig. 2: a transmitter about 9.7 km
+east of three receivers, all moving at 10 m/s, and a target flying north at 80 m/s across the three
 baselines, where a plain least-squares fit started 500 m off can land in a false
 minimum). Every random draw is seeded.
 """
@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 from scipy import optimize, stats
 
-from core.errors import GeometryError, NonFiniteError, ParameterError, PlotgateError
-from core.multistatic.closed_form import sum_range_solve
-from core.multistatic.crlb import crlb, trajectory_crlb
-from core.multistatic.ml import MLSolution, TrajectorySolution, ml_solve, trajectory_solve
-from core.multistatic.model import platform_positions, range_sum_jacobian, range_sums
+from plotgate.core.errors import GeometryError, NonFiniteError, ParameterError, PlotgateError
+from plotgate.core.multistatic.closed_form import sum_range_solve
+from plotgate.core.multistatic.crlb import crlb, trajectory_crlb
+from plotgate.core.multistatic.model import platform_positions, range_sum_jacobian, range_sums
+from plotgate.core.multistatic.position import MLSolution, ml_solve
+from plotgate.core.multistatic.trajectory import TrajectorySolution, trajectory_solve
 
 SIGMA = 0.5
 TX = np.array([0.0, 0.0])
@@ -23,13 +24,17 @@ RX = np.array([[10000.0, 0.0], [-5000.0, 8660.0], [-5000.0, -8660.0]])
 
 
 def seed_geometry(n_samples=200, dt=0.2):
-    """Seed 001 Fig. 2-like platforms and target: (t, x_true (T, 2), tx, rx (T, 3, 2))."""
+    """Fadeev et al., Fig. 2-like platforms and target: (t, x_true (T, 2), tx, rx (T, 3, 2))."""
     t = dt * np.arange(n_samples)
     heading_rx, heading_tx = np.pi / 3, 2 * np.pi / 3  # 60 and 120 degrees
-    rx = platform_positions([[150.0, 500.0], [70.0, 1000.0], [150.0, 1500.0]],
-                            10.0 * np.array([np.cos(heading_rx), np.sin(heading_rx)]), t)
-    tx = platform_positions([9900.0, 1500.0],
-                            10.0 * np.array([np.cos(heading_tx), np.sin(heading_tx)]), t)
+    rx = platform_positions(
+        [[150.0, 500.0], [70.0, 1000.0], [150.0, 1500.0]],
+        10.0 * np.array([np.cos(heading_rx), np.sin(heading_rx)]),
+        t,
+    )
+    tx = platform_positions(
+        [9900.0, 1500.0], 10.0 * np.array([np.cos(heading_tx), np.sin(heading_tx)]), t
+    )
     tx = np.repeat(tx[:, None], 3, axis=1)
     x = np.array([5000.0, 200.0]) + t[:, None] * [0.0, 80.0]
     return t, x, tx, rx
@@ -56,8 +61,9 @@ def test_noise_free_data_are_solved_exactly_in_2d_and_3d():
     assert sol.residuals.shape == (500, 3) and sol.iterations.shape == (500,)
 
     tx3 = np.array([0.0, 0.0, 0.0])
-    rx3 = np.array([[10000.0, 0.0, 0.0], [0.0, 10000.0, 0.0], [0.0, 0.0, 3000.0],
-                    [-7000.0, -5000.0, 1000.0]])
+    rx3 = np.array(
+        [[10000.0, 0.0, 0.0], [0.0, 10000.0, 0.0], [0.0, 0.0, 3000.0], [-7000.0, -5000.0, 1000.0]]
+    )
     x3 = rng.uniform(-10000.0, 10000.0, (300, 3))
     sol3 = ml_solve(range_sums(x3, tx3, rx3), tx3, rx3, SIGMA)
     np.testing.assert_allclose(sol3.x, x3, rtol=0, atol=1e-6)
@@ -92,8 +98,10 @@ def test_minimum_matches_an_independent_least_squares_with_unequal_sigmas():
     ls = range_sums(x, TX, RX) + rng.normal(0.0, 1.0, (20, 3)) * sigma
     sol = ml_solve(ls, TX, RX, sigma)
     for n in range(20):
+
         def whitened(p, n=n):
             return (np.linalg.norm(p - RX, axis=1) + np.linalg.norm(p - TX) - ls[n]) / sigma
+
         ref = optimize.least_squares(whitened, x[n], xtol=1e-15, ftol=1e-15, gtol=1e-15)
         np.testing.assert_allclose(sol.x[n], ref.x, rtol=0, atol=1e-6)
         assert sol.cost[n] == pytest.approx(2.0 * ref.cost, rel=1e-9, abs=1e-12)
@@ -101,8 +109,7 @@ def test_minimum_matches_an_independent_least_squares_with_unequal_sigmas():
     np.testing.assert_allclose(sol.cost, ((sol.residuals / sigma) ** 2).sum(axis=1))
     np.testing.assert_allclose(sol.normalized_cost, sol.cost / (3 - 2))
     # the covariance is (H^T G H)^-1 at the estimate: the bound evaluated there
-    np.testing.assert_allclose(sol.covariance, crlb(sol.x, TX, RX, sigma).covariance,
-                               rtol=1e-12)
+    np.testing.assert_allclose(sol.covariance, crlb(sol.x, TX, RX, sigma).covariance, rtol=1e-12)
 
 
 def test_poor_initial_guess_1_to_3_km_off_converges_to_the_same_minimum():
@@ -160,8 +167,9 @@ def test_baseline_crossings_converge_to_the_truth_from_the_closed_form_start():
 
     rng = np.random.default_rng(6)
     for _ in range(3):
-        sol = ml_solve(range_sums(x, tx, rx) + rng.normal(0.0, SIGMA, x.shape[:1] + (3,)),
-                       tx, rx, SIGMA)
+        sol = ml_solve(
+            range_sums(x, tx, rx) + rng.normal(0.0, SIGMA, x.shape[:1] + (3,)), tx, rx, SIGMA
+        )
         assert sol.converged.all()
         # within 5 standard deviations of the truth everywhere (measured: < 3.4)
         assert normalized_error(sol.x, x, bound.covariance).max() < 5.0
@@ -238,8 +246,9 @@ def test_three_dimensional_two_roots():
     rx = np.array([[10000.0, 0.0, 0.0], [0.0, 10000.0, 0.0], [0.0, 0.0, 3000.0]])
     x = np.array([[3000.0, 4000.0, 1000.0], [-2000.0, 5000.0, 2500.0]])
     sol = ml_solve(range_sums(x, tx, rx), tx, rx, SIGMA)
-    hit = np.minimum(np.linalg.norm(sol.x - x, axis=1),
-                     np.linalg.norm(sol.alternative - x, axis=1))
+    hit = np.minimum(
+        np.linalg.norm(sol.x - x, axis=1), np.linalg.norm(sol.alternative - x, axis=1)
+    )
     assert (hit < 1e-6).all() and sol.has_alternative.all()
 
 
@@ -262,8 +271,7 @@ def study_crossing():
     """
     t, s60 = 11.2, 10.0 * np.sin(np.pi / 3)
     tx = platform_positions([9900.0, 1000.0], [-5.0, s60], t)
-    rx = platform_positions([[150.0, 500.0], [600.0, 1000.0], [150.0, 1500.0]],
-                            [5.0, s60], t)
+    rx = platform_positions([[150.0, 500.0], [600.0, 1000.0], [150.0, 1500.0]], [5.0, s60], t)
     return tx, rx, np.array([5000.0, 200.99484522385694 + 80.0 * t])
 
 
@@ -295,10 +303,18 @@ def test_starts_500_m_off_at_the_central_crossing_are_never_trapped():
     assert sol.converged.all() and not sol.has_alternative.any()
     np.testing.assert_array_equal(sol.consistent, sol.cost <= stats.chi2.ppf(0.99, 1))
     # the least-squares minimum found by scipy from the truth, to 1e-4 sigma
-    ref = np.array([
-        optimize.least_squares(lambda p, z=z: (z - range_sums(p, tx, rx)) / SIGMA, x,
-                               xtol=1e-15, ftol=1e-15, gtol=1e-15).x
-        for z in ls])
+    ref = np.array(
+        [
+            optimize.least_squares(
+                lambda p, z=z: (z - range_sums(p, tx, rx)) / SIGMA,
+                x,
+                xtol=1e-15,
+                ftol=1e-15,
+                gtol=1e-15,
+            ).x
+            for z in ls
+        ]
+    )
     assert mahalanobis(sol.x - ref, J).max() < 1e-4  # measured: 7e-6
     # and the lowest cost of every start: never above x0's alone or the closed form's
     free = ml_solve(ls, tx, rx, SIGMA)
@@ -337,8 +353,9 @@ def test_a_start_at_the_truth_reports_the_second_root_as_alternative():
     ls = range_sums(x, tx, outer) + SIGMA * rng.standard_normal((n, 2))
     roots = sum_range_solve(ls, tx, outer, baseline_tol=5 * SIGMA)
     assert roots.has_alternative.all()
-    first_near = (np.linalg.norm(roots.x - x, axis=1)
-                  < np.linalg.norm(roots.alternative - x, axis=1))[:, None]
+    first_near = (
+        np.linalg.norm(roots.x - x, axis=1) < np.linalg.norm(roots.alternative - x, axis=1)
+    )[:, None]
     near = np.where(first_near, roots.x, roots.alternative)
     far = np.where(first_near, roots.alternative, roots.x)
     assert np.linalg.norm(far - x, axis=1).min() > 4000.0  # measured: 4834 m
@@ -401,7 +418,7 @@ def test_trajectory_with_crossing_mirror_tracks():
 
 
 def test_trajectory_monte_carlo_covariance_matches_trajectory_crlb():
-    # 10 samples of the seed-like crossing, 2000 draws: a variance from 2000 draws has
+    # 10 samples of the paper-like crossing, 2000 draws: a variance from 2000 draws has
     # a 3.2 % standard error, so the 10 % tolerance is about 3 standard errors
     t, x, tx, rx = seed_geometry(n_samples=10, dt=1.0)
     state = np.array([5000.0, 200.0, 0.0, 80.0])
@@ -420,7 +437,7 @@ def test_trajectory_monte_carlo_covariance_matches_trajectory_crlb():
 
 
 def test_a_batch_of_tracks_equals_the_tracks_solved_one_by_one():
-    # 40 noisy draws of the seed-like crossing: each batch answer is the single answer
+    # 40 noisy draws of the paper-like crossing: each batch answer is the single answer
     t, x, tx, rx = seed_geometry(n_samples=40, dt=0.5)
     rng = np.random.default_rng(17)
     ls = range_sums(x, tx, rx) + rng.normal(0.0, SIGMA, (40, 40, 3))
@@ -467,8 +484,7 @@ def test_a_batch_mixes_mirrored_and_plain_tracks_with_per_track_inputs():
     ],
 )
 def test_a_batch_of_tracks_refuses_mismatched_shapes(kwargs, field):
-    args = {"l": np.full((2, 3, 3), 2e4), "t": [0.0, 1.0, 2.0], "tx": TX, "rx": RX,
-            "sigma": SIGMA}
+    args = {"l": np.full((2, 3, 3), 2e4), "t": [0.0, 1.0, 2.0], "tx": TX, "rx": RX, "sigma": SIGMA}
     args.update(kwargs)
     with pytest.raises(ParameterError) as info:
         trajectory_solve(**args)
@@ -498,8 +514,7 @@ def test_a_batch_of_tracks_refuses_mismatched_shapes(kwargs, field):
     ],
 )
 def test_ml_solve_refuses_bad_input(kwargs, error, field, index):
-    args = {"l": [[2e4, 2e4, 2e4], [2.1e4, 2.1e4, 2.1e4]], "tx": TX, "rx": RX,
-            "sigma": SIGMA}
+    args = {"l": [[2e4, 2e4, 2e4], [2.1e4, 2.1e4, 2.1e4]], "tx": TX, "rx": RX, "sigma": SIGMA}
     args.update(kwargs)
     with pytest.raises(error) as info:
         ml_solve(**args)
@@ -520,8 +535,7 @@ def test_ml_solve_refuses_bad_input(kwargs, error, field, index):
     ],
 )
 def test_trajectory_solve_refuses_bad_input(kwargs, field):
-    args = {"l": np.full((3, 3), 2e4), "t": [0.0, 1.0, 2.0], "tx": TX, "rx": RX,
-            "sigma": SIGMA}
+    args = {"l": np.full((3, 3), 2e4), "t": [0.0, 1.0, 2.0], "tx": TX, "rx": RX, "sigma": SIGMA}
     args.update(kwargs)
     with pytest.raises(PlotgateError) as info:
         trajectory_solve(**args)

@@ -1,17 +1,17 @@
-"""Tests of core.multistatic.model (seed 001, eq. 1): range sums, Jacobian, input checks."""
+"""Tests of core.multistatic.model (Fadeev et al., eq. 1): range sums, Jacobian, input checks."""
 
 import numpy as np
 import pytest
 
-from core.errors import GeometryError, NonFiniteError, ParameterError, PlotgateError
-from core.multistatic import (
+from plotgate.core.errors import GeometryError, NonFiniteError, ParameterError, PlotgateError
+from plotgate.core.multistatic import (
     Problem,
     platform_positions,
     range_sum_jacobian,
     range_sums,
     validate_problem,
 )
-from core.multistatic.model import BASELINE_SIGMAS
+from plotgate.core.multistatic.model import BASELINE_SIGMAS
 
 TX2 = [0.0, 0.0]
 RX2 = [[6000.0, 0.0], [0.0, 8000.0], [7000.0, 9000.0]]
@@ -75,16 +75,16 @@ def test_platform_positions_rejects(initial, velocity, t, field, error):
 def test_range_sums_known_values_and_shapes():
     ls = range_sums([3000.0, 4000.0], TX2, RX2)
     assert ls.shape == (3,)
-    np.testing.assert_allclose(ls, [5000.0 + 5000.0, 5000.0 + 5000.0,
-                                   5000.0 + np.hypot(4000.0, 5000.0)])
+    np.testing.assert_allclose(
+        ls, [5000.0 + 5000.0, 5000.0 + 5000.0, 5000.0 + np.hypot(4000.0, 5000.0)]
+    )
     # x (N, D) against unbatched platforms; a single transmitter given as (D,).
     x = np.array([[3000.0, 4000.0], [0.0, 0.0]])
     l2 = range_sums(x, TX2, RX2)
     assert l2.shape == (2, 3)
     np.testing.assert_allclose(l2[0], ls)
     np.testing.assert_allclose(l2[1], np.linalg.norm(RX2, axis=1))
-    np.testing.assert_allclose(range_sums(x, np.tile(TX2, (2, 3, 1)), np.tile(RX2, (2, 1, 1))),
-                               l2)
+    np.testing.assert_allclose(range_sums(x, np.tile(TX2, (2, 3, 1)), np.tile(RX2, (2, 1, 1))), l2)
 
 
 @pytest.mark.parametrize("d", [2, 3])
@@ -95,8 +95,7 @@ def test_range_sums_match_scalar_formula(d):
     assert ls.shape == (20, 4)
     for n in range(20):
         for p in range(4):
-            assert ls[n, p] == pytest.approx(scalar_range_sum(x[n], tx[n, p], rx[n, p]),
-                                            rel=1e-14)
+            assert ls[n, p] == pytest.approx(scalar_range_sum(x[n], tx[n, p], rx[n, p]), rel=1e-14)
 
 
 @pytest.mark.parametrize(
@@ -142,9 +141,10 @@ def test_jacobian_matches_central_differences(d):
 def test_jacobian_unbatched_and_on_baseline():
     H = range_sum_jacobian([3000.0, 4000.0], TX2, RX2)
     assert H.shape == (3, 2)
-    np.testing.assert_allclose(H, central_difference([3000.0, 4000.0], TX2, RX2),
-                               rtol=1e-6, atol=1e-9)
-    # On the tx-rx segment the two unit vectors cancel (seed 001: the ellipse of equal
+    np.testing.assert_allclose(
+        H, central_difference([3000.0, 4000.0], TX2, RX2), rtol=1e-6, atol=1e-9
+    )
+    # On the tx-rx segment the two unit vectors cancel (Fadeev et al.: the ellipse of equal
     # range sum degenerates to the baseline).
     H = range_sum_jacobian([2500.0, 0.0], TX2, [[6000.0, 0.0]])
     np.testing.assert_allclose(H, [[0.0, 0.0]], atol=1e-15)
@@ -193,8 +193,9 @@ def test_validate_problem_baseline_tolerance():
     validate_problem(ls, TX2, RX2[:2], baseline_tol=1.0)
     validate_problem([baseline, 9000.0], TX2, RX2[:2])  # exactly on it: fine
     with pytest.raises(GeometryError):
-        validate_problem([baseline - BASELINE_SIGMAS * 0.5 - 0.01, 9000.0], TX2, RX2[:2],
-                         sigma=0.5)
+        validate_problem(
+            [baseline - BASELINE_SIGMAS * 0.5 - 0.01, 9000.0], TX2, RX2[:2], sigma=0.5
+        )
     with pytest.raises(ParameterError) as info:
         validate_problem(ls, TX2, RX2[:2], baseline_tol=-1.0)
     assert info.value.field == "baseline_tol"

@@ -1,11 +1,11 @@
-"""Tests of core.multistatic.noise (seed 001, eq. 5): noise estimation and smoothing."""
+"""Tests of core.multistatic.noise (Fadeev et al., eq. 5): noise estimation and smoothing."""
 
 import numpy as np
 import pytest
 
-from core.errors import NonFiniteError, ParameterError
-from core.multistatic.model import platform_positions, range_sums
-from core.multistatic.noise import NoiseEstimate, range_sum_noise, smooth_positions
+from plotgate.core.errors import NonFiniteError, ParameterError
+from plotgate.core.multistatic.model import platform_positions, range_sums
+from plotgate.core.multistatic.noise import NoiseEstimate, range_sum_noise, smooth_positions
 
 
 def test_noise_of_quadratic_plus_noise_series_is_recovered():
@@ -15,9 +15,14 @@ def test_noise_of_quadratic_plus_noise_series_is_recovered():
     t = 1.7e9 + np.linspace(0.0, 60.0, 2000)  # an absolute epoch must not matter
     tau = t - t[0]
     sigma = np.array([0.5, 1.0, 2.0])
-    clean = np.stack([12000.0 + 80.0 * tau - 0.9 * tau**2,
-                      9000.0 - 40.0 * tau + 0.3 * tau**2,
-                      15000.0 + 5.0 * tau], axis=1)
+    clean = np.stack(
+        [
+            12000.0 + 80.0 * tau - 0.9 * tau**2,
+            9000.0 - 40.0 * tau + 0.3 * tau**2,
+            15000.0 + 5.0 * tau,
+        ],
+        axis=1,
+    )
     data = clean + rng.normal(0.0, 1.0, clean.shape) * sigma
     est = range_sum_noise(t, data)
     assert isinstance(est, NoiseEstimate)
@@ -50,18 +55,19 @@ def test_noise_free_quadratic_gives_zero():
 
 
 def test_seed_like_range_sum_series_give_the_noise():
-    # 10 s of a target at 80 m/s seen by moving platforms (seed 001 Fig. 2): the range
+    # 10 s of a target at 80 m/s seen by moving platforms (Fadeev et al., Fig. 2): the range
     # sums are nearly quadratic (model error about 0.05 m against sigma = 0.5 m). Mean
     # of sigma^2 / 0.25 over 400 draws of three series: standard error 0.6 %.
     t = 0.2 * np.arange(50)
-    rx = platform_positions([[150.0, 500.0], [70.0, 1000.0], [150.0, 1500.0]],
-                            [5.0, 8.66], t)
+    rx = platform_positions([[150.0, 500.0], [70.0, 1000.0], [150.0, 1500.0]], [5.0, 8.66], t)
     tx = platform_positions([9900.0, 1500.0], [-5.0, 8.66], t)[:, None].repeat(3, axis=1)
     x = np.array([5000.0, 200.0]) + t[:, None] * [0.0, 80.0]
     clean = range_sums(x, tx, rx)
     rng = np.random.default_rng(21)
-    ratios = [range_sum_noise(t, clean + rng.normal(0.0, 0.5, clean.shape)).variance / 0.25
-              for _ in range(400)]
+    ratios = [
+        range_sum_noise(t, clean + rng.normal(0.0, 0.5, clean.shape)).variance / 0.25
+        for _ in range(400)
+    ]
     assert np.mean(ratios) == pytest.approx(1.0, abs=0.05)  # measured 1.01
 
 
@@ -84,8 +90,7 @@ def test_smoothing_reduces_the_noise_of_a_straight_track():
     smooth = smooth_positions(t, noisy, 21)
     inner = slice(10, -10)
     ratio = np.std(smooth[inner] - x[inner]) / np.std(noisy[inner] - x[inner])
-    assert ratio == pytest.approx(np.sqrt(3 * (3 * 21**2 - 7) / (4 * 21 * (21**2 - 4))),
-                                  rel=0.05)
+    assert ratio == pytest.approx(np.sqrt(3 * (3 * 21**2 - 7) / (4 * 21 * (21**2 - 4))), rel=0.05)
     # the ends use the nearest full window: still smoothed, just less
     assert np.std(smooth[:10] - x[:10]) < np.std(noisy[:10] - x[:10])
 

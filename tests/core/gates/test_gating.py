@@ -1,0 +1,337 @@
+"""Tests of what every gate shares (core.gates): GateResult, batching, purity, errors."""
+
+import contextlib
+import dataclasses
+from unittest import mock
+
+import numpy as np
+import pytest
+from gate_helpers import combined_inputs, random_spd
+
+from plotgate.core import (
+    CombinedGate,
+    CovarianceError,
+    EllipseGate,
+    ExpandedGate,
+    FirstAssociationGate,
+    GateResult,
+    GeometryError,
+    NonFiniteError,
+    ParameterError,
+    RectangularGate,
+    RingGate,
+    SectorGate,
+    expansion_coefficient,
+    gate_threshold,
+)
+from plotgate.core.gates import thresholds
+
+# ---------------------------------------------------------------- broadcasting and purity
+
+
+def test_one_first_mark_against_many_candidates_equals_tiled_input():
+    rng = np.random.default_rng(109)
+    _, _, z2, P2 = combined_inputs(rng, 200)
+    z1 = z2[0] + 10.0
+    P1 = random_spd(rng, 1, 40.0)[0]
+    tiled = CombinedGate(30.0, 100.0, 0.9).test(
+        np.tile(z1, (200, 1)), np.tile(P1, (200, 1, 1)), z2, P2, 5.0
+    )
+    broadcast = CombinedGate(30.0, 100.0, 0.9).test(z1, P1, z2, P2, 5.0)
+    for field in ("inside", "statistic", "stage"):
+        np.testing.assert_array_equal(getattr(broadcast, field), getattr(tiled, field))
+    ring = RingGate(30.0, 100.0).test(z1, z2, 5.0)
+    np.testing.assert_array_equal(
+        ring.inside, RingGate(30.0, 100.0).test(np.tile(z1, (200, 1)), z2, 5.0).inside
+    )
+    ellipse = EllipseGate(0.9).test(z2, z1, P1)
+    np.testing.assert_array_equal(
+        ellipse.statistic, EllipseGate(0.9).test(z2, np.tile(z1, (200, 1)), P1).statistic
+    )
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: RingGate(20.0, 500.0).test([0.0, 0.0], [300.0, 400.0], 5.0),
+        lambda: CombinedGate(0.0, 9.0, 0.9).test(
+            [0.0, 0.0], np.eye(2), [3.0, 4.0], np.eye(2), 1.0
+        ),
+        lambda: EllipseGate(0.9).test([1.0, 1.0], [0.0, 0.0], np.eye(2)),
+        lambda: ExpandedGate(100.0, 0.9).test([0.0, 1e4], [0.0, 1e4], 5.0, 10.0, 0.001),
+        lambda: RectangularGate(3.0).test([1.0, 1.0], [0.0, 0.0], 1.0, 1.0),
+        lambda: SectorGate(3.0, 3.0).test(1e3, 0.1, 1e3, 0.1, 1.0, 1e-3, 1.0, 1e-3),
+        lambda: FirstAssociationGate(5.0, 3.0, 3.0).test(
+            1e3, 0.1, 1e3, 0.1, 1.0, 1.0, 1e-3, 1.0, 1e-3
+        ),
+    ],
+    ids=["ring", "combined", "ellipse", "expanded", "rectangular", "sector", "first"],
+)
+def test_unbatched_input_gives_one_pair(call):
+    res = call()
+    assert isinstance(res, GateResult)
+    assert res.inside.shape == res.statistic.shape == (1,)
+    assert isinstance(res.threshold, float)
+    assert res.inside.tolist() == [True]
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda e, E, o: RingGate(0.0, 1.0).test([0.0, 0.0], e, 1.0),
+        lambda e, E, o: CombinedGate(0.0, 1.0, 0.9).test([0.0, 0.0], np.eye(2), e, E, 1.0),
+        lambda e, E, o: EllipseGate(0.9).test(e, [0.0, 0.0], E),
+        lambda e, E, o: ExpandedGate(1.0, 0.9).test([0.0, 1.0], e, 1.0, 1.0, 0.1),
+        lambda e, E, o: RectangularGate(3.0).test(e, [0.0, 0.0], 1.0, 1.0),
+        lambda e, E, o: SectorGate(3.0, 3.0).test(o, o, 1.0, 0.0, 1.0, 0.1, 1.0, 0.1),
+        lambda e, E, o: FirstAssociationGate(1.0, 3.0, 3.0).test(
+            1.0, 0.0, o, o, 1.0, 1.0, 0.1, 1.0, 0.1
+        ),
+    ],
+    ids=["ring", "combined", "ellipse", "expanded", "rectangular", "sector", "first"],
+)
+def test_no_candidates_gives_empty_result(call):
+    res = call(np.empty((0, 2)), np.empty((0, 2, 2)), np.empty(0))
+    assert res.inside.shape == res.statistic.shape == (0,)
+
+
+def test_gate_result_is_frozen():
+    res = RingGate(0.0, 2.0).test([0.0, 0.0], [1.0, 0.0], 1.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.threshold = 3.0
+
+
+def test_gates_accept_read_only_inputs_and_leave_them_unchanged():
+    rng = np.random.default_rng(111)
+    inputs = combined_inputs(rng, 50)
+    saved = [a.copy() for a in inputs]
+    for a in inputs:
+        a.flags.writeable = False
+    z1, P1, z2, P2 = inputs
+    CombinedGate(30.0, 100.0, 0.9).test(z1, P1, z2, P2, 5.0)
+    EllipseGate(0.9).test(z2, z1, P1)
+    ExpandedGate(100.0, 0.9).test(z1, z2, 5.0, 10.0, 0.001)
+    for a, b in zip(inputs, saved, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+# ---------------------------------------------------------------- validation errors
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (
+            lambda: ExpandedGate(100.0, 0.9).test(
+                [0.0, 1e4], [[0.0, 1e4]] * 3, 5.0, [10.0, -1.0, 2.0], 0.001
+            ),
+            ParameterError,
+            r"^sigma_r\[1\]: must be positive",
+        ),
+        (
+            lambda: ExpandedGate(100.0, 0.9).test([0.0, 1e4], [0.0, 1e4], 5.0, 10.0, 0.0),
+            ParameterError,
+            r"^sigma_az: must be positive, got 0.0",
+        ),
+        (
+            lambda: ExpandedGate(-1.0, 0.9).test([0.0, 1e4], [0.0, 1e4], 5.0, 10.0, 1e-3),
+            ParameterError,
+            r"^v_max: must be non-negative",
+        ),
+        (
+            lambda: ExpandedGate(100.0, 1.2).test([0.0, 1e4], [0.0, 1e4], 5.0, 10.0, 1e-3),
+            ParameterError,
+            r"^p: must lie in the open interval",
+        ),
+        (
+            lambda: ExpandedGate(100.0, [0.9, 0.9]).test([0.0, 1e4], [0.0, 1e4], 5.0, 10.0, 1e-3),
+            ParameterError,
+            r"^p: must be a scalar",
+        ),
+        (
+            lambda: ExpandedGate(100.0, 0.9).test(
+                [[0.0, 1e4], [5.0, 5.0]], [0.0, 1e4], 5.0, 10.0, 1e-3, sensor=[5.0, 5.0]
+            ),
+            GeometryError,
+            r"^z1\[1\]: is at the sensor",
+        ),
+        (
+            lambda: EllipseGate(0.9).test([0.0, 1.0], [0.0, 0.0], np.zeros((2, 2))),
+            CovarianceError,
+            r"^S: is not positive definite",
+        ),
+        # axis ratio 1e7 > 1e6: rotating it would lose the small axis to rounding
+        (
+            lambda: EllipseGate(0.9).test(
+                [[0.0, 1.0]] * 2, [0.0, 0.0], [np.eye(2), np.diag([1e14, 1.0])]
+            ),
+            CovarianceError,
+            r"^S\[1\]: is numerically singular: eigenvalues 1 and 1e\+14",
+        ),
+        (
+            lambda: RectangularGate(0.0).test([0.0, 1.0], [0.0, 0.0], 1.0, 1.0),
+            ParameterError,
+            r"^k: must be positive, got 0.0",
+        ),
+        (
+            lambda: RectangularGate(3.0).test([0.0, 1.0], [0.0, 0.0], 1.0, [1.0, np.nan]),
+            NonFiniteError,
+            r"^sigma_y\[1\]: must be finite, got nan",
+        ),
+        (
+            lambda: SectorGate(3.0, 3.0).test(-1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3),
+            ParameterError,
+            r"^r: must be non-negative, got -1.0",
+        ),
+        (
+            lambda: SectorGate(3.0, 3.0).test(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, -1e-3),
+            ParameterError,
+            r"^sigma_az_pred: must be positive",
+        ),
+        (
+            lambda: SectorGate(3.0, 0.0).test(1.0, 0.0, 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3),
+            ParameterError,
+            r"^K_az: must be positive",
+        ),
+        (
+            lambda: SectorGate(3.0, 3.0).test(
+                np.ones(3), np.zeros(2), 1.0, 0.0, 1.0, 1e-3, 1.0, 1e-3
+            ),
+            ParameterError,
+            r"^az: has batch length 2 but r has 3",
+        ),
+        (
+            lambda: FirstAssociationGate(5.0, 3.0, 3.0).test(
+                1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1e-3, 1.0, 1e-3
+            ),
+            ParameterError,
+            r"^tau: must be positive",
+        ),
+        (
+            lambda: FirstAssociationGate(5.0, -3.0, 3.0).test(
+                1.0, 0.0, 1.0, 0.0, 1.0, 1.0, 1e-3, 1.0, 1e-3
+            ),
+            ParameterError,
+            r"^K_R: must be positive",
+        ),
+        (
+            lambda: RingGate(3.0, 2.0).test([0.0, 0.0], [1.0, 1.0], 1.0),
+            ParameterError,
+            r"^v_min: v_min \(3.0\) exceeds v_max \(2.0\)",
+        ),
+    ],
+    ids=[
+        "sigma_r-row",
+        "sigma_az-zero",
+        "v_max-negative",
+        "p>1",
+        "p-array",
+        "z1-at-sensor",
+        "singular-S",
+        "ill-conditioned-S",
+        "k=0",
+        "nan-sigma_y",
+        "negative-range",
+        "sigma_az_pred",
+        "K_az=0",
+        "sector-lengths",
+        "first-tau",
+        "first-K_R",
+        "ring-speeds",
+    ],
+)
+def test_gate_validation_errors(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+# ---------------------------------------------------------------- cached scalar thresholds
+
+
+@contextlib.contextmanager
+def computations():
+    """Count the chi-square quantiles and the expansion coefficients actually computed."""
+    counts = {"chi2": 0, "expansion": 0}
+    ppf, log1p = thresholds.stats.chi2.ppf, thresholds.np.log1p
+
+    def counted_ppf(*args, **kwargs):
+        counts["chi2"] += 1
+        return ppf(*args, **kwargs)
+
+    def counted_log1p(*args, **kwargs):
+        counts["expansion"] += 1
+        return log1p(*args, **kwargs)
+
+    with (
+        mock.patch.object(thresholds.stats.chi2, "ppf", counted_ppf),
+        mock.patch.object(thresholds.np, "log1p", counted_log1p),
+    ):
+        yield counts
+
+
+@pytest.mark.parametrize("P_G", [1e-9, 0.5, 0.9, 0.95, 0.99, 1.0 - 1e-12])
+def test_cached_thresholds_equal_the_uncached_array_values_exactly(P_G):
+    for _ in range(2):  # computed, then looked up
+        assert gate_threshold(P_G, 2) == gate_threshold(np.array([P_G]), 2)[0]
+        assert expansion_coefficient(P_G) == expansion_coefficient(np.array([P_G]))[0]
+        combined = CombinedGate(0.0, 9.0, P_G).test(
+            [0.0, 0.0], np.eye(2), [1.0, 0.0], np.eye(2), 1.0
+        )
+        ellipse = EllipseGate(P_G).test([1.0, 0.0], [0.0, 0.0], np.eye(2))
+        assert combined.threshold == ellipse.threshold == gate_threshold(P_G)
+
+
+def test_each_probability_is_computed_once():
+    P_G = 0.9012345  # a value no other test uses, so its first call computes it
+    with computations() as counts:
+        for value in (P_G, np.float64(P_G), np.array(P_G), P_G):
+            EllipseGate(value).test([1.0, 0.0], [0.0, 0.0], np.eye(2))
+            ExpandedGate(100.0, value).test([0.0, 1e4], [0.0, 1e4], 5.0, 10.0, 0.001)
+    assert counts == {"chi2": 1, "expansion": 1}
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (
+            lambda: EllipseGate(1.0).test([1.0, 0.0], [0.0, 0.0], np.eye(2)),
+            r"^P_G: must lie in the open interval \(0, 1\), got 1.0$",
+        ),
+        (
+            lambda: EllipseGate(np.array([0.9])).test([1.0, 0.0], [0.0, 0.0], np.eye(2)),
+            r"^P_G: must be a scalar, got shape \(1,\)$",
+        ),
+        (
+            lambda: CombinedGate(0.0, 9.0, None).test(
+                [0.0, 0.0], np.eye(2), [1.0, 0.0], np.eye(2), 1.0
+            ),
+            r"^P_G: must lie in the open interval \(0, 1\), got nan$",
+        ),
+        (
+            lambda: ExpandedGate(100.0, True).test([0.0, 1e4], [0.0, 1e4], 5.0, 10.0, 0.001),
+            r"^p: must lie in the open interval \(0, 1\), got 1.0$",
+        ),
+    ],
+    ids=["P_G=1", "P_G-array", "P_G-None", "p-True"],
+)
+def test_probabilities_are_validated_before_the_cache(call, message):
+    with computations() as counts:
+        for _ in range(2):
+            with pytest.raises(ParameterError, match=message):
+                call()
+    assert counts == {"chi2": 0, "expansion": 0}
+
+
+def test_public_thresholds_take_arrays_uncached():
+    assert not hasattr(gate_threshold, "cache_info")
+    assert not hasattr(expansion_coefficient, "cache_info")
+    P_G = np.array([0.9, 0.99])
+    for p in P_G:  # the scalars are looked up below
+        gate_threshold(p), expansion_coefficient(p)
+    with computations() as counts:
+        for _ in range(2):
+            np.testing.assert_array_equal(gate_threshold(P_G), [gate_threshold(p) for p in P_G])
+            np.testing.assert_array_equal(
+                expansion_coefficient(P_G), [expansion_coefficient(p) for p in P_G]
+            )
+    assert counts["chi2"] == counts["expansion"] == 2  # the arrays, each time; scalars cached

@@ -1,0 +1,82 @@
+"""A real ``plotgate serve`` in a subprocess, for the tests and benchmarks that need one."""
+
+import contextlib
+import os
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import httpx
+
+__all__ = ["free_port", "serve"]
+
+
+def free_port() -> int:
+    """A loopback port nobody listens on now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def serve(
+    log_dir: Path,
+    *args: str,
+    preexec_fn: Callable[[], None] | None = None,
+    env: dict[str, str] | None = None,
+    log: Path | None = None,
+    source: Path | None = None,
+) -> Iterator[tuple[subprocess.Popen, str]]:
+    """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready.
+
+    ``preexec_fn`` runs in the child before the server starts (e.g. to set rlimits); ``env``
+    adds environment variables (``PLOTGATE_*`` settings); ``log`` keeps the server's
+    output (its logs, the access log included) in that file; ``source`` runs the server
+    from another checkout (its folder goes first on ``PYTHONPATH``), by default this one.
+    """
+    port = free_port()
+    stderr = open(log, "wb") if log is not None else subprocess.PIPE  # noqa: SIM115
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "plotgate.clients.cli",
+            "serve",
+            "--port",
+            str(port),
+            "--log-dir",
+            str(log_dir),
+            *args,
+        ],
+        cwd=source or Path(__file__).resolve().parents[1],
+        env={**os.environ, **({"PYTHONPATH": str(source)} if source else {}), **(env or {})},
+        stdout=stderr if log is not None else subprocess.DEVNULL,
+        stderr=stderr,
+        preexec_fn=preexec_fn,
+    )
+    if log is not None:
+        stderr.close()  # the child has its own copy
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 30
+    try:
+        while True:
+            assert proc.poll() is None, (
+                proc.stderr.read().decode() if proc.stderr else log.read_text() if log else ""
+            )
+            try:
+                if httpx.get(url + "/readyz", timeout=1).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert time.monotonic() < deadline, "server did not become ready in 30 s"
+            time.sleep(0.1)
+        yield proc, url
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(timeout=30)
+        if proc.stderr:
+            proc.stderr.close()
