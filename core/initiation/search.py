@@ -86,20 +86,21 @@ def near_pairs_reference(
 
 
 _GRID = (
-    "int64[:], int64[:], float64[:, :], int64, int64, int64[:, :], float64[:, :], float64[:], "
-    "boolean"
+    "int64[:], int64[:], int64[:], float64[:, :], int64, int64[:, :], float64[:, :], "
+    "float64[:], boolean"
 )
-"""The grid search's arguments: where each cell's plots start in ``order`` (cells in
-x-major order, one entry past the last), the plots sorted by cell, the plots, cells along
-x and y, each query's cell and centre and radius, Chebyshev (else Euclidean)."""
+"""The grid search's arguments: the plots' cell keys (x cell times ny plus y cell) in
+ascending order, where each x column starts among them (one entry past the last), the
+plots in that order, the plots, cells along y, each query's cell and centre and radius,
+Chebyshev (else Euclidean)."""
 
 
 @kernel(f"int64[:]({_GRID})")
 def _grid_counts(
-    start: np.ndarray,
+    keys: np.ndarray,
+    columns: np.ndarray,
     order: np.ndarray,
     points: np.ndarray,
-    nx: int,
     ny: int,
     cells: np.ndarray,
     centres: np.ndarray,
@@ -108,28 +109,31 @@ def _grid_counts(
 ) -> np.ndarray:
     """Pairs within each query's radius: the 3 x 3 cells about its own."""
     counts = np.zeros(cells.shape[0], dtype=np.int64)
+    nx = columns.size - 1
     for q in range(cells.shape[0]):
         y0, y1 = max(cells[q, 1] - 1, 0), min(cells[q, 1] + 2, ny)
         for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, nx)):
-            if y0 < y1:
-                for k in range(start[cx * ny + y0], start[cx * ny + y1]):
-                    ex = points[order[k], 0] - centres[q, 0]
-                    ey = points[order[k], 1] - centres[q, 1]
-                    if chebyshev:
-                        near = max(abs(ex), abs(ey)) <= radius[q]
-                    else:
-                        near = np.sqrt(ex * ex + ey * ey) <= radius[q]
-                    counts[q] += near
+            column = keys[columns[cx] : columns[cx + 1]]
+            first = columns[cx] + np.searchsorted(column, cx * ny + y0)
+            last = columns[cx] + np.searchsorted(column, cx * ny + y1)
+            for k in range(first, last):
+                ex = points[order[k], 0] - centres[q, 0]
+                ey = points[order[k], 1] - centres[q, 1]
+                if chebyshev:
+                    near = max(abs(ex), abs(ey)) <= radius[q]
+                else:
+                    near = np.sqrt(ex * ex + ey * ey) <= radius[q]
+                counts[q] += near
     return counts
 
 
 @kernel(f"int64[:](int64[:], {_GRID})")
 def _grid_fill(
     offsets: np.ndarray,
-    start: np.ndarray,
+    keys: np.ndarray,
+    columns: np.ndarray,
     order: np.ndarray,
     points: np.ndarray,
-    nx: int,
     ny: int,
     cells: np.ndarray,
     centres: np.ndarray,
@@ -138,21 +142,24 @@ def _grid_fill(
 ) -> np.ndarray:
     """The plots of each query's pairs, at ``offsets[q]:offsets[q + 1]``, in plot order."""
     found = np.empty(offsets[-1], dtype=np.int64)
+    nx = columns.size - 1
     for q in range(cells.shape[0]):
         at = offsets[q]
         y0, y1 = max(cells[q, 1] - 1, 0), min(cells[q, 1] + 2, ny)
         for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, nx)):
-            if y0 < y1:
-                for k in range(start[cx * ny + y0], start[cx * ny + y1]):
-                    ex = points[order[k], 0] - centres[q, 0]
-                    ey = points[order[k], 1] - centres[q, 1]
-                    if chebyshev:
-                        near = max(abs(ex), abs(ey)) <= radius[q]
-                    else:
-                        near = np.sqrt(ex * ex + ey * ey) <= radius[q]
-                    if near:
-                        found[at] = order[k]
-                        at += 1
+            column = keys[columns[cx] : columns[cx + 1]]
+            first = columns[cx] + np.searchsorted(column, cx * ny + y0)
+            last = columns[cx] + np.searchsorted(column, cx * ny + y1)
+            for k in range(first, last):
+                ex = points[order[k], 0] - centres[q, 0]
+                ey = points[order[k], 1] - centres[q, 1]
+                if chebyshev:
+                    near = max(abs(ex), abs(ey)) <= radius[q]
+                else:
+                    near = np.sqrt(ex * ex + ey * ey) <= radius[q]
+                if near:
+                    found[at] = order[k]
+                    at += 1
         for i in range(offsets[q] + 1, at):  # insertion sort: a query has a few plots
             plot, k = found[i], i - 1
             while k >= offsets[q] and found[k] > plot:
@@ -162,39 +169,28 @@ def _grid_fill(
     return found
 
 
-@kernel("int64[:](int64[:], int64[:])")
-def _cell_order(key: np.ndarray, start: np.ndarray) -> np.ndarray:
-    """The plots sorted by cell, each cell's in plot order (a counting sort)."""
-    order = np.empty(key.size, dtype=np.int64)
-    at = start[:-1].copy()
-    for j in range(key.size):
-        order[at[key[j]]] = j
-        at[key[j]] += 1
-    return order
-
-
 def _grid_search(
     points: np.ndarray, centres: np.ndarray, radius: np.ndarray, chebyshev: bool, counted: int
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """One bin's pairs on a grid of cells as wide as its largest radius; None when the
-    plots are so spread out that the grid would have more than 16 cells a plot (the
-    tree searches those)."""
+    plots spread over more columns of cells than four a plot, or more cells than integer
+    keys hold exactly (the tree searches those)."""
     width = max(float(radius.max()), 1e-9)
     low = points.min(axis=0)
     extent = np.floor((points.max(axis=0) - low) / width) + 1.0
-    if extent[0] * extent[1] > 16 * points.shape[0] + 2**22:
+    if extent[0] > 4 * points.shape[0] + 2**16 or extent[0] * extent[1] > 2.0**52:
         return None
     nx, ny = int(extent[0]), int(extent[1])
     cell = np.floor((points - low) / width).astype(np.int64)
     key = cell[:, 0] * ny + cell[:, 1]
-    start = np.zeros(nx * ny + 1, dtype=np.int64)
-    np.cumsum(np.bincount(key, minlength=nx * ny), out=start[1:])
-    order = _cell_order(key, start)
+    order = np.argsort(key, kind="stable")
+    keys = key[order]
+    columns = np.searchsorted(keys, np.arange(nx + 1, dtype=np.int64) * ny).astype(np.int64)
     # a query's cell, clipped one cell beyond the grid: its 3 x 3 block then holds no plot
     query = np.clip(np.floor((centres - low) / width), -2.0, extent + 1.0).astype(np.int64)
     centres = np.ascontiguousarray(centres, dtype=float)
     radius = np.ascontiguousarray(radius, dtype=float)
-    grid = (start, order, points, nx, ny, query, centres, radius, chebyshev)
+    grid = (keys, columns, order, points, ny, query, centres, radius, chebyshev)
     counts = _grid_counts(*grid)
     if counted + int(counts.sum()) > MAX_CANDIDATES:
         raise _too_many(counted + int(counts.sum()))
@@ -210,10 +206,10 @@ def near_pairs(
     ``p`` is the norm: 2 (Euclidean) or ``inf`` (Chebyshev). Queries go in bins of radii
     within a factor 1.5; each bin is searched on a uniform grid of cells as wide as its
     largest radius, so a query reads the plots of the 3 x 3 cells about its centre (a
-    compiled loop over a table of where each cell's plots start; no tree to build). A bin
-    whose grid would need more than 16 cells a plot (plots spread far wider than the
-    gates) goes to the tree (:func:`near_pairs_reference`). The pairs are counted before
-    any is stored.
+    compiled loop: the plots sorted by cell, each column's found by its start, each
+    cell's by a binary search in its column; no tree to build). A bin whose plots spread
+    over more columns than four a plot (far wider than the gates) goes to the tree
+    (:func:`near_pairs_reference`). The pairs are counted before any is stored.
 
     Raises
     ------
