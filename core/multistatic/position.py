@@ -8,7 +8,7 @@ l_p = |x - rx_p| + |x - tx_p| by maximum likelihood,
           [\\mathbf{l} - \\mathbf{h}(\\mathbf{x})], \\quad
           \\mathbf{G} = \\mathrm{diag}(1/\\sigma_p^2)
 
-(eq. 4), iterating Gauss-Newton (eq. 6) with the batched engine of
+(eq. 4), iterating Gauss-Newton (eq. 6) with the compiled range-sum engine of
 :mod:`plotgate.core.multistatic.gauss_newton`.
 
 Start and alternatives
@@ -54,9 +54,8 @@ from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.closed_form import sum_range_solve
 from plotgate.core.multistatic.gauss_newton import (
     GaussNewtonFit,
-    Predict,
     consistency_threshold,
-    gauss_newton,
+    range_sum_gauss_newton,
     solver_options,
     start_points,
 )
@@ -64,7 +63,6 @@ from plotgate.core.multistatic.model import (
     BASELINE_SIGMAS,
     COINCIDENT_RTOL,
     coordinate_scale,
-    range_sum_jacobian_unchecked,
     range_sums_unchecked,
     validate_problem,
 )
@@ -216,18 +214,6 @@ def _best_and_alternative(
     return chosen, runs[rows, pick], eligible.any(axis=1)
 
 
-def _position_model(tx: np.ndarray, rx: np.ndarray) -> tuple[Predict, Predict]:
-    """predict / jacobian of the single-shot problems (theta = x)."""
-
-    def predict(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        return range_sums_unchecked(x, tx[idx], rx[idx])
-
-    def jacobian(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        return range_sum_jacobian_unchecked(x, tx[idx], rx[idx])
-
-    return predict, jacobian
-
-
 def ml_solve(
     l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: ArrayLike,
@@ -351,15 +337,8 @@ def ml_solve(
         seconds = alt_start[second]
     k = len(starts)
     problem = np.concatenate([np.tile(np.arange(n), k), second])
-    predict, jacobian = _position_model(tx[problem], rx[problem])
-    fit = gauss_newton(
-        predict,
-        jacobian,
-        ls[problem],
-        sigma[problem],
-        np.concatenate([*starts, seconds]),
-        max_iter,
-        tol,
+    fit = range_sum_gauss_newton(
+        ls, sigma, tx, rx, np.zeros(p), problem, np.concatenate([*starts, seconds]), max_iter, tol
     )
 
     # runs (N, k + 1): run r = j n + i is problem i's start j; the last column is the
