@@ -61,6 +61,7 @@ __all__ = [
     "ROOT_RTOL",
     "ClosedFormSolution",
     "difference_range_solve",
+    "sum_range_roots",
     "sum_range_solve",
 ]
 
@@ -307,6 +308,16 @@ def sum_range_solve(
     """
     ls, tx, rx, _ = validate_problem(l, tx, rx, baseline_tol=baseline_tol)
     _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
+    return sum_range_roots(ls, tx, rx)
+
+
+def sum_range_roots(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> ClosedFormSolution:
+    """:func:`sum_range_solve` without its checks (the solvers' start).
+
+    ls (N, P), tx, rx (N, P, D) already validated, as
+    :func:`plotgate.core.multistatic.model.validate_problem` returns them, and one
+    transmitter per problem (tx[:, p] = tx[:, 0]).
+    """
     base = tx[:, 0]
     b = rx - base[:, None]
     norm_b = np.linalg.norm(b, axis=-1)

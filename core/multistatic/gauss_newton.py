@@ -82,6 +82,7 @@ _DAMPING_START = 1e-3  # first damping, relative to the largest eigenvalue of H^
 _DECREASE_TOL = 1e-14  # converged: the Gauss-Newton step would lower the cost by less
 _STALL_TOL = 1e-6  # a stalled problem converged if its GN step promised less than this
 _CHUNK = 64  # problems per task of the compiled engine's parallel loop
+_PARALLEL_MIN = 2048  # fewer problems run on one thread (waking the others costs more)
 
 
 @dataclass
@@ -466,12 +467,68 @@ def _solve_one(
 
 
 @kernel(
-    "void(float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
+    "void(int64, int64, "
+    "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
+    "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
+    "boolean[::1], float64[:, :, ::1], int64, float64)"
+)
+def _solve_range(
+    lo: int,
+    hi: int,
+    ls: np.ndarray,
+    w: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    tau: np.ndarray,
+    row: np.ndarray,
+    theta: np.ndarray,
+    r: np.ndarray,
+    cost: np.ndarray,
+    iterations: np.ndarray,
+    converged: np.ndarray,
+    information: np.ndarray,
+    max_iter: int,
+    tol: float,
+) -> None:  # pragma: no cover (compiled)
+    """Problems lo to hi - 1 of :func:`range_sum_gauss_newton`, one after the other."""
+    k = theta.shape[1]
+    m = ls.shape[1]
+    Hw = np.empty((m, k))
+    rt = np.empty(m)
+    square = np.empty((2, k, k))
+    vec = np.empty((7, k))
+    for i in range(lo, hi):
+        _solve_one(
+            i,
+            ls,
+            w,
+            tx,
+            rx,
+            tau,
+            row,
+            theta,
+            r,
+            cost,
+            iterations,
+            converged,
+            information,
+            max_iter,
+            tol,
+            Hw,
+            rt,
+            square,
+            vec,
+        )
+
+
+@kernel(
+    "void("
+    "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
     "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
     "boolean[::1], float64[:, :, ::1], int64, float64)",
     parallel=True,
 )
-def _solve_batch(
+def _solve_parallel(
     ls: np.ndarray,
     w: np.ndarray,
     tx: np.ndarray,
@@ -488,36 +545,26 @@ def _solve_batch(
     tol: float,
 ) -> None:  # pragma: no cover (compiled)
     """Every problem of :func:`range_sum_gauss_newton`, in chunks over a parallel loop."""
-    n, k = theta.shape
-    m = ls.shape[1]
-    chunks = (n + _CHUNK - 1) // _CHUNK
-    for c in numba.prange(chunks):
-        Hw = np.empty((m, k))
-        rt = np.empty(m)
-        square = np.empty((2, k, k))
-        vec = np.empty((7, k))
-        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-            _solve_one(
-                i,
-                ls,
-                w,
-                tx,
-                rx,
-                tau,
-                row,
-                theta,
-                r,
-                cost,
-                iterations,
-                converged,
-                information,
-                max_iter,
-                tol,
-                Hw,
-                rt,
-                square,
-                vec,
-            )
+    n = theta.shape[0]
+    for c in numba.prange((n + _CHUNK - 1) // _CHUNK):
+        _solve_range(
+            c * _CHUNK,
+            min(n, (c + 1) * _CHUNK),
+            ls,
+            w,
+            tx,
+            rx,
+            tau,
+            row,
+            theta,
+            r,
+            cost,
+            iterations,
+            converged,
+            information,
+            max_iter,
+            tol,
+        )
 
 
 def range_sum_gauss_newton(
@@ -567,7 +614,7 @@ def range_sum_gauss_newton(
     converged = np.empty(n, dtype=bool)
     information = np.empty((n, k, k))
     sigma = np.ascontiguousarray(sigma, dtype=float)
-    _solve_batch(
+    data = (
         np.ascontiguousarray(ls, dtype=float),
         1.0 / sigma,
         np.ascontiguousarray(tx, dtype=float),
@@ -583,6 +630,10 @@ def range_sum_gauss_newton(
         max_iter,
         tol,
     )
+    if n >= _PARALLEL_MIN:
+        _solve_parallel(*data)
+    else:
+        _solve_range(0, n, *data)
     return GaussNewtonFit(
         theta,
         cost,

@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.multistatic.closed_form import sum_range_solve
+from plotgate.core.multistatic.closed_form import sum_range_roots
 from plotgate.core.multistatic.gauss_newton import (
     GaussNewtonFit,
     consistency_threshold,
@@ -60,7 +60,6 @@ from plotgate.core.multistatic.gauss_newton import (
     start_points,
 )
 from plotgate.core.multistatic.model import (
-    BASELINE_SIGMAS,
     COINCIDENT_RTOL,
     coordinate_scale,
     range_sums_unchecked,
@@ -122,13 +121,13 @@ class MLSolution:
 
 
 def sum_range_starts(
-    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, sigma: np.ndarray
+    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sum-range closed-form starts: (x (N, D), alternative (N, D), has_alternative (N,)).
 
-    ls, sigma (N, P), tx, rx (N, P, D) checked by
-    :func:`plotgate.core.multistatic.model.validate_problem`. Uses the pairs of each
-    problem's first transmitter (:func:`plotgate.core.multistatic.closed_form.sum_range_solve`);
+    ls (N, P), tx, rx (N, P, D) checked by
+    :func:`plotgate.core.multistatic.model.validate_problem`. Uses the pairs of each problem's
+    first transmitter (:func:`plotgate.core.multistatic.closed_form.sum_range_roots`);
     problems are grouped by which pairs those are (one group when every problem has a
     single transmitter). Problems whose first transmitter has fewer than D pairs start
     at the centroid of their platforms.
@@ -150,11 +149,8 @@ def sum_range_starts(
             x[rows] = alternative[rows] = centroid
             continue
         m = int(pattern.sum())
-        sol = sum_range_solve(
-            ls[rows][:, pattern],
-            np.repeat(tx[rows, :1], m, axis=1),
-            rx[rows][:, pattern],
-            baseline_tol=BASELINE_SIGMAS * sigma[rows][:, pattern],
+        sol = sum_range_roots(
+            ls[rows][:, pattern], np.repeat(tx[rows, :1], m, axis=1), rx[rows][:, pattern]
         )
         x[rows] = sol.x
         alternative[rows] = sol.alternative
@@ -329,7 +325,7 @@ def ml_solve(
     starts = [] if x0 is None else [start_points(x0, n, d)]
     second, seconds = np.zeros(0, dtype=int), np.zeros((0, d))
     if closed_form_starts:
-        start, alt_start, has_alt_start = sum_range_starts(ls, tx, rx, sigma)
+        start, alt_start, has_alt_start = sum_range_starts(ls, tx, rx)
         starts.append(start)
         second = np.flatnonzero(
             has_alt_start & _worth_following(ls, tx, rx, sigma, start, alt_start, threshold)

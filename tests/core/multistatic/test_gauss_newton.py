@@ -110,7 +110,7 @@ def test_random_study_problems_from_the_roots_and_from_starts_500_m_off(seed):
     tx, rx, x = tx[i], rx[i], x[i]
     ls = range_sums(x, tx, rx) + 0.5 * rng.standard_normal((i.size, 3))
     sigma = np.full(ls.shape, 0.5)
-    start, alt, has = sum_range_starts(ls, tx, rx, sigma)
+    start, alt, has = sum_range_starts(ls, tx, rx)
     angle = rng.uniform(0.0, 2.0 * np.pi, i.size)
     off = x + 500.0 * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
     row = np.concatenate([np.arange(i.size), np.flatnonzero(has), np.arange(i.size)])
