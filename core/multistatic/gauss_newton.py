@@ -59,7 +59,12 @@ from numpy.typing import ArrayLike
 from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.gates.thresholds import gate_threshold
-from plotgate.core.multistatic.information import inverse_information, symmetric_eigh
+from plotgate.core.multistatic.information import (
+    inverse_information,
+    inverse_information_into,
+    symmetric_eigh,
+    symmetric_eigh_into,
+)
 from plotgate.core.multistatic.model import vector_norm
 from plotgate.core.validation import as_array, as_probability, as_scalar, require_positive
 
@@ -246,27 +251,6 @@ def gauss_newton(
     )
 
 
-@kernel("void(float64[:, ::1], float64[::1], float64[:, ::1])")
-def _eigh(A: np.ndarray, ev: np.ndarray, V: np.ndarray) -> None:  # pragma: no cover (compiled)
-    """Ascending eigenvalues ev and eigenvectors V (columns) of a symmetric K x K A.
-
-    K = 2 by the principal-axis angle, as :func:`plotgate.core.multistatic.information.
-    symmetric_eigh`; other K by LAPACK.
-    """
-    if A.shape[0] == 2:
-        a, d = A[0, 0], A[1, 1]
-        b = 0.5 * (A[0, 1] + A[1, 0])
-        mean, r = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
-        phi = 0.5 * np.arctan2(2.0 * b, a - d)
-        c, s = np.cos(phi), np.sin(phi)
-        ev[0], ev[1] = mean - r, mean + r
-        V[0, 0], V[0, 1], V[1, 0], V[1, 1] = -s, c, c, s
-        return
-    w, U = np.linalg.eigh(A)
-    ev[:] = w
-    V[:, :] = U
-
-
 @kernel(
     "float64(float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1], "
     "float64[::1], float64[::1])"
@@ -334,8 +318,8 @@ def _weighted_jacobian(
 @kernel(
     "void(int64, float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
     "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
-    "boolean[::1], float64[:, :, ::1], int64, float64, float64[:, ::1], float64[::1], "
-    "float64[:, :, ::1], float64[:, ::1])"
+    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64, float64[:, ::1], "
+    "float64[::1], float64[:, :, ::1], float64[:, ::1])"
 )
 def _solve_one(
     n: int,
@@ -351,6 +335,7 @@ def _solve_one(
     iterations: np.ndarray,
     converged: np.ndarray,
     information: np.ndarray,
+    covariance: np.ndarray,
     max_iter: int,
     tol: float,
     Hw: np.ndarray,
@@ -396,7 +381,7 @@ def _solve_one(
                 for p in range(m):
                     s += Hw[p, a] * Hw[p, b]
                 A[a, b] = s
-        _eigh(A, ev, V)
+        symmetric_eigh_into(A, ev, V)
         promised = 0.0
         for a in range(k):
             s = 0.0
@@ -464,13 +449,14 @@ def _solve_one(
             for p in range(m):
                 s += Hw[p, a] * Hw[p, b]
             information[n, a, b] = s
+    inverse_information_into(information[n], covariance[n], A, ev, V)
 
 
 @kernel(
     "void(int64, int64, "
     "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
     "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
-    "boolean[::1], float64[:, :, ::1], int64, float64)"
+    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64)"
 )
 def _solve_range(
     lo: int,
@@ -487,6 +473,7 @@ def _solve_range(
     iterations: np.ndarray,
     converged: np.ndarray,
     information: np.ndarray,
+    covariance: np.ndarray,
     max_iter: int,
     tol: float,
 ) -> None:  # pragma: no cover (compiled)
@@ -512,6 +499,7 @@ def _solve_range(
             iterations,
             converged,
             information,
+            covariance,
             max_iter,
             tol,
             Hw,
@@ -525,7 +513,7 @@ def _solve_range(
     "void("
     "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
     "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
-    "boolean[::1], float64[:, :, ::1], int64, float64)",
+    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64)",
     parallel=True,
 )
 def _solve_parallel(
@@ -541,6 +529,7 @@ def _solve_parallel(
     iterations: np.ndarray,
     converged: np.ndarray,
     information: np.ndarray,
+    covariance: np.ndarray,
     max_iter: int,
     tol: float,
 ) -> None:  # pragma: no cover (compiled)
@@ -562,6 +551,7 @@ def _solve_parallel(
             iterations,
             converged,
             information,
+            covariance,
             max_iter,
             tol,
         )
@@ -613,6 +603,7 @@ def range_sum_gauss_newton(
     iterations = np.empty(n, dtype=np.int64)
     converged = np.empty(n, dtype=bool)
     information = np.empty((n, k, k))
+    covariance = np.empty((n, k, k))
     sigma = np.ascontiguousarray(sigma, dtype=float)
     data = (
         np.ascontiguousarray(ls, dtype=float),
@@ -627,6 +618,7 @@ def range_sum_gauss_newton(
         iterations,
         converged,
         information,
+        covariance,
         max_iter,
         tol,
     )
@@ -639,7 +631,7 @@ def range_sum_gauss_newton(
         cost,
         r * sigma[row],
         information,
-        inverse_information(information),
+        covariance,
         iterations,
         converged,
     )

@@ -72,6 +72,10 @@ def assert_agree(
     assert (np.abs(new.cost - ref.cost) <= 1e-10 * (1.0 + ref.cost)).all()
     big = 1.0 + np.abs(ref.information).max(axis=(1, 2))[:, None, None]
     assert (np.abs(new.information - ref.information)[exact] <= 1e-10 * big[exact]).all()
+    # the floored inverse (compiled in the kernel): as accurate as the information's
+    # condition allows
+    cov = np.abs(ref.covariance).max(axis=(1, 2))[:, None, None]
+    assert (np.abs(new.covariance - ref.covariance)[exact] <= 1e-8 * cov[exact]).all()
     # a range sum moves at most 2 |dx|: residuals agree to 2e-12 of the coordinates
     gap = np.abs(new.residuals - ref.residuals).max(axis=1)
     assert (gap[exact] <= 4e-12 * scale[exact]).all()
