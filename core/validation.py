@@ -17,6 +17,7 @@ __all__ = [
     "as_array",
     "as_covariance",
     "as_dof",
+    "as_float_array",
     "as_points",
     "as_probability",
     "as_scalar",
@@ -52,11 +53,12 @@ def _row(x: np.ndarray, index: int | None, core_ndim: int) -> np.ndarray:
     return row
 
 
-def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> np.ndarray:
-    """Coerce to a float array whose trailing shape is core_shape and whose values are finite.
+def as_float_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Coerce to a float array whose trailing shape is core_shape, not yet checked finite.
 
-    Raises ParameterError when value is not real-valued or has the wrong trailing
-    shape, and NonFiniteError (with the first offending batch row) on NaN or infinity.
+    :func:`as_array` without its finiteness pass, for a compiled kernel that checks every
+    value in the pass that uses it. Raises ParameterError when value is not real-valued
+    or has the wrong trailing shape.
     """
     try:
         x = np.asarray(value, dtype=float)
@@ -66,6 +68,17 @@ def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> n
     if x.ndim < core_ndim or x.shape[x.ndim - core_ndim :] != core_shape:
         inner = ", ".join(str(k) for k in core_shape)
         raise ParameterError(name, f"must have shape (..., {inner}), got shape {x.shape}")
+    return x
+
+
+def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Coerce to a float array whose trailing shape is core_shape and whose values are finite.
+
+    Raises ParameterError when value is not real-valued or has the wrong trailing
+    shape, and NonFiniteError (with the first offending batch row) on NaN or infinity.
+    """
+    x = as_float_array(name, value, core_shape)
+    core_ndim = len(core_shape)
     finite = np.isfinite(x)
     if not finite.all():
         bad = ~finite.all(axis=tuple(range(x.ndim - core_ndim, x.ndim)))
