@@ -7,8 +7,9 @@ Fig. 4 (ring, else the chi-square ellipse of eq. 1 with B = P1 + P2 centred on t
 nearest circle). Each gate kind is a frozen dataclass of its parameters with its
 vectorized ``test``, its ``region`` for gating probabilities and areas, and
 ``contains``, the test on a gating problem (what the Monte Carlo check samples).
-Symbols and batching as in :mod:`plotgate.core.gates` and
-:mod:`plotgate.core.gates.results`.
+The combined gate's ``test`` is a compiled kernel (:mod:`plotgate.core.gates.kernels`)
+beside its numpy ``reference_test``, the oracle the tests hold it to. Symbols and
+batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations

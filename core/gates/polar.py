@@ -7,8 +7,9 @@ v_max tau) and eq. (4) (azimuth, grown by the largest bearing change); the polar
 of the secondary-processing textbook, Fig. 3.6 a. Azimuth differences are wrapped to
 (-pi, pi]. Each gate kind is a frozen dataclass of its parameters with its vectorized
 ``test``, its ``region`` and ``contains`` on a gating problem (as in
-:mod:`plotgate.core.gates.capture`). Symbols and batching as in
-:mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
+:mod:`plotgate.core.gates.capture`). Both gates' ``test`` is a compiled kernel
+(:mod:`plotgate.core.gates.kernels`) beside its numpy ``reference_test``. Symbols and
+batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations

@@ -6,8 +6,9 @@ the innovation covariance S = H P H^T + R it needs (Konovalov, refs. [6]/[7]), a
 the rectangular gate |d_i| <= k sigma_i of the secondary-processing textbook
 (Fig. 3.6 b). Each gate kind is a frozen dataclass of its parameters with its
 vectorized ``test``, its ``region`` and ``contains`` on a gating problem (as in
-:mod:`plotgate.core.gates.capture`). Symbols and batching as in
-:mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
+:mod:`plotgate.core.gates.capture`). The ellipse gate's ``test`` is a compiled kernel
+(:mod:`plotgate.core.gates.kernels`) beside its numpy ``reference_test``. Symbols and
+batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations

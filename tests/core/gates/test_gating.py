@@ -512,3 +512,11 @@ def test_polar_kernel_errors_are_the_references(position, value, field):
         sector.test(*args)
     assert raised.value.field == expected.value.field == sector_field
     assert str(raised.value) == str(expected.value)
+
+
+def test_kernels_hand_an_overflowing_difference_to_the_reference():
+    z, z_pred, S = np.array([[1e308, 0.0]]), np.array([[-1e308, 0.0]]), np.eye(2)
+    with np.errstate(over="ignore", invalid="ignore"):  # nu overflows to inf, 0 * inf
+        result, reference = ellipse_calls(z, z_pred, S)
+    assert_kernel_matches_reference(result, reference)
+    assert np.isnan(result.statistic[0]) and not result.inside[0]
