@@ -9,10 +9,10 @@ with time.perf_counter, and reported as pair tests per second. The baseline is
 the ellipse gate's rho = nu^T S^-1 nu computed the naive vectorized way, with
 np.linalg.solve over the batch and no validation; the last column is each
 gate's throughput relative to it. The gates with a compiled kernel (ellipse,
-combined, sector, first association) are timed on 1 and on 2 threads, beside their
-numpy ``reference_test``. Prints a markdown table, then the first-call cost of the
-kernels: importing plotgate.core with an empty ``NUMBA_CACHE_DIR`` (compiling) and
-again with the cache that import wrote (loading).
+combined, sector, first association) are timed beside their numpy
+``reference_test``. Prints a markdown table, then the first-call cost of the kernels:
+importing plotgate.core with an empty ``NUMBA_CACHE_DIR`` (compiling) and again with
+the cache that import wrote (loading).
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ import tempfile
 import time
 from collections.abc import Callable
 
-import numba
 import numpy as np
 import scipy
 
@@ -106,12 +105,7 @@ def main() -> None:
         ("RectangularGate", lambda: RectangularGate(2.0).test(z2, z1, sigma_r, sigma_r)),
     ]
     rates = {name: N / best_time(run) for name, run in cases}
-    threads = numba.get_num_threads()
-    for count in sorted({1, threads}):
-        numba.set_num_threads(count)
-        for name, run in compiled:
-            rates[f"{name}, kernel, {count} thread{'s' if count > 1 else ''}"] = N / best_time(run)
-    numba.set_num_threads(threads)
+    rates |= {f"{name}, compiled kernel": N / best_time(run) for name, run in compiled}
     baseline = rates[cases[0][0]]
 
     print(

@@ -9,8 +9,10 @@ error names the field and the row as it always has.
 
 Inputs are checked float64 C-contiguous arrays whose leading axis is N or 1 (one value
 shared by every pair): marks (M, 2), covariances (M, 4) as [P11, P12, P21, P22], per-pair
-scalars (M,). The results are written into (N,) arrays the caller allocates. The pairs
-are split into blocks of :data:`BLOCK` run in parallel (``numba.prange``).
+scalars (M,). The results are written into (N,) arrays the caller allocates.
+
+The kernels run on one thread: on the 2-core machine they were measured on, splitting the
+pairs over both cores (``numba.prange``) gained nothing, and tripled the compile time.
 
 References
 ----------
@@ -24,14 +26,12 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from plotgate.core.compiled import kernel
 from plotgate.core.covariance import is_valid_covariance
 
 __all__ = [
-    "BLOCK",
     "ROWS",
     "VALUES",
     "as_rows",
@@ -42,9 +42,6 @@ __all__ = [
     "stride",
     "wrapped",
 ]
-
-BLOCK = 16384
-"""Pairs per parallel block: large enough that a block's start costs nothing."""
 
 TWO_PI = 2.0 * math.pi
 
@@ -77,10 +74,7 @@ def stride(m: int, n: int) -> int:
     return 1 if m == n and m > 1 else 0
 
 
-@kernel(
-    f"int64({ROWS}, {ROWS}, {ROWS}, float64, float64[::1], boolean[::1])",
-    parallel=True,
-)
+@kernel(f"int64({ROWS}, {ROWS}, {ROWS}, float64, float64[::1], boolean[::1])")
 def ellipse_gate_kernel(
     z: np.ndarray,
     z_pred: np.ndarray,
@@ -92,35 +86,29 @@ def ellipse_gate_kernel(
     """rho = nu^T S^-1 nu (LDL^T form) and rho <= gamma of nu = z - z_pred; first bad pair."""
     n = rho.shape[0]
     s_z, s_p, s_S = stride(z.shape[0], n), stride(z_pred.shape[0], n), stride(S.shape[0], n)
-    blocks = (n + BLOCK - 1) // BLOCK
-    bad = np.full(blocks, n, dtype=np.int64)
-    for b in numba.prange(blocks):
-        for i in range(b * BLOCK, min(n, (b + 1) * BLOCK)):
-            j = i * s_z
-            k = i * s_p
-            m = i * s_S
-            Sxx, Sxy, Syx, Syy = S[m, 0], S[m, 1], S[m, 2], S[m, 3]
-            nu_x = z[j, 0] - z_pred[k, 0]
-            nu_y = z[j, 1] - z_pred[k, 1]
-            if not (math.isfinite(nu_x) and math.isfinite(nu_y)) or not is_valid_covariance(
-                Sxx, Sxy, Syx, Syy
-            ):
-                bad[b] = min(bad[b], i)
-            det = Sxx * Syy - Sxy * Sxy
-            t = Sxx * nu_y - Sxy * nu_x
-            r = nu_x * nu_x / Sxx + t * t / (Sxx * det)
-            rho[i] = r
-            inside[i] = r <= gamma
-    first = n
-    for b in range(blocks):
-        first = min(first, bad[b])
-    return -1 if first == n else first
+    bad = n
+    for i in range(n):
+        j = i * s_z
+        k = i * s_p
+        m = i * s_S
+        Sxx, Sxy, Syx, Syy = S[m, 0], S[m, 1], S[m, 2], S[m, 3]
+        nu_x = z[j, 0] - z_pred[k, 0]
+        nu_y = z[j, 1] - z_pred[k, 1]
+        if not (math.isfinite(nu_x) and math.isfinite(nu_y)) or not is_valid_covariance(
+            Sxx, Sxy, Syx, Syy
+        ):
+            bad = min(bad, i)
+        det = Sxx * Syy - Sxy * Sxy
+        t = Sxx * nu_y - Sxy * nu_x
+        r = nu_x * nu_x / Sxx + t * t / (Sxx * det)
+        rho[i] = r
+        inside[i] = r <= gamma
+    return -1 if bad == n else bad
 
 
 @kernel(
     f"int64({ROWS}, {ROWS}, {ROWS}, {ROWS}, float64, float64, float64,"
-    " float64[::1], boolean[::1], int8[::1])",
-    parallel=True,
+    " float64[::1], boolean[::1], int8[::1])"
 )
 def combined_gate_kernel(
     z1: np.ndarray,
@@ -138,55 +126,49 @@ def combined_gate_kernel(
     n = rho.shape[0]
     s_z1, s_P1 = stride(z1.shape[0], n), stride(P1.shape[0], n)
     s_z2, s_P2 = stride(z2.shape[0], n), stride(P2.shape[0], n)
-    blocks = (n + BLOCK - 1) // BLOCK
-    bad = np.full(blocks, n, dtype=np.int64)
-    for b in numba.prange(blocks):
-        for i in range(b * BLOCK, min(n, (b + 1) * BLOCK)):
-            j1, k1, j2, k2 = i * s_z1, i * s_P1, i * s_z2, i * s_P2
-            dx = z2[j2, 0] - z1[j1, 0]
-            dy = z2[j2, 1] - z1[j1, 1]
-            if (
-                not (math.isfinite(dx) and math.isfinite(dy))
-                or not is_valid_covariance(P1[k1, 0], P1[k1, 1], P1[k1, 2], P1[k1, 3])
-                or not is_valid_covariance(P2[k2, 0], P2[k2, 1], P2[k2, 2], P2[k2, 3])
-            ):
-                bad[b] = min(bad[b], i)
-            Bxx = P1[k1, 0] + P2[k2, 0]
-            Bxy = P1[k1, 1] + P2[k2, 1]
-            Byy = P1[k1, 3] + P2[k2, 3]
-            dist2 = dx * dx + dy * dy
-            dist = math.sqrt(dist2)
-            delta = max(max(dist - R_max, R_min - dist), 0.0)
-            delta *= delta
-            if dist2 == 0.0:
-                half_diff = 0.5 * (Bxx - Byy)
-                lambda_max = 0.5 * (Bxx + Byy) + math.sqrt(half_diff * half_diff + Bxy * Bxy)
-                r = R_min * R_min / lambda_max
-            else:
-                det = Bxx * Byy - Bxy * Bxy
-                t = Bxx * dy - Bxy * dx
-                r = (dx * dx / Bxx + t * t / (Bxx * det)) * delta / dist2
-            accepted = r <= gamma
-            rho[i] = r
-            inside[i] = accepted
-            if not accepted:
-                stage[i] = 0
-            elif dist > R_max:
-                stage[i] = 3
-            elif dist < R_min:
-                stage[i] = 2
-            else:
-                stage[i] = 1
-    first = n
-    for b in range(blocks):
-        first = min(first, bad[b])
-    return -1 if first == n else first
+    bad = n
+    for i in range(n):
+        j1, k1, j2, k2 = i * s_z1, i * s_P1, i * s_z2, i * s_P2
+        dx = z2[j2, 0] - z1[j1, 0]
+        dy = z2[j2, 1] - z1[j1, 1]
+        if (
+            not (math.isfinite(dx) and math.isfinite(dy))
+            or not is_valid_covariance(P1[k1, 0], P1[k1, 1], P1[k1, 2], P1[k1, 3])
+            or not is_valid_covariance(P2[k2, 0], P2[k2, 1], P2[k2, 2], P2[k2, 3])
+        ):
+            bad = min(bad, i)
+        Bxx = P1[k1, 0] + P2[k2, 0]
+        Bxy = P1[k1, 1] + P2[k2, 1]
+        Byy = P1[k1, 3] + P2[k2, 3]
+        dist2 = dx * dx + dy * dy
+        dist = math.sqrt(dist2)
+        delta = max(max(dist - R_max, R_min - dist), 0.0)
+        delta *= delta
+        if dist2 == 0.0:
+            half_diff = 0.5 * (Bxx - Byy)
+            lambda_max = 0.5 * (Bxx + Byy) + math.sqrt(half_diff * half_diff + Bxy * Bxy)
+            r = R_min * R_min / lambda_max
+        else:
+            det = Bxx * Byy - Bxy * Bxy
+            t = Bxx * dy - Bxy * dx
+            r = (dx * dx / Bxx + t * t / (Bxx * det)) * delta / dist2
+        accepted = r <= gamma
+        rho[i] = r
+        inside[i] = accepted
+        if not accepted:
+            stage[i] = 0
+        elif dist > R_max:
+            stage[i] = 3
+        elif dist < R_min:
+            stage[i] = 2
+        else:
+            stage[i] = 1
+    return -1 if bad == n else bad
 
 
 @kernel(
     f"int64({VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES},"
-    " float64, float64, float64[::1], boolean[::1])",
-    parallel=True,
+    " float64, float64, float64[::1], boolean[::1])"
 )
 def sector_gate_kernel(
     r: np.ndarray,
@@ -208,42 +190,36 @@ def sector_gate_kernel(
     s_rp, s_azp = stride(r_pred.shape[0], n), stride(az_pred.shape[0], n)
     s_sr, s_saz = stride(sigma_r.shape[0], n), stride(sigma_az.shape[0], n)
     s_srp, s_sazp = stride(sigma_r_pred.shape[0], n), stride(sigma_az_pred.shape[0], n)
-    blocks = (n + BLOCK - 1) // BLOCK
-    bad = np.full(blocks, n, dtype=np.int64)
-    for b in numba.prange(blocks):
-        for i in range(b * BLOCK, min(n, (b + 1) * BLOCK)):
-            ri, azi = r[i * s_r], az[i * s_az]
-            rp, azp = r_pred[i * s_rp], az_pred[i * s_azp]
-            sr, saz = sigma_r[i * s_sr], sigma_az[i * s_saz]
-            srp, sazp = sigma_r_pred[i * s_srp], sigma_az_pred[i * s_sazp]
-            dr = ri - rp
-            daz = azi - azp
-            if not (
-                math.isfinite(dr)
-                and math.isfinite(daz)
-                and ri >= 0.0
-                and sr > 0.0
-                and saz > 0.0
-                and srp > 0.0
-                and sazp > 0.0
-                and math.isfinite(sr + saz + srp + sazp)
-            ):
-                bad[b] = min(bad[b], i)
-            W_R = K_R * math.hypot(sr, srp)
-            W_az = K_az * math.hypot(saz, sazp)
-            s = max(abs(dr) / W_R, abs(wrapped(daz)) / W_az)
-            statistic[i] = s
-            inside[i] = s <= 1.0
-    first = n
-    for b in range(blocks):
-        first = min(first, bad[b])
-    return -1 if first == n else first
+    bad = n
+    for i in range(n):
+        ri, azi = r[i * s_r], az[i * s_az]
+        rp, azp = r_pred[i * s_rp], az_pred[i * s_azp]
+        sr, saz = sigma_r[i * s_sr], sigma_az[i * s_saz]
+        srp, sazp = sigma_r_pred[i * s_srp], sigma_az_pred[i * s_sazp]
+        dr = ri - rp
+        daz = azi - azp
+        if not (
+            math.isfinite(dr)
+            and math.isfinite(daz)
+            and ri >= 0.0
+            and sr > 0.0
+            and saz > 0.0
+            and srp > 0.0
+            and sazp > 0.0
+            and math.isfinite(sr + saz + srp + sazp)
+        ):
+            bad = min(bad, i)
+        W_R = K_R * math.hypot(sr, srp)
+        W_az = K_az * math.hypot(saz, sazp)
+        s = max(abs(dr) / W_R, abs(wrapped(daz)) / W_az)
+        statistic[i] = s
+        inside[i] = s <= 1.0
+    return -1 if bad == n else bad
 
 
 @kernel(
     f"int64({VALUES}, {VALUES}, {VALUES}, {VALUES}, float64, {VALUES}, {VALUES}, {VALUES},"
-    f" {VALUES}, float64, float64, float64[::1], boolean[::1])",
-    parallel=True,
+    f" {VALUES}, float64, float64, float64[::1], boolean[::1])"
 )
 def first_association_kernel(
     r1: np.ndarray,
@@ -266,35 +242,30 @@ def first_association_kernel(
     s_r2, s_az2 = stride(r2.shape[0], n), stride(az2.shape[0], n)
     s_sr1, s_saz1 = stride(sigma_r1.shape[0], n), stride(sigma_az1.shape[0], n)
     s_sr2, s_saz2 = stride(sigma_r2.shape[0], n), stride(sigma_az2.shape[0], n)
-    blocks = (n + BLOCK - 1) // BLOCK
-    bad = np.full(blocks, n, dtype=np.int64)
-    for b in numba.prange(blocks):
-        for i in range(b * BLOCK, min(n, (b + 1) * BLOCK)):
-            ri1, ai1 = r1[i * s_r1], az1[i * s_az1]
-            ri2, ai2 = r2[i * s_r2], az2[i * s_az2]
-            sr1, sa1 = sigma_r1[i * s_sr1], sigma_az1[i * s_saz1]
-            sr2, sa2 = sigma_r2[i * s_sr2], sigma_az2[i * s_saz2]
-            dr = ri2 - ri1
-            daz = ai2 - ai1
-            if not (
-                math.isfinite(dr)
-                and math.isfinite(daz)
-                and ri1 >= 0.0
-                and ri2 >= 0.0
-                and sr1 > 0.0
-                and sa1 > 0.0
-                and sr2 > 0.0
-                and sa2 > 0.0
-                and math.isfinite(sr1 + sa1 + sr2 + sa2)
-            ):
-                bad[b] = min(bad[b], i)
-            turn = math.asin(R_max / ri1) if ri1 > R_max else math.asin(1.0)
-            W_R = R_max + K_R * math.hypot(sr1, sr2)
-            W_az = turn + K_az * math.hypot(sa1, sa2)
-            s = max(abs(dr) / W_R, abs(wrapped(daz)) / W_az)
-            statistic[i] = s
-            inside[i] = s <= 1.0
-    first = n
-    for b in range(blocks):
-        first = min(first, bad[b])
-    return -1 if first == n else first
+    bad = n
+    for i in range(n):
+        ri1, ai1 = r1[i * s_r1], az1[i * s_az1]
+        ri2, ai2 = r2[i * s_r2], az2[i * s_az2]
+        sr1, sa1 = sigma_r1[i * s_sr1], sigma_az1[i * s_saz1]
+        sr2, sa2 = sigma_r2[i * s_sr2], sigma_az2[i * s_saz2]
+        dr = ri2 - ri1
+        daz = ai2 - ai1
+        if not (
+            math.isfinite(dr)
+            and math.isfinite(daz)
+            and ri1 >= 0.0
+            and ri2 >= 0.0
+            and sr1 > 0.0
+            and sa1 > 0.0
+            and sr2 > 0.0
+            and sa2 > 0.0
+            and math.isfinite(sr1 + sa1 + sr2 + sa2)
+        ):
+            bad = min(bad, i)
+        turn = math.asin(R_max / ri1) if ri1 > R_max else math.asin(1.0)
+        W_R = R_max + K_R * math.hypot(sr1, sr2)
+        W_az = turn + K_az * math.hypot(sa1, sa2)
+        s = max(abs(dr) / W_R, abs(wrapped(daz)) / W_az)
+        statistic[i] = s
+        inside[i] = s <= 1.0
+    return -1 if bad == n else bad

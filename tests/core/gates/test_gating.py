@@ -403,7 +403,7 @@ def test_combined_kernel_matches_on_the_ring_edges_and_at_z1():
 
 
 @pytest.mark.parametrize("n", [0, 1, 2, 40000])
-def test_kernels_match_on_batch_sizes_across_the_parallel_blocks(n):
+def test_kernels_match_on_every_batch_size(n):
     for result, reference in all_kernel_calls(np.random.default_rng(n), n):
         assert_kernel_matches_reference(result, reference)
         assert result.statistic.shape == (n,)
