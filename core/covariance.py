@@ -3,21 +3,17 @@
 A caller that adds covariances (B = P1 + P2, S = P_pred + R) should check each term on
 its own first: a sum can be positive definite while a term is not, and an error about
 the sum names neither input. :func:`check_covariance` is the check core's own functions
-apply to every covariance argument; :func:`is_valid_covariance` is the same check of one
-matrix inside a compiled kernel.
+apply to every covariance argument.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plotgate.core.compiled import kernel
-from plotgate.core.validation import MAX_CONDITION, SYMMETRY_RTOL, as_covariance
+from plotgate.core.validation import MAX_CONDITION, as_covariance
 
-__all__ = ["MAX_CONDITION", "check_covariance", "is_valid_covariance"]
+__all__ = ["MAX_CONDITION", "check_covariance"]
 
 
 def check_covariance(P: ArrayLike, name: str = "P") -> np.ndarray:
@@ -62,23 +58,3 @@ def check_covariance(P: ArrayLike, name: str = "P") -> np.ndarray:
     R 1 is not positive definite (det = -3.0): [[1.0, 2.0], [2.0, 1.0]]
     """
     return as_covariance(name, P)
-
-
-@kernel("boolean(float64, float64, float64, float64)")
-def is_valid_covariance(P11: float, P12: float, P21: float, P22: float) -> bool:
-    """One matrix [[P11, P12], [P21, P22]] passes :func:`check_covariance`, in a kernel.
-
-    Finite, symmetric within 1e-9 of the trace, P11 > 0 and det P >= trace(P)^2 /
-    :data:`MAX_CONDITION` (which implies det P > 0), evaluated as
-    :func:`check_covariance` evaluates them. A kernel that finds a row False hands the
-    batch back to :func:`check_covariance`, whose error names the row and the reason.
-    """
-    if not (
-        math.isfinite(P11) and math.isfinite(P12) and math.isfinite(P21) and math.isfinite(P22)
-    ):
-        return False
-    if P12 != P21 and not abs(P12 - P21) <= SYMMETRY_RTOL * (abs(P11) + abs(P22)):
-        return False
-    det = P11 * P22 - P12 * P12
-    trace = P11 + P22
-    return P11 > 0.0 and det * MAX_CONDITION >= trace * trace

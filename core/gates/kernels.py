@@ -3,7 +3,7 @@
 Each kernel tests N pairs the way its gate's numpy ``reference_test`` does, with the
 same arithmetic in the same order (so the statistic agrees to rounding), and checks the
 inputs the reference checks (finite values, signs, covariances as
-:func:`plotgate.core.covariance.check_covariance`) in the same pass. A kernel returns the
+:func:`plotgate.core.validation.is_valid_covariance`) in the same pass. A kernel returns the
 first pair whose inputs fail a check, or -1: the gate then runs its reference, whose
 error names the field and the row as it always has.
 
@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from plotgate.core.compiled import kernel
-from plotgate.core.covariance import is_valid_covariance
+from plotgate.core.validation import is_valid_covariance
 
 __all__ = [
     "ROWS",

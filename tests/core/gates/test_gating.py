@@ -26,10 +26,12 @@ from plotgate.core import (
     RectangularGate,
     RingGate,
     SectorGate,
+    check_covariance,
     expansion_coefficient,
     gate_threshold,
 )
 from plotgate.core.gates import thresholds
+from plotgate.core.validation import first_invalid_covariance, valid_covariances
 
 # ---------------------------------------------------------------- broadcasting and purity
 
@@ -520,3 +522,69 @@ def test_kernels_hand_an_overflowing_difference_to_the_reference():
         result, reference = ellipse_calls(z, z_pred, S)
     assert_kernel_matches_reference(result, reference)
     assert np.isnan(result.statistic[0]) and not result.inside[0]
+
+
+def covariance_edge_rows():
+    """Rows on each side of every covariance check, and non-finite ones."""
+    c = 1e12
+    return np.array(
+        [
+            [[4.0, 1.0], [1.0, 3.0]],
+            [[1.0, 2.0], [2.0, 1.0]],  # indefinite
+            [[-1.0, 0.0], [0.0, -1.0]],  # negative definite
+            [[0.0, 0.0], [0.0, 1.0]],  # singular
+            [[1.0, 0.5 + 1e-10], [0.5, 1.0]],  # asymmetric within the tolerance
+            [[1.0, 0.5 + 1e-8], [0.5, 1.0]],  # asymmetric beyond it
+            [[1.0, 0.0], [0.0, 4.0 / c]],  # condition near the limit: det c = 4 ~ trace^2
+            [[1.0, 0.0], [0.0, 3.0 / c]],
+            [[1.0, 0.0], [0.0, 5.0 / c]],
+            [[1e-300, 0.0], [0.0, 1e-300]],  # det underflows to 0
+            [[np.nan, 0.0], [0.0, 1.0]],
+            [[1.0, np.inf], [np.inf, 1.0]],
+            [[1e200, 0.0], [0.0, 1e200]],  # det overflows to inf
+        ]
+    )
+
+
+def test_covariance_kernel_matches_the_numpy_check_row_by_row():
+    rng = np.random.default_rng(9)
+    random = random_spd(rng, 2000, 30.0)
+    random[::7, 0, 1] += rng.normal(0.0, 1e-6, random[::7].shape[0])  # some asymmetric
+    random[::11, 1, 1] = -random[::11, 1, 1]  # some indefinite
+    P = np.concatenate([covariance_edge_rows(), random])
+    finite = np.isfinite(P).all(axis=(1, 2))
+    with np.errstate(invalid="ignore", over="ignore"):
+        expected = finite & valid_covariances(P)
+    rows = P.reshape(-1, 4)
+    got = np.array([first_invalid_covariance(rows[i : i + 1]) == -1 for i in range(len(P))])
+    np.testing.assert_array_equal(got, expected)
+    assert 0 < expected.sum() < len(P)
+    assert first_invalid_covariance(rows) == np.argmin(expected)
+    assert first_invalid_covariance(rows[expected]) == -1
+    assert first_invalid_covariance(rows[:0]) == -1
+
+
+@pytest.mark.parametrize("row", range(13))
+def test_covariance_errors_name_the_bad_row(row):
+    edge = covariance_edge_rows()[row]
+    P = random_spd(np.random.default_rng(10), 10, 30.0)
+    P[6] = edge
+    with np.errstate(invalid="ignore", over="ignore"):
+        valid = np.isfinite(edge).all() and bool(valid_covariances(edge))
+    if valid:
+        np.testing.assert_array_equal(check_covariance(P, "R"), P)
+        return
+    error = NonFiniteError if not np.isfinite(edge).all() else CovarianceError
+    with pytest.raises(error) as raised:
+        check_covariance(P, "R")
+    assert raised.value.field == "R" and raised.value.index == 6
+    assert raised.value.reason.endswith(f"{edge.tolist()}")
+
+
+def test_a_non_finite_covariance_is_reported_before_an_earlier_invalid_one():
+    P = random_spd(np.random.default_rng(11), 10, 30.0)
+    P[2] = [[1.0, 2.0], [2.0, 1.0]]
+    P[5, 0, 0] = np.nan
+    with pytest.raises(NonFiniteError) as raised:
+        check_covariance(P, "R")
+    assert raised.value.index == 5
