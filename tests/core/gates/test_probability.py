@@ -843,14 +843,57 @@ def test_compiled_density_of_no_points_is_empty():
     assert out.shape == (0,)
 
 
-@pytest.mark.parametrize("kind", ["ring", "first_association"])
-def test_unconditional_quadrature_matches_numpy_reference(kind):
+@pytest.mark.parametrize(
+    "kind", ["ring", "combined", "expanded", "ellipse", "first_association", "eccentric"]
+)
+def test_unconditional_probability_matches_numpy_reference(kind):
+    """The compiled path (mapped heading rule) against the numpy quadrature with graded
+    heading panels, to the two error estimates."""
     gate = {
         "ring": RingGate(100.0, 500.0),
+        "combined": CombinedGate(100.0, 500.0, 0.9),
+        "expanded": ExpandedGate(500.0, 0.9),
+        "ellipse": EllipseGate(0.9, offset=(0.0, 1500.0)),
         "first_association": FirstAssociationGate(500.0, 3.0, 3.0),
+        "eccentric": RingGate(100.0, 500.0),
     }[kind]
     g = paper_geometry(np.array([20e3, 50e3]))
-    for rule in gp.RULES:
-        ref = gp.unconditional_quadrature(gate, g, 500.0, 2500.0, "area", rule, reference=True)
-        fast = gp.unconditional_quadrature(gate, g, 500.0, 2500.0, "area", rule)
-        np.testing.assert_allclose(fast, ref, rtol=1e-12)
+    if kind == "eccentric":  # axis ratio 26: graded heading panels, compiled
+        g = mark_geometry(30e3, 1.0, 10.0, math.radians(0.5), tau=TAU)
+    high, low = (
+        gp.unconditional_quadrature(gate, g, 500.0, 2500.0, "area", rule, reference=True)
+        for rule in gp.RULES
+    )
+    res = unconditional_probability(gate, g, 100.0, 500.0, "area")
+    ref_error = np.abs(high - low)
+    assert (np.abs(res.probability - high) <= 2.0 * ref_error + res.error + 1e-10).all()
+
+
+@pytest.mark.parametrize(
+    ("sigma_r", "sigma_az_deg", "speeds", "prior"),
+    [
+        (200.0, 0.5, (100.0, 500.0), "area"),
+        (200.0, 0.5, (0.0, 300.0), "speed"),
+        (50.0, 0.5, (0.0, 500.0), "area"),  # axis ratio 4.3
+        (180.0, 0.05, (50.0, 250.0), "speed"),
+    ],
+)
+def test_mapped_heading_rule_matches_adaptive_quad(sigma_r, sigma_az_deg, speeds, prior):
+    g = mark_geometry(50e3, 0.4, sigma_r, math.radians(sigma_az_deg), tau=TAU)
+    R_min, R_max = speeds[0] * TAU, speeds[1] * TAU
+    lam_min, lam_max = np.linalg.eigvalsh(g.P1[0] + g.P2[0])
+    rng = np.random.default_rng(16)
+    d = rng.uniform(-1.0, 1.0, (40, 2)) * (R_max + 3.0 * math.sqrt(lam_max))
+    d[:3] = [[0.0, 0.0], [R_min, 0.0], [0.0, -R_max]]
+    fast = gp.mapped_prior_density(d[:, 0], d[:, 1], g.B, R_min, R_max, prior)
+    ref = gp.prior_density_reference(
+        d[None, :, 0], d[None, :, 1], g.B, R_min, R_max, prior, 14, 0.25, True
+    )[0]
+    bound = (
+        2.0
+        * np.pi
+        * np.sqrt(2.0 * np.pi * lam_max)
+        / (R_max - R_min)
+        * (2.0 if prior == "area" else 1.0)
+    )
+    np.testing.assert_allclose(fast, ref, rtol=0.0, atol=1e-8 * bound)
