@@ -81,9 +81,9 @@ catches a feature the panels miss as well as too low an order."""
 HEADING_SPREAD = 4.0
 """epsilon / w of the conformal map of the heading integral: the peak, w wide, is spread
 over about a quarter of the mapped circle."""
-HEADING_TOL = 1e-9
-"""Agreement of successive mapped trapezoid sums, relative to a bound on the heading
-integral: the geometric convergence puts the last sum's error far below it."""
+HEADING_TOL = 1e-10
+"""Error of the mapped trapezoid sum of the heading integral, relative to a bound on
+that integral (successive sums agree within its square root)."""
 M_CONDITIONAL = (10, 5)
 """Gauss-Legendre orders of the adaptive conditional probability's two rules."""
 _CONDITIONAL_TOL = 1e-10
@@ -386,7 +386,7 @@ def _unconditional_chunk(
     else:
         for i in range(n):
             Bi = Sym2(*(x[i : i + 1] for x in B))
-            if eccentric or R_max - R_min <= np.sqrt(lam_min[i]):
+            if lam_max[i] >= _ECCENTRIC**2 * lam_min[i] or R_max - R_min <= np.sqrt(lam_min[i]):
                 density[i] = compiled_density(
                     dx[i], dy[i], Bi, R_min, R_max, prior, m, scale, eccentric, max(1, BLOCK // n)
                 )
@@ -464,13 +464,15 @@ def mapped_prior_density(
 ) -> np.ndarray:
     """:func:`prior_density_reference` by the mapped periodic trapezoid rule, compiled.
 
-    For one problem (B of length 1) at (K,) points, a ring wider than sigma_min and a B
-    that is not eccentric (axis ratio below :data:`_SMEARED`): the heading integrand has
-    one peak, and :func:`plotgate.core.gates.heading.mapped_density` integrates it with a
+    For one problem (B of length 1) at (K,) points, a ring wider than sigma_min and a
+    nearly round B (axis ratio below :data:`_ECCENTRIC`, as in Konovalov's example): the
+    heading integrand has one peak, about as wide in every direction, and
+    :func:`plotgate.core.gates.heading.mapped_density` integrates it with a
     geometrically converging rule, doubling its nodes until two sums agree within
-    :data:`HEADING_TOL` (times ``scale`` squared: the lower rule of :data:`RULES` gets a
+    sqrt(:data:`HEADING_TOL`) (times ``scale``: the lower rule of :data:`RULES` gets a
     looser heading, so their difference also covers the heading's error) of
-    2 pi (c0 + c1 R_max) sqrt(2 pi lambda_max), a bound on the integral.
+    2 pi (c0 + c1 R_max) sqrt(2 pi lambda_max), a bound on the integral; the finer sum's
+    error is then about :data:`HEADING_TOL` of it.
     """
     lam_min, lam_max, _ = (float(x[0]) for x in _axes(B))
     Q = inverse(B)
@@ -489,8 +491,8 @@ def mapped_prior_density(
         float(c0),
         float(c1),
         HEADING_SPREAD,
-        float(HEADING_TOL * scale * scale * bound),
-        8,
+        float(np.sqrt(HEADING_TOL) * scale * bound),
+        16,
         1 << 14,
     )
     return density

@@ -874,8 +874,8 @@ def test_unconditional_probability_matches_numpy_reference(kind):
     [
         (200.0, 0.5, (100.0, 500.0), "area"),
         (200.0, 0.5, (0.0, 300.0), "speed"),
-        (50.0, 0.5, (0.0, 500.0), "area"),  # axis ratio 4.3
-        (180.0, 0.05, (50.0, 250.0), "speed"),
+        (150.0, 0.5, (0.0, 500.0), "area"),  # axis ratio 2.9
+        (100.0, 0.1, (50.0, 250.0), "speed"),
     ],
 )
 def test_mapped_heading_rule_matches_adaptive_quad(sigma_r, sigma_az_deg, speeds, prior):
