@@ -270,9 +270,10 @@ def mapped_density(
     nodes interleave the old) until two successive sums agree within ``tol``, at most
     ``n_max`` nodes: with geometric convergence the difference delta of the last two
     sums is the error of the coarser one, and the finer one's is about delta^2 / I for
-    an integral of size I, so a ``tol`` of sqrt(epsilon) I leaves an error near
-    epsilon I. For a B that is not eccentric: an eccentric B's long density adds
-    peaks away from c (:func:`prior_density` grades about them).
+    an integral of size I, so a ``tol`` of sqrt(epsilon) I aims at an error near
+    epsilon I (a heuristic: where the integral is far below I the error can be larger).
+    For a B that is not eccentric: an eccentric B's long density adds peaks away from c
+    (:func:`prior_density` grades about them).
     """
     n = dx.size
     out = np.empty(n)
