@@ -20,17 +20,21 @@ RUN /opt/venv/bin/pip install --no-cache-dir --no-deps .
 FROM python:3.11-slim
 ARG GIT_COMMIT=unknown
 RUN adduser --disabled-password --gecos "" --uid 10001 plotgate \
-    && mkdir /data && chown plotgate:plotgate /data
+    && mkdir /data /var/cache/plotgate && chown plotgate:plotgate /data /var/cache/plotgate
 COPY --from=builder /opt/venv /opt/venv
 ENV PATH=/opt/venv/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     PLOTGATE_HOST=0.0.0.0 \
     PLOTGATE_PORT=8000 \
     PLOTGATE_LOG_DIR=/data \
-    PLOTGATE_GIT_COMMIT=$GIT_COMMIT
+    PLOTGATE_GIT_COMMIT=$GIT_COMMIT \
+    NUMBA_CACHE_DIR=/var/cache/plotgate/numba
 VOLUME ["/data"]
 WORKDIR /data
 USER plotgate
+# compile the numba kernels now, as the user that serves, into a cache it can write:
+# a container starts warm (plotgate.core.compiled)
+RUN python -c "import plotgate.service.app"
 EXPOSE 8000
 HEALTHCHECK --interval=10s --timeout=3s \
     CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/healthz', timeout=2)"]

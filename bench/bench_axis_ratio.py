@@ -9,7 +9,8 @@ Konovalov's example (ring gate 100..500 m/s, tau 5 s, first mark 50 km north, si
 sqrt(lambda_max / lambda_min) about 2, the paper's case) down to 1 mm (about 4 x 10^5),
 then the azimuth sigma down to 1e-6 degrees; each probability through the service's
 in-process path (``service.registry.execute``), timed once (the slow ones take minutes),
-with the quadrature's node count. The axis ratio is the work size ``mark.axis_ratio``
+with the quadrature's gate node count (each gate node integrates the prior's heading).
+The axis ratio is the work size ``mark.axis_ratio``
 an operator may cap (``PLOTGATE_LIMITS``); the last rows time ``gates.design``, which
 evaluates about twenty such probabilities. Prints a markdown table.
 """
@@ -37,7 +38,8 @@ DESIGN_CASES = [("sigma_r", v) for v in (200.0, 20.0)]
 
 
 def nodes_counted() -> list[int]:
-    """Patch the panel rule to count the 3-D quadrature's nodes; returns the counter."""
+    """Patch the panel rule to count the gate's (direction x radius) nodes; returns the
+    counter. The heading nodes of each are built inside the compiled kernels."""
     count = [0]
     rule = gp.panel_rule
 
@@ -63,7 +65,7 @@ def main() -> None:
         f"{scipy.__version__}, {platform.machine()}\n"
     )
     count = nodes_counted()
-    print("| operation | changed | axis ratio | seconds | 3-D nodes | status |")
+    print("| operation | changed | axis ratio | seconds | gate nodes | status |")
     print("|---|---|---:|---:|---:|---|")
     for field, value in CASES:
         mark = dict(MARK, **{field: value})

@@ -8,14 +8,20 @@ Each gate is timed end to end (input validation included) as the best of 5 runs
 with time.perf_counter, and reported as pair tests per second. The baseline is
 the ellipse gate's rho = nu^T S^-1 nu computed the naive vectorized way, with
 np.linalg.solve over the batch and no validation; the last column is each
-gate's throughput relative to it. Prints a markdown table.
+gate's throughput relative to it. The gates with a compiled kernel (ellipse,
+combined, sector, first association) are timed beside their numpy
+``reference_test``. Prints a markdown table, then the first-call cost of the kernels:
+importing plotgate.core with an empty ``NUMBA_CACHE_DIR`` (compiling) and again with
+the cache that import wrote (loading).
 """
 
 from __future__ import annotations
 
 import os
 import platform
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 
@@ -78,27 +84,28 @@ def main() -> None:
     if not np.array_equal(EllipseGate(0.9).test(z2, z1, S).inside, baseline_inside):
         sys.exit("EllipseGate and the solve baseline disagree")
 
+    ellipse, combined = EllipseGate(0.9), CombinedGate(100.0, 500.0, 0.9)
+    sector, first = SectorGate(3.0, 3.0), FirstAssociationGate(500.0, 3.0, 3.0)
+    sector_args = (r2, az2, r1, az1, sigma_r, sigma_az, sigma_r, sigma_az)
+    first_args = (r1, az1, r2, az2, 5.0, sigma_r, sigma_az, sigma_r, sigma_az)
+    compiled: list[tuple[str, Callable[[], object]]] = [
+        ("EllipseGate", lambda: ellipse.test(z2, z1, S)),
+        ("CombinedGate", lambda: combined.test(z1, P1, z2, P2, 5.0)),
+        ("SectorGate", lambda: sector.test(*sector_args)),
+        ("FirstAssociationGate", lambda: first.test(*first_args)),
+    ]
     cases: list[tuple[str, Callable[[], object]]] = [
         ("baseline: ellipse rho via np.linalg.solve", lambda: solve_baseline(z2, z1, S, 0.9)),
-        ("EllipseGate", lambda: EllipseGate(0.9).test(z2, z1, S)),
-        ("CombinedGate", lambda: CombinedGate(100.0, 500.0, 0.9).test(z1, P1, z2, P2, 5.0)),
+        ("EllipseGate, numpy reference", lambda: ellipse.reference_test(z2, z1, S)),
+        ("CombinedGate, numpy reference", lambda: combined.reference_test(z1, P1, z2, P2, 5.0)),
+        ("SectorGate, numpy reference", lambda: sector.reference_test(*sector_args)),
+        ("FirstAssociationGate, numpy reference", lambda: first.reference_test(*first_args)),
         ("RingGate", lambda: RingGate(100.0, 500.0).test(z1, z2, 5.0)),
         ("ExpandedGate", lambda: ExpandedGate(500.0, 0.9).test(z1, z2, 5.0, sigma_r, sigma_az)),
         ("RectangularGate", lambda: RectangularGate(2.0).test(z2, z1, sigma_r, sigma_r)),
-        (
-            "SectorGate",
-            lambda: SectorGate(3.0, 3.0).test(
-                r2, az2, r1, az1, sigma_r, sigma_az, sigma_r, sigma_az
-            ),
-        ),
-        (
-            "FirstAssociationGate",
-            lambda: FirstAssociationGate(500.0, 3.0, 3.0).test(
-                r1, az1, r2, az2, 5.0, sigma_r, sigma_az, sigma_r, sigma_az
-            ),
-        ),
     ]
     rates = {name: N / best_time(run) for name, run in cases}
+    rates |= {f"{name}, compiled kernel": N / best_time(run) for name, run in compiled}
     baseline = rates[cases[0][0]]
 
     print(
@@ -108,8 +115,39 @@ def main() -> None:
     )
     print("| gate | best time (ms) | pair tests / s | vs solve baseline |")
     print("|---|---:|---:|---:|")
-    for name, rate in rates.items():
+    for name, rate in sorted(rates.items(), key=lambda item: item[0].split(",")[0]):
         print(f"| {name} | {1e3 * N / rate:.1f} | {rate:.3g} | {rate / baseline:.1f}x |")
+    cold, warm = kernel_import_times()
+    print(
+        f"\nImporting plotgate.core: {cold:.2f} s with an empty NUMBA_CACHE_DIR"
+        f" (compiling its kernels), {warm:.2f} s from the cache it wrote."
+    )
+
+
+def kernel_import_times() -> tuple[float, float]:
+    """Seconds to import plotgate.core in a fresh process: empty kernel cache, then warm.
+
+    The difference is the compilation of core's kernels (importing compiles them).
+    """
+    code = (
+        "import time; t = time.perf_counter(); import plotgate.core;"
+        " print(time.perf_counter() - t)"
+    )
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        times = [
+            float(
+                subprocess.run(
+                    [sys.executable, "-c", code],
+                    env=env,
+                    check=True,
+                    capture_output=True,
+                    text=True,
+                ).stdout
+            )
+            for _ in range(2)
+        ]
+    return times[0], times[1]
 
 
 if __name__ == "__main__":

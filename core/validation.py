@@ -8,25 +8,32 @@ leading batch axes, i.e. the row number for an (N, ...) batch.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.compiled import kernel
 from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
 
 __all__ = [
     "as_array",
     "as_covariance",
     "as_dof",
+    "as_float_array",
     "as_points",
     "as_probability",
     "as_scalar",
     "broadcast_batch",
     "first_index",
+    "first_invalid_covariance",
+    "is_valid_covariance",
     "pair_count",
     "require_nonnegative",
     "require_positive",
     "require_scalar",
     "to_pairs",
+    "valid_covariances",
 ]
 
 SYMMETRY_RTOL = 1e-9
@@ -52,11 +59,12 @@ def _row(x: np.ndarray, index: int | None, core_ndim: int) -> np.ndarray:
     return row
 
 
-def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> np.ndarray:
-    """Coerce to a float array whose trailing shape is core_shape and whose values are finite.
+def as_float_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Coerce to a float array whose trailing shape is core_shape, not yet checked finite.
 
-    Raises ParameterError when value is not real-valued or has the wrong trailing
-    shape, and NonFiniteError (with the first offending batch row) on NaN or infinity.
+    :func:`as_array` without its finiteness pass, for a compiled kernel that checks every
+    value in the pass that uses it. Raises ParameterError when value is not real-valued
+    or has the wrong trailing shape.
     """
     try:
         x = np.asarray(value, dtype=float)
@@ -66,6 +74,17 @@ def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> n
     if x.ndim < core_ndim or x.shape[x.ndim - core_ndim :] != core_shape:
         inner = ", ".join(str(k) for k in core_shape)
         raise ParameterError(name, f"must have shape (..., {inner}), got shape {x.shape}")
+    return x
+
+
+def as_array(name: str, value: ArrayLike, core_shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Coerce to a float array whose trailing shape is core_shape and whose values are finite.
+
+    Raises ParameterError when value is not real-valued or has the wrong trailing
+    shape, and NonFiniteError (with the first offending batch row) on NaN or infinity.
+    """
+    x = as_float_array(name, value, core_shape)
+    core_ndim = len(core_shape)
     finite = np.isfinite(x)
     if not finite.all():
         bad = ~finite.all(axis=tuple(range(x.ndim - core_ndim, x.ndim)))
@@ -81,16 +100,13 @@ def as_points(name: str, value: ArrayLike) -> np.ndarray:
     return as_array(name, value, (2,))
 
 
-def as_covariance(name: str, value: ArrayLike) -> np.ndarray:
-    """Coerce (..., 2, 2) covariances and check they are symmetric positive definite.
+def valid_covariances(P: np.ndarray) -> np.ndarray:
+    """Which finite (..., 2, 2) covariances pass :func:`as_covariance`'s checks: a bool mask.
 
-    Symmetry allows |P12 - P21| <= SYMMETRY_RTOL (|P11| + |P22|) for rounding;
-    the math downstream reads the upper element P12. Positive definiteness uses
-    the 2x2 closed form P11 > 0 and det P > 0, and the condition number must not exceed
-    MAX_CONDITION, checked as det P >= trace(P)^2 / MAX_CONDITION.
-    Raises CovarianceError with the first offending batch row.
+    Symmetric within SYMMETRY_RTOL, P11 > 0, and det P >= trace(P)^2 / MAX_CONDITION
+    (so det P > 0), each one vectorized pass: the numpy reference of
+    :func:`first_invalid_covariance`.
     """
-    P = as_array(name, value, (2, 2))
     P11, P12, P21, P22 = P[..., 0, 0], P[..., 0, 1], P[..., 1, 0], P[..., 1, 1]
     symmetric = P12 == P21
     if not symmetric.all():
@@ -99,21 +115,73 @@ def as_covariance(name: str, value: ArrayLike) -> np.ndarray:
     trace = P11 + P22
     # lambda_min / lambda_max = det / lambda_max^2 >= det / trace^2, so this refuses every
     # condition number above MAX_CONDITION (and some within a factor 4 below it) cheaply.
-    valid = symmetric & (P11 > 0) & (det * MAX_CONDITION >= trace * trace)
+    valid: np.ndarray = symmetric & (P11 > 0) & (det * MAX_CONDITION >= trace * trace)
+    return valid
+
+
+@kernel("boolean(float64, float64, float64, float64)")
+def is_valid_covariance(P11: float, P12: float, P21: float, P22: float) -> bool:
+    """One matrix [[P11, P12], [P21, P22]] is finite and passes :func:`valid_covariances`.
+
+    The same comparisons on the same rounded values, for compiled kernels that check
+    their covariances in the pass that uses them.
+    """
+    if not (
+        math.isfinite(P11) and math.isfinite(P12) and math.isfinite(P21) and math.isfinite(P22)
+    ):
+        return False
+    if P12 != P21 and not abs(P12 - P21) <= SYMMETRY_RTOL * (abs(P11) + abs(P22)):
+        return False
+    det = P11 * P22 - P12 * P12
+    trace = P11 + P22
+    return P11 > 0.0 and det * MAX_CONDITION >= trace * trace
+
+
+@kernel("int64(Array(float64, 2, 'C', readonly=True))")
+def first_invalid_covariance(P: np.ndarray) -> int:
+    """First row of (M, 4) covariances [P11, P12, P21, P22] failing :func:`is_valid_covariance`.
+
+    -1 when every row passes: the one pass :func:`as_covariance` makes over a valid batch.
+    """
+    for i in range(P.shape[0]):
+        if not is_valid_covariance(P[i, 0], P[i, 1], P[i, 2], P[i, 3]):
+            return i
+    return -1
+
+
+def as_covariance(name: str, value: ArrayLike) -> np.ndarray:
+    """Coerce (..., 2, 2) covariances and check they are symmetric positive definite.
+
+    Symmetry allows |P12 - P21| <= SYMMETRY_RTOL (|P11| + |P22|) for rounding;
+    the math downstream reads the upper element P12. Positive definiteness uses
+    the 2x2 closed form P11 > 0 and det P > 0, and the condition number must not exceed
+    MAX_CONDITION, checked as det P >= trace(P)^2 / MAX_CONDITION.
+    Raises NonFiniteError with the first non-finite batch row, then CovarianceError with
+    the first offending batch row. A valid batch costs one compiled pass
+    (:func:`first_invalid_covariance`); an invalid one is diagnosed in numpy.
+    """
+    P = as_float_array(name, value, (2, 2))
+    if first_invalid_covariance(np.ascontiguousarray(P.reshape(-1, 4))) < 0:
+        return P
+    P = as_array(name, P, (2, 2))
+    valid = valid_covariances(P)
     if not valid.all():
         index = first_index(~valid)
-        if not _row(symmetric, index, 0):
+        row = _row(P, index, 2)
+        (P11, P12), (P21, P22) = row
+        det = P11 * P22 - P12 * P12
+        if not (P12 == P21 or np.abs(P12 - P21) <= SYMMETRY_RTOL * (np.abs(P11) + np.abs(P22))):
             reason = "is not symmetric"
-        elif not (_row(P11, index, 0) > 0 and _row(det, index, 0) > 0):
-            reason = f"is not positive definite (det = {_row(det, index, 0).tolist()})"
+        elif not (P11 > 0 and det > 0):
+            reason = f"is not positive definite (det = {det.tolist()})"
         else:
-            low, high = np.linalg.eigvalsh(_row(P, index, 2))
+            low, high = np.linalg.eigvalsh(row)
             reason = (
                 f"is numerically singular: eigenvalues {low:.3g} and {high:.3g}; "
                 f"the error ellipse's axis ratio must stay below about "
                 f"{np.sqrt(MAX_CONDITION):.0e}"
             )
-        raise CovarianceError(name, f"{reason}: {_row(P, index, 2).tolist()}", index)
+        raise CovarianceError(name, f"{reason}: {row.tolist()}", index)
     return P
 
 

@@ -7,8 +7,9 @@ Fig. 4 (ring, else the chi-square ellipse of eq. 1 with B = P1 + P2 centred on t
 nearest circle). Each gate kind is a frozen dataclass of its parameters with its
 vectorized ``test``, its ``region`` for gating probabilities and areas, and
 ``contains``, the test on a gating problem (what the Monte Carlo check samples).
-Symbols and batching as in :mod:`plotgate.core.gates` and
-:mod:`plotgate.core.gates.results`.
+The combined gate's ``test`` is a compiled kernel (:mod:`plotgate.core.gates.kernels`)
+beside its numpy ``reference_test``, the oracle the tests hold it to. Symbols and
+batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plotgate.core.errors import GeometryError
+from plotgate.core.errors import GeometryError, PlotgateError
+from plotgate.core.gates.kernels import as_rows, combined_gate_kernel
 from plotgate.core.gates.parameters import ring_radii, standard_deviation
 from plotgate.core.gates.regions import (
     ALL_ROWS,
@@ -36,6 +38,7 @@ from plotgate.core.gates.thresholds import expansion_coefficient, gate_threshold
 from plotgate.core.sym2 import largest_eigenvalue, quadratic_form, sym2
 from plotgate.core.validation import (
     as_covariance,
+    as_float_array,
     as_points,
     first_index,
     pair_count,
@@ -356,6 +359,33 @@ class CombinedGate:
         (array([0.  , 0.5 , 0.18, 8.  , 0.5 ]), 4.605)
         >>> [GateStage(s).name for s in res.stage]
         ['RING', 'OUTER_ELLIPSE', 'INNER_ELLIPSE', 'NONE', 'INNER_ELLIPSE']
+        """
+        try:
+            z1_k = as_float_array("z1", z1, (2,))
+            z2_k = as_float_array("z2", z2, (2,))
+            P1_k = as_float_array("P1", P1, (2, 2))
+            P2_k = as_float_array("P2", P2, (2, 2))
+            R_min, R_max = ring_radii(tau, self.v_min, self.v_max)
+            require_scalar("P_G", self.P_G)
+            gamma = float(gate_threshold(self.P_G))
+            n = pair_count(
+                z1=z1_k.shape[:-1], P1=P1_k.shape[:-2], z2=z2_k.shape[:-1], P2=P2_k.shape[:-2]
+            )
+        except PlotgateError:
+            return self.reference_test(z1, P1, z2, P2, tau)  # raises the reference's error
+        rho, inside, stage = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=np.int8)
+        args = (as_rows(z1_k, 2), as_rows(P1_k, 4), as_rows(z2_k, 2), as_rows(P2_k, 4))
+        if combined_gate_kernel(*args, R_min, R_max, gamma, rho, inside, stage) >= 0:
+            return self.reference_test(z1, P1, z2, P2, tau)  # raises the reference's error
+        return GateResult(inside, rho, gamma, stage)
+
+    def reference_test(
+        self, z1: ArrayLike, P1: ArrayLike, z2: ArrayLike, P2: ArrayLike, tau: float
+    ) -> GateResult:
+        """:meth:`test` in numpy: the reference its compiled kernel is tested against.
+
+        Same parameters, result and errors as :meth:`test`; rho in closed form for all
+        pairs at once, one vectorized pass per step.
         """
         v_min, v_max, P_G = self.v_min, self.v_max, self.P_G
         z1 = as_points("z1", z1)

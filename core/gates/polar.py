@@ -7,8 +7,9 @@ v_max tau) and eq. (4) (azimuth, grown by the largest bearing change); the polar
 of the secondary-processing textbook, Fig. 3.6 a. Azimuth differences are wrapped to
 (-pi, pi]. Each gate kind is a frozen dataclass of its parameters with its vectorized
 ``test``, its ``region`` and ``contains`` on a gating problem (as in
-:mod:`plotgate.core.gates.capture`). Symbols and batching as in
-:mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
+:mod:`plotgate.core.gates.capture`). Both gates' ``test`` is a compiled kernel
+(:mod:`plotgate.core.gates.kernels`) beside its numpy ``reference_test``. Symbols and
+batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations
@@ -18,11 +19,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.errors import PlotgateError
 from plotgate.core.frames import cartesian_to_polar, wrap_angle
+from plotgate.core.gates.kernels import as_rows, first_association_kernel, sector_gate_kernel
 from plotgate.core.gates.parameters import positive_coefficient, ring_radii, standard_deviation
 from plotgate.core.gates.regions import MarkGeometry, StarRegion, sector_region
 from plotgate.core.gates.results import GateResult, gate_result, window_statistic
-from plotgate.core.validation import as_array, as_points, pair_count, require_nonnegative, to_pairs
+from plotgate.core.validation import (
+    as_array,
+    as_float_array,
+    as_points,
+    pair_count,
+    require_nonnegative,
+    to_pairs,
+)
 
 __all__ = ["FirstAssociationGate", "SectorGate", "bearing_turn"]
 
@@ -130,6 +140,46 @@ class SectorGate:
         ...     [10_000.0, 10_000.0, 5_000.0], [0.1, 0.1, 3.14], 3.0, 0.003, 4.0, 0.004)
         >>> res.inside, res.statistic.round(3)
         (array([ True, False,  True]), array([0.667, 1.333, 0.212]))
+        """
+        inputs = {
+            "r": r,
+            "az": az,
+            "r_pred": r_pred,
+            "az_pred": az_pred,
+            "sigma_r": sigma_r,
+            "sigma_az": sigma_az,
+            "sigma_r_pred": sigma_r_pred,
+            "sigma_az_pred": sigma_az_pred,
+        }
+        try:
+            arrays = {name: as_float_array(name, value) for name, value in inputs.items()}
+            K_R = positive_coefficient("K_R", self.K_R)
+            K_az = positive_coefficient("K_az", self.K_az)
+            n = pair_count(**{name: x.shape for name, x in arrays.items()})
+        except PlotgateError:
+            return self.reference_test(**inputs)  # raises the reference's error
+        statistic, inside = np.empty(n), np.empty(n, dtype=bool)
+        a = {name: as_rows(x) for name, x in arrays.items()}
+        marks = (a["r"], a["az"], a["r_pred"], a["az_pred"])
+        sigmas = (a["sigma_r"], a["sigma_az"], a["sigma_r_pred"], a["sigma_az_pred"])
+        if sector_gate_kernel(*marks, *sigmas, K_R, K_az, statistic, inside) >= 0:
+            return self.reference_test(**inputs)  # raises the reference's error
+        return GateResult(inside, statistic, 1.0)
+
+    def reference_test(
+        self,
+        r: ArrayLike,
+        az: ArrayLike,
+        r_pred: ArrayLike,
+        az_pred: ArrayLike,
+        sigma_r: ArrayLike,
+        sigma_az: ArrayLike,
+        sigma_r_pred: ArrayLike,
+        sigma_az_pred: ArrayLike,
+    ) -> GateResult:
+        """:meth:`test` in numpy: the reference its compiled kernel is tested against.
+
+        Same parameters, result and errors as :meth:`test`, one vectorized pass per step.
         """
         K_R, K_az = self.K_R, self.K_az
         r = as_array("r", r)
@@ -271,6 +321,46 @@ class FirstAssociationGate:
         ...     sigma_r1=5.0, sigma_az1=3e-4, sigma_r2=5.0, sigma_az2=3e-4)
         >>> res.inside, res.statistic.round(3)
         (array([ True, False]), array([0.866, 1.325]))
+        """
+        marks = {"r1": r1, "az1": az1, "r2": r2, "az2": az2}
+        sigmas = {
+            "sigma_r1": sigma_r1,
+            "sigma_az1": sigma_az1,
+            "sigma_r2": sigma_r2,
+            "sigma_az2": sigma_az2,
+        }
+        try:
+            m = {name: as_float_array(name, value) for name, value in marks.items()}
+            _, R_max = ring_radii(tau, 0.0, self.v_max)
+            s = {name: as_float_array(name, value) for name, value in sigmas.items()}
+            K_R = positive_coefficient("K_R", self.K_R)
+            K_az = positive_coefficient("K_az", self.K_az)
+            n = pair_count(**{name: x.shape for name, x in (m | s).items()})
+        except PlotgateError:
+            return self.reference_test(tau=tau, **marks, **sigmas)  # raises its error
+        statistic, inside = np.empty(n), np.empty(n, dtype=bool)
+        a = {name: as_rows(x) for name, x in (m | s).items()}
+        first = (a["r1"], a["az1"], a["r2"], a["az2"])
+        sigma = (a["sigma_r1"], a["sigma_az1"], a["sigma_r2"], a["sigma_az2"])
+        if first_association_kernel(*first, R_max, *sigma, K_R, K_az, statistic, inside) >= 0:
+            return self.reference_test(tau=tau, **marks, **sigmas)  # raises its error
+        return GateResult(inside, statistic, 1.0)
+
+    def reference_test(
+        self,
+        r1: ArrayLike,
+        az1: ArrayLike,
+        r2: ArrayLike,
+        az2: ArrayLike,
+        tau: float,
+        sigma_r1: ArrayLike,
+        sigma_az1: ArrayLike,
+        sigma_r2: ArrayLike,
+        sigma_az2: ArrayLike,
+    ) -> GateResult:
+        """:meth:`test` in numpy: the reference its compiled kernel is tested against.
+
+        Same parameters, result and errors as :meth:`test`, one vectorized pass per step.
         """
         v_max, K_R, K_az = self.v_max, self.K_R, self.K_az
         r1 = as_array("r1", r1)

@@ -45,9 +45,15 @@ from numpy.typing import ArrayLike
 from scipy.special import ndtr
 
 from plotgate.core.errors import ParameterError
+from plotgate.core.gates.heading import BLOCK, mapped_density, prior_density
 from plotgate.core.gates.kinds import Gate
 from plotgate.core.gates.parameters import ring_radii
-from plotgate.core.gates.quadrature import adaptive_panels, breakpoints, panel_rule
+from plotgate.core.gates.quadrature import (
+    adaptive_panels,
+    breakpoints,
+    gauss_legendre,
+    panel_rule,
+)
 from plotgate.core.gates.regions import MarkGeometry, StarRegion
 from plotgate.core.sym2 import Sym2, inverse
 from plotgate.core.validation import as_points, pair_count
@@ -55,8 +61,11 @@ from plotgate.core.validation import as_points, pair_count
 __all__ = [
     "GateProbability",
     "Prior",
+    "compiled_density",
     "conditional_probability",
+    "mapped_prior_density",
     "monte_carlo_probability",
+    "prior_density_reference",
     "unconditional_probability",
     "unconditional_quadrature",
 ]
@@ -69,12 +78,20 @@ RULES = ((8, 1.0), (7, np.sqrt(3.0)))
 unconditional probability: the result, and the reference whose difference from it is the
 error estimate. The reference's panels interleave with the result's, so the estimate
 catches a feature the panels miss as well as too low an order."""
+HEADING_SPREAD = 4.0
+"""epsilon / w of the conformal map of the heading integral: the peak, w wide, is spread
+over about a quarter of the mapped circle."""
+HEADING_TOL = 1e-10
+"""Wanted error of the mapped trapezoid sum of the heading integral, relative to a bound
+on that integral (successive sums agree within its square root). The stop on delta^2 is
+a heuristic: at the gate nodes of Konovalov's example the largest error measured was
+3e-7 of the bound (at nodes where the integral is far below it); the second rule's
+looser heading puts that into the error estimate (1.4e-8 there, against 4e-10 from the
+numpy reference)."""
 M_CONDITIONAL = (10, 5)
 """Gauss-Legendre orders of the adaptive conditional probability's two rules."""
 _CONDITIONAL_TOL = 1e-10
 """Absolute error the conditional probability's panels are refined to."""
-_BLOCK = 4096
-"""Points at which the prior-averaged density is computed in one array."""
 _SQRT_2PI = np.sqrt(2.0 * np.pi)
 _ECCENTRIC = 3.0
 """Axis ratio sqrt(lambda_max / lambda_min) of B from which its axes get their own panels."""
@@ -335,6 +352,7 @@ def _unconditional_chunk(
     prior: str,
     rule: tuple[int, float],
     theta_edges: np.ndarray,
+    reference: bool,
 ) -> np.ndarray:
     """Integral over the gate of the prior-averaged density, for a chunk of problems."""
     m, scale = rule
@@ -362,19 +380,129 @@ def _unconditional_chunk(
     dx = (ox[..., None] + rho * ux[..., None]).reshape(n, T * R)
     dy = (oy[..., None] + rho * uy[..., None]).reshape(n, T * R)
     density = np.empty((n, T * R))
-    block = max(1, _BLOCK // n)
-    for first in range(0, T * R, block):
-        cols = slice(first, first + block)
-        density[:, cols] = _prior_density(
-            dx[:, cols], dy[:, cols], B, R_min, R_max, prior, m, scale, eccentric
-        )
+    if reference:
+        block = max(1, BLOCK // n)
+        for first in range(0, T * R, block):
+            cols = slice(first, first + block)
+            density[:, cols] = prior_density_reference(
+                dx[:, cols], dy[:, cols], B, R_min, R_max, prior, m, scale, eccentric
+            )
+    else:
+        for i in range(n):
+            Bi = Sym2(*(x[i : i + 1] for x in B))
+            if lam_max[i] >= _ECCENTRIC**2 * lam_min[i] or R_max - R_min <= np.sqrt(lam_min[i]):
+                density[i] = compiled_density(
+                    dx[i], dy[i], Bi, R_min, R_max, prior, m, scale, eccentric, max(1, BLOCK // n)
+                )
+            else:
+                density[i] = mapped_prior_density(dx[i], dy[i], Bi, R_min, R_max, prior, scale)
     radial = np.einsum("ntr,ntr->nt", w_rho * rho, density.reshape(n, T, R))
     total = np.einsum("nt,nt->n", w_theta, radial)
     probability: np.ndarray = total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
     return probability
 
 
-def _prior_density(
+def compiled_density(
+    dx: np.ndarray,
+    dy: np.ndarray,
+    B: Sym2,
+    R_min: float,
+    R_max: float,
+    prior: str,
+    m: int,
+    scale: float,
+    eccentric: bool,
+    block: int,
+) -> np.ndarray:
+    """:func:`prior_density_reference` for one problem (B of length 1) at (K,) points, compiled.
+
+    The kernel :func:`plotgate.core.gates.heading.prior_density` builds the same heading
+    panels point by point (``block`` points share their grading levels, as one array of
+    the reference does) and sums the same closed-form radial integrals.
+    """
+    lam_min, lam_max, major = (float(x[0]) for x in _axes(B))
+    Q = inverse(B)
+    closed_form = R_max - R_min > np.sqrt(lam_min)
+    c0, c1, s, w = 0.0, 0.0, np.empty(0), np.empty(0)
+    if closed_form:
+        c0, c1 = _prior_weights(prior, R_min, R_max)
+    elif R_max > R_min:
+        s, w = _thin_ring_rule(prior, R_min, R_max)
+    else:
+        s, w = np.array([R_max]), np.array([1.0])
+    x_gl, w_gl = gauss_legendre(m)
+    density: np.ndarray = prior_density(
+        np.ascontiguousarray(dx, dtype=np.float64),
+        np.ascontiguousarray(dy, dtype=np.float64),
+        float(Q.xx[0]),
+        float(Q.xy[0]),
+        float(Q.yy[0]),
+        float(Q.det[0]),
+        lam_min,
+        lam_max,
+        major,
+        float(R_min),
+        float(R_max),
+        float(c0),
+        float(c1),
+        s,
+        w,
+        bool(closed_form),
+        eccentric,
+        x_gl,
+        w_gl,
+        float(scale),
+        block,
+    )
+    return density
+
+
+def mapped_prior_density(
+    dx: np.ndarray,
+    dy: np.ndarray,
+    B: Sym2,
+    R_min: float,
+    R_max: float,
+    prior: str,
+    scale: float = 1.0,
+) -> np.ndarray:
+    """:func:`prior_density_reference` by the mapped periodic trapezoid rule, compiled.
+
+    For one problem (B of length 1) at (K,) points, a ring wider than sigma_min and a
+    nearly round B (axis ratio below :data:`_ECCENTRIC`, as in Konovalov's example): the
+    heading integrand has one peak, about as wide in every direction, and
+    :func:`plotgate.core.gates.heading.mapped_density` integrates it with a
+    geometrically converging rule, doubling its nodes until two sums agree within
+    sqrt(:data:`HEADING_TOL`) (times ``scale``: the lower rule of :data:`RULES` gets a
+    looser heading, so their difference also covers the heading's error) of
+    2 pi (c0 + c1 R_max) sqrt(2 pi lambda_max), a bound on the integral; the finer sum's
+    error is then about :data:`HEADING_TOL` of it.
+    """
+    lam_min, lam_max, _ = (float(x[0]) for x in _axes(B))
+    Q = inverse(B)
+    c0, c1 = _prior_weights(prior, R_min, R_max)
+    bound = 2.0 * np.pi * (c0 + c1 * R_max) * np.sqrt(2.0 * np.pi * lam_max)
+    density: np.ndarray = mapped_density(
+        np.ascontiguousarray(dx, dtype=np.float64),
+        np.ascontiguousarray(dy, dtype=np.float64),
+        float(Q.xx[0]),
+        float(Q.xy[0]),
+        float(Q.yy[0]),
+        float(Q.det[0]),
+        lam_min,
+        float(R_min),
+        float(R_max),
+        float(c0),
+        float(c1),
+        HEADING_SPREAD,
+        float(np.sqrt(HEADING_TOL) * scale * bound),
+        16,
+        1 << 14,
+    )
+    return density
+
+
+def prior_density_reference(
     dx: np.ndarray,
     dy: np.ndarray,
     B: Sym2,
@@ -386,7 +514,8 @@ def _prior_density(
     eccentric: bool,
 ) -> np.ndarray:
     """2 pi |B|^1/2 (2 pi) g(d) at (n, K) points d: the heading integral of the prior's
-    closed-form radial integral of N(s e_phi; d, B).
+    closed-form radial integral of N(s e_phi; d, B), with numpy (the tested oracle of
+    :func:`compiled_density`).
 
     Headings are integrated within reach of d and graded about the direction of d:
     N(d, B) subtends about sigma_min / |d|, or sigma_min / R_min where the inner circle
@@ -521,6 +650,8 @@ def unconditional_quadrature(
     R_max: float,
     prior: str,
     rule: tuple[int, float],
+    *,
+    reference: bool = False,
 ) -> np.ndarray:
     """The unconditional probability with one rule, problem by problem.
 
@@ -531,7 +662,11 @@ def unconditional_quadrature(
     searches with a cheaper rule, and the tests check the error estimate against
     higher-order rules.
 
-    Each problem is one vectorized 3-D quadrature of 10^5-10^6 nodes. Problems are not
+    The prior-averaged density at the gate's nodes is computed by the compiled
+    :func:`compiled_density`, or with ``reference=True`` by its numpy oracle
+    :func:`prior_density_reference` (same nodes, same result to rounding).
+
+    Each problem is one 3-D quadrature of 10^5-10^6 nodes. Problems are not
     stacked into one array: their features lie in different places, and a common array
     would pad every problem to the panels of the most demanding one.
     """
@@ -540,7 +675,9 @@ def unconditional_quadrature(
         part = geometry.take(slice(i, i + 1))
         region = gate.region(part)
         theta_edges = _theta_edges(region, part.B, R_min, R_max, rule[1])
-        out[i] = _unconditional_chunk(region, part.B, R_min, R_max, prior, rule, theta_edges)[0]
+        out[i] = _unconditional_chunk(
+            region, part.B, R_min, R_max, prior, rule, theta_edges, reference
+        )[0]
     return out
 
 

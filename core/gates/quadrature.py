@@ -16,7 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["RATIO", "adaptive_panels", "breakpoints", "panel_rule"]
+__all__ = ["RATIO", "adaptive_panels", "breakpoints", "gauss_legendre", "panel_rule"]
 
 RATIO = 3.0
 """Growth factor of the panel widths away from a feature."""
@@ -24,7 +24,8 @@ _MAX_LEVELS = 40
 
 
 @functools.lru_cache(maxsize=16)
-def _gauss_legendre(m: int) -> tuple[np.ndarray, np.ndarray]:
+def gauss_legendre(m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of the m-point Gauss-Legendre rule on [-1, 1] (cached)."""
     x, w = np.polynomial.legendre.leggauss(m)
     return x, w
 
@@ -112,7 +113,7 @@ def panel_rule(edges: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
 
     ``edges`` is (..., E) sorted; the result is two (..., (E - 1) m) arrays.
     """
-    x, w = _gauss_legendre(m)
+    x, w = gauss_legendre(m)
     a = edges[..., :-1, None]
     half = 0.5 * (edges[..., 1:, None] - a)
     shape = (*edges.shape[:-1], -1)
@@ -157,7 +158,7 @@ def adaptive_panels(
     keep = b > a
     rows, a, b = rows[keep], a[keep], b[keep]
     integral, error = np.zeros(n), np.zeros(n)
-    (x_hi, w_hi), (x_lo, w_lo) = (_gauss_legendre(m) for m in orders)
+    (x_hi, w_hi), (x_lo, w_lo) = (gauss_legendre(m) for m in orders)
     for last in range(max_rounds):
         mid, half = 0.5 * (a + b), 0.5 * (b - a)
         x = mid[:, None] + half[:, None] * np.concatenate([x_hi, x_lo])

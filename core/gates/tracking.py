@@ -6,8 +6,9 @@ the innovation covariance S = H P H^T + R it needs (Konovalov, refs. [6]/[7]), a
 the rectangular gate |d_i| <= k sigma_i of the secondary-processing textbook
 (Fig. 3.6 b). Each gate kind is a frozen dataclass of its parameters with its
 vectorized ``test``, its ``region`` and ``contains`` on a gating problem (as in
-:mod:`plotgate.core.gates.capture`). Symbols and batching as in
-:mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
+:mod:`plotgate.core.gates.capture`). The ellipse gate's ``test`` is a compiled kernel
+(:mod:`plotgate.core.gates.kernels`) beside its numpy ``reference_test``. Symbols and
+batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plotgate.core.errors import ParameterError
+from plotgate.core.errors import ParameterError, PlotgateError
+from plotgate.core.gates.kernels import as_rows, ellipse_gate_kernel
 from plotgate.core.gates.parameters import positive_coefficient, standard_deviation
 from plotgate.core.gates.regions import (
     ALL_ROWS,
@@ -36,6 +38,7 @@ from plotgate.core.sym2 import Sym2, quadratic_form, sym2
 from plotgate.core.validation import (
     as_array,
     as_covariance,
+    as_float_array,
     as_points,
     pair_count,
     require_scalar,
@@ -107,6 +110,26 @@ class EllipseGate:
         >>> res = EllipseGate(0.9).test([[2.0, 1.0], [4.0, 2.0]], [0.0, 0.0], np.diag([4.0, 1.0]))
         >>> res.inside, res.statistic
         (array([ True, False]), array([2., 8.]))
+        """
+        try:
+            z_k = as_float_array("z", z, (2,))
+            z_pred_k = as_float_array("z_pred", z_pred, (2,))
+            S_k = as_float_array("S", S, (2, 2))
+            gamma = self.threshold
+            n = pair_count(z=z_k.shape[:-1], z_pred=z_pred_k.shape[:-1], S=S_k.shape[:-2])
+        except PlotgateError:
+            return self.reference_test(z, z_pred, S)  # raises the reference's error
+        rho, inside = np.empty(n), np.empty(n, dtype=bool)
+        args = (as_rows(z_k, 2), as_rows(z_pred_k, 2), as_rows(S_k, 4))
+        if ellipse_gate_kernel(*args, gamma, rho, inside) >= 0:
+            return self.reference_test(z, z_pred, S)  # raises the reference's error
+        return GateResult(inside, rho, gamma)
+
+    def reference_test(self, z: ArrayLike, z_pred: ArrayLike, S: ArrayLike) -> GateResult:
+        """:meth:`test` in numpy: the reference its compiled kernel is tested against.
+
+        Same parameters, result and errors as :meth:`test`; each check and each step of
+        rho is one vectorized pass.
         """
         z = as_points("z", z)
         z_pred = as_points("z_pred", z_pred)

@@ -1,9 +1,15 @@
-"""Candidate search: which plots of a scan may lie in a gate, by k-d tree.
+"""Candidate search: which plots of a scan may lie in a gate.
 
-A scan's plots go in a ``scipy.spatial.cKDTree`` ((x, y); for polar windows (r, S az)),
-queried with a radius that bounds each gate, so the work grows with the plots near each
-track and initiator, not with all plots. The gates then test the candidates exactly
+A query is a centre and a radius that bounds one gate (a track's or an initiator's); the
+search returns every (query, plot) pair within it, so the work grows with the plots near
+each gate, not with all plots. The gates then test the candidates exactly
 (:mod:`plotgate.core.initiation.pairs`).
+
+:func:`near_pairs` is a compiled uniform-grid search: plots sorted by grid cell (the cell
+as wide as the bin's largest radius), each query scanning the 3 x 3 cells about its
+centre. :func:`near_pairs_reference` is the same search with scipy's ``cKDTree``, the
+tested oracle. Both return the pairs sorted by query, then plot, so the order depends on
+neither the tree's traversal nor the grid.
 """
 
 from __future__ import annotations
@@ -11,10 +17,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.scan import Scan
 
-__all__ = ["MAX_CANDIDATES", "PlotIndex", "near_pairs"]
+__all__ = ["MAX_CANDIDATES", "PlotIndex", "near_pairs", "near_pairs_reference"]
 
 MAX_CANDIDATES = 2**24
 """Most candidate (track or initiator, plot) pairs one search may return (about 400 MB):
@@ -23,54 +30,219 @@ otherwise grow tentative tracks, and their pairs, without bound. Over it the sca
 refused (ParameterError on ``scans``)."""
 
 
-def near_pairs(
-    tree: cKDTree, centres: np.ndarray, radius: np.ndarray, p: float
+def _too_many(count: int) -> ParameterError:
+    return ParameterError(
+        "scans",
+        f"{count} candidate (track, plot) pairs in one search, more than "
+        f"{MAX_CANDIDATES}: the plots are too dense for the gates",
+    )
+
+
+def _radius_bins(radius: np.ndarray) -> np.ndarray:
+    """Bins of radii within a factor 1.5 of each other (each bin is searched on its own)."""
+    smallest = max(float(radius.min()), 1e-9)
+    bins: np.ndarray = np.floor(
+        np.log(np.maximum(radius, smallest) / smallest) / np.log(1.5)
+    ).astype(np.int64)
+    return bins
+
+
+def _sorted_pairs(rows: list[np.ndarray], cols: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    if not rows:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    r = np.concatenate(rows).astype(np.int64)
+    c = np.concatenate(cols).astype(np.int64)
+    order = np.lexsort((c, r))
+    return r[order], c[order]
+
+
+def near_pairs_reference(
+    points: np.ndarray, centres: np.ndarray, radius: np.ndarray, p: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(row, point) pairs with the tree's point within radius[row] of centres[row] (p-norm).
+    """:func:`near_pairs` by scipy's ``cKDTree``: the oracle the compiled search is held to.
 
     Queries go in bins of radii within a factor 1.5, each bin one
-    ``sparse_distance_matrix`` between a tree of its centres and the points (pairs come
-    back as arrays, not Python lists), then the exact per-query radius. A bin that could
-    hold more than :data:`MAX_CANDIDATES` pairs is counted first (``count_neighbors``
-    allocates no pairs) and refused over it.
+    ``sparse_distance_matrix`` between a tree of its centres and a tree of the points,
+    then the exact per-query radius.
+    """
+    if centres.shape[0] == 0 or points.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    tree = cKDTree(points)
+    bins = _radius_bins(radius)
+    rows, cols = [], []
+    for b in np.unique(bins):
+        idx = np.flatnonzero(bins == b)
+        found = cKDTree(centres[idx]).sparse_distance_matrix(
+            tree, float(radius[idx].max()), p=p, output_type="ndarray"
+        )
+        i = idx[found["i"]]
+        keep = found["v"] <= radius[i]
+        rows.append(i[keep])
+        cols.append(found["j"][keep])
+    r, c = _sorted_pairs(rows, cols)
+    if r.size > MAX_CANDIDATES:
+        raise _too_many(int(r.size))
+    return r, c
+
+
+_GRID = (
+    "int64[:], int64[:], int64[:], float64[:, :], int64, int64[:, :], float64[:, :], "
+    "float64[:], boolean"
+)
+"""The grid search's arguments: the plots' cell keys (x cell times ny plus y cell) in
+ascending order, where each x column starts among them (one entry past the last), the
+plots in that order, the plots, cells along y, each query's cell and centre and radius,
+Chebyshev (else Euclidean)."""
+
+
+@kernel(f"int64[:]({_GRID})")
+def _grid_counts(
+    keys: np.ndarray,
+    columns: np.ndarray,
+    order: np.ndarray,
+    points: np.ndarray,
+    ny: int,
+    cells: np.ndarray,
+    centres: np.ndarray,
+    radius: np.ndarray,
+    chebyshev: bool,
+) -> np.ndarray:
+    """Pairs within each query's radius: the 3 x 3 cells about its own."""
+    counts = np.zeros(cells.shape[0], dtype=np.int64)
+    nx = columns.size - 1
+    for q in range(cells.shape[0]):
+        y0, y1 = max(cells[q, 1] - 1, 0), min(cells[q, 1] + 2, ny)
+        for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, nx)):
+            column = keys[columns[cx] : columns[cx + 1]]
+            first = columns[cx] + np.searchsorted(column, cx * ny + y0)
+            last = columns[cx] + np.searchsorted(column, cx * ny + y1)
+            for k in range(first, last):
+                ex = points[order[k], 0] - centres[q, 0]
+                ey = points[order[k], 1] - centres[q, 1]
+                if chebyshev:
+                    near = max(abs(ex), abs(ey)) <= radius[q]
+                else:
+                    near = np.sqrt(ex * ex + ey * ey) <= radius[q]
+                counts[q] += near
+    return counts
+
+
+@kernel(f"int64[:](int64[:], {_GRID})")
+def _grid_fill(
+    offsets: np.ndarray,
+    keys: np.ndarray,
+    columns: np.ndarray,
+    order: np.ndarray,
+    points: np.ndarray,
+    ny: int,
+    cells: np.ndarray,
+    centres: np.ndarray,
+    radius: np.ndarray,
+    chebyshev: bool,
+) -> np.ndarray:
+    """The plots of each query's pairs, at ``offsets[q]:offsets[q + 1]``, in plot order."""
+    found = np.empty(offsets[-1], dtype=np.int64)
+    nx = columns.size - 1
+    for q in range(cells.shape[0]):
+        at = offsets[q]
+        y0, y1 = max(cells[q, 1] - 1, 0), min(cells[q, 1] + 2, ny)
+        for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, nx)):
+            column = keys[columns[cx] : columns[cx + 1]]
+            first = columns[cx] + np.searchsorted(column, cx * ny + y0)
+            last = columns[cx] + np.searchsorted(column, cx * ny + y1)
+            for k in range(first, last):
+                ex = points[order[k], 0] - centres[q, 0]
+                ey = points[order[k], 1] - centres[q, 1]
+                if chebyshev:
+                    near = max(abs(ex), abs(ey)) <= radius[q]
+                else:
+                    near = np.sqrt(ex * ex + ey * ey) <= radius[q]
+                if near:
+                    found[at] = order[k]
+                    at += 1
+        for i in range(offsets[q] + 1, at):  # insertion sort: a query has a few plots
+            plot, k = found[i], i - 1
+            while k >= offsets[q] and found[k] > plot:
+                found[k + 1] = found[k]
+                k -= 1
+            found[k + 1] = plot
+    return found
+
+
+def _grid_search(
+    points: np.ndarray, centres: np.ndarray, radius: np.ndarray, chebyshev: bool, counted: int
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """One bin's pairs on a grid of cells as wide as its largest radius; None when the
+    plots spread over more columns of cells than four a plot, or more cells than integer
+    keys hold exactly (the tree searches those)."""
+    width = max(float(radius.max()), 1e-9)
+    low = points.min(axis=0)
+    extent = np.floor((points.max(axis=0) - low) / width) + 1.0
+    if extent[0] > 4 * points.shape[0] + 2**16 or extent[0] * extent[1] > 2.0**52:
+        return None
+    nx, ny = int(extent[0]), int(extent[1])
+    cell = np.floor((points - low) / width).astype(np.int64)
+    key = cell[:, 0] * ny + cell[:, 1]
+    order = np.argsort(key, kind="stable")
+    keys = key[order]
+    columns = np.searchsorted(keys, np.arange(nx + 1, dtype=np.int64) * ny).astype(np.int64)
+    # a query's cell, clipped one cell beyond the grid: its 3 x 3 block then holds no plot
+    query = np.clip(np.floor((centres - low) / width), -2.0, extent + 1.0).astype(np.int64)
+    centres = np.ascontiguousarray(centres, dtype=float)
+    radius = np.ascontiguousarray(radius, dtype=float)
+    grid = (keys, columns, order, points, ny, query, centres, radius, chebyshev)
+    counts = _grid_counts(*grid)
+    if counted + int(counts.sum()) > MAX_CANDIDATES:
+        raise _too_many(counted + int(counts.sum()))
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    return np.repeat(np.arange(centres.shape[0]), counts), _grid_fill(offsets, *grid)
+
+
+def near_pairs(
+    points: np.ndarray, centres: np.ndarray, radius: np.ndarray, p: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(row, point) pairs with points[point] within radius[row] of centres[row], sorted.
+
+    ``p`` is the norm: 2 (Euclidean) or ``inf`` (Chebyshev). Queries go in bins of radii
+    within a factor 1.5; each bin is searched on a uniform grid of cells as wide as its
+    largest radius, so a query reads the plots of the 3 x 3 cells about its centre (a
+    compiled loop: the plots sorted by cell, each column's found by its start, each
+    cell's by a binary search in its column; no tree to build). A bin whose plots spread
+    over more columns than four a plot (far wider than the gates) goes to the tree
+    (:func:`near_pairs_reference`). The pairs are counted before any is stored.
 
     Raises
     ------
     ParameterError
-        ``"scans"`` when a bin holds more than :data:`MAX_CANDIDATES` pairs.
+        ``"scans"`` when a search holds more than :data:`MAX_CANDIDATES` pairs.
     """
-    if centres.shape[0] == 0:
+    if centres.shape[0] == 0 or points.shape[0] == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    smallest = max(float(radius.min()), 1e-9)
-    bins = np.floor(np.log(np.maximum(radius, smallest) / smallest) / np.log(1.5)).astype(int)
-    rows, cols = [], []
-    for b in np.unique(bins):  # a few bins of similar radius
+    points = np.ascontiguousarray(points, dtype=float)
+    bins = _radius_bins(radius)
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    counted = 0
+    for b in np.unique(bins):
         idx = np.flatnonzero(bins == b)
-        queries = cKDTree(centres[idx])
-        reach = float(radius[idx].max())
-        if idx.size * tree.n > MAX_CANDIDATES:
-            count = int(queries.count_neighbors(tree, reach, p=p))
-            if count > MAX_CANDIDATES:
-                raise ParameterError(
-                    "scans",
-                    f"{count} candidate (track, plot) pairs in "
-                    f"one search, more than {MAX_CANDIDATES}: the plots "
-                    f"are too dense for the gates",
-                )
-        found = queries.sparse_distance_matrix(tree, reach, p=p, output_type="ndarray")
-        i = idx[found["i"]]
-        keep = found["v"] <= radius[i]
-        rows.append(i[keep])
-        cols.append(found["j"][keep].astype(np.int64))
-    return np.concatenate(rows).astype(np.int64), np.concatenate(cols)
+        found = _grid_search(points, centres[idx], radius[idx], p == np.inf, counted)
+        if found is None:
+            found = near_pairs_reference(points, centres[idx], radius[idx], p)
+        rows.append(idx[found[0]])
+        cols.append(found[1])
+        counted += found[0].size
+    r, c = _sorted_pairs(rows, cols)
+    if r.size > MAX_CANDIDATES:
+        raise _too_many(int(r.size))
+    return r, c
 
 
 class PlotIndex:
     """Candidate search over one scan's plots (the gates then test the candidates exactly).
 
-    Cartesian gates: a cKDTree of (x, y) queried with a radius bounding each gate. Polar
-    windows |dr| <= W_R, |d az| <= W_az are rectangles in (r, az): a cKDTree of
-    (r, S az) queried with the Chebyshev radius max(W_R, S W_az), S the typical ratio of
+    Cartesian gates: the plots (x, y), searched with a radius bounding each gate. Polar
+    windows |dr| <= W_R, |d az| <= W_az are rectangles in (r, az): the points
+    (r, S az), searched with the Chebyshev radius max(W_R, S W_az), S the typical ratio of
     the two half-widths, so a window at 100 km does not drag in a disc of its arc
     length. Every plot also appears 2 pi away, for windows across +-pi.
 
@@ -82,13 +254,13 @@ class PlotIndex:
     """
 
     def __init__(self, scan: Scan, windows: tuple[float, float] | None) -> None:
-        self.tree: cKDTree | None = None
+        self.points = np.zeros((0, 2))
         self.scale = 1.0
         self.owner = np.zeros(0, dtype=np.int64)
         if scan.size == 0:
             return
         if windows is None:
-            self.tree = cKDTree(scan.z)
+            self.points = np.ascontiguousarray(scan.z, dtype=float)
             return
         K_R, K_az = windows
         self.scale = K_R * np.median(scan.sigma_r) / (K_az * np.median(scan.sigma_az))
@@ -96,23 +268,19 @@ class PlotIndex:
         pts = np.column_stack(
             [np.concatenate([scan.r, scan.r]), self.scale * np.concatenate([scan.az, other])]
         )
-        self.tree = cKDTree(pts)
+        self.points = pts
         self.owner = np.tile(np.arange(scan.size), 2)
 
     def ball(self, centres: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(row, plot) pairs with the plot within radius of centres[row] (Cartesian)."""
-        if self.tree is None:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        return near_pairs(self.tree, centres, radius, 2.0)
+        return near_pairs(self.points, centres, radius, 2.0)
 
     def window(
         self, r: np.ndarray, az: np.ndarray, W_R: np.ndarray, W_az: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """(row, plot) pairs with the plot possibly in the window about (r, az)[row]."""
-        if self.tree is None:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
         rows, cols = near_pairs(
-            self.tree,
+            self.points,
             np.column_stack([r, self.scale * az]),
             np.maximum(W_R, self.scale * W_az) * (1 + 1e-9),
             np.inf,

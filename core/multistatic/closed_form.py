@@ -39,15 +39,22 @@ Numerics: everything is computed relative to the reference point, (|b|^2 - l^2)/
 formed as a product, and the discriminant through Lagrange's identity, so noise-free
 data are solved to about 1e-6 m even where M is poorly conditioned. Near a double root
 (two intersections close together) the root is inherently sensitive to rounding.
+
+The sum-range roots are compiled (numba, one problem at a time, the SVD by one-sided
+Jacobi rotations): :func:`sum_range_roots`, behind :func:`sum_range_solve` and the
+maximum-likelihood solves' starts. :func:`sum_range_roots_reference` is the same
+arithmetic in numpy (LAPACK's batched SVD), the tests' reference.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
@@ -61,6 +68,8 @@ __all__ = [
     "ROOT_RTOL",
     "ClosedFormSolution",
     "difference_range_solve",
+    "sum_range_roots",
+    "sum_range_roots_reference",
     "sum_range_solve",
 ]
 
@@ -307,6 +316,13 @@ def sum_range_solve(
     """
     ls, tx, rx, _ = validate_problem(l, tx, rx, baseline_tol=baseline_tol)
     _single_transmitter(tx, COINCIDENT_RTOL * coordinate_scale(tx, rx))
+    return sum_range_roots(ls, tx, rx)
+
+
+def sum_range_roots_reference(
+    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray
+) -> ClosedFormSolution:
+    """:func:`sum_range_roots` in numpy (batched SVD): the reference of the kernel."""
     base = tx[:, 0]
     b = rx - base[:, None]
     norm_b = np.linalg.norm(b, axis=-1)
@@ -314,6 +330,276 @@ def sum_range_solve(
     return _intersect(
         M=b, g=ls, h=h, ranges=ls, ranges_slope=-np.ones_like(ls), base=base, ls=ls, tx=tx, rx=rx
     )
+
+
+@kernel("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1])")
+def _svd(
+    M: np.ndarray, U: np.ndarray, V: np.ndarray, S: np.ndarray
+) -> None:  # pragma: no cover (compiled)
+    """Thin SVD M = U diag(S) V^T of a P x D matrix by one-sided Jacobi rotations.
+
+    Hestenes' method: rotate pairs of columns until they are orthogonal; accurate to
+    the rounding of M (its small singular values to their own relative precision).
+    S descending; U's column is 0 where S is 0.
+    """
+    p, d = M.shape
+    W = M.copy()
+    Q = np.eye(d)
+    for _ in range(60):
+        rotated = False
+        for i in range(d - 1):
+            for j in range(i + 1, d):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for k in range(p):
+                    alpha += W[k, i] * W[k, i]
+                    beta += W[k, j] * W[k, j]
+                    gamma += W[k, i] * W[k, j]
+                if gamma == 0.0 or abs(gamma) <= 1e-16 * np.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+                c = 1.0 / np.sqrt(1.0 + t * t)
+                s = c * t
+                for k in range(p):
+                    wi, wj = W[k, i], W[k, j]
+                    W[k, i] = c * wi - s * wj
+                    W[k, j] = s * wi + c * wj
+                for k in range(d):
+                    qi, qj = Q[k, i], Q[k, j]
+                    Q[k, i] = c * qi - s * qj
+                    Q[k, j] = s * qi + c * qj
+        if not rotated:
+            break
+    norms = np.empty(d)
+    for i in range(d):
+        norms[i] = np.sqrt(np.sum(W[:, i] * W[:, i]))
+    order = np.argsort(-norms, kind="mergesort")
+    for a in range(d):
+        i = order[a]
+        S[a] = norms[i]
+        for k in range(p):
+            U[k, a] = W[k, i] / norms[i] if norms[i] > 0.0 else 0.0
+        for k in range(d):
+            V[k, a] = Q[k, i]
+
+
+@kernel("float64(float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])")
+def _range_sum_residual(
+    x: np.ndarray,
+    l: np.ndarray,  # noqa: E741
+    tx: np.ndarray,
+    rx: np.ndarray,
+) -> float:  # pragma: no cover (compiled)
+    """|l - h(x)| over the P range sums of one problem."""
+    p, d = tx.shape
+    total = 0.0
+    for k in range(p):
+        a = 0.0
+        b = 0.0
+        for i in range(d):
+            a += (x[i] - rx[k, i]) * (x[i] - rx[k, i])
+            b += (x[i] - tx[k, i]) * (x[i] - tx[k, i])
+        e = l[k] - (np.sqrt(a) + np.sqrt(b))
+        total += e * e
+    return math.sqrt(total)
+
+
+@kernel(
+    "void(float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], "
+    "boolean[:, ::1], float64[:, ::1])"
+)
+def _sum_range_kernel(
+    ls: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    out: np.ndarray,
+    flags: np.ndarray,
+    res: np.ndarray,
+) -> None:  # pragma: no cover (compiled)
+    """Per problem: out (x, alternative), flags (solvable, has_alternative), res (residuals)."""
+    n, p, d = tx.shape
+    M = np.empty((p, d))
+    U = np.empty((p, d))
+    V = np.empty((d, d))
+    S = np.empty(d)
+    h = np.empty(p)
+    a = np.empty(d)
+    c = np.empty(d)
+    s = np.empty((2, d))
+    x = np.empty((2, d))
+    R = np.empty(2)
+    consistent = np.empty(2, dtype=np.bool_)
+    residual = np.empty(2)
+    fallback = np.empty(d)
+    for q_ in range(n):
+        l = ls[q_]  # noqa: E741
+        t_, r_ = tx[q_], rx[q_]
+        big = 1.0
+        for k in range(p):
+            for i in range(d):
+                big = max(big, abs(t_[k, i]), abs(r_[k, i]))
+        tol = ROOT_RTOL * big
+        for k in range(p):
+            nb = 0.0
+            for i in range(d):
+                M[k, i] = r_[k, i] - t_[0, i]
+                nb += M[k, i] * M[k, i]
+            nb = np.sqrt(nb)
+            h[k] = 0.5 * (nb - l[k]) * (nb + l[k])
+        _svd(M, U, V, S)
+        full_rank = S[d - 1] > RANK_RTOL * S[0]
+        rank = 0
+        for i in range(d):
+            if S[i] > RANK_RTOL * S[0]:
+                rank += 1
+        # a = V S^-1 U^T h, c = V S^-1 U^T g (g = l)
+        for i in range(d):
+            ai = 0.0
+            ci = 0.0
+            for j in range(rank):
+                uh = 0.0
+                ug = 0.0
+                for k in range(p):
+                    uh += U[k, j] * h[k]
+                    ug += U[k, j] * l[k]
+                ai += V[i, j] / S[j] * uh
+                ci += V[i, j] / S[j] * ug
+            a[i] = ai
+            c[i] = ci
+        alpha = -1.0
+        beta = 0.0
+        gamma = 0.0
+        for i in range(d):
+            alpha += c[i] * c[i]
+            beta += a[i] * c[i]
+            gamma += a[i] * a[i]
+        wedge2 = 0.0
+        for i in range(d):
+            for j in range(d):
+                w = a[i] * c[j] - a[j] * c[i]
+                wedge2 += w * w
+        wedge2 *= 0.5
+        norm_a = np.sqrt(gamma)
+        norm_w = np.sqrt(wedge2)
+        disc = (norm_a - norm_w) * (norm_a + norm_w)
+        real = disc >= -1e-12 * (gamma + wedge2)
+        root = np.sqrt(max(disc, 0.0))
+        q = -(beta + (root if beta >= 0 else -root))
+        R[0] = q / alpha
+        R[1] = gamma / q
+        for j in range(2):
+            for i in range(d):
+                s[j, i] = a[i] + R[j] * c[i]
+        # rank D - 1: the mirror images +-t along the null direction
+        gg = 0.0
+        g2 = 0.0
+        hg = 0.0
+        for k in range(p):
+            go = l[k]
+            ho = h[k]
+            for j in range(rank):
+                ug = 0.0
+                uh = 0.0
+                for m in range(p):
+                    ug += U[m, j] * l[m]
+                    uh += U[m, j] * h[m]
+                go -= U[k, j] * ug
+                ho -= U[k, j] * uh
+            gg += go * go
+            g2 += l[k] * l[k]
+            hg += ho * go
+        mirror = rank == d - 1 and gg > 1e-16 * g2
+        R_m = -hg / gg if mirror else 0.0
+        if mirror:
+            t2 = R_m * R_m
+            for i in range(d):
+                sm = a[i] + R_m * c[i]
+                t2 -= sm * sm
+            t = np.sqrt(max(t2, 0.0))
+            for j in range(2):
+                sign = 1.0 if j == 0 else -1.0
+                for i in range(d):
+                    s[j, i] = a[i] + R_m * c[i] + sign * t * V[i, d - 1]
+                R[j] = R_m
+            real = t2 >= -1e-12 * R_m * R_m
+        solvable_rank = full_rank or mirror
+        for j in range(2):
+            finite = math.isfinite(R[j])
+            for i in range(d):
+                finite = finite and math.isfinite(s[j, i])
+            if not finite:
+                R[j] = 0.0
+                for i in range(d):
+                    s[j, i] = 0.0
+            for i in range(d):
+                x[j, i] = t_[0, i] + s[j, i]
+            ok = finite and real and solvable_rank and R[j] >= -tol
+            for k in range(p):
+                ok = ok and l[k] - R[j] >= -tol
+            consistent[j] = ok
+            residual[j] = _range_sum_residual(x[j], l, t_, r_)
+        tie = abs(residual[0] - residual[1]) <= tol
+        if tie:
+            if abs(R[0] - R[1]) <= tol:
+                first = x[0, d - 1] >= x[1, d - 1]
+            else:
+                first = R[0] < R[1]
+        else:
+            first = residual[0] < residual[1]
+        best = 0 if consistent[0] and (first or not consistent[1]) else 1
+        other = 1 - best
+        solvable = consistent[best]
+        dist = 0.0
+        for i in range(d):
+            dist += (x[best, i] - x[other, i]) ** 2
+        has_alt = solvable and consistent[other] and np.sqrt(dist) > tol
+        if solvable:
+            out[q_, 0] = x[best]
+            res[q_, 0] = residual[best]
+        else:
+            vertex = R_m if mirror else -beta / alpha
+            if vertex == vertex:  # np.maximum keeps a NaN
+                vertex = max(vertex, 0.0)
+            if not math.isfinite(vertex):
+                vertex = 0.0
+            for i in range(d):
+                fallback[i] = t_[0, i] + a[i] + vertex * c[i]
+            out[q_, 0] = fallback
+            res[q_, 0] = _range_sum_residual(fallback, l, t_, r_)
+        if has_alt:
+            out[q_, 1] = x[other]
+            res[q_, 1] = residual[other]
+        else:
+            out[q_, 1] = out[q_, 0]
+            res[q_, 1] = res[q_, 0]
+        flags[q_, 0] = solvable
+        flags[q_, 1] = has_alt
+
+
+def sum_range_roots(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> ClosedFormSolution:
+    """:func:`sum_range_solve` without its checks (the solvers' start), compiled.
+
+    ls (N, P), tx, rx (N, P, D) already validated, as
+    :func:`plotgate.core.multistatic.model.validate_problem` returns them, and one
+    transmitter per problem (tx[:, p] = tx[:, 0]). The same arithmetic as
+    :func:`sum_range_roots_reference`, one problem at a time, with a Jacobi SVD.
+    """
+    n, p, d = tx.shape
+    out = np.empty((n, 2, d))
+    flags = np.empty((n, 2), dtype=np.bool_)
+    res = np.empty((n, 2))
+    _sum_range_kernel(
+        np.ascontiguousarray(ls, dtype=float),
+        np.ascontiguousarray(tx, dtype=float),
+        np.ascontiguousarray(rx, dtype=float),
+        out,
+        flags,
+        res,
+    )
+    return ClosedFormSolution(out[:, 0], out[:, 1], flags[:, 1], flags[:, 0], res[:, 0], res[:, 1])
 
 
 def difference_range_solve(

@@ -31,6 +31,15 @@ step lowers its cost any more (rounding) and the Gauss-Newton step promised less
 1e-6 (1 + L) there. Problems are iterated together with per-problem masks; only the
 iterations loop in Python.
 
+Compiled engine
+---------------
+:func:`gauss_newton` takes any model and is the reference. The solves use
+:func:`range_sum_gauss_newton`, the same iteration and step control for the range-sum
+model of a position or of a constant-velocity track, compiled (numba) and fused per
+problem: each problem iterates alone to its convergence, the batch runs on every core.
+The two agree to rounding (the tests hold them together on random batches and on the
+degenerate cases).
+
 Consistency
 -----------
 The cost at the minimum is chi-square with M - K degrees of freedom (M measurements,
@@ -43,12 +52,19 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.gates.thresholds import gate_threshold
-from plotgate.core.multistatic.information import inverse_information, symmetric_eigh
+from plotgate.core.multistatic.information import (
+    inverse_information,
+    inverse_information_into,
+    symmetric_eigh,
+    symmetric_eigh_into,
+)
 from plotgate.core.multistatic.model import vector_norm
 from plotgate.core.validation import as_array, as_probability, as_scalar, require_positive
 
@@ -58,6 +74,7 @@ __all__ = [
     "Predict",
     "consistency_threshold",
     "gauss_newton",
+    "range_sum_gauss_newton",
     "solver_options",
     "start_points",
 ]
@@ -69,6 +86,8 @@ _DAMPING_DECADES = 14  # Levenberg-Marquardt damping values tried per iteration
 _DAMPING_START = 1e-3  # first damping, relative to the largest eigenvalue of H^T G H
 _DECREASE_TOL = 1e-14  # converged: the Gauss-Newton step would lower the cost by less
 _STALL_TOL = 1e-6  # a stalled problem converged if its GN step promised less than this
+_CHUNK = 64  # problems per task of the compiled engine's parallel loop
+_PARALLEL_MIN = 2048  # fewer problems run on one thread (waking the others costs more)
 
 
 @dataclass
@@ -227,6 +246,392 @@ def gauss_newton(
         r * sigma,
         information,
         inverse_information(information),
+        iterations,
+        converged,
+    )
+
+
+@kernel(
+    "float64(float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1], "
+    "float64[::1], float64[::1])"
+)
+def _weighted_residuals(
+    theta: np.ndarray,
+    ls: np.ndarray,
+    w: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    tau: np.ndarray,
+    r: np.ndarray,
+) -> float:  # pragma: no cover (compiled)
+    """r = (l - h(theta)) w of one problem; returns the cost r^T r.
+
+    theta is a position (K = D) or a track (x0, v) (K = 2D, x = x0 + tau v).
+    """
+    m, d = tx.shape
+    moving = theta.size != d
+    cost = 0.0
+    for p in range(m):
+        a = 0.0
+        b = 0.0
+        for i in range(d):
+            x = theta[i] + tau[p] * theta[d + i] if moving else theta[i]
+            a += (x - rx[p, i]) * (x - rx[p, i])
+            b += (x - tx[p, i]) * (x - tx[p, i])
+        r[p] = (ls[p] - (np.sqrt(a) + np.sqrt(b))) * w[p]
+        cost += r[p] * r[p]
+    return cost
+
+
+@kernel(
+    "void(float64[::1], float64[::1], float64[:, ::1], float64[:, ::1], float64[::1], "
+    "float64[:, ::1])"
+)
+def _weighted_jacobian(
+    theta: np.ndarray,
+    w: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    tau: np.ndarray,
+    Hw: np.ndarray,
+) -> None:  # pragma: no cover (compiled)
+    """Hw = dh/dtheta w (M, K) of one problem: unit vectors from the two foci (0 on one)."""
+    m, d = tx.shape
+    moving = theta.size != d
+    for p in range(m):
+        a = 0.0
+        b = 0.0
+        for i in range(d):
+            x = theta[i] + tau[p] * theta[d + i] if moving else theta[i]
+            a += (x - rx[p, i]) * (x - rx[p, i])
+            b += (x - tx[p, i]) * (x - tx[p, i])
+        a, b = np.sqrt(a), np.sqrt(b)
+        for i in range(d):
+            x = theta[i] + tau[p] * theta[d + i] if moving else theta[i]
+            u = (x - rx[p, i]) / a if a > 0.0 else 0.0
+            v = (x - tx[p, i]) / b if b > 0.0 else 0.0
+            Hw[p, i] = (u + v) * w[p]
+            if moving:
+                Hw[p, d + i] = (tau[p] * (u + v)) * w[p]
+
+
+@kernel(
+    "void(int64, float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
+    "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
+    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64, float64[:, ::1], "
+    "float64[::1], float64[:, :, ::1], float64[:, ::1])"
+)
+def _solve_one(
+    n: int,
+    ls: np.ndarray,
+    w: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    tau: np.ndarray,
+    row: np.ndarray,
+    theta: np.ndarray,
+    r: np.ndarray,
+    cost: np.ndarray,
+    iterations: np.ndarray,
+    converged: np.ndarray,
+    information: np.ndarray,
+    covariance: np.ndarray,
+    max_iter: int,
+    tol: float,
+    Hw: np.ndarray,
+    rt: np.ndarray,
+    square: np.ndarray,
+    vec: np.ndarray,
+) -> None:  # pragma: no cover (compiled)
+    """Problem n of :func:`range_sum_gauss_newton`, the step control of :func:`gauss_newton`.
+
+    Hw (M, K), rt (M,), square (2, K, K) and vec (7, K) are scratch space.
+    """
+    k = theta.shape[1]
+    m = ls.shape[1]
+    j = row[n]
+    lj, wj, txj, rxj = ls[j], w[j], tx[j], rx[j]
+    th = theta[n]
+    rn = r[n]
+    c = _weighted_residuals(th, lj, wj, txj, rxj, tau, rn)
+    mu = 0.0
+    it = 0
+    conv = False
+    A, V = square[0], square[1]
+    ev, col, g, gv, gv_ev, step, trial = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
+    for _ in range(max_iter):
+        it += 1
+        _weighted_jacobian(th, wj, txj, rxj, tau, Hw)
+        for a in range(k):
+            s = 0.0
+            for p in range(m):
+                s += Hw[p, a] * Hw[p, a]
+            s = np.sqrt(s)
+            col[a] = s if s > 0.0 else 1.0
+        for p in range(m):
+            for a in range(k):
+                Hw[p, a] /= col[a]
+        for a in range(k):
+            s = 0.0
+            for p in range(m):
+                s += Hw[p, a] * rn[p]
+            g[a] = s
+            for b in range(k):
+                s = 0.0
+                for p in range(m):
+                    s += Hw[p, a] * Hw[p, b]
+                A[a, b] = s
+        symmetric_eigh_into(A, ev, V)
+        promised = 0.0
+        for a in range(k):
+            s = 0.0
+            for b in range(k):
+                s += V[b, a] * g[b]
+            gv[a] = s
+            gv_ev[a] = s / ev[a] if ev[a] > 1e-12 * ev[k - 1] else 0.0
+            promised += gv[a] * gv_ev[a]
+        step_norm = 0.0
+        th_norm = 0.0
+        for a in range(k):
+            s = 0.0
+            for b in range(k):
+                s += V[a, b] * gv_ev[b]
+            step[a] = s / col[a]
+            step_norm += step[a] * step[a]
+            th_norm += th[a] * th[a]
+        small = np.sqrt(step_norm) <= tol * (
+            1.0 + np.sqrt(th_norm)
+        ) or promised <= _DECREASE_TOL * (1.0 + c)
+        ok = False
+        for h in range(HALVINGS):
+            for a in range(k):
+                trial[a] = th[a] + step[a] if h == 0 else th[a] + 0.5**h * step[a]
+            ct = _weighted_residuals(trial, lj, wj, txj, rxj, tau, rt)
+            if ct < c:
+                th[:] = trial
+                rn[:] = rt
+                c = ct
+                ok = True
+                break
+        if small:
+            conv = True
+            break
+        if ok:
+            continue
+        # Levenberg-Marquardt: the smallest damping (in decades) that lowers the cost
+        top = max(ev[k - 1], np.finfo(np.float64).tiny)
+        start = mu / 10.0 if mu > 0.0 else _DAMPING_START
+        for h in range(_DAMPING_DECADES):
+            damp = (start * 10.0**h) * top
+            for a in range(k):
+                s = 0.0
+                for b in range(k):
+                    s += V[a, b] * (gv[b] / (ev[b] + damp))
+                trial[a] = th[a] + s / col[a]
+            ct = _weighted_residuals(trial, lj, wj, txj, rxj, tau, rt)
+            if ct < c:
+                th[:] = trial
+                rn[:] = rt
+                c = ct
+                mu = start * 10.0**h
+                ok = True
+                break
+        if not ok:  # stalled: a minimum if Gauss-Newton promised little
+            conv = promised <= _STALL_TOL * (1.0 + c)
+            break
+    cost[n] = c
+    iterations[n] = it
+    converged[n] = conv
+    _weighted_jacobian(th, wj, txj, rxj, tau, Hw)
+    for a in range(k):
+        for b in range(k):
+            s = 0.0
+            for p in range(m):
+                s += Hw[p, a] * Hw[p, b]
+            information[n, a, b] = s
+    inverse_information_into(information[n], covariance[n], A, ev, V)
+
+
+@kernel(
+    "void(int64, int64, "
+    "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
+    "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
+    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64)"
+)
+def _solve_range(
+    lo: int,
+    hi: int,
+    ls: np.ndarray,
+    w: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    tau: np.ndarray,
+    row: np.ndarray,
+    theta: np.ndarray,
+    r: np.ndarray,
+    cost: np.ndarray,
+    iterations: np.ndarray,
+    converged: np.ndarray,
+    information: np.ndarray,
+    covariance: np.ndarray,
+    max_iter: int,
+    tol: float,
+) -> None:  # pragma: no cover (compiled)
+    """Problems lo to hi - 1 of :func:`range_sum_gauss_newton`, one after the other."""
+    k = theta.shape[1]
+    m = ls.shape[1]
+    Hw = np.empty((m, k))
+    rt = np.empty(m)
+    square = np.empty((2, k, k))
+    vec = np.empty((7, k))
+    for i in range(lo, hi):
+        _solve_one(
+            i,
+            ls,
+            w,
+            tx,
+            rx,
+            tau,
+            row,
+            theta,
+            r,
+            cost,
+            iterations,
+            converged,
+            information,
+            covariance,
+            max_iter,
+            tol,
+            Hw,
+            rt,
+            square,
+            vec,
+        )
+
+
+@kernel(
+    "void("
+    "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
+    "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
+    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64)",
+    parallel=True,
+)
+def _solve_parallel(
+    ls: np.ndarray,
+    w: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    tau: np.ndarray,
+    row: np.ndarray,
+    theta: np.ndarray,
+    r: np.ndarray,
+    cost: np.ndarray,
+    iterations: np.ndarray,
+    converged: np.ndarray,
+    information: np.ndarray,
+    covariance: np.ndarray,
+    max_iter: int,
+    tol: float,
+) -> None:  # pragma: no cover (compiled)
+    """Every problem of :func:`range_sum_gauss_newton`, in chunks over a parallel loop."""
+    n = theta.shape[0]
+    for c in numba.prange((n + _CHUNK - 1) // _CHUNK):
+        _solve_range(
+            c * _CHUNK,
+            min(n, (c + 1) * _CHUNK),
+            ls,
+            w,
+            tx,
+            rx,
+            tau,
+            row,
+            theta,
+            r,
+            cost,
+            iterations,
+            converged,
+            information,
+            covariance,
+            max_iter,
+            tol,
+        )
+
+
+def range_sum_gauss_newton(
+    ls: np.ndarray,
+    sigma: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    tau: np.ndarray,
+    row: np.ndarray,
+    theta0: np.ndarray,
+    max_iter: int,
+    tol: float,
+) -> GaussNewtonFit:
+    """:func:`gauss_newton` of the range-sum model, compiled: positions or tracks.
+
+    Problem n fits the M range sums of data row ``row[n]`` from ``theta0[n]``: a
+    position x (K = D), h_m = |x - rx_m| + |x - tx_m| (Fadeev et al., eq. 1), or a
+    constant-velocity track (x0, v) (K = 2D), x = x0 + tau_m v. Several problems may
+    share a data row (several starts of one problem). The iteration and its step
+    control are those of :func:`gauss_newton`, per problem.
+
+    Parameters
+    ----------
+    ls, sigma : (R, M) ndarray
+        Measurements and noise standard deviations of R data rows, checked.
+    tx, rx : (R, M, D) ndarray
+        Transmitter and receiver of every measurement.
+    tau : (M,) ndarray
+        Time of each measurement after the track's reference time (unused for K = D).
+    row : (n,) ndarray of int
+        Data row of each problem.
+    theta0 : (n, K) ndarray
+        Starts.
+    max_iter, tol :
+        As :func:`gauss_newton`.
+
+    Returns
+    -------
+    fit : GaussNewtonFit
+    """
+    n, k = theta0.shape
+    m = ls.shape[1]
+    theta = np.array(theta0, dtype=float, order="C")
+    r = np.empty((n, m))
+    cost = np.empty(n)
+    iterations = np.empty(n, dtype=np.int64)
+    converged = np.empty(n, dtype=bool)
+    information = np.empty((n, k, k))
+    covariance = np.empty((n, k, k))
+    sigma = np.ascontiguousarray(sigma, dtype=float)
+    data = (
+        np.ascontiguousarray(ls, dtype=float),
+        1.0 / sigma,
+        np.ascontiguousarray(tx, dtype=float),
+        np.ascontiguousarray(rx, dtype=float),
+        np.ascontiguousarray(tau, dtype=float),
+        np.ascontiguousarray(row, dtype=np.int64),
+        theta,
+        r,
+        cost,
+        iterations,
+        converged,
+        information,
+        covariance,
+        max_iter,
+        tol,
+    )
+    if n >= _PARALLEL_MIN:
+        _solve_parallel(*data)
+    else:
+        _solve_range(0, n, *data)
+    return GaussNewtonFit(
+        theta,
+        cost,
+        r * sigma[row],
+        information,
+        covariance,
         iterations,
         converged,
     )

@@ -10,11 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from plotgate.core.compiled import kernel
+
 __all__ = [
     "INFORMATION_RTOL",
     "inverse_information",
+    "inverse_information_into",
     "position_covariance",
     "symmetric_eigh",
+    "symmetric_eigh_into",
 ]
 
 INFORMATION_RTOL = 1e-14
@@ -71,6 +75,55 @@ def inverse_information(J: np.ndarray) -> np.ndarray:
     cov = np.einsum("...ik,...k,...jk->...ij", V, 1.0 / w, V)
     out: np.ndarray = 0.5 * (cov + np.swapaxes(cov, -1, -2))
     return out
+
+
+@kernel("void(float64[:, ::1], float64[::1], float64[:, ::1])")
+def symmetric_eigh_into(
+    A: np.ndarray, ev: np.ndarray, V: np.ndarray
+) -> None:  # pragma: no cover (compiled)
+    """:func:`symmetric_eigh` of one K x K matrix, compiled, into ev (K,) and V (K, K).
+
+    K = 2 by the principal-axis angle, as :func:`symmetric_eigh`; other K by LAPACK.
+    """
+    if A.shape[0] == 2:
+        a, d = A[0, 0], A[1, 1]
+        b = 0.5 * (A[0, 1] + A[1, 0])
+        mean, r = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
+        phi = 0.5 * np.arctan2(2.0 * b, a - d)
+        c, s = np.cos(phi), np.sin(phi)
+        ev[0], ev[1] = mean - r, mean + r
+        V[0, 0], V[0, 1], V[1, 0], V[1, 1] = -s, c, c, s
+        return
+    w, U = np.linalg.eigh(A)
+    ev[:] = w
+    V[:, :] = U
+
+
+@kernel("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], float64[:, ::1])")
+def inverse_information_into(
+    J: np.ndarray, cov: np.ndarray, Js: np.ndarray, w: np.ndarray, V: np.ndarray
+) -> None:  # pragma: no cover (compiled)
+    """:func:`inverse_information` of one K x K matrix J, compiled, into cov (K, K).
+
+    Js (K, K), w (K,) and V (K, K) are scratch space.
+    """
+    k = J.shape[0]
+    for i in range(k):
+        for j in range(k):
+            Js[i, j] = 0.5 * (J[i, j] + J[j, i])
+    symmetric_eigh_into(Js, w, V)
+    floor = max(INFORMATION_RTOL * w[k - 1], _INFORMATION_FLOOR)
+    for i in range(k):
+        w[i] = max(w[i], floor)
+    for i in range(k):
+        for j in range(k):
+            c = 0.0
+            for m in range(k):
+                c += V[i, m] * (1.0 / w[m]) * V[j, m]
+            Js[i, j] = c
+    for i in range(k):
+        for j in range(k):
+            cov[i, j] = 0.5 * (Js[i, j] + Js[j, i])
 
 
 def position_covariance(cov: np.ndarray, tau: np.ndarray) -> np.ndarray:

@@ -8,7 +8,7 @@ l_p = |x - rx_p| + |x - tx_p| by maximum likelihood,
           [\\mathbf{l} - \\mathbf{h}(\\mathbf{x})], \\quad
           \\mathbf{G} = \\mathrm{diag}(1/\\sigma_p^2)
 
-(eq. 4), iterating Gauss-Newton (eq. 6) with the batched engine of
+(eq. 4), iterating Gauss-Newton (eq. 6) with the compiled range-sum engine of
 :mod:`plotgate.core.multistatic.gauss_newton`.
 
 Start and alternatives
@@ -51,20 +51,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.multistatic.closed_form import sum_range_solve
+from plotgate.core.multistatic.closed_form import sum_range_roots
 from plotgate.core.multistatic.gauss_newton import (
     GaussNewtonFit,
-    Predict,
     consistency_threshold,
-    gauss_newton,
+    range_sum_gauss_newton,
     solver_options,
     start_points,
 )
 from plotgate.core.multistatic.model import (
-    BASELINE_SIGMAS,
     COINCIDENT_RTOL,
     coordinate_scale,
-    range_sum_jacobian_unchecked,
     range_sums_unchecked,
     validate_problem,
 )
@@ -124,13 +121,13 @@ class MLSolution:
 
 
 def sum_range_starts(
-    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, sigma: np.ndarray
+    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sum-range closed-form starts: (x (N, D), alternative (N, D), has_alternative (N,)).
 
-    ls, sigma (N, P), tx, rx (N, P, D) checked by
-    :func:`plotgate.core.multistatic.model.validate_problem`. Uses the pairs of each
-    problem's first transmitter (:func:`plotgate.core.multistatic.closed_form.sum_range_solve`);
+    ls (N, P), tx, rx (N, P, D) checked by
+    :func:`plotgate.core.multistatic.model.validate_problem`. Uses the pairs of each problem's
+    first transmitter (:func:`plotgate.core.multistatic.closed_form.sum_range_roots`);
     problems are grouped by which pairs those are (one group when every problem has a
     single transmitter). Problems whose first transmitter has fewer than D pairs start
     at the centroid of their platforms.
@@ -152,11 +149,8 @@ def sum_range_starts(
             x[rows] = alternative[rows] = centroid
             continue
         m = int(pattern.sum())
-        sol = sum_range_solve(
-            ls[rows][:, pattern],
-            np.repeat(tx[rows, :1], m, axis=1),
-            rx[rows][:, pattern],
-            baseline_tol=BASELINE_SIGMAS * sigma[rows][:, pattern],
+        sol = sum_range_roots(
+            ls[rows][:, pattern], np.repeat(tx[rows, :1], m, axis=1), rx[rows][:, pattern]
         )
         x[rows] = sol.x
         alternative[rows] = sol.alternative
@@ -214,18 +208,6 @@ def _best_and_alternative(
     eligible = distinct & fit.converged[runs] & (cost <= threshold)
     pick = np.argmin(np.where(eligible, cost, np.inf), axis=1)
     return chosen, runs[rows, pick], eligible.any(axis=1)
-
-
-def _position_model(tx: np.ndarray, rx: np.ndarray) -> tuple[Predict, Predict]:
-    """predict / jacobian of the single-shot problems (theta = x)."""
-
-    def predict(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        return range_sums_unchecked(x, tx[idx], rx[idx])
-
-    def jacobian(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        return range_sum_jacobian_unchecked(x, tx[idx], rx[idx])
-
-    return predict, jacobian
 
 
 def ml_solve(
@@ -343,7 +325,7 @@ def ml_solve(
     starts = [] if x0 is None else [start_points(x0, n, d)]
     second, seconds = np.zeros(0, dtype=int), np.zeros((0, d))
     if closed_form_starts:
-        start, alt_start, has_alt_start = sum_range_starts(ls, tx, rx, sigma)
+        start, alt_start, has_alt_start = sum_range_starts(ls, tx, rx)
         starts.append(start)
         second = np.flatnonzero(
             has_alt_start & _worth_following(ls, tx, rx, sigma, start, alt_start, threshold)
@@ -351,15 +333,8 @@ def ml_solve(
         seconds = alt_start[second]
     k = len(starts)
     problem = np.concatenate([np.tile(np.arange(n), k), second])
-    predict, jacobian = _position_model(tx[problem], rx[problem])
-    fit = gauss_newton(
-        predict,
-        jacobian,
-        ls[problem],
-        sigma[problem],
-        np.concatenate([*starts, seconds]),
-        max_iter,
-        tol,
+    fit = range_sum_gauss_newton(
+        ls, sigma, tx, rx, np.zeros(p), problem, np.concatenate([*starts, seconds]), max_iter, tol
     )
 
     # runs (N, k + 1): run r = j n + i is problem i's start j; the last column is the

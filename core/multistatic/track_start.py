@@ -12,15 +12,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from plotgate.core.multistatic.gauss_newton import consistency_threshold, range_sum_gauss_newton
 from plotgate.core.multistatic.information import inverse_information
 from plotgate.core.multistatic.model import range_sum_jacobian_unchecked, vector_norm
-from plotgate.core.multistatic.position import ml_solve, sum_range_starts
+from plotgate.core.multistatic.position import sum_range_starts
 
-__all__ = ["START_ITERATIONS", "line_terms", "track_starts"]
+__all__ = ["START_ITERATIONS", "START_TOL", "line_terms", "track_starts"]
 
 START_ITERATIONS = 8
 """Gauss-Newton iterations of each per-sample solve behind a track's start (a start
 only has to lie in the right basin; the track fit then converges in full)."""
+
+START_TOL = 1e-9
+"""Convergence tolerance of those per-sample solves (the default of
+:func:`plotgate.core.multistatic.position.ml_solve`)."""
 
 
 def line_terms(
@@ -82,33 +87,38 @@ def track_starts(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(x0, v) starts of N tracks: (starts (S, 2D), the track of each start (S,)).
 
-    ls, sigma (N, T, P), tx, rx (N, T, P, D). Each sample is solved by :func:`ml_solve`
-    from the closed form's primary root. With P = D the closed form's second root is
+    ls, sigma (N, T, P), tx, rx (N, T, P, D), checked. Each sample is solved as
+    :func:`plotgate.core.multistatic.position.ml_solve` with
+    ``closed_form_starts=False`` would, from the closed form's primary root (the
+    compiled engine on the checked samples). With P = D the closed form's second root is
     an exact second solution, and the true and mirror tracks may cross. Two chains are
-    then followed through the samples, starting from either root of the first sample
-    and taking at each sample the root nearer the straight-line extrapolation of the
-    chain; each chain seeds a line fit, refined three times by keeping at each sample
-    the root nearer the line (Mahalanobis). The per-sample solves stop after
-    START_ITERATIONS; samples whose fit fails the chi-square test are left out of the
-    line fits when at least two distinct times remain.
+    then followed through the samples, starting from either root of the first sample and
+    taking at each sample the root nearer the straight-line extrapolation of the chain;
+    each chain seeds a line fit, refined three times by keeping at each sample the root
+    nearer the line (Mahalanobis). The per-sample solves stop after START_ITERATIONS;
+    samples whose fit fails the chi-square test are left out of the line fits when at
+    least two distinct times remain.
     """
     n, n_t, p, d = tx.shape
     flat_l, flat_tx, flat_rx, flat_sigma = (
         a.reshape((n * n_t, *a.shape[2:])) for a in (ls, tx, rx, sigma)
     )
-    start, alternative, has_alternative = sum_range_starts(flat_l, flat_tx, flat_rx, flat_sigma)
-    sol = ml_solve(
+    start, alternative, has_alternative = sum_range_starts(flat_l, flat_tx, flat_rx)
+    fit = range_sum_gauss_newton(
         flat_l,
+        flat_sigma,
         flat_tx,
         flat_rx,
-        flat_sigma,
-        x0=start,
-        alpha=alpha,
-        max_iter=START_ITERATIONS,
-        closed_form_starts=False,
+        np.zeros(p),
+        np.arange(n * n_t),
+        start,
+        START_ITERATIONS,
+        START_TOL,
     )
+    # ml_solve(..., x0=start, closed_form_starts=False) on the checked samples
+    sol_x, consistent = fit.theta, fit.cost <= consistency_threshold(alpha, p - d)
     has_alternative &= p == d
-    cand = np.stack([sol.x, np.where(has_alternative[:, None], alternative, sol.x)], axis=1)
+    cand = np.stack([sol_x, np.where(has_alternative[:, None], alternative, sol_x)], axis=1)
     cand = cand.reshape(n, n_t, 2, d)
     has_alternative = has_alternative.reshape(n, n_t)
     H = (
@@ -116,7 +126,7 @@ def track_starts(
         / sigma[:, :, None, :, None]
     )
     W = np.einsum("ntcpi,ntcpj->ntcij", H, H)  # information of each candidate
-    good = sol.consistent.reshape(n, n_t)
+    good = consistent.reshape(n, n_t)
     spread = np.where(good, tau, -np.inf).max(axis=1) > np.where(good, tau, np.inf).min(axis=1)
     good |= ~spread[:, None]
     tracks, samples = np.arange(n)[:, None], np.arange(n_t)

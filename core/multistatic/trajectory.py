@@ -1,8 +1,8 @@
 """Maximum-likelihood constant-velocity tracks from samples of range sums (Fadeev et al.).
 
-The same Gauss-Newton solver as the single-shot position
-(:mod:`plotgate.core.multistatic.gauss_newton`, Fadeev et al., eq. 6) fits a
-constant-velocity track to T samples (the paper's accumulated measurement vector,
+The same compiled Gauss-Newton engine as the single-shot position
+(:func:`plotgate.core.multistatic.gauss_newton.range_sum_gauss_newton`, Fadeev et al.,
+eq. 6) fits a constant-velocity track to T samples (the paper's accumulated measurement vector,
 eq. 2): parameters (x0, v) with x(t) = x0 + v (t - t_ref). Its default start is
 :func:`plotgate.core.multistatic.track_start.track_starts`.
 """
@@ -18,15 +18,13 @@ from numpy.typing import ArrayLike
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.gauss_newton import (
     consistency_threshold,
-    gauss_newton,
+    range_sum_gauss_newton,
     solver_options,
     start_points,
 )
 from plotgate.core.multistatic.information import position_covariance
 from plotgate.core.multistatic.model import (
     array_shape,
-    range_sum_jacobian_unchecked,
-    range_sums_unchecked,
     validate_problem,
     with_tx_axis,
 )
@@ -241,21 +239,13 @@ def trajectory_solve(
     else:
         starts, owner = start_points(x0, n, 2 * d), np.arange(n)
 
-    def predict(theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        x = theta[:, None, :d] + tau[:, None] * theta[:, None, d:]  # (m, T, D)
-        return range_sums_unchecked(x, tx[owner[idx]], rx[owner[idx]]).reshape(idx.size, n_t * p)
-
-    def jacobian(theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        x = theta[:, None, :d] + tau[:, None] * theta[:, None, d:]
-        H = range_sum_jacobian_unchecked(x, tx[owner[idx]], rx[owner[idx]])  # (m, T, P, D)
-        H = np.concatenate([H, tau[:, None, None] * H], axis=-1)
-        return H.reshape(idx.size, n_t * p, 2 * d)
-
-    fit = gauss_newton(
-        predict,
-        jacobian,
-        ls.reshape(n, -1)[owner],
-        sigma.reshape(n, -1)[owner],
+    fit = range_sum_gauss_newton(
+        ls.reshape(n, n_t * p),
+        sigma.reshape(n, n_t * p),
+        tx.reshape(n, n_t * p, d),
+        rx.reshape(n, n_t * p, d),
+        np.repeat(tau, p),
+        owner,
         starts,
         max_iter,
         tol,

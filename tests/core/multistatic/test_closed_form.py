@@ -12,6 +12,8 @@ from plotgate.core.multistatic import (
     range_sums,
     sum_range_solve,
 )
+from plotgate.core.multistatic.closed_form import sum_range_roots, sum_range_roots_reference
+from plotgate.core.multistatic.model import validate_problem
 
 ATOL = 1e-6  # metres: exact on noise-free data
 SOLVERS = [sum_range_solve, difference_range_solve]
@@ -381,3 +383,71 @@ def test_bad_input_raises_named_error(solve, what, error, field, index):
         solve(*bad_inputs(what))
     assert info.value.field == field
     assert info.value.index == index
+
+
+# ---------------------------------------------- the compiled sum-range roots vs numpy
+
+
+def assert_roots_agree(ls, tx, rx, double_root=False):
+    """sum_range_roots (compiled, Jacobi SVD) against sum_range_roots_reference (LAPACK).
+
+    The same decisions (solvable, has_alternative) everywhere; the same points to 1e-9
+    of the coordinate scale (two SVD algorithms round differently, and a poorly
+    conditioned system amplifies that: the module notes' 1e-6 m at 10 km), and to
+    1e-12 where the geometry is well conditioned (most problems). At a double root
+    (``double_root``: a target on the platforms' line, the baseline crossing) the two
+    roots are as far apart as the square root of rounding (1e-8 of the scale), so
+    whether they count as one point and where they are is only that accurate.
+    """
+    ls, tx, rx, _ = validate_problem(ls, tx, rx)
+    ref = sum_range_roots_reference(ls, tx, rx)
+    new = sum_range_roots(ls, tx, rx)
+    np.testing.assert_array_equal(new.solvable, ref.solvable)
+    if not double_root:
+        np.testing.assert_array_equal(new.has_alternative, ref.has_alternative)
+    scale = 1.0 + np.abs(tx).max(axis=(1, 2)) + np.abs(rx).max(axis=(1, 2))
+    rtol = 1e-7 if double_root else 1e-9
+    for a, b in ((new.x, ref.x), (new.alternative, ref.alternative)):
+        gap = np.abs(a - b).max(axis=1) / np.maximum(scale, np.abs(b).max(axis=1))
+        assert (gap <= rtol).all()
+        assert double_root or (gap <= 1e-12).mean() >= 0.5
+    pairs = ((new.residual, ref.residual), (new.alternative_residual, ref.alternative_residual))
+    for a, b in pairs:
+        assert (np.abs(a - b) <= rtol * scale).all()
+
+
+@pytest.mark.parametrize("d, p", [(2, 2), (2, 3), (2, 5), (3, 3), (3, 4)])
+def test_compiled_roots_agree_with_numpy_on_random_problems(d, p):
+    _, tx, rx, ls = scene(11 + d + p, 1000, d, p)
+    assert_roots_agree(ls, tx, rx)
+    rng = np.random.default_rng(d * p)
+    assert_roots_agree(ls + rng.uniform(0.0, 2000.0, ls.shape), tx, rx)  # some unsolvable
+
+
+def test_compiled_roots_on_degenerate_geometry_one_problem_and_an_empty_batch():
+    rng = np.random.default_rng(12)
+    n = 300
+    # 2D: every platform on the x axis (rank D - 1: mirror images)
+    tx = np.zeros((n, 3, 2))
+    rx = np.zeros((n, 3, 2))
+    rx[:, :, 0] = rng.uniform(1e3, 1e4, (n, 3)) * [1.0, -1.0, 1.0]
+    x = rng.uniform(-2e4, 2e4, (n, 2))
+    assert_roots_agree(range_sums(x, tx, rx), tx, rx)
+    x[:, 1] = 0.0  # on the line: the baseline crossing, a double root
+    assert_roots_agree(range_sums(x, tx, rx), tx, rx, double_root=True)
+    # 3D: every platform at one altitude (coplanar); a target on a receiver
+    tx3 = np.zeros((n, 4, 3))
+    rx3 = np.zeros((n, 4, 3))
+    rx3[:, :, :2] = rng.uniform(-1e4, 1e4, (n, 4, 2))
+    x3 = rng.uniform(-2e4, 2e4, (n, 3))
+    assert_roots_agree(range_sums(x3, tx3, rx3), tx3, rx3)
+    x3[0] = rx3[0, 1]  # on a receiver: a range of 0, as sensitive as a double root
+    assert_roots_agree(range_sums(x3[:1], tx3[:1], rx3[:1]), tx3[:1], rx3[:1], double_root=True)
+    # 3D: every platform on one line (rank D - 2: unsolvable)
+    line = np.zeros((n, 3, 3))
+    line[:, :, 0] = rx[:, :, 0]
+    assert_roots_agree(range_sums(x3, np.zeros((n, 3, 3)), line), np.zeros((n, 3, 3)), line)
+    one = np.array([[3000.0, 4000.0]])
+    assert_roots_agree(range_sums(one, tx[:1], rx[:1]), tx[:1], rx[:1])
+    empty = sum_range_roots(np.zeros((0, 3)), np.zeros((0, 3, 2)), np.zeros((0, 3, 2)))
+    assert empty.x.shape == (0, 2) and empty.solvable.shape == (0,)
