@@ -95,6 +95,26 @@ plots in that order, the plots, cells along y, each query's cell and centre and 
 Chebyshev (else Euclidean)."""
 
 
+@kernel("UniTuple(int64, 2)(int64[:], int64[:], int64, int64, int64)")
+def _cell_span(
+    keys: np.ndarray, columns: np.ndarray, ny: int, cx: int, cy: int
+) -> tuple[int, int]:
+    """Where the plots of cells (cx, cy - 1) to (cx, cy + 1) lie among the sorted keys."""
+    column = keys[columns[cx] : columns[cx + 1]]
+    first = columns[cx] + np.searchsorted(column, cx * ny + max(cy - 1, 0))
+    last = columns[cx] + np.searchsorted(column, cx * ny + min(cy + 2, ny))
+    return first, last
+
+
+@kernel("boolean(float64[:], float64[:], float64, boolean)")
+def _near(point: np.ndarray, centre: np.ndarray, radius: float, chebyshev: bool) -> bool:
+    """Whether the point lies within radius of the centre (Chebyshev or Euclidean)."""
+    ex, ey = point[0] - centre[0], point[1] - centre[1]
+    if chebyshev:
+        return bool(max(abs(ex), abs(ey)) <= radius)
+    return bool(np.sqrt(ex * ex + ey * ey) <= radius)
+
+
 @kernel(f"int64[:]({_GRID})")
 def _grid_counts(
     keys: np.ndarray,
@@ -109,21 +129,11 @@ def _grid_counts(
 ) -> np.ndarray:
     """Pairs within each query's radius: the 3 x 3 cells about its own."""
     counts = np.zeros(cells.shape[0], dtype=np.int64)
-    nx = columns.size - 1
     for q in range(cells.shape[0]):
-        y0, y1 = max(cells[q, 1] - 1, 0), min(cells[q, 1] + 2, ny)
-        for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, nx)):
-            column = keys[columns[cx] : columns[cx + 1]]
-            first = columns[cx] + np.searchsorted(column, cx * ny + y0)
-            last = columns[cx] + np.searchsorted(column, cx * ny + y1)
+        for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, columns.size - 1)):
+            first, last = _cell_span(keys, columns, ny, cx, cells[q, 1])
             for k in range(first, last):
-                ex = points[order[k], 0] - centres[q, 0]
-                ey = points[order[k], 1] - centres[q, 1]
-                if chebyshev:
-                    near = max(abs(ex), abs(ey)) <= radius[q]
-                else:
-                    near = np.sqrt(ex * ex + ey * ey) <= radius[q]
-                counts[q] += near
+                counts[q] += _near(points[order[k]], centres[q], radius[q], chebyshev)
     return counts
 
 
@@ -142,22 +152,12 @@ def _grid_fill(
 ) -> np.ndarray:
     """The plots of each query's pairs, at ``offsets[q]:offsets[q + 1]``, in plot order."""
     found = np.empty(offsets[-1], dtype=np.int64)
-    nx = columns.size - 1
     for q in range(cells.shape[0]):
         at = offsets[q]
-        y0, y1 = max(cells[q, 1] - 1, 0), min(cells[q, 1] + 2, ny)
-        for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, nx)):
-            column = keys[columns[cx] : columns[cx + 1]]
-            first = columns[cx] + np.searchsorted(column, cx * ny + y0)
-            last = columns[cx] + np.searchsorted(column, cx * ny + y1)
+        for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, columns.size - 1)):
+            first, last = _cell_span(keys, columns, ny, cx, cells[q, 1])
             for k in range(first, last):
-                ex = points[order[k], 0] - centres[q, 0]
-                ey = points[order[k], 1] - centres[q, 1]
-                if chebyshev:
-                    near = max(abs(ex), abs(ey)) <= radius[q]
-                else:
-                    near = np.sqrt(ex * ex + ey * ey) <= radius[q]
-                if near:
+                if _near(points[order[k]], centres[q], radius[q], chebyshev):
                     found[at] = order[k]
                     at += 1
         for i in range(offsets[q] + 1, at):  # insertion sort: a query has a few plots
