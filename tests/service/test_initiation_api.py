@@ -290,9 +290,13 @@ WIRE_CEILINGS = {
     "a_max",
     "K_A",
     "history",
+    "clutter_density",
+    "surveillance_area",
+    "new_target_density",
 }
-"""Settings whose upper bound is the wire's alone: a limit on the work of one request, which
-core (a library with no request) does not have."""
+"""Settings whose upper bound is the wire's alone: a limit on the work of one request, or
+(the score's densities and area) on the magnitudes a request carries, which core (a
+library with no request) does not have."""
 WIRE_FLOORS = {"K_R", "K_az"}
 """Settings whose lower bound is narrower on the wire (0.01) than in core (> 0)."""
 
@@ -306,6 +310,11 @@ def _core_config(name, value):
         values = {"confirm_m": max(4, value), "history": max(8, value), **values}
     if name == "confirm_m":
         values = {"confirm_k": max(1, min(3, value)), "history": max(8, value), **values}
+    if name in ("P_D", "false_confirmation", "true_deletion", "new_target_density"):
+        values["surveillance_area"] = 1e6
+        other = {"true_deletion": "false_confirmation", "false_confirmation": "true_deletion"}
+        if name in other:  # alpha + beta < 1: the other one made small enough
+            values[other[name]] = min(1e-3, max((1.0 - value) / 2, 1e-300))
     if name == "history":
         k, m = max(1, min(3, value)), max(1, min(4, value))
         values = {"confirm_k": k, "confirm_m": m, **values}
