@@ -164,6 +164,67 @@ def test_evaluate_answers_the_means(client):
     assert body["confirmable"] == 5.0 and body["mean_time_to_confirmation"] == 2.0
 
 
+SCORE = {**POLAR, "confirmation": "score", "P_D": 0.8, "surveillance_area": 15000.0**2}
+
+
+def test_a_sweep_answers_each_values_evaluation_on_the_same_scans(client):
+    base = {"scenario": {"clutter": 100}, "runs": 4, "seed": 9}
+    sweep = {"parameter": "false_confirmation", "values": [0.01, 0.5]}
+    body = answer(
+        client.post("/v1/initiation/evaluate", json={**base, "config": SCORE, "sweep": sweep})
+    )
+    alone = answer(client.post("/v1/initiation/evaluate", json={**base, "config": SCORE}))
+    assert alone["sweep"] is None
+    assert {k: v for k, v in body.items() if k != "sweep"} == {
+        k: v for k, v in alone.items() if k != "sweep"
+    }
+    for value, point in zip(sweep["values"], body["sweep"], strict=True):
+        config = {**SCORE, "false_confirmation": value}
+        one = answer(client.post("/v1/initiation/evaluate", json={**base, "config": config}))
+        assert point == {"value": value, **{k: v for k, v in one.items() if k in point}}
+    # k/m as "k/m"; an integer setting sent as 3.0 is the setting 3
+    km = answer(
+        client.post(
+            "/v1/initiation/evaluate",
+            json={**base, "config": POLAR, "sweep": {"parameter": "confirm", "values": ["2/3"]}},
+        )
+    )
+    one = answer(
+        client.post(
+            "/v1/initiation/evaluate",
+            json={**base, "config": {**POLAR, "confirm_k": 2, "confirm_m": 3}},
+        )
+    )
+    assert km["sweep"][0]["mean_true"] == one["mean_true"]
+    answer(
+        client.post(
+            "/v1/initiation/evaluate",
+            json={
+                **base,
+                "config": POLAR,
+                "sweep": {"parameter": "capture_scans", "values": [3.0]},
+            },
+        )
+    )
+
+
+def test_bad_sweeps_are_named(client):
+    post = lambda **body: client.post("/v1/initiation/evaluate", json={"runs": 2, **body})  # noqa: E731
+    invalid_input(post(sweep={"parameter": "confirm", "values": ["3/4", "x"]}), "sweep.values[1]")
+    invalid_input(post(sweep={"parameter": "confirm", "values": ["5/4"]}), "sweep.values[0]")
+    invalid_input(post(sweep={"parameter": "gate_P_G", "values": [0.9, 1.0]}), "sweep.values[1]")
+    invalid_input(post(sweep={"parameter": "gate_widening", "values": [1.0]}), "sweep.parameter")
+    invalid_input(post(sweep={"parameter": "gate_P_G", "values": []}), "sweep.values")
+    invalid_input(
+        post(sweep={"parameter": "true_deletion", "values": [0.9995]}, config=SCORE),
+        "sweep.values[0]",
+    )
+    # the work limit counts every evaluation of the sweep
+    many = {"parameter": "gate_P_G", "values": [0.9] * 9}
+    invalid_input(post(runs=6000, scenario={"clutter": 20}, sweep=many), "runs")
+    invalid_input(post(config={"confirmation": "score"}), "config.clutter_density")
+
+
 def test_scenario_plots_stay_within_a_plots_bounds(client):
     # a target within 10 sigma_r of 1e9 m, or one that leaves that reach by its last scan, or
     # clutter beyond it, would draw plots no plot schema takes: refused, naming the part
