@@ -65,8 +65,8 @@ from plotgate.core.initiation.pairs import capture_pairs, nearest, track_pairs, 
 from plotgate.core.initiation.scan import Scan
 from plotgate.core.initiation.score import (
     capture_score,
-    clutter_density,
     first_plot_score,
+    log_clutter_density,
     miss_score,
     update_score,
     wald_thresholds,
@@ -169,7 +169,7 @@ def _new_tracks(
         nu = scan.z[cols] - xp[:, :2]
         x, P = update(xp, Pp, scan.z[cols], R2, kalman_gain(Pp, R2))
         gaps = k - ini.scan[rows] - 1
-        density = clutter_density(config, scan.size)
+        density = log_clutter_density(config, scan.size)
         score = ini.score[rows] + capture_score(nu, S, gaps, config, density)
     else:
         x, P = two_point(ini.z[rows], ini.R[rows], scan.z[cols], scan.R[cols], tau)
@@ -237,7 +237,7 @@ def _step(
             j = assoc[hit]
             nu = scan.z[j] - xp[hit, :2]
             S = sym2(Pp[hit, :2, :2] + scan.R[j])
-            density = clutter_density(config, n)
+            density = log_clutter_density(config, n)
             score[hit] += update_score(nu[:, 0], nu[:, 1], S, config, density)
     x, P = xp, Pp
     if hit.any():
@@ -355,7 +355,7 @@ def _step(
         sigma_az=scan.sigma_az[fresh],
         score=np.full(
             fresh.sum(),
-            first_plot_score(config, clutter_density(config, n))
+            first_plot_score(config, log_clutter_density(config, n))
             if config.confirmation == "score"
             else 0.0,
         ),

@@ -37,7 +37,7 @@ from plotgate.core.sym2 import Sym2, quadratic_form, sym2
 
 __all__ = [
     "capture_score",
-    "clutter_density",
+    "log_clutter_density",
     "first_plot_score",
     "log_gaussian",
     "miss_score",
@@ -63,20 +63,21 @@ def wald_thresholds(config: InitiationConfig) -> tuple[float, float]:
     return math.log((1.0 - beta) / alpha), math.log(beta / (1.0 - alpha))
 
 
-def clutter_density(config: InitiationConfig, plots: int) -> float:
-    """beta_FT of a scan of ``plots`` plots, per m^2: the config's, or estimated.
+def log_clutter_density(config: InitiationConfig, plots: int) -> float:
+    """ln beta_FT of a scan of ``plots`` plots (beta_FT per m^2): the config's, or estimated.
 
     Estimated as max(plots, 1) / surveillance_area: the scan's own plot count over the
     area (floored at one plot, so an empty scan does not make every plot infinitely
-    unlikely to be clutter).
+    unlikely to be clutter). Logarithms throughout, so no density over- or underflows
+    (an area of 1e-300 m^2 is a density of 1e300, whose log is 690.8).
 
-    >>> clutter_density(InitiationConfig(surveillance_area=1e6), 250)
-    0.00025
+    >>> round(log_clutter_density(InitiationConfig(surveillance_area=1e6), 250), 6)
+    -8.29405
     """
     if config.clutter_density is not None:
-        return config.clutter_density
+        return math.log(config.clutter_density)
     assert config.surveillance_area is not None  # the config refuses neither
-    return max(plots, 1) / config.surveillance_area
+    return math.log(max(plots, 1)) - math.log(config.surveillance_area)
 
 
 def miss_score(config: InitiationConfig) -> float:
@@ -84,9 +85,10 @@ def miss_score(config: InitiationConfig) -> float:
     return math.log1p(-config.P_D)
 
 
-def first_plot_score(config: InitiationConfig, density: float) -> float:
-    """ln(P_D beta_NT / beta_FT): the score of a single plot (an initiator)."""
-    return math.log(config.P_D * config.new_target_density / density)
+def first_plot_score(config: InitiationConfig, log_density: float) -> float:
+    """ln(P_D beta_NT / beta_FT): the score of a single plot (an initiator); log_density
+    is ln beta_FT."""
+    return math.log(config.P_D) + math.log(config.new_target_density) - log_density
 
 
 def log_gaussian(nu_x: np.ndarray, nu_y: np.ndarray, S: Sym2) -> np.ndarray:
@@ -103,15 +105,16 @@ def log_gaussian(nu_x: np.ndarray, nu_y: np.ndarray, S: Sym2) -> np.ndarray:
 
 
 def update_score(
-    nu_x: np.ndarray, nu_y: np.ndarray, S: Sym2, config: InitiationConfig, density: float
+    nu_x: np.ndarray, nu_y: np.ndarray, S: Sym2, config: InitiationConfig, log_density: float
 ) -> np.ndarray:
-    """ln(P_D N(nu; 0, S) / beta_FT): the score's change for a plot with innovation nu."""
-    change: np.ndarray = math.log(config.P_D / density) + log_gaussian(nu_x, nu_y, S)
+    """ln(P_D N(nu; 0, S) / beta_FT): the score's change for a plot with innovation nu;
+    log_density is ln beta_FT."""
+    change: np.ndarray = math.log(config.P_D) - log_density + log_gaussian(nu_x, nu_y, S)
     return change
 
 
 def capture_score(
-    nu: np.ndarray, S: np.ndarray, gaps: np.ndarray, config: InitiationConfig, density: float
+    nu: np.ndarray, S: np.ndarray, gaps: np.ndarray, config: InitiationConfig, log_density: float
 ) -> np.ndarray:
     """The change of an initiator's score when a later plot starts a track with it.
 
@@ -129,14 +132,14 @@ def capture_score(
     gaps : (m,) ndarray of int
         Scans between the two plots.
     config : InitiationConfig
-    density : float
-        beta_FT of the second plot's scan, per m^2.
+    log_density : float
+        ln beta_FT of the second plot's scan (beta_FT per m^2).
 
     Returns
     -------
     change : (m,) ndarray
     """
     change: np.ndarray = gaps * miss_score(config) + update_score(
-        nu[:, 0], nu[:, 1], sym2(S), config, density
+        nu[:, 0], nu[:, 1], sym2(S), config, log_density
     )
     return change

@@ -25,7 +25,7 @@ from plotgate.core.initiation import (
     polar_scan,
     state_from_json,
 )
-from plotgate.core.initiation.score import clutter_density, wald_thresholds
+from plotgate.core.initiation.score import log_clutter_density, wald_thresholds
 
 R = np.diag([25.0, 100.0])  # plot covariance, m^2
 V_MAX, Q, P_D, BETA_FT, BETA_NT = 30.0, 1.0, 0.8, 1e-6, 1e-7
@@ -132,7 +132,8 @@ def test_an_estimated_clutter_density_is_the_scans_plot_count_over_the_area():
         expected += steps[k - 1] + math.log(BETA_FT * area / max(counts[k], 1))
     track = np.flatnonzero(state.tracks.n == 4)
     assert state.tracks.score[track[0]] == pytest.approx(expected, abs=1e-9)
-    assert clutter_density(config(clutter_density=None, surveillance_area=area), 0) == 1 / area
+    estimated = config(clutter_density=None, surveillance_area=area)
+    assert log_clutter_density(estimated, 0) == -math.log(area)
 
 
 def test_wald_thresholds():

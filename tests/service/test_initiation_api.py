@@ -284,15 +284,18 @@ def test_session_records_and_replays(settings, tmp_path):
     with TestClient(create_app(settings)) as c:
         sim = _simulated(c, clutter=20.0)
         first = answer(
-            c.post("/v1/initiation/initiate", json={"config": POLAR, "scans": sim["scans"][:2]})
+            c.post("/v1/initiation/initiate", json={"config": SCORE, "scans": sim["scans"][:2]})
         )
         answer(
             c.post(
                 "/v1/initiation/initiate",
-                json={"config": POLAR, "state": first["state"], "scans": sim["scans"][2:]},
+                json={"config": SCORE, "state": first["state"], "scans": sim["scans"][2:]},
             )
         )
-        answer(c.post("/v1/initiation/evaluate", json={"runs": 2}))
+        sweep = {"parameter": "false_confirmation", "values": [0.01, 0.5]}
+        answer(
+            c.post("/v1/initiation/evaluate", json={"runs": 2, "config": SCORE, "sweep": sweep})
+        )
         assert c.post("/v1/initiation/initiate", json={"scans": []}).status_code == 422
     [path] = sorted(settings.log_dir.glob("*.mcap"))
     ops = [e.operation for e in read_recording(path).exchanges]
@@ -321,7 +324,10 @@ async def _client_calls(app) -> None:
         )
         assert len(out.scans) == 4
         ev = await client.evaluate_initiation({"runs": 2, "config": POLAR})
-        assert ev.runs == 2
+        assert ev.runs == 2 and ev.sweep is None
+        sweep = {"parameter": "confirm", "values": ["2/3", "3/4"]}
+        ev = await client.evaluate_initiation({"runs": 2, "config": POLAR, "sweep": sweep})
+        assert ev.sweep is not None and [p.value for p in ev.sweep] == ["2/3", "3/4"]
 
 
 def test_every_field_is_described():
