@@ -433,3 +433,12 @@ def test_the_settings_are_cores_config_field_for_field():
             above = high + 1 if step else np.nextafter(float(high), np.inf)
             _core_config(name, high)
             assert _refused(name, above) != (name in WIRE_CEILINGS), name
+
+
+def test_the_documented_score_configuration_is_a_valid_config():
+    from pathlib import Path
+
+    text = (Path(__file__).parents[2] / "docs/examples/score_initiation.json").read_text()
+    settings = InitiationSettings.model_validate_json(text)
+    assert settings.confirmation == "score" and settings.false_confirmation == 0.2
+    InitiationConfig(**{**settings.model_dump(), "gate_widening": tuple(settings.gate_widening)})
