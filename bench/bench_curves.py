@@ -143,6 +143,18 @@ def dominated(rows: list[dict[str, Any]], stone: list[dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def _points(ax: Any, points: list[dict[str, Any]], **style: Any) -> None:
+    """Operating points (false tracks, targets) with their standard errors as bars."""
+    ax.errorbar(
+        [p["mean_false"] for p in points],
+        [p["mean_true"] for p in points],
+        xerr=[p["se_false"] for p in points],
+        yerr=[p["se_true"] for p in points],
+        capsize=2,
+        **style,
+    )
+
+
 def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -161,28 +173,10 @@ def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -
                 (r for r in rows if r["clutter"] == level and r["curve"] == name),
                 key=lambda r: r["mean_false"],
             )
-            ax.errorbar(
-                [r["mean_false"] for r in pts],
-                [r["mean_true"] for r in pts],
-                xerr=[r["se_false"] for r in pts],
-                yerr=[r["se_true"] for r in pts],
-                marker="o",
-                ms=3,
-                capsize=2,
-                label=name,
-            )
+            _points(ax, pts, marker="o", ms=3, label=name)
         ss = [s for s in stone if s["clutter"] == level]
         if ss:
-            ax.errorbar(
-                [s["mean_false"] for s in ss],
-                [s["mean_true"] for s in ss],
-                xerr=[s["se_false"] for s in ss],
-                yerr=[s["se_true"] for s in ss],
-                fmt="k*",
-                ms=9,
-                capsize=2,
-                label="Stone Soup (min_points 2-4, P_G 0.95-0.999)",
-            )
+            _points(ax, ss, fmt="k*", ms=9, label="Stone Soup (min_points 2-4, P_G 0.95-0.999)")
         ceiling = [r["confirmable"] for r in rows if r["clutter"] == level]
         ax.axhline(max(ceiling), color="grey", lw=0.8, ls=":", label="3 of 4 detected")
         ax.set_xscale("symlog", linthresh=0.01, linscale=0.5)

@@ -38,6 +38,7 @@ __all__ = [
     "MAX_SCANS",
     "EvaluateRequest",
     "EvaluateResult",
+    "EvaluationMeans",
     "InitiateRequest",
     "InitiateResult",
     "InitiationSettings",
@@ -454,11 +455,12 @@ class SweepIn(Schema):
         return out
 
 
-class SweepPoint(Schema):
-    """The evaluation at one value of a sweep."""
+class EvaluationMeans(Schema):
+    """Means over the runs of one evaluation, with their standard errors."""
 
-    value: float | int | str | None = Field(description="The setting's value.")
-    confirmable: float = Field(description="As the evaluation's.")
+    confirmable: float = Field(
+        description="Mean targets detected in k of the m scans from their first detection."
+    )
     mean_true: float = Field(description="Targets initiated per run (by plot labels).")
     se_true: float | None = Field(description="Its standard error; null for one run.")
     mean_false: float = Field(description="False tracks per run (by plot labels).")
@@ -468,6 +470,12 @@ class SweepPoint(Schema):
     mean_time_to_confirmation: float | None = Field(
         description="Seconds from first detection to confirmation; null if none."
     )
+
+
+class SweepPoint(EvaluationMeans):
+    """The evaluation at one value of a sweep."""
+
+    value: float | int | str | None = Field(description="The setting's value.")
 
 
 class EvaluateRequest(Schema):
@@ -518,23 +526,11 @@ class EvaluateRequest(Schema):
         return self
 
 
-class EvaluateResult(Schema):
-    """Means over the runs."""
+class EvaluateResult(EvaluationMeans):
+    """Means over the runs (of the config as sent), and the sweep's points."""
 
     runs: int = Field(description="Monte Carlo runs.")
     targets: int = Field(description="Targets in the scenario.")
-    confirmable: float = Field(
-        description="Mean targets detected in k of the m scans from their first detection."
-    )
-    mean_true: float = Field(description="Targets initiated per run (by plot labels).")
-    se_true: float | None = Field(description="Its standard error; null for one run.")
-    mean_false: float = Field(description="False tracks per run (by plot labels).")
-    se_false: float | None = Field(description="Its standard error; null for one run.")
-    mean_true_by_distance: float = Field(description="Targets initiated per run (by distance).")
-    mean_false_by_distance: float = Field(description="False tracks per run (by distance).")
-    mean_time_to_confirmation: float | None = Field(
-        description="Seconds from first detection to confirmation; null if none."
-    )
     sweep: list[SweepPoint] | None = Field(
         default=None, description="One point per value of the request's sweep, in order."
     )
