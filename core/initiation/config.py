@@ -72,7 +72,8 @@ class InitiationConfig:
         factor >= 1, non-decreasing.
     confirm_k, confirm_m : int
         Confirmation k/m: k plots within the track's first m scans (counted from its
-        first plot, both capture plots included; 1 <= k <= m).
+        first plot, both capture plots included; 1 <= k <= m). Under score
+        confirmation, k is the fewest plots a track confirms with (m is not used).
     drop_misses : int
         l of k/m - l: a track is dropped after l misses in a row (>= 1); a tentative
         one also when k can no longer be reached within its first m scans.
@@ -90,7 +91,9 @@ class InitiationConfig:
         k_of_m: confirm_k plots within the first confirm_m scans. score: the sequential
         log-likelihood-ratio track score (Blackman and Popoli, ch. 6;
         :mod:`plotgate.core.initiation.score`) reaches ln((1 - beta) / alpha), alpha =
-        false_confirmation, beta = true_deletion; a tentative track whose score falls to
+        false_confirmation, beta = true_deletion, on a track of at least confirm_k
+        plots (two plots alone are a weak test: the curves in bench/README.md show
+        clutter pairs passing any threshold that passes true tracks); a tentative track whose score falls to
         ln(beta / (1 - alpha)) is dropped (Wald's sequential test). Either way, polar
         mode's windows and acceleration check still apply, and l misses in a row drop
         any track.

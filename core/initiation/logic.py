@@ -25,7 +25,8 @@ Each scan, in this order:
    two-point state x = [z2, (z2 - z1) / tau] and its exact covariance.
 5. A tentative track with k plots within its first m scans is confirmed, or under score
    confirmation one whose track score (:mod:`plotgate.core.initiation.score`, Blackman
-   and Popoli, ch. 6) reaches Wald's threshold ln((1 - beta) / alpha); in polar mode
+   and Popoli, ch. 6) reaches Wald's threshold ln((1 - beta) / alpha) with at least k
+   plots; in polar mode
    only if every triple of its ranges passes the acceleration check (a track that
    fails it is dropped). Newly confirmed tracks sharing two or more plots keep the one
    with the smaller mean statistic (the higher score under score confirmation);

@@ -24,7 +24,8 @@ positive definite):
   ``confirmed_scan`` set exactly when confirmed; every track at the state's time;
 - domains: ranges at least :data:`~plotgate.core.initiation.scan.MIN_SENSOR_RANGE`, azimuths in
   [-pi, pi], sigmas and costs positive, plot covariances symmetric positive definite
-  with core's condition bound, track covariances symmetric positive definite.
+  with core's condition bound, track covariances symmetric positive definite; scores
+  finite, and 0 under k/m confirmation.
 
 Each refusal names the state's own field, ``state.<name>`` or ``state.<part>.<name>``,
 with the row as ``index`` (``state.tracks.misses``, index 3: ``state.tracks.misses[3]``).
@@ -240,6 +241,22 @@ def _check_initiators(state: InitiationState) -> None:
     )
 
 
+def _check_scores(state: InitiationState, config: InitiationConfig) -> None:
+    """Scores are 0 under k/m confirmation, which never computes one. Under score
+    confirmation any finite score is one initiation could have reached."""
+    if config.confirmation == "score":
+        return
+    for f, score in (
+        ("state.initiators", state.initiators.score),
+        ("state.tracks", state.tracks.score),
+    ):
+        _require(
+            f"{f}.score",
+            score == 0.0,
+            lambda i, s=score: f"is {s[i]}; scores are 0 under k_of_m confirmation",
+        )
+
+
 def _check_track_values(state: InitiationState, config: InitiationConfig) -> None:
     tr, f = state.tracks, "state.tracks"
     _require(
@@ -446,6 +463,7 @@ def check_state(state: InitiationState, config: InitiationConfig) -> None:
         )
     _check_initiators(state)
     _check_track_values(state, config)
+    _check_scores(state, config)
     _check_track_histories(state)
     taken = np.isin(state.initiators.plot, state.tracks.plots)
     _require(

@@ -124,7 +124,13 @@ class InitiationSettings(Schema):
         "secondary-processing textbook's narrow, medium and wide gates); each >= 1, "
         "non-decreasing.",
     )
-    confirm_k: int = Field(default=3, ge=1, le=100, description="Confirmation k of k/m.")
+    confirm_k: int = Field(
+        default=3,
+        ge=1,
+        le=100,
+        description="Confirmation k of k/m; under score confirmation, the fewest plots a "
+        "track confirms with.",
+    )
     confirm_m: int = Field(default=4, ge=1, le=100, description="Confirmation m of k/m.")
     drop_misses: int = Field(
         default=2, ge=1, le=100, description="l of k/m - l: misses in a row that drop a track."
@@ -160,7 +166,8 @@ class InitiationSettings(Schema):
         default="k_of_m",
         description="k_of_m: confirm_k plots within the first confirm_m scans; score: the "
         "sequential log-likelihood-ratio track score (Blackman and Popoli, ch. 6) reaches "
-        "ln((1 - true_deletion) / false_confirmation), and a tentative track at or below "
+        "ln((1 - true_deletion) / false_confirmation) with at least confirm_k plots, and a "
+        "tentative track at or below "
         "ln(true_deletion / (1 - false_confirmation)) is dropped (Wald's test).",
     )
     P_D: float = Field(

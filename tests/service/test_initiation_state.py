@@ -249,6 +249,14 @@ MUTATIONS = [
         "state.tracks.misses[1]",
     ),
     ("cost negative", _set("tracks", "cost", TRACK, -1.0), "state.tracks.cost[1]"),
+    ("score under k/m", _set("tracks", "score", TRACK, 5.0), "state.tracks.score[1]"),
+    ("score a string", _set("tracks", "score", TRACK, "high"), "state.tracks.score[1]"),
+    ("score huge", _set("tracks", "score", TRACK, 1e300), "state.tracks.score[1]"),
+    (
+        "initiator score under k/m",
+        _set("initiators", "score", INI, -3.0),
+        "state.initiators.score[3]",
+    ),
     (
         "plot id beyond 2**52",
         _set("tracks", "plots", TRACK, lambda row: [*row[:-1], 2**60]),
