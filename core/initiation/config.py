@@ -92,9 +92,9 @@ class InitiationConfig:
         log-likelihood-ratio track score (Blackman and Popoli, ch. 6;
         :mod:`plotgate.core.initiation.score`) reaches ln((1 - beta) / alpha), alpha =
         false_confirmation, beta = true_deletion, on a track of at least confirm_k
-        plots (two plots alone are a weak test: the curves in bench/README.md show
-        clutter pairs passing any threshold that passes true tracks); a tentative track whose score falls to
-        ln(beta / (1 - alpha)) is dropped (Wald's sequential test). Either way, polar
+        plots (a threshold low enough for a true track that missed a scan is passed by
+        many clutter pairs); a tentative track whose score falls to ln(beta / (1 - alpha))
+        is dropped (Wald's sequential test). Either way, polar
         mode's windows and acceleration check still apply, and l misses in a row drop
         any track.
     P_D : float
