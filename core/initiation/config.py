@@ -86,7 +86,9 @@ class InitiationConfig:
         second difference, sqrt(6) sigma_r / tau^2 rms (12 m/s^2 for 5 m at 1 s).
     history : int
         Plot ids kept per track for the plot-reuse rules (>= confirm_m, and >= 2: a track
-        starts with two plots).
+        starts with two plots). Under score confirmation, which has no m, a track that
+        confirms after more plots than this is judged by its last ``history`` plots
+        (sharing rules, and the evaluation's labels).
     confirmation : ``"k_of_m"`` or ``"score"``
         k_of_m: confirm_k plots within the first confirm_m scans. score: the sequential
         log-likelihood-ratio track score (Blackman and Popoli, ch. 6;
@@ -196,17 +198,14 @@ class InitiationConfig:
                 "confirm_k", f"must be <= confirm_m = {self.confirm_m}, got {self.confirm_k}"
             )
         alpha, beta = self.false_confirmation, self.true_deletion
-        if (1.0 - alpha) * (1.0 - beta) <= alpha * beta:  # alpha + beta < 1, without rounding
+        score = self.confirmation == "score"  # alpha + beta < 1 where they are used:
+        if score and (1.0 - alpha) * (1.0 - beta) <= alpha * beta:  # without rounding
             raise ParameterError(
                 "true_deletion",
                 f"must be < 1 - false_confirmation = {1 - alpha:g}, got {beta!r} (the "
                 "confirmation threshold must lie above the deletion threshold)",
             )
-        if (
-            self.confirmation == "score"
-            and self.clutter_density is None
-            and self.surveillance_area is None
-        ):
+        if score and self.clutter_density is None and self.surveillance_area is None:
             raise ParameterError(
                 "clutter_density",
                 "score confirmation needs clutter_density, or surveillance_area to estimate "

@@ -20,6 +20,7 @@ noise between different scans.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
 from typing import Any
@@ -32,8 +33,19 @@ from plotgate.core.initiation.logic import initiate
 from plotgate.core.initiation.simulate import Scenario, SimulatedScans, simulate
 from plotgate.core.initiation.state import PLOT_STRIDE
 
-__all__ = ["SWEEPABLE", "Evaluation", "RunScore", "evaluate", "score_run", "sweep", "swept"]
+__all__ = [
+    "K_OF_M",
+    "SWEEPABLE",
+    "Evaluation",
+    "RunScore",
+    "evaluate",
+    "score_run",
+    "sweep",
+    "swept",
+]
 
+K_OF_M = re.compile(r"([0-9]{1,3})/([0-9]{1,3})", re.ASCII)
+"""k/m as :func:`swept` reads it: ASCII digits, at most three each, no spaces."""
 SWEEPABLE = ("confirm", *(f.name for f in fields(InitiationConfig)))
 """What :func:`sweep` may vary: any setting by its name, or ``"confirm"``, k/m as a
 string ``"k/m"`` (confirm_k and confirm_m together)."""
@@ -61,7 +73,8 @@ class Evaluation:
         Targets in the scenario.
     ceiling : float
         Mean targets detected often enough to be confirmable at all (k of the first m
-        scans after their first detection, counted in the simulated detections).
+        scans after their first detection, counted in the simulated detections; the
+        config's k/m under score confirmation too, as a reference).
     mean_true, mean_false : float
         Targets initiated and false tracks per run, by labels.
     se_true, se_false : float
@@ -199,10 +212,10 @@ def swept(config: InitiationConfig, parameter: str, value: Any) -> InitiationCon
         )
     if parameter != "confirm":
         return replace(config, **{parameter: value})
-    parts = value.split("/") if isinstance(value, str) else []
-    if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
+    match = K_OF_M.fullmatch(value) if isinstance(value, str) else None
+    if match is None:
         raise ParameterError("confirm", f"must be a string k/m such as '3/4', got {value!r}")
-    k, m = (int(p) for p in parts)
+    k, m = int(match[1]), int(match[2])
     return replace(config, confirm_k=k, confirm_m=m, history=max(config.history, m))
 
 
@@ -261,7 +274,7 @@ def sweep(
         except ParameterError as exc:
             if exc.field == "parameter":
                 raise
-            raise ParameterError("values", f"{exc.field} {exc.reason}", i) from exc
+            raise ParameterError("values", f"{exc.field}: {exc.reason}", i) from exc
     return _evaluations(scenario, [config] * baseline + configs, runs, seed, distance)
 
 

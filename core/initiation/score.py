@@ -60,7 +60,7 @@ def wald_thresholds(config: InitiationConfig) -> tuple[float, float]:
     (4.4998, -2.2925)
     """
     alpha, beta = config.false_confirmation, config.true_deletion
-    return math.log((1.0 - beta) / alpha), math.log(beta / (1.0 - alpha))
+    return math.log1p(-beta) - math.log(alpha), math.log(beta) - math.log1p(-alpha)
 
 
 def log_clutter_density(config: InitiationConfig, plots: int) -> float:

@@ -275,8 +275,8 @@ def _point(ev: Evaluation) -> dict[str, Any]:
 def evaluate(request: EvaluateRequest) -> EvaluateResult:
     """Monte Carlo of initiation on a scenario; with a sweep, on the same scans per value.
 
-    A sweep's values reach core as the wire checked them (``settings``: an integer
-    setting sent as 3.0 arrives as 3), ``confirm`` as its k/m string.
+    A sweep's values reach core as the wire checked them (``SweepIn.settings``, strictly:
+    "0.9" is no number and 3.0 no integer), ``confirm`` as its k/m string.
     """
     scenario, config = _scenario(request.scenario), _config(request.config)
     sweep = request.sweep

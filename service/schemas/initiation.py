@@ -17,6 +17,7 @@ Angles on the wire are degrees (``*_deg``); everything else SI.
 """
 
 import math
+import re
 from typing import Annotated, Any, Literal
 
 from pydantic import Field, ValidationError, model_validator
@@ -424,6 +425,8 @@ SWEEP_PARAMETERS = (
 """What a sweep may vary: a setting (any but gate_widening) or ``confirm`` (k/m)."""
 MAX_SWEEP = 50
 """Most values of one sweep."""
+K_OF_M = re.compile(r"([0-9]{1,3})/([0-9]{1,3})", re.ASCII)
+"""A sweep's k/m: ASCII digits, at most three each, no spaces."""
 
 
 class SweepIn(Schema):
@@ -439,24 +442,47 @@ class SweepIn(Schema):
         "the request's config.",
     )
 
+    @model_validator(mode="before")
+    @classmethod
+    def _scalars(cls, data: Any) -> Any:
+        """Each value a number, a string or null, refused at its own index otherwise (a
+        union would name its branches: ``values[0].float``)."""
+        values = data.get("values") if isinstance(data, dict) else None
+        if isinstance(values, list):
+            errors: list[tuple[Loc, str, Any]] = [
+                (("values", i), "must be a number, a string or null", v)
+                for i, v in enumerate(values)
+                if isinstance(v, bool) or not isinstance(v, (int, float, str, type(None)))
+            ]
+            if errors:
+                raise invalid("SweepIn", errors)
+        return data
+
     def settings(self, config: InitiationSettings) -> list[InitiationSettings]:
-        """The config with each value in turn (k/m split into confirm_k and confirm_m)."""
+        """The config with each value in turn (k/m split into confirm_k and confirm_m),
+        each checked as strictly as the setting in ``config``: "0.9" is no gating
+        probability and 3.0 no integer."""
         out = []
         errors: list[tuple[Loc, str, Any]] = []
         for i, value in enumerate(self.values):
             changes: dict[str, Any] = {self.parameter: value}
             if self.parameter == "confirm":
-                parts = value.split("/") if isinstance(value, str) else []
-                if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
+                match = K_OF_M.fullmatch(value) if isinstance(value, str) else None
+                if match is None:
                     errors.append((("values", i), "must be a string k/m such as '3/4'", value))
                     continue
-                k, m = (int(p) for p in parts)
+                k, m = int(match[1]), int(match[2])
                 changes = {"confirm_k": k, "confirm_m": m, "history": max(config.history, m)}
             try:
-                out.append(InitiationSettings.model_validate({**config.model_dump(), **changes}))
+                out.append(
+                    InitiationSettings.model_validate(
+                        {**config.model_dump(), **changes}, strict=True
+                    )
+                )
             except ValidationError as exc:
                 first = exc.errors(include_url=False)[0]
-                errors.append((("values", i), f"{self.parameter}: {first['msg']}", value))
+                where = ".".join(str(part) for part in first["loc"])
+                errors.append((("values", i), f"{where}: {first['msg']}", value))
         if errors:
             raise invalid("SweepIn", errors)
         return out

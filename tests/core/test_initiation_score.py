@@ -140,6 +140,9 @@ def test_wald_thresholds():
     c, d = wald_thresholds(config(false_confirmation=0.01, true_deletion=0.1))
     assert c == pytest.approx(math.log(0.9 / 0.01), abs=1e-15)
     assert d == pytest.approx(math.log(0.1 / 0.99), abs=1e-15)
+    # in logarithms: the smallest alpha and beta give finite thresholds
+    c, d = wald_thresholds(config(false_confirmation=5e-324, true_deletion=5e-324))
+    assert c == pytest.approx(744.44, abs=0.01) and d == pytest.approx(-744.44, abs=0.01)
 
 
 def test_a_track_confirms_in_the_scan_its_score_first_reaches_the_threshold():
@@ -190,6 +193,26 @@ def test_score_settings_are_checked():
     with pytest.raises(ParameterError) as err:
         config(P_D=1.0)
     assert err.value.field == "P_D"
+    # alpha + beta < 1 is checked where they are used, under score confirmation only
+    InitiationConfig(false_confirmation=0.6, true_deletion=0.4)
+
+
+def test_an_initiators_score_in_a_state_is_a_single_plots():
+    given = config(clutter_density=1e-6)
+    state, _ = initiate(None, [scan(0.0, path(0))], given)
+    assert state.initiators.score.tolist() == [math.log(P_D * BETA_NT / 1e-6)]
+    forged = state.to_json()
+    forged["initiators"]["score"] = [9e99]
+    with pytest.raises(ParameterError) as err:
+        state_from_json(forged, given)
+    assert (err.value.field, err.value.index) == ("state.initiators.score", 0)
+    estimated = config(clutter_density=None, surveillance_area=1e8)
+    state, _ = initiate(None, [scan(0.0, path(0), (100.0, 0.0))], estimated)
+    state_from_json(state.to_json(), estimated)
+    forged = state.to_json()
+    forged["initiators"]["score"] = [50.0, 50.0]  # above a single plot's, even alone
+    with pytest.raises(ParameterError):
+        state_from_json(forged, estimated)
 
 
 # ---------------------------------------------------------------- polar capture over a gap
@@ -260,6 +283,8 @@ def test_each_point_of_a_sweep_is_the_evaluation_of_its_config_on_the_same_scans
         ("confirm", ["3/4", "three"], "values", 1),
         ("confirm", ["5/4"], "values", 0),
         ("gate_P_G", [0.9, 1.0], "values", 1),
+        ("confirm", ["\u00b2/4"], "values", 0),
+        ("confirm", ["3/4/5"], "values", 0),
         ("nonsense", [1.0], "parameter", None),
         ("gate_P_G", [], "values", None),
     ],

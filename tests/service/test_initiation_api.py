@@ -182,7 +182,7 @@ def test_a_sweep_answers_each_values_evaluation_on_the_same_scans(client):
         config = {**SCORE, "false_confirmation": value}
         one = answer(client.post("/v1/initiation/evaluate", json={**base, "config": config}))
         assert point == {"value": value, **{k: v for k, v in one.items() if k in point}}
-    # k/m as "k/m"; an integer setting sent as 3.0 is the setting 3
+    # k/m as "k/m"
     km = answer(
         client.post(
             "/v1/initiation/evaluate",
@@ -202,7 +202,7 @@ def test_a_sweep_answers_each_values_evaluation_on_the_same_scans(client):
             json={
                 **base,
                 "config": POLAR,
-                "sweep": {"parameter": "capture_scans", "values": [3.0]},
+                "sweep": {"parameter": "capture_scans", "values": [3]},
             },
         )
     )
@@ -213,6 +213,25 @@ def test_bad_sweeps_are_named(client):
     invalid_input(post(sweep={"parameter": "confirm", "values": ["3/4", "x"]}), "sweep.values[1]")
     invalid_input(post(sweep={"parameter": "confirm", "values": ["5/4"]}), "sweep.values[0]")
     invalid_input(post(sweep={"parameter": "gate_P_G", "values": [0.9, 1.0]}), "sweep.values[1]")
+    # each value as strictly as the setting itself; k/m in ASCII digits only
+    for parameter, value in [
+        ("gate_P_G", "0.9"),
+        ("capture_scans", 3.0),
+        ("confirm_k", "3"),
+        ("gate_P_G", True),
+        ("gate_P_G", [0.9]),
+        ("gate_P_G", {"a": 1}),
+        ("confirm", "\u00b2/4"),
+        ("confirm", "\u0661/4"),
+        ("confirm", "1" * 5000 + "/4"),
+        ("confirm", " 3/4"),
+        ("confirm", "3/4/5"),
+        ("confirm", 3),
+    ]:
+        body = invalid_input(
+            post(sweep={"parameter": parameter, "values": [value]}), "sweep.values[0]"
+        )
+        assert [e["field"] for e in body["errors"]] == ["sweep.values[0]"], (parameter, value)
     invalid_input(post(sweep={"parameter": "gate_widening", "values": [1.0]}), "sweep.parameter")
     invalid_input(post(sweep={"parameter": "gate_P_G", "values": []}), "sweep.values")
     invalid_input(
