@@ -51,15 +51,19 @@ def scan(t, *points):
     return cartesian_scan(t, z, np.broadcast_to(R, (len(z), 2, 2)))
 
 
-def reference_scores(plots, times, p_d=P_D, beta_ft=BETA_FT):
-    """The score after each scan of one track: plots[i] is None for a scan without one."""
+def reference_scores(plots, times, p_d=P_D, beta_ft=BETA_FT, covariances=None):
+    """The score after each scan of one track: plots[i] is None for a scan without one;
+    covariances[i] is plot i's (default R for every plot)."""
+    covs = [R] * len(plots) if covariances is None else covariances
     H = np.hstack([np.eye(2), np.zeros((2, 2))])
     first = next(i for i, z in enumerate(plots) if z is not None)
     x = np.r_[plots[first], 0.0, 0.0]
-    P = np.diag([R[0, 0], R[1, 1], V_MAX**2 / 4, V_MAX**2 / 4])
+    P = np.zeros((4, 4))
+    P[:2, :2] = covs[first]
+    P[2, 2] = P[3, 3] = V_MAX**2 / 4
     L = math.log(p_d * BETA_NT / beta_ft)
     t_last, out = times[first], [L]
-    for z, t in zip(plots[first + 1 :], times[first + 1 :], strict=True):
+    for z, t, Rz in zip(plots[first + 1 :], times[first + 1 :], covs[first + 1 :], strict=True):
         if z is None:
             L += math.log(1 - p_d)
             out.append(L)
@@ -69,7 +73,7 @@ def reference_scores(plots, times, p_d=P_D, beta_ft=BETA_FT):
         G = np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
         Qm = Q * np.kron(G, np.eye(2))
         x, P = F @ x, F @ P @ F.T + Qm
-        S = H @ P @ H.T + R
+        S = H @ P @ H.T + Rz
         nu = np.asarray(z) - H @ x
         L += math.log(p_d / beta_ft) + stats.multivariate_normal(np.zeros(2), S).logpdf(nu)
         K = P @ H.T @ np.linalg.inv(S)
@@ -113,6 +117,28 @@ def test_capture_over_a_missed_scan_counts_the_miss():
     state, reports = initiate(None, scans, config(capture_scans=3))
     assert reports[2].started.size == 1
     assert state.tracks.score[0] == pytest.approx(reference_scores(plots, times)[-1], abs=1e-9)
+
+
+def test_capture_over_two_seconds_under_2_t_counts_the_missed_scan():
+    times = [0.0, 1.0, 2.0, 3.0]
+    plots = [path(0), None, path(2), path(3)]
+    scans = [scan(t, *([] if z is None else [z])) for t, z in zip(times, plots, strict=True)]
+    state, reports = initiate(None, scans, config(capture_time=2.5))
+    assert reports[2].started.size == 1
+    assert state.tracks.score[0] == pytest.approx(reference_scores(plots, times)[-1], abs=1e-9)
+
+
+def test_the_polar_score_is_the_llr_of_the_plots_cartesian_form():
+    # polar plots of one target; the score uses each plot's Cartesian z and R = J C J^T
+    times = [0.0, 1.0, 2.0, 3.0]
+    ra = [(10000.0 + 15.0 * t, 45.0 + 0.05 * t) for t in times]
+    scans = [pscan(t, p) for t, p in zip(times, ra, strict=True)]
+    state, _ = initiate(None, scans, config(mode="polar"))
+    row = int(np.flatnonzero(state.tracks.n == 4)[0])
+    expected = reference_scores(
+        [tuple(s.z[0]) for s in scans], times, covariances=[s.R[0] for s in scans]
+    )
+    assert state.tracks.score[row] == pytest.approx(expected[-1], abs=1e-9)
 
 
 def test_an_estimated_clutter_density_is_the_scans_plot_count_over_the_area():
