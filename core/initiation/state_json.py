@@ -267,11 +267,11 @@ def _check_scores(state: InitiationState, config: InitiationConfig) -> None:
         ("state.initiators", state.initiators.score),
         ("state.tracks", state.tracks.score),
     ):
-        _require(
-            f"{f}.score",
-            values == 0.0,
-            lambda i, v=values: f"is {v[i]}; scores are 0 under k_of_m confirmation",
-        )
+
+        def nonzero(i: int, v: np.ndarray = values) -> str:
+            return f"is {v[i]}; scores are 0 under k_of_m confirmation"
+
+        _require(f"{f}.score", values == 0.0, nonzero)
 
 
 def _check_track_values(state: InitiationState, config: InitiationConfig) -> None:
