@@ -559,11 +559,15 @@ class EvaluateRequest(Schema):
         return self
 
 
-class EvaluateResult(EvaluationMeans):
-    """Means over the runs (of the config as sent), and the sweep's points."""
-
+class _EvaluationSize(Schema):
     runs: int = Field(description="Monte Carlo runs.")
     targets: int = Field(description="Targets in the scenario.")
+
+
+class EvaluateResult(EvaluationMeans, _EvaluationSize):
+    """Means over the runs (of the config as sent), and the sweep's points; runs and
+    targets first (pydantic orders a model's fields from its last base to its first)."""
+
     sweep: list[SweepPoint] | None = Field(
         default=None, description="One point per value of the request's sweep, in order."
     )
