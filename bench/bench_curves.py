@@ -53,7 +53,7 @@ RESULTS = ROOT / "bench" / "results"
 SCORE = json.loads((ROOT / "docs/examples/score_initiation.json").read_text())
 """The README's score configuration; its false_confirmation is swept."""
 GATES = [0.9, 0.95, 0.99, 0.995, 0.999]
-ALPHAS = [1e-5, 1e-4, 3e-4, 1e-3, 0.01, 0.03, 0.1, 0.15, 0.2, 0.3, 0.5, 0.9]
+ALPHAS = [1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 5e-3, 0.01, 0.03, 0.1, 0.15, 0.2, 0.3, 0.5, 0.9]
 CURVES: list[tuple[str, dict[str, Any], str, list[Any]]] = [
     ("logic 2/2, 3/4", {"mode": "cartesian", "capture_gate": "combined"}, "gate_P_G", GATES),
     ("polar (Mu et al.) 2/2, 3/4", {"mode": "polar"}, "gate_P_G", GATES),
