@@ -19,8 +19,9 @@ Run from the repository root::
    near each gate stay the same and the growth shows the cost of the machinery itself
    (a cKDTree per scan, candidate pairs, capture gates). Cartesian plots with a fixed 20 m
    sigma (the logic method), and polar plots about a radar at the centre (the polar
-   method, whose windows grow with range). Mean of scans 2-5 of 5 (scan 1 only makes
-   initiators), best of ``--repeats``.
+   method, whose windows grow with range), and the logic method under score
+   confirmation (:data:`SCORE`, the same plots). Mean of scans 2-5 of 5 (scan 1 only
+   makes initiators), best of ``--repeats``.
 """
 
 from __future__ import annotations
@@ -65,6 +66,8 @@ POLAR = InitiationConfig(
 window, K_R = K_az = 3.03 (99%), and |second difference of range| <= 3 x 10 m/s^2
 (the range noise alone gives sqrt(6) x 5 m = 12 m/s^2 rms)."""
 DENSITY = 250.0 / 15000.0**2  # clutter plots per m^2 per scan
+SCORE = replace(LOGIC, confirmation="score", P_D=0.8, clutter_density=DENSITY)
+"""The logic method under score confirmation: its time per scan against k/m's."""
 
 
 def study(runs: int, seed: int, stonesoup: bool) -> list[str]:
@@ -138,6 +141,7 @@ def scaling(max_plots: int, repeats: int, seed: int) -> list[str]:
     for name, config, make in (
         ("logic (Cartesian)", LOGIC, _cartesian_scans),
         ("polar (Mu et al.)", POLAR, _polar_scans),
+        ("score (Cartesian)", SCORE, _cartesian_scans),
     ):
         for n in sizes:
             scans = make(n, np.random.default_rng(seed))

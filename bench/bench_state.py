@@ -97,6 +97,7 @@ def _tracks(
         az=np.arctan2(xy[:, 0], xy[:, 1]),
         sigma_az=10.0 / r,
         sensor=np.zeros((n, 2)),
+        score=np.zeros(n),
     )
 
 
@@ -113,6 +114,7 @@ def _initiators(m: int, scan: int, first_index: int, xy: np.ndarray) -> Initiato
         az=np.arctan2(xy[:, 0], xy[:, 1]),
         sigma_r=np.full(m, 10.0),
         sigma_az=10.0 / r,
+        score=np.zeros(m),
     )
 
 

@@ -40,9 +40,11 @@ The time per scan is the wall time of ``initiate`` calls only (time.perf_counter
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from datetime import datetime, timedelta
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial import KDTree
@@ -170,7 +172,8 @@ def stonesoup_initiation(
 ) -> dict:
     """Monte Carlo of MultiMeasurementInitiator on Mu et al.'s scenario, scored like ours.
 
-    Returns {"mean_true", "mean_false", "seconds_per_scan", "runs"}.
+    Returns {"mean_true", "mean_false", "se_true", "se_false", "seconds_per_scan", "runs"}
+    (se: the standard error of the mean over the runs).
     """
     scenario = mu_scenario(clutter)
     targets = scenario.x0.shape[0]
@@ -196,9 +199,32 @@ def stonesoup_initiation(
     return {
         "mean_true": float(np.mean(true)),
         "mean_false": float(np.mean(false)),
+        "se_true": float(np.std(true, ddof=1) / np.sqrt(runs)) if runs > 1 else float("nan"),
+        "se_false": float(np.std(false, ddof=1) / np.sqrt(runs)) if runs > 1 else float("nan"),
         "seconds_per_scan": elapsed / scans,
         "runs": runs,
     }
+
+
+def sweep(
+    path: Path, clutter: list[float], settings: list[tuple[int, float]], runs: int, seed: int
+) -> None:
+    """Stone Soup's points for the operating curves: one JSON line per (clutter,
+    min_points, P_G) appended to ``path``; points already there are not run again."""
+    done = set()
+    if path.exists():
+        for line in path.read_text().splitlines():
+            row = json.loads(line)
+            done.add((row["clutter"], row["min_points"], row["P_G"], row["runs"], row["seed"]))
+    for c in clutter:
+        for min_points, P_G in settings:
+            if (c, min_points, P_G, runs, seed) in done:
+                continue
+            r = stonesoup_initiation(c, runs, seed, min_points=min_points, P_G=P_G)
+            row = {"clutter": c, "min_points": min_points, "P_G": P_G, "seed": seed, **r}
+            with path.open("a") as out:
+                out.write(json.dumps(row) + "\n")
+            print(json.dumps(row), flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -213,17 +239,34 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="plain GNNWith2DAssignment (exact same tracks, much slower)",
     )
+    parser.add_argument(
+        "--sweep",
+        type=Path,
+        help="append the operating points of --settings to this JSON-lines file instead",
+    )
+    parser.add_argument(
+        "--settings",
+        default="2:0.95,2:0.99,2:0.999,3:0.95,3:0.99,3:0.999,4:0.95,4:0.99,4:0.999",
+        help="with --sweep: comma-separated min_points:P_G",
+    )
     args = parser.parse_args(argv)
+    clutter = [float(c) for c in args.clutter.split(",")]
+    if args.sweep:
+        settings = [
+            (int(m), float(p)) for m, p in (x.split(":") for x in args.settings.split(","))
+        ]
+        sweep(args.sweep, clutter, settings, args.runs, args.seed)
+        return 0
     print(
         f"Stone Soup MultiMeasurementInitiator, Mu et al. scenario, {args.runs} runs, "
         f"seed {args.seed}, prefilter {'off' if args.no_prefilter else 'on'}\n"
     )
     print("| clutter / scan | mean true (of 5) | mean false | ms / scan |")
     print("|---:|---:|---:|---:|")
-    for clutter in (float(c) for c in args.clutter.split(",")):
-        r = stonesoup_initiation(clutter, args.runs, args.seed, prefilter=not args.no_prefilter)
+    for level in clutter:
+        r = stonesoup_initiation(level, args.runs, args.seed, prefilter=not args.no_prefilter)
         print(
-            f"| {clutter:g} | {r['mean_true']:.3f} | {r['mean_false']:.3f} | "
+            f"| {level:g} | {r['mean_true']:.3f} | {r['mean_false']:.3f} | "
             f"{1e3 * r['seconds_per_scan']:.2f} |",
             flush=True,
         )

@@ -528,7 +528,9 @@ def _parser() -> argparse.ArgumentParser:
         help="draw a simulated scenario and its initiated tracks (Mu et al.)",
         description="Simulates Mu et al.'s scenario (5 ground targets at 25 m/s, P_D 0.8, "
         "Poisson clutter over a 15 km square) with initiation.simulate, initiates tracks "
-        "with initiation.initiate and draws the plots and the confirmed tracks as a PNG.",
+        "with initiation.initiate scan by scan and draws the plots and the confirmed tracks as a "
+        "PNG: true tracks green, false ones red dashed, missed targets grey dotted, the radar, "
+        "the scan period and an inset zoomed on the targets.",
     )
     sce.add_argument("--clutter", type=float, default=250.0, help="clutter per scan (250)")
     sce.add_argument("--scans", type=int, default=4, help="number of scans (4)")

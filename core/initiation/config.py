@@ -1,10 +1,11 @@
 """Settings of the track-initiation logic (Mu et al.; Konovalov; the secondary-processing
-textbook).
+textbook; Blackman and Popoli).
 
 One frozen :class:`InitiationConfig` holds every rule: the mode (Cartesian logic or the
 polar method of Mu et al.), the capture gate and its 2/N or 2/T criterion, branch or
 nearest association, the filter, the tracking gates and how they widen after misses,
-the k/m confirmation and the k/m - l drop. :meth:`InitiationConfig.digest` fingerprints
+the confirmation (k/m, or the sequential track score with Wald's thresholds) and the
+k/m - l drop. :meth:`InitiationConfig.digest` fingerprints
 the settings, so a state made under other settings is recognised as foreign.
 """
 
@@ -24,6 +25,7 @@ CHOICES = {
     "capture_gate": ("ring", "expanded", "combined"),
     "association": ("branch", "nearest"),
     "filter": ("kalman", "alpha_beta"),
+    "confirmation": ("k_of_m", "score"),
 }
 """The settings that name a choice, and their options."""
 
@@ -70,7 +72,8 @@ class InitiationConfig:
         factor >= 1, non-decreasing.
     confirm_k, confirm_m : int
         Confirmation k/m: k plots within the track's first m scans (counted from its
-        first plot, both capture plots included; 1 <= k <= m).
+        first plot, both capture plots included; 1 <= k <= m). Under score
+        confirmation, k is the fewest plots a track confirms with (m is not used).
     drop_misses : int
         l of k/m - l: a track is dropped after l misses in a row (>= 1); a tentative
         one also when k can no longer be reached within its first m scans.
@@ -83,7 +86,31 @@ class InitiationConfig:
         second difference, sqrt(6) sigma_r / tau^2 rms (12 m/s^2 for 5 m at 1 s).
     history : int
         Plot ids kept per track for the plot-reuse rules (>= confirm_m, and >= 2: a track
-        starts with two plots).
+        starts with two plots). Under score confirmation, which has no m, a track that
+        confirms after more plots than this is judged by its last ``history`` plots
+        (sharing rules, and the evaluation's labels).
+    confirmation : ``"k_of_m"`` or ``"score"``
+        k_of_m: confirm_k plots within the first confirm_m scans. score: the sequential
+        log-likelihood-ratio track score (Blackman and Popoli, ch. 6;
+        :mod:`plotgate.core.initiation.score`) reaches ln((1 - beta) / alpha), alpha =
+        false_confirmation, beta = true_deletion, on a track of at least confirm_k
+        plots (a threshold low enough for a true track that missed a scan is passed by
+        many clutter pairs); a tentative track whose score falls to ln(beta / (1 - alpha))
+        is dropped (Wald's sequential test). Either way, polar
+        mode's windows and acceleration check still apply, and l misses in a row drop
+        any track.
+    P_D : float
+        Score: detection probability of a target in a scan, in (0, 1).
+    clutter_density : float or None
+        Score: false plots per m^2 per scan (> 0); None estimates it per scan as
+        max(n, 1) / surveillance_area from the scan's own n plots.
+    surveillance_area : float or None
+        Score: the area the scans cover, m^2 (> 0); needed when clutter_density is None.
+    new_target_density : float
+        Score: new targets per m^2 per scan (> 0), the prior of a track's first plot.
+    false_confirmation, true_deletion : float
+        Score: alpha, the wanted probability of confirming a false track, and beta, of
+        dropping a true one; each in (0, 1), alpha + beta < 1.
     """
 
     mode: str = "cartesian"
@@ -109,6 +136,13 @@ class InitiationConfig:
     a_max: float = 10.0
     K_A: float = 3.0
     history: int = 8
+    confirmation: str = "k_of_m"
+    P_D: float = 0.9
+    clutter_density: float | None = None
+    surveillance_area: float | None = None
+    new_target_density: float = 1e-8
+    false_confirmation: float = 1e-3
+    true_deletion: float = 0.1
 
     def __post_init__(self) -> None:
         for name, options in CHOICES.items():
@@ -132,14 +166,21 @@ class InitiationConfig:
 
         number("v_min", self.v_min >= 0, "finite and >= 0")
         number("v_max", self.v_max > 0 and self.v_max >= self.v_min, "> 0 and >= v_min")
-        for name in ("capture_P_G", "capture_p", "gate_P_G"):
+        for name in (
+            "capture_P_G",
+            "capture_p",
+            "gate_P_G",
+            "P_D",
+            "false_confirmation",
+            "true_deletion",
+        ):
             number(name, 0 < getattr(self, name) < 1, "in (0, 1)")
-        for name in ("q", "a_max"):
+        for name in ("q", "a_max", "new_target_density"):
             number(name, getattr(self, name) > 0, "> 0")
         for name in ("alpha_min", "beta_min"):
             number(name, 0 < getattr(self, name) <= 1, "in (0, 1]")
         number("K_A", self.K_A > 1, "> 1")
-        for name in ("K_R", "K_az", "capture_time"):
+        for name in ("K_R", "K_az", "capture_time", "clutter_density", "surveillance_area"):
             if getattr(self, name) is not None:
                 number(name, getattr(self, name) > 0, "> 0 or null")
         for name, low in (
@@ -155,6 +196,20 @@ class InitiationConfig:
         if self.confirm_k > self.confirm_m:
             raise ParameterError(
                 "confirm_k", f"must be <= confirm_m = {self.confirm_m}, got {self.confirm_k}"
+            )
+        alpha, beta = self.false_confirmation, self.true_deletion
+        score = self.confirmation == "score"  # alpha + beta < 1 where they are used:
+        if score and (1.0 - alpha) * (1.0 - beta) <= alpha * beta:  # without rounding
+            raise ParameterError(
+                "true_deletion",
+                f"must be < 1 - false_confirmation = {1 - alpha:g}, got {beta!r} (the "
+                "confirmation threshold must lie above the deletion threshold)",
+            )
+        if score and self.clutter_density is None and self.surveillance_area is None:
+            raise ParameterError(
+                "clutter_density",
+                "score confirmation needs clutter_density, or surveillance_area to estimate "
+                "it from each scan's plot count",
             )
         w = self.gate_widening
         if not w or not all(math.isfinite(x) and x >= 1 for x in w) or list(w) != sorted(w):

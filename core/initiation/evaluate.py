@@ -12,21 +12,43 @@ confirmed:
 
 It also reports the time to confirmation: from a target's first detection to the
 confirmation of its first true track, in seconds.
+
+:func:`sweep` traces an operating curve: the same runs (the same simulated scans) under
+each value of one setting, so the differences between the values are not Monte Carlo
+noise between different scans.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, fields, replace
+from typing import Any
 
 import numpy as np
 
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.logic import initiate
-from plotgate.core.initiation.simulate import Scenario, simulate
+from plotgate.core.initiation.simulate import Scenario, SimulatedScans, simulate
 from plotgate.core.initiation.state import PLOT_STRIDE
 
-__all__ = ["Evaluation", "RunScore", "evaluate", "score_run"]
+__all__ = [
+    "K_OF_M",
+    "SWEEPABLE",
+    "Evaluation",
+    "RunScore",
+    "evaluate",
+    "score_run",
+    "sweep",
+    "swept",
+]
+
+K_OF_M = re.compile(r"([0-9]{1,3})/([0-9]{1,3})", re.ASCII)
+"""k/m as :func:`swept` reads it: ASCII digits, at most three each, no spaces."""
+SWEEPABLE = ("confirm", *(f.name for f in fields(InitiationConfig)))
+"""What :func:`sweep` may vary: any setting by its name, or ``"confirm"``, k/m as a
+string ``"k/m"`` (confirm_k and confirm_m together)."""
 
 
 @dataclass(frozen=True)
@@ -51,9 +73,12 @@ class Evaluation:
         Targets in the scenario.
     ceiling : float
         Mean targets detected often enough to be confirmable at all (k of the first m
-        scans after their first detection, counted in the simulated detections).
+        scans after their first detection, counted in the simulated detections; the
+        config's k/m under score confirmation too, as a reference).
     mean_true, mean_false : float
         Targets initiated and false tracks per run, by labels.
+    se_true, se_false : float
+        Their standard errors, sample standard deviation / sqrt(runs) (NaN for one run).
     mean_true_by_distance, mean_false_by_distance : float
         The same by distance.
     mean_time_to_confirmation : float
@@ -67,6 +92,8 @@ class Evaluation:
     ceiling: float
     mean_true: float
     mean_false: float
+    se_true: float
+    se_false: float
     mean_true_by_distance: float
     mean_false_by_distance: float
     mean_time_to_confirmation: float
@@ -86,6 +113,13 @@ def score_run(
     scans from their first detection (the ceiling of this run) as a second element.
     """
     sim = simulate(scenario, np.random.default_rng(seed))
+    return _score(scenario, sim, config, distance)
+
+
+def _score(
+    scenario: Scenario, sim: SimulatedScans, config: InitiationConfig, distance: float
+) -> tuple[RunScore, int]:
+    """:func:`score_run` on scans already simulated."""
     k = scenario.x0.shape[0]
     first_seen = np.full(k, np.nan)
     labelled, near = set(), set()
@@ -156,27 +190,136 @@ def evaluate(
     >>> ev.targets, ev.mean_true <= ev.ceiling
     (5, True)
     """
+    (evaluation,) = _evaluations(scenario, [config], runs, seed, distance)
+    return evaluation
+
+
+def swept(config: InitiationConfig, parameter: str, value: Any) -> InitiationConfig:
+    """``config`` with ``parameter`` set to ``value`` (``"confirm"``: a ``"k/m"`` string).
+
+    Raises
+    ------
+    ParameterError
+        ``"parameter"`` for a name not in :data:`SWEEPABLE`; ``"confirm"`` for a value
+        that is not ``"k/m"``; the setting's own name for a value it refuses.
+
+    >>> swept(InitiationConfig(), "confirm", "2/3").confirm_m
+    3
+    """
+    if parameter not in SWEEPABLE:
+        raise ParameterError(
+            "parameter", f"must be one of {', '.join(SWEEPABLE)}, got {parameter!r}"
+        )
+    if parameter != "confirm":
+        return replace(config, **{parameter: value})
+    match = K_OF_M.fullmatch(value) if isinstance(value, str) else None
+    if match is None:
+        raise ParameterError("confirm", f"must be a string k/m such as '3/4', got {value!r}")
+    k, m = int(match[1]), int(match[2])
+    return replace(config, confirm_k=k, confirm_m=m, history=max(config.history, m))
+
+
+def sweep(
+    scenario: Scenario,
+    config: InitiationConfig,
+    parameter: str,
+    values: Sequence[Any],
+    runs: int,
+    seed: int,
+    distance: float = 100.0,
+    baseline: bool = False,
+) -> list[Evaluation]:
+    """An operating curve: :func:`evaluate` under each value of one setting, same scans.
+
+    Every run is simulated once and initiated under every value, so the curve's points
+    differ by the setting alone (common random numbers). Each point equals
+    ``evaluate(scenario, swept(config, parameter, value), runs, seed, distance)``.
+
+    Parameters
+    ----------
+    scenario, config, runs, seed, distance
+        As :func:`evaluate`.
+    parameter : str
+        A name in :data:`SWEEPABLE`: a setting (``"gate_P_G"``, ``"false_confirmation"``,
+        ``"K_A"``...), or ``"confirm"`` for k/m.
+    values : sequence
+        Its values (``"k/m"`` strings for ``"confirm"``), at least one.
+    baseline : bool, optional
+        Also evaluate ``config`` itself on the same runs, first in the list.
+
+    Returns
+    -------
+    curve : list of Evaluation
+        One per value, in order (after ``config``'s own with ``baseline``).
+
+    Raises
+    ------
+    ParameterError
+        As :func:`swept` (with the value's index), and as :func:`evaluate`.
+
+    Examples
+    --------
+    >>> from plotgate.core.initiation.simulate import mu_scenario
+    >>> curve = sweep(mu_scenario(20.0), InitiationConfig(mode="polar", v_max=30.0),
+    ...               "confirm", ["2/4", "4/4"], runs=5, seed=1)
+    >>> curve[0].mean_true >= curve[1].mean_true
+    True
+    """
+    if isinstance(values, (str, bytes)) or len(values) < 1:
+        raise ParameterError("values", f"must be a non-empty list, got {values!r}")
+    configs = []
+    for i, value in enumerate(values):
+        try:
+            configs.append(swept(config, parameter, value))
+        except ParameterError as exc:
+            if exc.field == "parameter":
+                raise
+            raise ParameterError("values", f"{exc.field}: {exc.reason}", i) from exc
+    return _evaluations(scenario, [config] * baseline + configs, runs, seed, distance)
+
+
+def _evaluations(
+    scenario: Scenario,
+    configs: Sequence[InitiationConfig],
+    runs: int,
+    seed: int,
+    distance: float,
+) -> list[Evaluation]:
+    """Each config evaluated on the same simulated runs."""
     if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
         raise ParameterError("runs", f"must be an integer >= 1, got {runs!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ParameterError("seed", f"must be an integer >= 0, got {seed!r}")
     if not distance > 0:
         raise ParameterError("distance", f"must be > 0, got {distance!r}")
-    scores = []
-    ceiling = []
+    scores: list[list[RunScore]] = [[] for _ in configs]
+    ceiling: list[list[int]] = [[] for _ in configs]
     for child in np.random.SeedSequence(seed).spawn(runs):  # independent, seeded runs
-        score, confirmable = score_run(scenario, config, child, distance)
-        scores.append(score)
-        ceiling.append(confirmable)
+        sim = simulate(scenario, np.random.default_rng(child))
+        for j, config in enumerate(configs):
+            score, confirmable = _score(scenario, sim, config, distance)
+            scores[j].append(score)
+            ceiling[j].append(confirmable)
+    return [_summary(scenario, s, c) for s, c in zip(scores, ceiling, strict=True)]
+
+
+def _summary(scenario: Scenario, scores: list[RunScore], ceiling: list[int]) -> Evaluation:
+    runs = len(scores)
     times = [t for s in scores for t in s.confirmation_times]
     true = np.array([s.true for s in scores])
     false = np.array([s.false for s in scores])
+
+    def se(x: np.ndarray) -> float:
+        return float(np.std(x, ddof=1) / np.sqrt(runs)) if runs > 1 else float("nan")
+
     return Evaluation(
         runs=runs,
         targets=scenario.x0.shape[0],
         ceiling=float(np.mean(ceiling)),
         mean_true=float(true.mean()),
         mean_false=float(false.mean()),
+        se_true=se(true),
+        se_false=se(false),
         mean_true_by_distance=float(np.mean([s.true_by_distance for s in scores])),
         mean_false_by_distance=float(np.mean([s.false_by_distance for s in scores])),
         mean_time_to_confirmation=float(np.mean(times)) if times else float("nan"),

@@ -23,12 +23,17 @@ Each scan, in this order:
    capture gate (ring, expanded, combined, or polar first-association windows); each
    plot starts a tentative track (branch), or only the nearest one does, with the
    two-point state x = [z2, (z2 - z1) / tau] and its exact covariance.
-5. A tentative track with k plots within its first m scans is confirmed (in polar mode
-   only if every triple of its ranges passes the acceleration check; a track that
+5. A tentative track with k plots within its first m scans is confirmed, or under score
+   confirmation one whose track score (:mod:`plotgate.core.initiation.score`, Blackman
+   and Popoli, ch. 6) reaches Wald's threshold ln((1 - beta) / alpha) with at least k
+   plots; in polar mode
+   only if every triple of its ranges passes the acceleration check (a track that
    fails it is dropped). Newly confirmed tracks sharing two or more plots keep the one
-   with the smaller mean statistic; tentative tracks sharing two or more plots with a
-   confirmed track are pruned.
-6. Dropped: l misses in a row, or (tentative) k no longer reachable within m scans.
+   with the smaller mean statistic (the higher score under score confirmation);
+   tentative tracks sharing two or more plots with a confirmed track are pruned.
+6. Dropped: l misses in a row; a tentative track whose k is no longer reachable within
+   m scans, or under score confirmation whose score is at or below Wald's
+   ln(beta / (1 - alpha)).
 7. Plots of the scan used by no track and captured by no initiator become initiators;
    initiators past their window expire.
 
@@ -52,12 +57,21 @@ from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.filter import (
     alpha_beta_gain,
     kalman_gain,
+    one_point,
     predict,
     two_point,
     update,
 )
 from plotgate.core.initiation.pairs import capture_pairs, nearest, track_pairs, window_coefficients
 from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.score import (
+    capture_score,
+    first_plot_score,
+    log_clutter_density,
+    miss_score,
+    update_score,
+    wald_thresholds,
+)
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.sharing import keep_greedy, shares_two
 from plotgate.core.initiation.state import (
@@ -68,12 +82,14 @@ from plotgate.core.initiation.state import (
     Tracks,
     empty_state,
 )
+from plotgate.core.sym2 import sym2
 
 __all__ = ["DROP_REASONS", "ScanReport", "initiate"]
 
-DROP_REASONS = ("misses", "window", "acceleration", "pruned")
+DROP_REASONS = ("misses", "window", "acceleration", "pruned", "score")
 """Why a track was dropped: l misses in a row; k unreachable within m; the polar
-acceleration check; sharing two or more plots with a confirmed track."""
+acceleration check; sharing two or more plots with a confirmed track; a tentative track's
+score at or below Wald's deletion threshold."""
 
 
 @dataclass(frozen=True)
@@ -138,14 +154,27 @@ def _new_tracks(
     rows: np.ndarray,
     cols: np.ndarray,
     scan: Scan,
+    k: int,
     ids: np.ndarray,
     first_id: int,
     config: InitiationConfig,
 ) -> Tracks:
-    """Tentative tracks from (initiator, plot) pairs."""
+    """Tentative tracks from (initiator, plot) pairs of scan number k."""
     m, h = rows.size, config.history
     tau = scan.t - ini.t[rows]
-    x, P = two_point(ini.z[rows], ini.R[rows], scan.z[cols], scan.R[cols], tau)
+    if config.confirmation == "score":  # the speed bound as a prior, updated with z2
+        x1, P1 = one_point(ini.z[rows], ini.R[rows], config.v_max)
+        xp, Pp = predict(x1, P1, tau, config.q)
+        R2 = scan.R[cols]
+        S = Pp[:, :2, :2] + R2
+        nu = scan.z[cols] - xp[:, :2]
+        x, P = update(xp, Pp, scan.z[cols], R2, kalman_gain(Pp, R2))
+        gaps = k - ini.scan[rows] - 1
+        density = log_clutter_density(config, scan.size)
+        score = ini.score[rows] + capture_score(nu, S, gaps, config, density)
+    else:
+        x, P = two_point(ini.z[rows], ini.R[rows], scan.z[cols], scan.R[cols], tau)
+        score = np.zeros(m)
 
     def history(first: np.ndarray, second: np.ndarray, fill: float) -> np.ndarray:
         out = np.full((m, h), fill, dtype=np.asarray(first).dtype)
@@ -170,6 +199,7 @@ def _new_tracks(
         az=scan.az[cols],
         sigma_az=scan.sigma_az[cols],
         sensor=scan.sensor[cols],
+        score=score,
     )
 
 
@@ -201,6 +231,15 @@ def _step(
     a, b, c = nearest(rows[free], cols[free], s[free])
     assoc[a], stat[a] = b, c
     hit = assoc >= 0
+    score = tracks.score
+    if config.confirmation == "score":
+        score = score + np.where(hit, 0.0, miss_score(config))
+        if hit.any():
+            j = assoc[hit]
+            nu = scan.z[j] - xp[hit, :2]
+            S = sym2(Pp[hit, :2, :2] + scan.R[j])
+            density = log_clutter_density(config, n)
+            score[hit] += update_score(nu[:, 0], nu[:, 1], S, config, density)
     x, P = xp, Pp
     if hit.any():
         j = assoc[hit]
@@ -229,6 +268,7 @@ def _step(
         az=np.where(hit, scan.az[j] if n else 0.0, tracks.az),
         sigma_az=np.where(hit, scan.sigma_az[j] if n else 0.0, tracks.sigma_az),
         sensor=np.where(hit[:, None], scan.sensor[j] if n else 0.0, tracks.sensor),
+        score=score,
     )
     by_track = np.full(n, -1, dtype=np.int64)
     by_track[assoc[hit & ~tracks.confirmed]] = tracks.id[hit & ~tracks.confirmed]
@@ -239,7 +279,7 @@ def _step(
     rows, cols, dist = capture_pairs(ini, scan, index, config, ~used, k)
     if config.association == "nearest":
         rows, cols, dist = nearest(rows, cols, dist)
-    born = _new_tracks(ini, rows, cols, scan, ids, state.next_track, config)
+    born = _new_tracks(ini, rows, cols, scan, k, ids, state.next_track, config)
     captured = np.zeros(n, dtype=bool)
     captured[cols] = True
     unset = by_track[cols] < 0
@@ -248,7 +288,11 @@ def _step(
 
     # 5: confirmation, conflicts, pruning
     age = k - tracks.first_scan + 1
-    ready = ~tracks.confirmed & (tracks.n >= config.confirm_k) & (age <= config.confirm_m)
+    confirm_at, delete_at = wald_thresholds(config)
+    if config.confirmation == "score":
+        ready = ~tracks.confirmed & (tracks.score >= confirm_at) & (tracks.n >= config.confirm_k)
+    else:
+        ready = ~tracks.confirmed & (tracks.n >= config.confirm_k) & (age <= config.confirm_m)
     dropped, reasons = [], []
     if config.mode == "polar":
         jerky = ready & ~_acceleration_ok(tracks, config)
@@ -256,7 +300,11 @@ def _step(
         reasons.append("acceleration")
         ready &= ~jerky
     order = np.flatnonzero(ready)
-    order = order[np.argsort(tracks.cost[order] / (tracks.n[order] - 1), kind="stable")]
+    if config.confirmation == "score":  # the likelier track first
+        rank = -tracks.score[order]
+    else:  # the smaller mean statistic first
+        rank = tracks.cost[order] / (tracks.n[order] - 1)
+    order = order[np.argsort(rank, kind="stable")]
     keep = keep_greedy(tracks.plots[order])
     confirmed = tracks.confirmed.copy()
     confirmed[order[keep]] = True
@@ -272,7 +320,12 @@ def _step(
     )
 
     # 6: drops
-    window = ~confirmed & (tracks.n + (config.confirm_m - age) < config.confirm_k)
+    if config.confirmation == "score":
+        dropped.append(~confirmed & (tracks.score <= delete_at))
+        reasons.append("score")
+        window = np.zeros(tracks.size, dtype=bool)
+    else:
+        window = ~confirmed & (tracks.n + (config.confirm_m - age) < config.confirm_k)
     misses = tracks.misses >= config.drop_misses
     gone = np.zeros(tracks.size, dtype=bool)
     why = np.empty(tracks.size, dtype=object)
@@ -301,6 +354,12 @@ def _step(
         az=scan.az[fresh],
         sigma_r=scan.sigma_r[fresh],
         sigma_az=scan.sigma_az[fresh],
+        score=np.full(
+            fresh.sum(),
+            first_plot_score(config, log_clutter_density(config, n))
+            if config.confirmation == "score"
+            else 0.0,
+        ),
     )
     initiators = Initiators(
         *(

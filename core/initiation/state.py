@@ -37,7 +37,8 @@ __all__ = [
     "layout",
 ]
 
-STATE_VERSION = 1
+STATE_VERSION = 2
+"""Version 2 added the track score (``score`` of initiators and tracks)."""
 PLOT_STRIDE = 1 << 20
 """Plot id = scan * PLOT_STRIDE + index (at most PLOT_STRIDE plots per scan)."""
 MAX_SESSION_SCANS = 1 << 32
@@ -53,7 +54,9 @@ class Initiators:
 
     plot (n,) ids; scan (n,) scan numbers; t (n,) times, s; z (n, 2), R (n, 2, 2) the
     plots and covariances, m, m^2; sensor (n, 2) their sensor, m; r, az, sigma_r,
-    sigma_az (n,) their polar form about it, m and rad.
+    sigma_az (n,) their polar form about it, m and rad; score (n,) the track score of a
+    single plot (:func:`~plotgate.core.initiation.score.first_plot_score`; 0 under k/m
+    confirmation).
     """
 
     plot: np.ndarray
@@ -66,6 +69,7 @@ class Initiators:
     az: np.ndarray
     sigma_r: np.ndarray
     sigma_az: np.ndarray
+    score: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -79,7 +83,9 @@ class Tracks:
     (m, H) the last H plot ids, newest last, -1 before the first; ranges, times (m, H)
     range (m, about the plot's sensor) and time (s) of those plots (NaN where no plot);
     sigma_r (m, H) their range sigmas; az, sigma_az (m,) azimuth of the last plot and its
-    sigma, rad; sensor (m, 2) the last plot's sensor, m.
+    sigma, rad; sensor (m, 2) the last plot's sensor, m; score (m,) the track's
+    log-likelihood ratio (:mod:`plotgate.core.initiation.score`; 0 under k/m
+    confirmation).
     """
 
     id: np.ndarray
@@ -99,6 +105,7 @@ class Tracks:
     az: np.ndarray
     sigma_az: np.ndarray
     sensor: np.ndarray
+    score: np.ndarray
 
     @property
     def size(self) -> int:

@@ -24,7 +24,9 @@ positive definite):
   ``confirmed_scan`` set exactly when confirmed; every track at the state's time;
 - domains: ranges at least :data:`~plotgate.core.initiation.scan.MIN_SENSOR_RANGE`, azimuths in
   [-pi, pi], sigmas and costs positive, plot covariances symmetric positive definite
-  with core's condition bound, track covariances symmetric positive definite.
+  with core's condition bound, track covariances symmetric positive definite; scores
+  finite, 0 under k/m confirmation, an initiator's that of a single plot under score
+  confirmation.
 
 Each refusal names the state's own field, ``state.<name>`` or ``state.<part>.<name>``,
 with the row as ``index`` (``state.tracks.misses``, index 3: ``state.tracks.misses[3]``).
@@ -41,6 +43,7 @@ import numpy as np
 from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
+from plotgate.core.initiation.score import first_plot_score, log_clutter_density
 from plotgate.core.initiation.state import (
     MAX_SESSION_SCANS,
     MAX_TRACK_ID,
@@ -238,6 +241,37 @@ def _check_initiators(state: InitiationState) -> None:
         ini.t <= (state.t if state.t is not None else -np.inf),
         lambda i: f"is {ini.t[i]} s, after the state's time {state.t} s",
     )
+
+
+def _check_scores(state: InitiationState, config: InitiationConfig) -> None:
+    """Scores are 0 under k/m confirmation, which never computes one. Under score
+    confirmation an initiator's is that of a single plot: ln(P_D beta_NT / beta_FT) with
+    the config's clutter density, or between its values for scans of 1 and PLOT_STRIDE
+    plots when the density is estimated. A track's score sums its whole history, which
+    the state does not keep: it is held finite (and within the wire's magnitudes)."""
+    if config.confirmation == "score":
+        one, most = (
+            first_plot_score(config, log_clutter_density(config, n)) for n in (1, PLOT_STRIDE)
+        )
+        score = state.initiators.score
+        _require(
+            "state.initiators.score",
+            (score >= min(one, most)) & (score <= max(one, most)),
+            lambda i: (
+                f"is {score[i]}; a single plot's score under these settings is "
+                + (f"{one}" if one == most else f"between {min(one, most)} and {max(one, most)}")
+            ),
+        )
+        return
+    for f, values in (
+        ("state.initiators", state.initiators.score),
+        ("state.tracks", state.tracks.score),
+    ):
+
+        def nonzero(i: int, v: np.ndarray = values) -> str:
+            return f"is {v[i]}; scores are 0 under k_of_m confirmation"
+
+        _require(f"{f}.score", values == 0.0, nonzero)
 
 
 def _check_track_values(state: InitiationState, config: InitiationConfig) -> None:
@@ -446,6 +480,7 @@ def check_state(state: InitiationState, config: InitiationConfig) -> None:
         )
     _check_initiators(state)
     _check_track_values(state, config)
+    _check_scores(state, config)
     _check_track_histories(state)
     taken = np.isin(state.initiators.plot, state.tracks.plots)
     _require(

@@ -39,7 +39,9 @@ from plotgate.core.initiation import (
 from plotgate.core.initiation import (
     initiate as core_initiate,
 )
+from plotgate.core.initiation.evaluate import Evaluation
 from plotgate.core.initiation.evaluate import evaluate as core_evaluate
+from plotgate.core.initiation.evaluate import sweep as core_sweep
 from plotgate.core.initiation.scan import merged_scan
 from plotgate.core.initiation.simulate import Scenario
 from plotgate.core.initiation.simulate import simulate as core_simulate
@@ -139,17 +141,19 @@ def _tracks(state: InitiationState) -> list[dict[str, Any]]:
             "covariance": P,
             "plots": p,
             "n_plots": n,
+            "score": sc,
             "misses": m,
             "first_scan": f,
             "confirmed_scan": k if c else None,
         }
-        for i, c, x, P, p, n, m, f, k in zip(
+        for i, c, x, P, p, n, sc, m, f, k in zip(
             tr.id.tolist(),
             tr.confirmed.tolist(),
             tr.x.tolist(),
             tr.P.tolist(),
             plots,
             tr.n.tolist(),
+            tr.score.tolist(),
             tr.misses.tolist(),
             tr.first_scan.tolist(),
             tr.confirmed_scan.tolist(),
@@ -249,26 +253,61 @@ def simulate(request: SimulateRequest) -> SimulateResult:
     )
 
 
+def _point(ev: Evaluation) -> dict[str, Any]:
+    """An evaluation's means as wire fields (NaN, from one run or no confirmation, as null)."""
+
+    def number(x: float) -> float | None:
+        return None if np.isnan(x) else x
+
+    return {
+        "confirmable": ev.ceiling,
+        "mean_true": ev.mean_true,
+        "se_true": number(ev.se_true),
+        "mean_false": ev.mean_false,
+        "se_false": number(ev.se_false),
+        "mean_true_by_distance": ev.mean_true_by_distance,
+        "mean_false_by_distance": ev.mean_false_by_distance,
+        "mean_time_to_confirmation": number(ev.mean_time_to_confirmation),
+    }
+
+
 @checked
 def evaluate(request: EvaluateRequest) -> EvaluateResult:
-    """Monte Carlo of initiation on a scenario."""
-    ev = core_evaluate(
-        _scenario(request.scenario),
-        _config(request.config),
+    """Monte Carlo of initiation on a scenario; with a sweep, on the same scans per value.
+
+    A sweep's values reach core as the wire checked them (``SweepIn.settings``, strictly:
+    "0.9" is no number and 3.0 no integer), ``confirm`` as its k/m string.
+    """
+    scenario, config = _scenario(request.scenario), _config(request.config)
+    sweep = request.sweep
+    if sweep is None:
+        ev = core_evaluate(scenario, config, request.runs, request.seed, request.distance)
+        return EvaluateResult.model_validate(
+            {"runs": ev.runs, "targets": ev.targets, **_point(ev)}
+        )
+    if sweep.parameter == "confirm":
+        values: list[Any] = list(sweep.values)
+    else:
+        values = [getattr(s, sweep.parameter) for s in sweep.settings(request.config)]
+    base, *curve = core_sweep(
+        scenario,
+        config,
+        sweep.parameter,
+        values,
         request.runs,
         request.seed,
         request.distance,
+        baseline=True,
     )
-    ttc = ev.mean_time_to_confirmation
-    return EvaluateResult(
-        runs=ev.runs,
-        targets=ev.targets,
-        confirmable=ev.ceiling,
-        mean_true=ev.mean_true,
-        mean_false=ev.mean_false,
-        mean_true_by_distance=ev.mean_true_by_distance,
-        mean_false_by_distance=ev.mean_false_by_distance,
-        mean_time_to_confirmation=None if np.isnan(ttc) else ttc,
+    return EvaluateResult.model_validate(
+        {
+            "runs": base.runs,
+            "targets": base.targets,
+            **_point(base),
+            "sweep": [
+                {"value": v, **_point(ev)} for v, ev in zip(sweep.values, curve, strict=True)
+            ],
+        }
     )
 
 
@@ -306,5 +345,6 @@ setting to ``config.<name>``; ``runs``, ``seed`` and ``distance`` are named as t
 SIMULATE_FIELDS: FieldMap = SCENARIO_FIELDS
 """Where core's errors on an ``initiation.simulate`` request point."""
 
-EVALUATE_FIELDS: FieldMap = SCENARIO_FIELDS
-"""Where core's errors on an ``initiation.evaluate`` request point."""
+EVALUATE_FIELDS: FieldMap = {**SCENARIO_FIELDS, "values": "sweep.values[{i}]"}
+"""Where core's errors on an ``initiation.evaluate`` request point: as a simulation's, and
+a sweep value that makes settings core refuses (``confirm`` 5/4) to ``sweep.values[i]``."""

@@ -224,6 +224,7 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "runs": lambda r: r.runs,
                 "scenario.scans": lambda r: r.scenario.scans,
                 "scenario.clutter": lambda r: math.ceil(r.scenario.clutter),
+                "sweep.values": lambda r: 0 if r.sweep is None else len(r.sweep.values),
             },
         ),
         Endpoint(

@@ -17,9 +17,10 @@ Angles on the wire are degrees (``*_deg``); everything else SI.
 """
 
 import math
+import re
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationError, model_validator
 
 from plotgate.service.schemas.common import (
     MAX_DISTANCE,
@@ -38,6 +39,7 @@ __all__ = [
     "MAX_SCANS",
     "EvaluateRequest",
     "EvaluateResult",
+    "EvaluationMeans",
     "InitiateRequest",
     "InitiateResult",
     "InitiationSettings",
@@ -45,6 +47,8 @@ __all__ = [
     "ScanOutcome",
     "ScenarioIn",
     "SimulateRequest",
+    "SweepIn",
+    "SweepPoint",
     "SimulateResult",
     "TargetIn",
     "TrackOut",
@@ -121,7 +125,13 @@ class InitiationSettings(Schema):
         "secondary-processing textbook's narrow, medium and wide gates); each >= 1, "
         "non-decreasing.",
     )
-    confirm_k: int = Field(default=3, ge=1, le=100, description="Confirmation k of k/m.")
+    confirm_k: int = Field(
+        default=3,
+        ge=1,
+        le=100,
+        description="Confirmation k of k/m; under score confirmation, the fewest plots a "
+        "track confirms with.",
+    )
     confirm_m: int = Field(default=4, ge=1, le=100, description="Confirmation m of k/m.")
     drop_misses: int = Field(
         default=2, ge=1, le=100, description="l of k/m - l: misses in a row that drop a track."
@@ -152,6 +162,46 @@ class InitiationSettings(Schema):
         ge=2,
         le=MAX_HISTORY,
         description="Plots remembered per track (>= confirm_m and >= 2).",
+    )
+    confirmation: Literal["k_of_m", "score"] = Field(
+        default="k_of_m",
+        description="k_of_m: confirm_k plots within the first confirm_m scans; score: the "
+        "sequential log-likelihood-ratio track score (Blackman and Popoli, ch. 6) reaches "
+        "ln((1 - true_deletion) / false_confirmation) with at least confirm_k plots, and a "
+        "tentative track at or below "
+        "ln(true_deletion / (1 - false_confirmation)) is dropped (Wald's test).",
+    )
+    P_D: float = Field(
+        default=0.9, gt=0, lt=1, description="Score: a target's detection probability per scan."
+    )
+    clutter_density: float | None = Field(
+        default=None,
+        gt=0,
+        le=1e6,
+        description="Score: false plots per m^2 per scan; null: each scan's plot count over "
+        "surveillance_area.",
+    )
+    surveillance_area: float | None = Field(
+        default=None,
+        gt=0,
+        le=1e24,
+        description="Score: the area the scans cover, m^2 (needed when clutter_density is null).",
+    )
+    new_target_density: float = Field(
+        default=1e-8, gt=0, le=1e6, description="Score: new targets per m^2 per scan."
+    )
+    false_confirmation: float = Field(
+        default=1e-3,
+        gt=0,
+        lt=1,
+        description="Score: alpha, the wanted probability of confirming a false track.",
+    )
+    true_deletion: float = Field(
+        default=0.1,
+        gt=0,
+        lt=1,
+        description="Score: beta, the wanted probability of dropping a true track "
+        "(false_confirmation + true_deletion < 1).",
     )
 
 
@@ -205,9 +255,10 @@ class ScanOutcome(Schema):
     started: list[int] = Field(description="Ids of tentative tracks started.")
     confirmed: list[int] = Field(description="Ids of tracks confirmed.")
     dropped: list[int] = Field(description="Ids of tracks dropped.")
-    reasons: list[Literal["misses", "window", "acceleration", "pruned"]] = Field(
+    reasons: list[Literal["misses", "window", "acceleration", "pruned", "score"]] = Field(
         description="Why each was dropped: misses in a row, k out of reach in m, the polar "
-        "acceleration check, sharing two plots with a confirmed track."
+        "acceleration check, sharing two plots with a confirmed track, a score at or below "
+        "the deletion threshold."
     )
 
 
@@ -224,6 +275,10 @@ class TrackOut(Schema):
         "[scan number, plot index in that scan]."
     )
     n_plots: int = Field(description="Plots taken so far.")
+    score: float = Field(
+        description="Track score, the log-likelihood ratio of target against clutter "
+        "(config.confirmation score; 0 under k_of_m)."
+    )
     misses: int = Field(description="Misses in a row.")
     first_scan: int = Field(description="Scan number of its first plot.")
     confirmed_scan: int | None = Field(description="Scan number of confirmation, or null.")
@@ -363,8 +418,101 @@ class SimulateResult(Schema):
     )
 
 
+SWEEP_PARAMETERS = (
+    "confirm",
+    *(name for name in InitiationSettings.model_fields if name != "gate_widening"),
+)
+"""What a sweep may vary: a setting (any but gate_widening) or ``confirm`` (k/m)."""
+MAX_SWEEP = 50
+"""Most values of one sweep."""
+K_OF_M = re.compile(r"([0-9]{1,3})/([0-9]{1,3})", re.ASCII)
+"""A sweep's k/m: ASCII digits, at most three each, no spaces."""
+
+
+class SweepIn(Schema):
+    """One setting and the values it takes: the points of an operating curve."""
+
+    parameter: Literal[SWEEP_PARAMETERS] = Field(  # type: ignore[valid-type]
+        description='The setting varied (``confirm``: k/m as a string such as "3/4").'
+    )
+    values: list[float | int | str | None] = Field(
+        min_length=1,
+        max_length=MAX_SWEEP,
+        description="Its values, each checked as the setting itself; every other setting is "
+        "the request's config.",
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _scalars(cls, data: Any) -> Any:
+        """Each value a number, a string or null, refused at its own index otherwise (a
+        union would name its branches: ``values[0].float``)."""
+        values = data.get("values") if isinstance(data, dict) else None
+        if isinstance(values, list):
+            errors: list[tuple[Loc, str, Any]] = [
+                (("values", i), "must be a number, a string or null", v)
+                for i, v in enumerate(values)
+                if isinstance(v, bool) or not isinstance(v, (int, float, str, type(None)))
+            ]
+            if errors:
+                raise invalid("SweepIn", errors)
+        return data
+
+    def settings(self, config: InitiationSettings) -> list[InitiationSettings]:
+        """The config with each value in turn (k/m split into confirm_k and confirm_m),
+        each checked as strictly as the setting in ``config``: "0.9" is no gating
+        probability and 3.0 no integer."""
+        out = []
+        errors: list[tuple[Loc, str, Any]] = []
+        for i, value in enumerate(self.values):
+            changes: dict[str, Any] = {self.parameter: value}
+            if self.parameter == "confirm":
+                match = K_OF_M.fullmatch(value) if isinstance(value, str) else None
+                if match is None:
+                    errors.append((("values", i), "must be a string k/m such as '3/4'", value))
+                    continue
+                k, m = int(match[1]), int(match[2])
+                changes = {"confirm_k": k, "confirm_m": m, "history": max(config.history, m)}
+            try:
+                out.append(
+                    InitiationSettings.model_validate(
+                        {**config.model_dump(), **changes}, strict=True
+                    )
+                )
+            except ValidationError as exc:
+                first = exc.errors(include_url=False)[0]
+                where = ".".join(str(part) for part in first["loc"])
+                errors.append((("values", i), f"{where}: {first['msg']}", value))
+        if errors:
+            raise invalid("SweepIn", errors)
+        return out
+
+
+class EvaluationMeans(Schema):
+    """Means over the runs of one evaluation, with their standard errors."""
+
+    confirmable: float = Field(
+        description="Mean targets detected in k of the m scans from their first detection."
+    )
+    mean_true: float = Field(description="Targets initiated per run (by plot labels).")
+    se_true: float | None = Field(description="Its standard error; null for one run.")
+    mean_false: float = Field(description="False tracks per run (by plot labels).")
+    se_false: float | None = Field(description="Its standard error; null for one run.")
+    mean_true_by_distance: float = Field(description="Targets initiated per run (by distance).")
+    mean_false_by_distance: float = Field(description="False tracks per run (by distance).")
+    mean_time_to_confirmation: float | None = Field(
+        description="Seconds from first detection to confirmation; null if none."
+    )
+
+
+class SweepPoint(EvaluationMeans):
+    """The evaluation at one value of a sweep."""
+
+    value: float | int | str | None = Field(description="The setting's value.")
+
+
 class EvaluateRequest(Schema):
-    """Monte Carlo of initiation on a scenario."""
+    """Monte Carlo of initiation on a scenario (and, with ``sweep``, an operating curve)."""
 
     scenario: ScenarioIn = Field(default_factory=ScenarioIn, description="The scenario.")
     config: InitiationSettings = Field(
@@ -375,18 +523,35 @@ class EvaluateRequest(Schema):
     distance: float = Field(
         default=100.0, gt=0, le=MAX_DISTANCE, description="Radius of the distance-based score, m."
     )
+    sweep: SweepIn | None = Field(
+        default=None,
+        description="An operating curve: the config evaluated again under each value of one "
+        "setting, on the same simulated scans; null: the config alone.",
+    )
 
     @model_validator(mode="after")
     def _work(self) -> "EvaluateRequest":
-        work = self.runs * self.scenario.plots()
+        if self.sweep is not None:
+            try:
+                self.sweep.settings(self.config)
+            except ValidationError as exc:
+                raise invalid(
+                    "EvaluateRequest",
+                    [
+                        (("sweep", *e["loc"]), e["msg"], e.get("input"))
+                        for e in exc.errors(include_url=False)
+                    ],
+                ) from None
+        points = 1 + (len(self.sweep.values) if self.sweep is not None else 0)
+        work = self.runs * self.scenario.plots() * points
         if work > MAX_EVALUATION_PLOTS:
             raise invalid(
                 "EvaluateRequest",
                 [
                     (
                         ("runs",),
-                        f"runs x expected plots per run is {work:.0f}; at most "
-                        f"{MAX_EVALUATION_PLOTS}",
+                        f"runs x expected plots per run x evaluations (1 + sweep "
+                        f"values) is {work:.0f}; at most {MAX_EVALUATION_PLOTS}",
                         self.runs,
                     )
                 ],
@@ -394,18 +559,15 @@ class EvaluateRequest(Schema):
         return self
 
 
-class EvaluateResult(Schema):
-    """Means over the runs."""
-
+class _EvaluationSize(Schema):
     runs: int = Field(description="Monte Carlo runs.")
     targets: int = Field(description="Targets in the scenario.")
-    confirmable: float = Field(
-        description="Mean targets detected in k of the m scans from their first detection."
-    )
-    mean_true: float = Field(description="Targets initiated per run (by plot labels).")
-    mean_false: float = Field(description="False tracks per run (by plot labels).")
-    mean_true_by_distance: float = Field(description="Targets initiated per run (by distance).")
-    mean_false_by_distance: float = Field(description="False tracks per run (by distance).")
-    mean_time_to_confirmation: float | None = Field(
-        description="Seconds from first detection to confirmation; null if none."
+
+
+class EvaluateResult(EvaluationMeans, _EvaluationSize):
+    """Means over the runs (of the config as sent), and the sweep's points; runs and
+    targets first (pydantic orders a model's fields from its last base to its first)."""
+
+    sweep: list[SweepPoint] | None = Field(
+        default=None, description="One point per value of the request's sweep, in order."
     )

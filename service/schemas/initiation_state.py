@@ -119,6 +119,10 @@ class SessionInitiators(Schema):
     sigma_az: list[SigmaAz] = Field(
         max_length=MAX_STATE_INITIATORS, description="Its azimuth sigma, rad."
     )
+    score: list[TrackValue] = Field(
+        max_length=MAX_STATE_INITIATORS,
+        description="Track score of the single plot, ln(P_D beta_NT / beta_FT); 0 under k/m.",
+    )
 
 
 class SessionTracks(Schema):
@@ -174,6 +178,10 @@ class SessionTracks(Schema):
     sensor: list[Sensor] = Field(
         max_length=MAX_STATE_TRACKS, description="The last plot's sensor [x, y], m."
     )
+    score: list[TrackValue] = Field(
+        max_length=MAX_STATE_TRACKS,
+        description="Track score: the log-likelihood ratio, target against clutter; 0 under k/m.",
+    )
 
     @model_validator(mode="after")
     def _cells(self) -> "SessionTracks":
@@ -194,9 +202,9 @@ class SessionTracks(Schema):
 
 
 class SessionState(Schema):
-    """Everything initiation remembers between calls (version 1)."""
+    """Everything initiation remembers between calls (version 2: version 1 had no scores)."""
 
-    version: Literal[1] = Field(description="State format version.")
+    version: Literal[2] = Field(description="State format version.")
     config_digest: str = Field(
         pattern=r"^[0-9a-f]{16}$", description="Fingerprint of the settings that made it."
     )

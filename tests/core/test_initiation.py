@@ -332,7 +332,13 @@ def _clutter_session(seed=3):
 
 def test_scans_one_by_one_equal_scans_all_at_once():
     scans = _clutter_session()
-    for config in (InitiationConfig(mode="cartesian", capture_gate="combined", v_max=30.0), POLAR):
+    score = {"confirmation": "score", "P_D": 0.8, "surveillance_area": 15000.0**2}
+    for config in (
+        InitiationConfig(mode="cartesian", capture_gate="combined", v_max=30.0),
+        POLAR,
+        InitiationConfig(mode="cartesian", capture_gate="combined", v_max=30.0, **score),
+        InitiationConfig(mode="polar", v_max=30.0, capture_scans=3, **score),
+    ):
         whole, reports = initiate(None, scans, config)
         state, pieces = None, []
         for s in scans:

@@ -139,6 +139,7 @@ def test_operators_cap_work_per_operation(tmp_path):
             "runs": 10,
             "scenario.scans": None,
             "scenario.clutter": None,
+            "sweep.values": None,
         }
         assert spec["/v1/gates/pairs"]["post"]["x-plotgate-limits"] == {"pairs": None}
     for bad in (

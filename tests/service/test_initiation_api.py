@@ -164,6 +164,86 @@ def test_evaluate_answers_the_means(client):
     assert body["confirmable"] == 5.0 and body["mean_time_to_confirmation"] == 2.0
 
 
+SCORE = {**POLAR, "confirmation": "score", "P_D": 0.8, "surveillance_area": 15000.0**2}
+
+
+def test_a_sweep_answers_each_values_evaluation_on_the_same_scans(client):
+    base = {"scenario": {"clutter": 100}, "runs": 4, "seed": 9}
+    sweep = {"parameter": "false_confirmation", "values": [0.01, 0.5]}
+    body = answer(
+        client.post("/v1/initiation/evaluate", json={**base, "config": SCORE, "sweep": sweep})
+    )
+    alone = answer(client.post("/v1/initiation/evaluate", json={**base, "config": SCORE}))
+    assert alone["sweep"] is None
+    assert {k: v for k, v in body.items() if k != "sweep"} == {
+        k: v for k, v in alone.items() if k != "sweep"
+    }
+    for value, point in zip(sweep["values"], body["sweep"], strict=True):
+        config = {**SCORE, "false_confirmation": value}
+        one = answer(client.post("/v1/initiation/evaluate", json={**base, "config": config}))
+        assert point == {"value": value, **{k: v for k, v in one.items() if k in point}}
+    # k/m as "k/m"
+    km = answer(
+        client.post(
+            "/v1/initiation/evaluate",
+            json={**base, "config": POLAR, "sweep": {"parameter": "confirm", "values": ["2/3"]}},
+        )
+    )
+    one = answer(
+        client.post(
+            "/v1/initiation/evaluate",
+            json={**base, "config": {**POLAR, "confirm_k": 2, "confirm_m": 3}},
+        )
+    )
+    assert km["sweep"][0]["mean_true"] == one["mean_true"]
+    answer(
+        client.post(
+            "/v1/initiation/evaluate",
+            json={
+                **base,
+                "config": POLAR,
+                "sweep": {"parameter": "capture_scans", "values": [3]},
+            },
+        )
+    )
+
+
+def test_bad_sweeps_are_named(client):
+    post = lambda **body: client.post("/v1/initiation/evaluate", json={"runs": 2, **body})  # noqa: E731
+    invalid_input(post(sweep={"parameter": "confirm", "values": ["3/4", "x"]}), "sweep.values[1]")
+    invalid_input(post(sweep={"parameter": "confirm", "values": ["5/4"]}), "sweep.values[0]")
+    invalid_input(post(sweep={"parameter": "gate_P_G", "values": [0.9, 1.0]}), "sweep.values[1]")
+    # each value as strictly as the setting itself; k/m in ASCII digits only
+    for parameter, value in [
+        ("gate_P_G", "0.9"),
+        ("capture_scans", 3.0),
+        ("confirm_k", "3"),
+        ("gate_P_G", True),
+        ("gate_P_G", [0.9]),
+        ("gate_P_G", {"a": 1}),
+        ("confirm", "\u00b2/4"),
+        ("confirm", "\u0661/4"),
+        ("confirm", "1" * 5000 + "/4"),
+        ("confirm", " 3/4"),
+        ("confirm", "3/4/5"),
+        ("confirm", 3),
+    ]:
+        body = invalid_input(
+            post(sweep={"parameter": parameter, "values": [value]}), "sweep.values[0]"
+        )
+        assert [e["field"] for e in body["errors"]] == ["sweep.values[0]"], (parameter, value)
+    invalid_input(post(sweep={"parameter": "gate_widening", "values": [1.0]}), "sweep.parameter")
+    invalid_input(post(sweep={"parameter": "gate_P_G", "values": []}), "sweep.values")
+    invalid_input(
+        post(sweep={"parameter": "true_deletion", "values": [0.9995]}, config=SCORE),
+        "sweep.values[0]",
+    )
+    # the work limit counts every evaluation of the sweep
+    many = {"parameter": "gate_P_G", "values": [0.9] * 9}
+    invalid_input(post(runs=6000, scenario={"clutter": 20}, sweep=many), "runs")
+    invalid_input(post(config={"confirmation": "score"}), "config.clutter_density")
+
+
 def test_scenario_plots_stay_within_a_plots_bounds(client):
     # a target within 10 sigma_r of 1e9 m, or one that leaves that reach by its last scan, or
     # clutter beyond it, would draw plots no plot schema takes: refused, naming the part
@@ -223,15 +303,18 @@ def test_session_records_and_replays(settings, tmp_path):
     with TestClient(create_app(settings)) as c:
         sim = _simulated(c, clutter=20.0)
         first = answer(
-            c.post("/v1/initiation/initiate", json={"config": POLAR, "scans": sim["scans"][:2]})
+            c.post("/v1/initiation/initiate", json={"config": SCORE, "scans": sim["scans"][:2]})
         )
         answer(
             c.post(
                 "/v1/initiation/initiate",
-                json={"config": POLAR, "state": first["state"], "scans": sim["scans"][2:]},
+                json={"config": SCORE, "state": first["state"], "scans": sim["scans"][2:]},
             )
         )
-        answer(c.post("/v1/initiation/evaluate", json={"runs": 2}))
+        sweep = {"parameter": "false_confirmation", "values": [0.01, 0.5]}
+        answer(
+            c.post("/v1/initiation/evaluate", json={"runs": 2, "config": SCORE, "sweep": sweep})
+        )
         assert c.post("/v1/initiation/initiate", json={"scans": []}).status_code == 422
     [path] = sorted(settings.log_dir.glob("*.mcap"))
     ops = [e.operation for e in read_recording(path).exchanges]
@@ -260,7 +343,10 @@ async def _client_calls(app) -> None:
         )
         assert len(out.scans) == 4
         ev = await client.evaluate_initiation({"runs": 2, "config": POLAR})
-        assert ev.runs == 2
+        assert ev.runs == 2 and ev.sweep is None
+        sweep = {"parameter": "confirm", "values": ["2/3", "3/4"]}
+        ev = await client.evaluate_initiation({"runs": 2, "config": POLAR, "sweep": sweep})
+        assert ev.sweep is not None and [p.value for p in ev.sweep] == ["2/3", "3/4"]
 
 
 def test_every_field_is_described():
@@ -290,9 +376,13 @@ WIRE_CEILINGS = {
     "a_max",
     "K_A",
     "history",
+    "clutter_density",
+    "surveillance_area",
+    "new_target_density",
 }
-"""Settings whose upper bound is the wire's alone: a limit on the work of one request, which
-core (a library with no request) does not have."""
+"""Settings whose upper bound is the wire's alone: a limit on the work of one request, or
+(the score's densities and area) on the magnitudes a request carries, which core (a
+library with no request) does not have."""
 WIRE_FLOORS = {"K_R", "K_az"}
 """Settings whose lower bound is narrower on the wire (0.01) than in core (> 0)."""
 
@@ -306,6 +396,11 @@ def _core_config(name, value):
         values = {"confirm_m": max(4, value), "history": max(8, value), **values}
     if name == "confirm_m":
         values = {"confirm_k": max(1, min(3, value)), "history": max(8, value), **values}
+    if name in ("P_D", "false_confirmation", "true_deletion", "new_target_density"):
+        values["surveillance_area"] = 1e6
+        other = {"true_deletion": "false_confirmation", "false_confirmation": "true_deletion"}
+        if name in other:  # alpha + beta < 1: the other one made small enough
+            values[other[name]] = min(1e-3, max((1.0 - value) / 2, 1e-300))
     if name == "history":
         k, m = max(1, min(3, value)), max(1, min(4, value))
         values = {"confirm_k": k, "confirm_m": m, **values}
@@ -357,3 +452,12 @@ def test_the_settings_are_cores_config_field_for_field():
             above = high + 1 if step else np.nextafter(float(high), np.inf)
             _core_config(name, high)
             assert _refused(name, above) != (name in WIRE_CEILINGS), name
+
+
+def test_the_documented_score_configuration_is_a_valid_config():
+    from pathlib import Path
+
+    text = (Path(__file__).parents[2] / "docs/examples/score_initiation.json").read_text()
+    settings = InitiationSettings.model_validate_json(text)
+    assert settings.confirmation == "score" and settings.false_confirmation == 0.2
+    InitiationConfig(**{**settings.model_dump(), "gate_widening": tuple(settings.gate_widening)})

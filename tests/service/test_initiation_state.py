@@ -120,8 +120,8 @@ MUTATIONS = [
     ("t null after scans", _top("t", None), "state.t"),
     ("t huge", _top("t", 1e300), "state.t"),
     ("t before its plots", _top("t", lambda s: s["t"] - 10.0), "state.initiators.t[0]"),
-    ("foreign version", _top("version", 2), "state.version"),
-    ("version a string", _top("version", "1"), "state.version"),
+    ("foreign version", _top("version", 1), "state.version"),
+    ("version a string", _top("version", "2"), "state.version"),
     ("foreign digest", _top("config_digest", "0123456789abcdef"), "state.config_digest"),
     ("digest not hex", _top("config_digest", "not a digest!!!!"), "state.config_digest"),
     ("missing key", _drop("tracks"), "state.tracks"),
@@ -249,6 +249,14 @@ MUTATIONS = [
         "state.tracks.misses[1]",
     ),
     ("cost negative", _set("tracks", "cost", TRACK, -1.0), "state.tracks.cost[1]"),
+    ("score under k/m", _set("tracks", "score", TRACK, 5.0), "state.tracks.score[1]"),
+    ("score a string", _set("tracks", "score", TRACK, "high"), "state.tracks.score[1]"),
+    ("score huge", _set("tracks", "score", TRACK, 1e300), "state.tracks.score[1]"),
+    (
+        "initiator score under k/m",
+        _set("initiators", "score", INI, -3.0),
+        "state.initiators.score[3]",
+    ),
     (
         "plot id beyond 2**52",
         _set("tracks", "plots", TRACK, lambda row: [*row[:-1], 2**60]),
@@ -473,6 +481,7 @@ def test_a_call_that_would_answer_too_many_initiators_is_refused(client):
         az=np.arctan2(*xy.T),
         sigma_r=np.full(m, 10.0),
         sigma_az=10.0 / r,
+        score=np.zeros(m),
     )
     state = empty_state(config).replace(scans=1, t=0.0, initiators=ini)
     check_state(state, config)

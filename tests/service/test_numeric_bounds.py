@@ -55,7 +55,12 @@ CAPS: dict[str, dict[str, int]] = {
     "gates.design": {"mark.axis_ratio": 4},
     "solves.study": {"runs": 50},
     "initiation.simulate": {"scenario.scans": 50},
-    "initiation.evaluate": {"runs": 10, "scenario.scans": 50, "scenario.clutter": 100},
+    "initiation.evaluate": {
+        "runs": 10,
+        "scenario.scans": 50,
+        "scenario.clutter": 100,
+        "sweep.values": 3,
+    },
     "identification.simulate": {"runs": 1000},
 }
 """Caps on declared work sizes, as ``PLOTGATE_LIMITS`` would set them (see the docstring)."""
@@ -230,8 +235,22 @@ VARIANTS: dict[str, list[Variant]] = {
         ),
         _state,
         _polar_state,
+        *(
+            _with(
+                config={**_POLAR_CONFIG, "confirmation": "score", **density},
+                scans=[{"t": 0.0, "plots": [_POLAR]}, {"t": 1.0, "plots": [_POLAR]}],
+            )
+            for density in ({"clutter_density": 1e-6}, {"surveillance_area": 2.25e8})
+        ),
     ],
-    "initiation.evaluate": [_with(config={"capture_time": 2.0, "K_R": 3.0, "K_az": 3.0})],
+    "initiation.evaluate": [
+        _with(config={"capture_time": 2.0, "K_R": 3.0, "K_az": 3.0}),
+        _with(config={"confirmation": "score", "clutter_density": 1e-6}),
+        _with(
+            config={"confirmation": "score", "surveillance_area": 2.25e8},
+            sweep={"parameter": "gate_P_G", "values": [0.9, 0.99]},
+        ),
+    ],
     "identification.pair": [
         _with(
             sigma_deg=0.2,

@@ -1,0 +1,230 @@
+"""Operating curves of track initiation on Mu et al.'s scenario, with Stone Soup's points.
+
+Run from the repository root::
+
+    python bench/bench_curves.py                      # 500 runs at clutter 20, 100, 250, 500
+    python bench/bench_curves.py --runs 50 --clutter 250    # quick
+    python bench/bench_curves.py --plot-only          # redraw from bench/results
+
+Each curve is one :func:`plotgate.core.initiation.evaluate.sweep`: the same runs (run r
+simulates ``mu_scenario(clutter)`` with ``SeedSequence(2026).spawn(runs)[r]``) under
+every value of one setting, scored by plot labels (a confirmed track is true when more
+than half of its plots come from one target, each target once; every other confirmed
+track is false). The curves:
+
+- logic: the Cartesian logic method as in bench_initiation.py (combined capture gate,
+  2/2, Kalman, 3/4), gate_P_G swept;
+- polar (Mu et al.): the paper's method (2/2, 3/4, the acceleration check), gate_P_G
+  swept; its 99% point is the paper's own configuration;
+- polar 2/3: the polar method capturing over one missed scan (capture_scans = 3), K_A
+  swept;
+- logic 2/4, k/m: the logic method capturing over two missed scans, k/m swept from 4/4
+  to 2/4 (two plots confirm: the permissive end, where Stone Soup's min_points = 2 is);
+- score (Cartesian and polar): the README's configuration
+  (``docs/examples/score_initiation.json``): score confirmation with at least
+  confirm_k = 3 plots, capture over 2/3, P_D 0.8, the clutter density estimated from
+  each scan's plot count over the 15 km square, new-target density 50 per square per
+  scan (10 times the five targets', a prior that leans towards confirmation),
+  true_deletion 1e-6 (no tentative track is dropped by its score before its plots are
+  in); false_confirmation swept.
+
+Stone Soup's ``MultiMeasurementInitiator`` points (min_points 2 to 4, gates 95% to
+99.9%) come from ``bench/results/stonesoup_points.jsonl``, written by
+``python bench/stonesoup_initiation.py --sweep bench/results/stonesoup_points.jsonl
+--clutter 250`` (about 11 minutes a point at clutter 250). Ours are written to
+``bench/results/curves.json``; the figure to ``docs/figures/initiation_curves.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from plotgate.core.initiation import InitiationConfig
+from plotgate.core.initiation.evaluate import sweep
+from plotgate.core.initiation.simulate import mu_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "bench" / "results"
+SCORE = json.loads((ROOT / "docs/examples/score_initiation.json").read_text())
+"""The README's score configuration; its false_confirmation is swept."""
+GATES = [0.9, 0.95, 0.99, 0.995, 0.999]
+ALPHAS = [1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 5e-3, 0.01, 0.03, 0.1, 0.15, 0.2, 0.3, 0.5, 0.9]
+CURVES: list[tuple[str, dict[str, Any], str, list[Any]]] = [
+    ("logic 2/2, 3/4", {"mode": "cartesian", "capture_gate": "combined"}, "gate_P_G", GATES),
+    ("polar (Mu et al.) 2/2, 3/4", {"mode": "polar"}, "gate_P_G", GATES),
+    ("polar 2/3, 3/4", {"mode": "polar", "capture_scans": 3}, "K_A", [1.5, 2.0, 3.0, 5.0, 10.0]),
+    (
+        "logic 2/4, k/m",
+        {"mode": "cartesian", "capture_gate": "combined", "capture_scans": 4},
+        "confirm",
+        ["4/4", "3/4", "2/3", "2/4"],
+    ),
+    ("score, Cartesian", SCORE, "false_confirmation", ALPHAS),
+    ("score, polar", {**SCORE, "mode": "polar"}, "false_confirmation", ALPHAS),
+]
+"""(name, settings besides v_max = 30 m/s, swept setting, its values)."""
+
+
+def run(clutter: float, runs: int, seed: int) -> list[dict[str, Any]]:
+    """Every curve's points at one clutter level."""
+    rows = []
+    for name, settings, parameter, values in CURVES:
+        start = time.perf_counter()
+        config = InitiationConfig(**{"v_max": 30.0, **settings})
+        curve = sweep(mu_scenario(clutter), config, parameter, values, runs, seed)
+        seconds = time.perf_counter() - start
+        for value, ev in zip(values, curve, strict=True):
+            rows.append(
+                {
+                    "clutter": clutter,
+                    "curve": name,
+                    "parameter": parameter,
+                    "value": value,
+                    "runs": runs,
+                    "seed": seed,
+                    "mean_true": ev.mean_true,
+                    "se_true": ev.se_true,
+                    "mean_false": ev.mean_false,
+                    "se_false": ev.se_false,
+                    "confirmable": ev.ceiling,
+                    "seconds_per_curve": seconds,
+                }
+            )
+        print(f"clutter {clutter:g}: {name} ({len(values)} points) in {seconds:.1f} s", flush=True)
+    return rows
+
+
+def stonesoup_points() -> list[dict[str, Any]]:
+    path = RESULTS / "stonesoup_points.jsonl"
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def table(rows: list[dict[str, Any]], stone: list[dict[str, Any]]) -> str:
+    lines = [
+        "| clutter | method | setting | targets initiated | false tracks |",
+        "|---:|---|---|---:|---:|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['clutter']:g} | {r['curve']} | {r['parameter']} = {r['value']} | "
+            f"{r['mean_true']:.3f} ± {r['se_true']:.3f} | "
+            f"{r['mean_false']:.3f} ± {r['se_false']:.3f} |"
+        )
+    for s in sorted(stone, key=lambda s: (s["clutter"], s["min_points"], s["P_G"])):
+        lines.append(
+            f"| {s['clutter']:g} | Stone Soup MultiMeasurementInitiator | min_points "
+            f"{s['min_points']}, P_G {s['P_G']:g} | {s['mean_true']:.3f} ± {s['se_true']:.3f} "
+            f"| {s['mean_false']:.3f} ± {s['se_false']:.3f} |"
+        )
+    return "\n".join(lines)
+
+
+def dominated(rows: list[dict[str, Any]], stone: list[dict[str, Any]]) -> str:
+    """For each Stone Soup point: the best of ours with as many targets and fewer false
+    tracks (or none, where Stone Soup has none: nothing is fewer than zero)."""
+    out = []
+    for s in sorted(stone, key=lambda s: (s["clutter"], s["min_points"], s["P_G"])):
+        ours = [
+            r
+            for r in rows
+            if r["clutter"] == s["clutter"]
+            and r["mean_true"] >= s["mean_true"]
+            and (r["mean_false"] < s["mean_false"] or r["mean_false"] == s["mean_false"] == 0)
+        ]
+        best = min(ours, key=lambda r: r["mean_false"], default=None)
+        where = (
+            f"{best['curve']} {best['parameter']} = {best['value']}: "
+            f"{best['mean_true']:.3f} targets, {best['mean_false']:.3f} false"
+            if best
+            else "NOT dominated"
+        )
+        out.append(
+            f"- clutter {s['clutter']:g}, Stone Soup min_points {s['min_points']}, P_G "
+            f"{s['P_G']:g} ({s['mean_true']:.3f}, {s['mean_false']:.3f}): {where}"
+        )
+    return "\n".join(out)
+
+
+def _points(ax: Any, points: list[dict[str, Any]], **style: Any) -> None:
+    """Operating points (false tracks, targets) with their standard errors as bars."""
+    ax.errorbar(
+        [p["mean_false"] for p in points],
+        [p["mean_true"] for p in points],
+        xerr=[p["se_false"] for p in points],
+        yerr=[p["se_true"] for p in points],
+        capsize=2,
+        **style,
+    )
+
+
+def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    levels = sorted({r["clutter"] for r in rows})
+    cols = min(2, len(levels))
+    rows_ = -(-len(levels) // cols)
+    fig = Figure(figsize=(6.5 * cols, 5.0 * rows_), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(rows_, cols, squeeze=False).ravel()
+    for ax in axes[len(levels) :]:
+        ax.set_visible(False)
+    for ax, level in zip(axes, levels, strict=False):
+        for name, *_ in CURVES:
+            pts = sorted(
+                (r for r in rows if r["clutter"] == level and r["curve"] == name),
+                key=lambda r: r["mean_false"],
+            )
+            _points(ax, pts, marker="o", ms=3, label=name)
+        ss = [s for s in stone if s["clutter"] == level]
+        if ss:
+            _points(ax, ss, fmt="k*", ms=9, label="Stone Soup (min_points 2-4, P_G 0.95-0.999)")
+        paper = CURVES[1][0]  # the paper's method, 3/4: its confirmable targets
+        ceiling = [r["confirmable"] for r in rows if r["clutter"] == level and r["curve"] == paper]
+        ax.axhline(ceiling[0], color="grey", lw=0.8, ls=":", label="detected in 3 of 4 scans")
+        ax.set_xscale("symlog", linthresh=0.01, linscale=0.5)
+        widest = [r["mean_false"] + r["se_false"] for r in rows if r["clutter"] == level]
+        widest += [s["mean_false"] + s["se_false"] for s in ss]
+        ax.set_xlim(0.0, max(0.1, 1.3 * max(widest)))
+        ax.set_xlabel("false tracks per run (linear below 0.01, log above)")
+        ax.set_ylabel("targets initiated per run (of 5)")
+        ax.set_title(f"clutter {level:g} plots per scan, {rows[0]['runs']} runs")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(loc="lower right", fontsize=8)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=500)
+    parser.add_argument("--seed", type=int, default=2026)
+    parser.add_argument("--clutter", default="20,100,250,500")
+    parser.add_argument("--plot-only", action="store_true", help="redraw from bench/results")
+    parser.add_argument("--out", type=Path, default=RESULTS / "curves.json")
+    parser.add_argument("--figure", type=Path, default=ROOT / "docs/figures/initiation_curves.png")
+    args = parser.parse_args(argv)
+    if args.plot_only:
+        rows = json.loads(args.out.read_text())
+    else:
+        rows = [r for c in args.clutter.split(",") for r in run(float(c), args.runs, args.seed)]
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(rows, indent=1) + "\n")
+    stone = [s for s in stonesoup_points() if s["runs"] == rows[0]["runs"]]
+    print(table(rows, stone))
+    print()
+    print(dominated(rows, stone))
+    figure(rows, stone, args.figure)
+    print(f"\nfigure: {args.figure}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
