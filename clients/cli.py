@@ -102,6 +102,18 @@ def _positive(text: str) -> int:
     return value
 
 
+def _worker(args: argparse.Namespace) -> int:
+    from plotgate.service.cluster import ClusterUnavailable, run_worker
+
+    try:
+        run_worker(args.address, args.nthreads)
+    except ClusterUnavailable as exc:
+        print(f"plotgate worker: {exc}", file=sys.stderr)
+        return 2
+    print(f"plotgate worker: left {args.address}", file=sys.stderr)
+    return 0
+
+
 def _call(args: argparse.Namespace) -> int:
     """Print the answer (exit 0) or the problem (exit 1) of one request."""
     body = (
@@ -460,6 +472,17 @@ def _parser() -> argparse.ArgumentParser:
         "processes (started and stopped by the command)",
     )
     call.set_defaults(func=_call)
+
+    wrk = sub.add_parser(
+        "worker",
+        help="join a Dask scheduler as a worker for Monte Carlo chunks",
+        description='Joins the Dask scheduler at ADDRESS (pip install "plotgate[cluster]") '
+        "and runs the chunks it is given until the scheduler goes away or SIGTERM/SIGINT "
+        "(exit 0). Exit 2 when Dask is missing or no scheduler answers within 10 s.",
+    )
+    wrk.add_argument("address", help="the scheduler, e.g. tcp://scheduler:8786")
+    wrk.add_argument("--nthreads", type=_positive, default=1, help="threads (1)")
+    wrk.set_defaults(func=_worker)
 
     ins = sub.add_parser(
         "inspect",

@@ -120,3 +120,82 @@ def test_a_worker_killed_mid_evaluation_changes_nothing():
         thread.join(timeout=300)
         assert not thread.is_alive()
     same(outcome["evaluation"], expected)
+
+
+def test_plotgate_worker_joins_a_scheduler_and_leaves_on_sigterm():
+    import subprocess
+    import sys
+
+    scenario = mu_scenario(50.0)
+    expected = evaluate(scenario, SCORE, 50, 4)
+    with (
+        LocalCluster(n_workers=0, processes=True, dashboard_address=None) as local,
+        Client(local) as client,
+    ):
+        worker = subprocess.Popen(
+            [sys.executable, "-m", "plotgate.clients.cli", "worker", local.scheduler_address],
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            client.wait_for_workers(1, timeout=60)
+            with cluster(address=local.scheduler_address):
+                same(evaluate(scenario, SCORE, 50, 4, mapper=mapper()), expected)
+        finally:
+            worker.send_signal(signal.SIGTERM)
+            _, err = worker.communicate(timeout=60)
+    assert worker.returncode == 0, err
+    assert f"plotgate worker: left {local.scheduler_address}" in err
+
+
+# ---------------------------------------------------------------- the service on a cluster
+
+BODY = {
+    "runs": 60,
+    "seed": 2,
+    "scenario": {"clutter": 50},
+    "config": {"mode": "polar", "v_max": 30},
+}
+
+
+def _post(settings, body=BODY):
+    from fastapi.testclient import TestClient
+
+    from plotgate.service.app import create_app
+
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        return c.post("/v1/initiation/evaluate", json=body)
+
+
+def test_the_service_sends_its_runs_to_plotgate_dask_scheduler(settings):
+    alone = _post(settings)
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as local:
+        spread = _post(settings.model_copy(update={"dask_scheduler": local.scheduler_address}))
+    assert spread.status_code == alone.status_code == 200
+    assert spread.json() == alone.json()
+
+
+def test_an_unreachable_scheduler_answers_503_with_retry_after_and_is_recorded(settings):
+    from plotgate.clients.recordings import read_recording
+
+    r = _post(settings.model_copy(update={"dask_scheduler": "tcp://127.0.0.1:9"}))
+    assert r.status_code == 503 and r.headers["retry-after"] == "1"
+    assert r.headers["content-type"] == "application/problem+json"
+    problem = r.json()
+    assert problem["type"].endswith("cluster-unavailable")
+    assert "no Dask scheduler answers at tcp://127.0.0.1:9" in problem["detail"]
+    [path] = sorted(settings.log_dir.glob("*.mcap"))
+    [exchange] = read_recording(path).exchanges
+    assert exchange.operation == "initiation.evaluate" and exchange.response["status"] == 503
+
+
+def test_work_past_the_timeout_answers_503(settings):
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as local:
+        update = {"dask_scheduler": local.scheduler_address, "dask_timeout_s": 0.05}
+        r = _post(settings.model_copy(update=update), {**BODY, "scenario": {"clutter": 500}})
+    assert r.status_code == 503 and "retry-after" in r.headers
+    assert "did not finish on the cluster within 0.05 s" in r.json()["detail"]
