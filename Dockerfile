@@ -8,7 +8,7 @@ COPY pyproject.toml README.md LICENSE ./
 # empty packages where pyproject.toml's package list and package-dir put them
 RUN python -c "import tomllib, pathlib; c = tomllib.load(open('pyproject.toml', 'rb'))['tool']['setuptools']; roots = c['package-dir']; [pathlib.Path(roots[r], *p[len(r):].split('.')).mkdir(parents=True, exist_ok=True) or pathlib.Path(roots[r], *p[len(r):].split('.'), '__init__.py').touch() for p in c['packages'] for r in [max((k for k in roots if p == k or p.startswith(k + '.')), key=len)]]" \
     && touch plotgate/py.typed \
-    && /opt/venv/bin/pip install --no-cache-dir . \
+    && /opt/venv/bin/pip install --no-cache-dir ".[cluster]" \
     && /opt/venv/bin/pip uninstall -y plotgate \
     && rm -rf plotgate core service clients build *.egg-info
 COPY plotgate ./plotgate

@@ -91,20 +91,49 @@ def _serve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _positive(text: str) -> int:
+    """An argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def _worker(args: argparse.Namespace) -> int:
+    from plotgate.service.cluster import ClusterUnavailable, run_worker
+
+    try:
+        run_worker(args.address, args.nthreads)
+    except ClusterUnavailable as exc:
+        print(f"plotgate worker: {exc}", file=sys.stderr)
+        return 2
+    print(f"plotgate worker: left {args.address}", file=sys.stderr)
+    return 0
+
+
 def _call(args: argparse.Namespace) -> int:
     """Print the answer (exit 0) or the problem (exit 1) of one request."""
     body = (
         sys.stdin.buffer.read() if args.request in (None, "-") else Path(args.request).read_bytes()
     )
     if args.server is None:
+        from plotgate.service.cluster import ClusterUnavailable, cluster
         from plotgate.service.registry import OPERATIONS, execute, internal_error
 
         op = OPERATIONS[args.operation]
         try:
-            outcome = execute(op, body)
-        except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
-            print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
-            outcome = internal_error(op, None)
+            with cluster(args.dask, args.local_workers):
+                try:
+                    outcome = execute(op, body)
+                except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
+                    print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
+                    outcome = internal_error(op, None)
+        except ClusterUnavailable as exc:
+            print(f"plotgate call: {exc}", file=sys.stderr)
+            return 2
         status, content = outcome.status, outcome.content
     else:
         import httpx
@@ -422,12 +451,38 @@ def _parser() -> argparse.ArgumentParser:
         "call",
         help="run one operation on a JSON request and print the answer",
         description="Runs in-process through this build's registry (what the server would "
-        "answer), or on a live server with --server. Exit 0 on an answer, 1 on a problem.",
+        "answer), or on a live server with --server. initiation.evaluate's runs go to a Dask "
+        "cluster with --dask or --local-workers, with the same numbers. Exit 0 on an answer, "
+        "1 on a problem, 2 when the cluster cannot be had.",
     )
     call.add_argument("operation", choices=sorted(ENDPOINTS), help="operation name")
     call.add_argument("request", nargs="?", help="JSON request file (default: stdin)")
-    call.add_argument("--server", help="a live server URL (default in-process)")
+    where = call.add_mutually_exclusive_group()
+    where.add_argument("--server", help="a live server URL (default in-process)")
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="in-process, with the Monte Carlo chunks on this Dask scheduler",
+    )
+    where.add_argument(
+        "--local-workers",
+        type=_positive,
+        metavar="N",
+        help="in-process, with the Monte Carlo chunks on a local Dask cluster of N worker "
+        "processes (started and stopped by the command)",
+    )
     call.set_defaults(func=_call)
+
+    wrk = sub.add_parser(
+        "worker",
+        help="join a Dask scheduler as a worker for Monte Carlo chunks",
+        description='Joins the Dask scheduler at ADDRESS (pip install "plotgate[cluster]") '
+        "and runs the chunks it is given until the scheduler goes away or SIGTERM/SIGINT "
+        "(exit 0). Exit 2 when Dask is missing or no scheduler answers within 10 s.",
+    )
+    wrk.add_argument("address", help="the scheduler, e.g. tcp://scheduler:8786")
+    wrk.add_argument("--nthreads", type=_positive, default=1, help="threads (1)")
+    wrk.set_defaults(func=_worker)
 
     ins = sub.add_parser(
         "inspect",

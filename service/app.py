@@ -24,6 +24,7 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.responses import Response
 from starlette.exceptions import HTTPException
 
+from plotgate.service.cluster import configure
 from plotgate.service.config import Settings, get_settings
 from plotgate.service.guards import Auth, BodyLimit, RequestId
 from plotgate.service.logs import REDACT_QUERY
@@ -60,6 +61,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 on_flush=app.state.metrics.flush.observe,
             ).start()
         app.state.recorder = recorder
+        configure(settings.dask_scheduler, settings.dask_timeout_s)
         if gc.get_freeze_count() == 0:
             # what start-up built lives as long as the process: keep it out of every
             # collection (measured: a 100,000-plot body validates in 0.42 s instead of
@@ -76,6 +78,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 watch.cancel()
             if recorder is not None:
                 recorder.close()
+            configure(None)
 
     app = FastAPI(
         title="plotgate",

@@ -57,6 +57,16 @@ class Settings(BaseSettings):
         '{size: max}}, e.g. {"initiation.evaluate": {"runs": 1000}}; the sizes each '
         "operation offers are in the OpenAPI schema (x-plotgate-limits).",
     )
+    dask_scheduler: str | None = Field(
+        default=None,
+        description="A Dask scheduler (tcp://host:8786) for initiation.evaluate's Monte Carlo "
+        "chunks; unset: in-process. Unreachable: 503 with Retry-After.",
+    )
+    dask_timeout_s: float = Field(
+        default=300.0,
+        gt=0,
+        description="Longest wait for one request's work on the Dask cluster, s (503 after).",
+    )
     api_key: SecretStr | None = Field(
         default=None, description="When set, requests need this X-API-Key header."
     )

@@ -9,6 +9,8 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``payload-too-large`` (413): the body is over the size limit;
 - ``request-timeout`` (408): the body did not arrive within the deadline;
 - ``recording-unavailable`` (503): the exchange could not be recorded, so it is refused;
+- ``cluster-unavailable`` (503): the Dask scheduler (``PLOTGATE_DASK_SCHEDULER``) cannot
+  be reached, or the work on it did not finish within ``PLOTGATE_DASK_TIMEOUT_S``;
 - ``internal`` (500): a bug; never bad input.
 """
 
@@ -35,6 +37,7 @@ TITLES = {
     "not-found": "Not found",
     "method-not-allowed": "Method not allowed",
     "recording-unavailable": "Recording unavailable",
+    "cluster-unavailable": "Cluster unavailable",
     "internal": "Internal error",
 }
 

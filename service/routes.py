@@ -190,7 +190,9 @@ def _endpoint(op: Operation):
             if recorder is not None and exchange is not None:
                 recorder.forget(exchange)
         metrics.observe(op.name, outcome.status, time.perf_counter() - started)
-        headers = {"connection": "close"} if close else None
+        headers = {"connection": "close"} if close else {}
+        if outcome.status == 503:  # the cluster: try again after the recorder's probe
+            headers.update(retry_after(request))
         return Response(
             outcome.content,
             outcome.status,
@@ -213,8 +215,9 @@ def operations_router() -> APIRouter:
             (422, "A field is invalid; `errors` names each one."),
             (
                 503,
-                "The exchange could not be recorded, so it was refused; retry after "
-                "`Retry-After` seconds.",
+                "The exchange could not be recorded, so it was refused; or the Dask "
+                "cluster of a Monte Carlo could not be reached or did not finish in time; "
+                "retry after `Retry-After` seconds.",
             ),
         )
     }

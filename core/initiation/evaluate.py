@@ -21,7 +21,7 @@ noise between different scans.
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -34,10 +34,13 @@ from plotgate.core.initiation.simulate import Scenario, SimulatedScans, simulate
 from plotgate.core.initiation.state import PLOT_STRIDE
 
 __all__ = [
+    "CHUNK_RUNS",
     "K_OF_M",
     "SWEEPABLE",
     "Evaluation",
+    "Mapper",
     "RunScore",
+    "run_chunk",
     "evaluate",
     "score_run",
     "sweep",
@@ -46,6 +49,12 @@ __all__ = [
 
 K_OF_M = re.compile(r"([0-9]{1,3})/([0-9]{1,3})", re.ASCII)
 """k/m as :func:`swept` reads it: ASCII digits, at most three each, no spaces."""
+CHUNK_RUNS = 25
+"""Runs per chunk of an evaluation: fixed, so the chunks (and the numbers) do not depend
+on how many workers run them."""
+Mapper = Callable[..., Iterable[Any]]
+"""A ``map``: (function, items) -> the function's results in the items' order (the
+builtin ``map``, or a cluster's, such as :func:`plotgate.service.cluster.mapper`)."""
 SWEEPABLE = ("confirm", *(f.name for f in fields(InitiationConfig)))
 """What :func:`sweep` may vary: any setting by its name, or ``"confirm"``, k/m as a
 string ``"k/m"`` (confirm_k and confirm_m together)."""
@@ -162,7 +171,12 @@ def _score(
 
 
 def evaluate(
-    scenario: Scenario, config: InitiationConfig, runs: int, seed: int, distance: float = 100.0
+    scenario: Scenario,
+    config: InitiationConfig,
+    runs: int,
+    seed: int,
+    distance: float = 100.0,
+    mapper: Mapper | None = None,
 ) -> Evaluation:
     """Monte Carlo of track initiation on a scenario: targets initiated, false tracks.
 
@@ -177,6 +191,9 @@ def evaluate(
     distance : float, optional
         Radius of the distance score, m (> 0). Default 100 (at 11 km a 0.2 degree
         azimuth error alone is about 38 m).
+    mapper : Mapper, optional
+        How the chunks of CHUNK_RUNS runs are run: a ``map`` (default the builtin, in
+        this process; a cluster's to spread them). The result is the same bit for bit.
 
     Returns
     -------
@@ -190,7 +207,7 @@ def evaluate(
     >>> ev.targets, ev.mean_true <= ev.ceiling
     (5, True)
     """
-    (evaluation,) = _evaluations(scenario, [config], runs, seed, distance)
+    (evaluation,) = _evaluations(scenario, [config], runs, seed, distance, mapper)
     return evaluation
 
 
@@ -228,6 +245,7 @@ def sweep(
     seed: int,
     distance: float = 100.0,
     baseline: bool = False,
+    mapper: Mapper | None = None,
 ) -> list[Evaluation]:
     """An operating curve: :func:`evaluate` under each value of one setting, same scans.
 
@@ -246,6 +264,8 @@ def sweep(
         Its values (``"k/m"`` strings for ``"confirm"``), at least one.
     baseline : bool, optional
         Also evaluate ``config`` itself on the same runs, first in the list.
+    mapper : Mapper, optional
+        As :func:`evaluate`'s.
 
     Returns
     -------
@@ -275,7 +295,7 @@ def sweep(
             if exc.field == "parameter":
                 raise
             raise ParameterError("values", f"{exc.field}: {exc.reason}", i) from exc
-    return _evaluations(scenario, [config] * baseline + configs, runs, seed, distance)
+    return _evaluations(scenario, [config] * baseline + configs, runs, seed, distance, mapper)
 
 
 def _evaluations(
@@ -284,23 +304,52 @@ def _evaluations(
     runs: int,
     seed: int,
     distance: float,
+    mapper: Mapper | None = None,
 ) -> list[Evaluation]:
-    """Each config evaluated on the same simulated runs."""
+    """Each config evaluated on the same simulated runs, in chunks of CHUNK_RUNS runs
+    mapped by ``mapper`` (default: the builtin ``map``, in this process)."""
     if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
         raise ParameterError("runs", f"must be an integer >= 1, got {runs!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ParameterError("seed", f"must be an integer >= 0, got {seed!r}")
     if not distance > 0:
         raise ParameterError("distance", f"must be > 0, got {distance!r}")
+    chunks = [
+        (scenario, tuple(configs), seed, start, min(start + CHUNK_RUNS, runs), distance)
+        for start in range(0, runs, CHUNK_RUNS)
+    ]
+    parts = list((mapper or map)(run_chunk, chunks))
     scores: list[list[RunScore]] = [[] for _ in configs]
     ceiling: list[list[int]] = [[] for _ in configs]
-    for child in np.random.SeedSequence(seed).spawn(runs):  # independent, seeded runs
+    for part_scores, part_ceiling in parts:  # in run order, whatever ran them
+        for j in range(len(configs)):
+            scores[j].extend(part_scores[j])
+            ceiling[j].extend(part_ceiling[j])
+    return [_summary(scenario, s, c) for s, c in zip(scores, ceiling, strict=True)]
+
+
+def run_chunk(
+    chunk: tuple[Scenario, tuple[InitiationConfig, ...], int, int, int, float],
+) -> tuple[list[list[RunScore]], list[list[int]]]:
+    """Runs start to stop - 1 of an evaluation under each config: one chunk of the work.
+
+    ``chunk`` is (scenario, configs, seed, start, stop, distance). Run r is seeded by the
+    r-th child of ``SeedSequence(seed)`` (``SeedSequence(seed, spawn_key=(r,))``, the
+    child ``spawn`` would give), so a chunk depends on nothing but its own runs, and any
+    chunking, run anywhere in any order, gives the same runs bit for bit. Returns per
+    config the runs' scores and confirmable counts, in run order.
+    """
+    scenario, configs, seed, start, stop, distance = chunk
+    scores: list[list[RunScore]] = [[] for _ in configs]
+    ceiling: list[list[int]] = [[] for _ in configs]
+    for r in range(start, stop):  # independent, seeded runs
+        child = np.random.SeedSequence(seed, spawn_key=(r,))
         sim = simulate(scenario, np.random.default_rng(child))
         for j, config in enumerate(configs):
             score, confirmable = _score(scenario, sim, config, distance)
             scores[j].append(score)
             ceiling[j].append(confirmable)
-    return [_summary(scenario, s, c) for s, c in zip(scores, ceiling, strict=True)]
+    return scores, ceiling
 
 
 def _summary(scenario: Scenario, scores: list[RunScore], ceiling: list[int]) -> Evaluation:

@@ -46,6 +46,7 @@ from plotgate.core.initiation.scan import merged_scan
 from plotgate.core.initiation.simulate import Scenario
 from plotgate.core.initiation.simulate import simulate as core_simulate
 from plotgate.core.initiation.state import PLOT_STRIDE
+from plotgate.service.cluster import mapper
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.plots import plot_arrays
@@ -275,13 +276,17 @@ def _point(ev: Evaluation) -> dict[str, Any]:
 def evaluate(request: EvaluateRequest) -> EvaluateResult:
     """Monte Carlo of initiation on a scenario; with a sweep, on the same scans per value.
 
-    A sweep's values reach core as the wire checked them (``SweepIn.settings``, strictly:
+    The runs go to the open cluster (:func:`plotgate.service.cluster.mapper`) when there
+    is one, with the same numbers bit for bit. A sweep's values reach core as the wire
+    checked them (``SweepIn.settings``, strictly:
     "0.9" is no number and 3.0 no integer), ``confirm`` as its k/m string.
     """
     scenario, config = _scenario(request.scenario), _config(request.config)
     sweep = request.sweep
     if sweep is None:
-        ev = core_evaluate(scenario, config, request.runs, request.seed, request.distance)
+        ev = core_evaluate(
+            scenario, config, request.runs, request.seed, request.distance, mapper=mapper()
+        )
         return EvaluateResult.model_validate(
             {"runs": ev.runs, "targets": ev.targets, **_point(ev)}
         )
@@ -298,6 +303,7 @@ def evaluate(request: EvaluateRequest) -> EvaluateResult:
         request.seed,
         request.distance,
         baseline=True,
+        mapper=mapper(),
     )
     return EvaluateResult.model_validate(
         {

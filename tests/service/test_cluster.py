@@ -1,0 +1,201 @@
+"""Monte Carlo on Dask: the same numbers bit for bit in-process, on 1 and 2 workers, and
+after a worker dies mid-evaluation.
+
+Each test that needs a cluster starts a LocalCluster of single-threaded worker processes
+(about a second here) and closes it.
+"""
+
+import json
+import os
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+from distributed import Client, LocalCluster
+
+from plotgate.clients.cli import main
+from plotgate.core.initiation import InitiationConfig
+from plotgate.core.initiation.evaluate import CHUNK_RUNS, evaluate, sweep
+from plotgate.core.initiation.simulate import mu_scenario
+from plotgate.service.cluster import cluster, mapper
+
+SCORE = InitiationConfig(
+    mode="polar", v_max=30.0, confirmation="score", P_D=0.8, surveillance_area=15000.0**2
+)
+
+
+def same(a, b):
+    assert a.true.tolist() == b.true.tolist() and a.false.tolist() == b.false.tolist()
+    assert (a.mean_true, a.se_true, a.mean_false, a.se_false, a.ceiling) == (
+        b.mean_true,
+        b.se_true,
+        b.mean_false,
+        b.se_false,
+        b.ceiling,
+    )
+    assert a.mean_time_to_confirmation == b.mean_time_to_confirmation or (
+        np.isnan(a.mean_time_to_confirmation) and np.isnan(b.mean_time_to_confirmation)
+    )
+
+
+def test_a_runs_seed_is_the_child_spawn_gives():
+    children = np.random.SeedSequence(2026).spawn(60)
+    for r in (0, 1, 24, 25, 59):
+        mine = np.random.SeedSequence(2026, spawn_key=(r,))
+        assert (mine.generate_state(8) == children[r].generate_state(8)).all()
+
+
+def test_chunks_run_in_any_order_give_the_same_evaluation():
+    runs = 2 * CHUNK_RUNS + 7  # a short last chunk
+
+    def backwards(function, items):
+        items = list(items)
+        return [function(x) for x in reversed(items)][::-1]
+
+    scenario = mu_scenario(100.0)
+    same(evaluate(scenario, SCORE, runs, 5, mapper=backwards), evaluate(scenario, SCORE, runs, 5))
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_on_a_local_cluster_the_numbers_are_the_in_process_ones(workers):
+    scenario = mu_scenario(100.0)
+    alone = sweep(scenario, SCORE, "false_confirmation", [0.01, 0.3], 60, 3, baseline=True)
+    with cluster(local_workers=workers):
+        assert mapper() is not None
+        spread = sweep(scenario, SCORE, "false_confirmation", [0.01, 0.3], 60, 3, baseline=True)
+    assert mapper() is None
+    for a, b in zip(alone, spread, strict=True):
+        same(a, b)
+
+
+def test_the_cli_answers_the_same_on_a_cluster(tmp_path, capsys):
+    body = tmp_path / "evaluate.json"
+    body.write_text(
+        json.dumps(
+            {
+                "runs": 40,
+                "scenario": {"clutter": 50},
+                "config": {"mode": "polar", "v_max": 30},
+                "sweep": {"parameter": "confirm", "values": ["2/4", "3/4"]},
+            }
+        )
+    )
+    assert main(["call", "initiation.evaluate", str(body)]) == 0
+    alone = capsys.readouterr().out
+    assert main(["call", "initiation.evaluate", str(body), "--local-workers", "2"]) == 0
+    assert capsys.readouterr().out == alone
+
+
+def test_an_unreachable_scheduler_is_exit_2_with_a_message(tmp_path, capsys):
+    body = tmp_path / "evaluate.json"
+    body.write_text('{"runs": 2}')
+    assert main(["call", "initiation.evaluate", str(body), "--dask", "tcp://127.0.0.1:9"]) == 2
+    assert "no Dask scheduler answers at tcp://127.0.0.1:9" in capsys.readouterr().err
+
+
+def test_a_worker_killed_mid_evaluation_changes_nothing():
+    scenario = mu_scenario(250.0)
+    runs = 16 * CHUNK_RUNS
+    expected = evaluate(scenario, SCORE, runs, 11)
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as local,
+        Client(local) as client,
+    ):
+        pids = list(client.run(os.getpid).values())
+        outcome = {}
+
+        def run():
+            with cluster(address=local.scheduler_address):
+                outcome["evaluation"] = evaluate(scenario, SCORE, runs, 11, mapper=mapper())
+
+        thread = threading.Thread(target=run)
+        thread.start()
+        time.sleep(1.5)  # some chunks done, some running
+        assert thread.is_alive()  # killed mid-evaluation, not after it
+        os.kill(pids[0], signal.SIGKILL)
+        thread.join(timeout=300)
+        assert not thread.is_alive()
+    same(outcome["evaluation"], expected)
+
+
+def test_plotgate_worker_joins_a_scheduler_and_leaves_on_sigterm():
+    import subprocess
+    import sys
+
+    scenario = mu_scenario(50.0)
+    expected = evaluate(scenario, SCORE, 50, 4)
+    with (
+        LocalCluster(n_workers=0, processes=True, dashboard_address=None) as local,
+        Client(local) as client,
+    ):
+        worker = subprocess.Popen(
+            [sys.executable, "-m", "plotgate.clients.cli", "worker", local.scheduler_address],
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            client.wait_for_workers(1, timeout=60)
+            with cluster(address=local.scheduler_address):
+                same(evaluate(scenario, SCORE, 50, 4, mapper=mapper()), expected)
+        finally:
+            worker.send_signal(signal.SIGTERM)
+            _, err = worker.communicate(timeout=60)
+    assert worker.returncode == 0, err
+    assert f"plotgate worker: left {local.scheduler_address}" in err
+
+
+# ---------------------------------------------------------------- the service on a cluster
+
+BODY = {
+    "runs": 60,
+    "seed": 2,
+    "scenario": {"clutter": 50},
+    "config": {"mode": "polar", "v_max": 30},
+}
+
+
+def _post(settings, body=BODY):
+    from fastapi.testclient import TestClient
+
+    from plotgate.service.app import create_app
+
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        return c.post("/v1/initiation/evaluate", json=body)
+
+
+def test_the_service_sends_its_runs_to_plotgate_dask_scheduler(settings):
+    alone = _post(settings)
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as local:
+        spread = _post(settings.model_copy(update={"dask_scheduler": local.scheduler_address}))
+    assert spread.status_code == alone.status_code == 200
+    assert spread.json() == alone.json()
+
+
+def test_an_unreachable_scheduler_answers_503_with_retry_after_and_is_recorded(settings):
+    from plotgate.clients.recordings import read_recording
+
+    r = _post(settings.model_copy(update={"dask_scheduler": "tcp://127.0.0.1:9"}))
+    assert r.status_code == 503 and r.headers["retry-after"] == "1"
+    assert r.headers["content-type"] == "application/problem+json"
+    problem = r.json()
+    assert problem["type"].endswith("cluster-unavailable")
+    assert "no Dask scheduler answers at tcp://127.0.0.1:9" in problem["detail"]
+    [path] = sorted(settings.log_dir.glob("*.mcap"))
+    [exchange] = read_recording(path).exchanges
+    assert exchange.operation == "initiation.evaluate" and exchange.response["status"] == 503
+
+
+def test_work_past_the_timeout_answers_503(settings):
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as local:
+        update = {"dask_scheduler": local.scheduler_address, "dask_timeout_s": 0.05}
+        r = _post(settings.model_copy(update=update), {**BODY, "scenario": {"clutter": 500}})
+    assert r.status_code == 503 and "retry-after" in r.headers
+    assert "did not finish on the cluster within 0.05 s" in r.json()["detail"]
