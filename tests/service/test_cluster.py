@@ -199,3 +199,21 @@ def test_work_past_the_timeout_answers_503(settings):
         r = _post(settings.model_copy(update=update), {**BODY, "scenario": {"clutter": 500}})
     assert r.status_code == 503 and "retry-after" in r.headers
     assert "did not finish on the cluster within 0.05 s" in r.json()["detail"]
+
+
+def test_the_compose_file_names_this_builds_commands_and_settings():
+    from pathlib import Path
+
+    import yaml
+
+    from plotgate.service.config import Settings
+
+    root = Path(__file__).parents[2]
+    services = yaml.safe_load((root / "deploy/compose.yaml").read_text())["services"]
+    assert services["worker"]["command"][:2] == ["plotgate", "worker"]
+    assert (
+        services["worker"]["command"][2]
+        == services["plotgate"]["environment"]["PLOTGATE_DASK_SCHEDULER"]
+    )
+    for name in services["plotgate"]["environment"]:
+        assert name.removeprefix("PLOTGATE_").lower() in Settings.model_fields
