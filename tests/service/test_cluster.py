@@ -217,3 +217,17 @@ def test_the_compose_file_names_this_builds_commands_and_settings():
     )
     for name in services["plotgate"]["environment"]:
         assert name.removeprefix("PLOTGATE_").lower() in Settings.model_fields
+
+
+def test_a_progress_bar_counts_the_chunks_on_stderr(capsys):
+    scenario = mu_scenario(20.0)
+    runs = 3 * CHUNK_RUNS
+    with cluster(progress=True):
+        ev = evaluate(scenario, SCORE, runs, 1, mapper=mapper())
+    assert "3/3" in capsys.readouterr().err
+    same(ev, evaluate(scenario, SCORE, runs, 1))
+    with cluster(local_workers=1, progress=True):
+        evaluate(scenario, SCORE, runs, 1, mapper=mapper())
+    assert "3/3" in capsys.readouterr().err
+    evaluate(scenario, SCORE, runs, 1, mapper=mapper())  # outside: no bar
+    assert capsys.readouterr().err == ""
