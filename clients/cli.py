@@ -125,7 +125,7 @@ def _call(args: argparse.Namespace) -> int:
 
         op = OPERATIONS[args.operation]
         try:
-            with cluster(args.dask, args.local_workers):
+            with cluster(args.dask, args.local_workers, progress=sys.stderr.isatty()):
                 try:
                     outcome = execute(op, body)
                 except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised

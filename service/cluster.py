@@ -24,11 +24,14 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from tqdm import tqdm
+
 __all__ = ["ClusterUnavailable", "cluster", "configure", "mapper", "run_worker"]
 
 _client: Any = None
 _address: str | None = None  # the service's scheduler, connected on first use
 _timeout: float | None = None
+_progress = False  # inside cluster(progress=True)
 _lock = threading.Lock()
 
 
@@ -69,7 +72,9 @@ def _connected() -> Any:
 
 
 def mapper() -> Callable[..., Iterable[Any]] | None:
-    """The cluster's ``map`` (ordered results), or None: run in this process.
+    """The cluster's ``map`` (ordered results), or None: run in this process. Inside
+    ``cluster(progress=True)`` the map draws a progress bar of the chunks done on stderr,
+    in this process too.
 
     Raises
     ------
@@ -78,37 +83,69 @@ def mapper() -> Callable[..., Iterable[Any]] | None:
         finish within the timeout (its tasks are cancelled).
     """
     if _client is None and _address is None:
-        return None
+        return _in_process if _progress else None
     client = _connected() if _address is not None else _client
     timeout = _timeout
 
     def mapped(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
-        from distributed import wait
+        from distributed import as_completed
 
         futures = client.map(function, list(items), pure=False)
-        try:
-            wait(futures, timeout=timeout)
-        except TimeoutError as exc:
-            client.cancel(futures)
-            raise ClusterUnavailable(
-                f"the work did not finish on the cluster within {timeout:g} s"
-            ) from exc
+        with _bar(len(futures)) as bar:
+            try:
+                for _ in as_completed(futures, timeout=timeout):
+                    bar.update()
+            except TimeoutError as exc:
+                client.cancel(futures)
+                raise ClusterUnavailable(
+                    f"the work did not finish on the cluster within {timeout:g} s"
+                ) from exc
         return list(client.gather(futures))
 
     return mapped
 
 
+def _bar(total: int) -> tqdm[Any]:
+    """A bar of chunks done on stderr, drawn only inside ``cluster(progress=True)``."""
+    return tqdm(total=total, unit="chunk", desc="chunks", disable=not _progress, leave=False)
+
+
+def _in_process(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
+    """The builtin ``map`` with the progress bar."""
+    items = list(items)
+    out = []
+    with _bar(len(items)) as bar:
+        for item in items:
+            out.append(function(item))
+            bar.update()
+    return out
+
+
 @contextmanager
-def cluster(address: str | None = None, local_workers: int | None = None) -> Iterator[None]:
+def cluster(
+    address: str | None = None, local_workers: int | None = None, progress: bool = False
+) -> Iterator[None]:
     """Run the batch work inside on a cluster: the scheduler at ``address``, or a
     LocalCluster of ``local_workers`` single-threaded worker processes; neither, in this
-    process.
+    process. ``progress``: draw the chunks done as a bar on stderr (the command line, on
+    a terminal).
 
     Raises
     ------
     ClusterUnavailable
         Dask is not installed, or the scheduler does not answer within 10 s.
     """
+    global _client, _progress
+    _progress = progress
+    try:
+        with _cluster(address, local_workers):
+            yield
+    finally:
+        _progress = False
+
+
+@contextmanager
+def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
     global _client
     if address is None and local_workers is None:
         yield

@@ -199,3 +199,35 @@ def test_work_past_the_timeout_answers_503(settings):
         r = _post(settings.model_copy(update=update), {**BODY, "scenario": {"clutter": 500}})
     assert r.status_code == 503 and "retry-after" in r.headers
     assert "did not finish on the cluster within 0.05 s" in r.json()["detail"]
+
+
+def test_the_compose_file_names_this_builds_commands_and_settings():
+    from pathlib import Path
+
+    import yaml
+
+    from plotgate.service.config import Settings
+
+    root = Path(__file__).parents[2]
+    services = yaml.safe_load((root / "deploy/compose.yaml").read_text())["services"]
+    assert services["worker"]["command"][:2] == ["plotgate", "worker"]
+    assert (
+        services["worker"]["command"][2]
+        == services["plotgate"]["environment"]["PLOTGATE_DASK_SCHEDULER"]
+    )
+    for name in services["plotgate"]["environment"]:
+        assert name.removeprefix("PLOTGATE_").lower() in Settings.model_fields
+
+
+def test_a_progress_bar_counts_the_chunks_on_stderr(capsys):
+    scenario = mu_scenario(20.0)
+    runs = 3 * CHUNK_RUNS
+    with cluster(progress=True):
+        ev = evaluate(scenario, SCORE, runs, 1, mapper=mapper())
+    assert "3/3" in capsys.readouterr().err
+    same(ev, evaluate(scenario, SCORE, runs, 1))
+    with cluster(local_workers=1, progress=True):
+        evaluate(scenario, SCORE, runs, 1, mapper=mapper())
+    assert "3/3" in capsys.readouterr().err
+    evaluate(scenario, SCORE, runs, 1, mapper=mapper())  # outside: no bar
+    assert capsys.readouterr().err == ""
