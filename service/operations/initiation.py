@@ -277,9 +277,10 @@ def evaluate(request: EvaluateRequest) -> EvaluateResult:
     """Monte Carlo of initiation on a scenario; with a sweep, on the same scans per value.
 
     The runs go to the open cluster (:func:`plotgate.service.cluster.mapper`) when there
-    is one, with the same numbers bit for bit. A sweep's values reach core as the wire
-    checked them (``SweepIn.settings``, strictly:
-    "0.9" is no number and 3.0 no integer), ``confirm`` as its k/m string.
+    is one, with the same numbers bit for bit. A sweep's values reach core as sent: the
+    request's validator has already checked each one strictly as its setting
+    (``SweepIn.settings``: "0.9" is no number and 3.0 no integer), ``confirm`` as its k/m
+    string.
     """
     scenario, config = _scenario(request.scenario), _config(request.config)
     sweep = request.sweep
@@ -290,15 +291,11 @@ def evaluate(request: EvaluateRequest) -> EvaluateResult:
         return EvaluateResult.model_validate(
             {"runs": ev.runs, "targets": ev.targets, **_point(ev)}
         )
-    if sweep.parameter == "confirm":
-        values: list[Any] = list(sweep.values)
-    else:
-        values = [getattr(s, sweep.parameter) for s in sweep.settings(request.config)]
     base, *curve = core_sweep(
         scenario,
         config,
         sweep.parameter,
-        values,
+        sweep.values,
         request.runs,
         request.seed,
         request.distance,
