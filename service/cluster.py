@@ -66,7 +66,7 @@ def _connected() -> Any:
             ) from exc
         try:
             _client = Client(_address, timeout="5s")
-        except OSError as exc:
+        except (OSError, ValueError) as exc:  # ValueError: no address at all
             raise ClusterUnavailable(f"no Dask scheduler answers at {_address}: {exc}") from exc
         return _client
 
@@ -166,7 +166,7 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
             address = local.scheduler_address
         try:
             client = Client(address, timeout="10s")
-        except OSError as exc:
+        except (OSError, ValueError) as exc:  # ValueError: no address at all
             raise ClusterUnavailable(f"no Dask scheduler answers at {address}: {exc}") from exc
         _client = client
         try:
@@ -200,7 +200,7 @@ def run_worker(address: str, nthreads: int = 1, wait: float = 10.0) -> None:
             loop.add_signal_handler(sig, stop.set)
         try:
             worker = await Worker(address, nthreads=nthreads, death_timeout=wait, dashboard=False)
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, RuntimeError) as exc:  # RuntimeError: no address at all
             raise ClusterUnavailable(f"no Dask scheduler answers at {address}: {exc}") from exc
         finished = asyncio.ensure_future(worker.finished())
         stopped = asyncio.ensure_future(stop.wait())

@@ -93,6 +93,13 @@ def test_an_unreachable_scheduler_is_exit_2_with_a_message(tmp_path, capsys):
     body.write_text('{"runs": 2}')
     assert main(["call", "initiation.evaluate", str(body), "--dask", "tcp://127.0.0.1:9"]) == 2
     assert "no Dask scheduler answers at tcp://127.0.0.1:9" in capsys.readouterr().err
+    # not an address at all: the same message and exit code, no traceback
+    assert main(["call", "initiation.evaluate", str(body), "--dask", "not-an-address"]) == 2
+    assert "no Dask scheduler answers at not-an-address" in capsys.readouterr().err
+    assert main(["worker", "not-an-address"]) == 2
+    assert "plotgate worker: no Dask scheduler answers at not-an-address" in (
+        capsys.readouterr().err
+    )
 
 
 def test_a_worker_killed_mid_evaluation_changes_nothing():
@@ -180,13 +187,15 @@ def test_the_service_sends_its_runs_to_plotgate_dask_scheduler(settings):
 def test_an_unreachable_scheduler_answers_503_with_retry_after_and_is_recorded(settings):
     from plotgate.clients.recordings import read_recording
 
+    garbled = _post(settings.model_copy(update={"dask_scheduler": "not-an-address"}))
+    assert garbled.status_code == 503 and "retry-after" in garbled.headers
     r = _post(settings.model_copy(update={"dask_scheduler": "tcp://127.0.0.1:9"}))
     assert r.status_code == 503 and r.headers["retry-after"] == "1"
     assert r.headers["content-type"] == "application/problem+json"
     problem = r.json()
     assert problem["type"].endswith("cluster-unavailable")
     assert "no Dask scheduler answers at tcp://127.0.0.1:9" in problem["detail"]
-    [path] = sorted(settings.log_dir.glob("*.mcap"))
+    [path] = sorted(settings.log_dir.glob("*.mcap"))[-1:]
     [exchange] = read_recording(path).exchanges
     assert exchange.operation == "initiation.evaluate" and exchange.response["status"] == 503
 
