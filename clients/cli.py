@@ -86,7 +86,9 @@ def _serve(args: argparse.Namespace) -> int:
         port=settings.port,
         workers=settings.workers,
         http=HeaderDeadline,
+        loop="auto",
         log_level="info",
+        access_log=settings.access_log,
     )
     return 0
 
