@@ -13,8 +13,8 @@
   an ``X-API-Key`` header or an ``Authorization: Bearer`` token on every path but the
   open ones (``/healthz``, ``/readyz``, the docs with their assets and the OpenAPI
   schema), compared in constant time (``hmac.compare_digest``); anything else answers 401
-  problem+json with ``WWW-Authenticate``. The recorder writes request bodies only, never headers, so the
-  key is never recorded.
+  problem+json with ``WWW-Authenticate``. The recorder writes request bodies only, never
+  headers, so the key is never recorded.
 """
 
 import hmac

@@ -23,8 +23,9 @@ Design:
   every exchange a client saw answered. There is no writer thread: measured here, thread
   hand-offs and GIL contention cost several times more than the writing itself. Only a
   record over a megabyte is written from a worker thread, with the writer to itself.
-- Every flush checks that the file is still in its folder; records lost with a deleted
-  file are written again to a new one before anything is answered (:class:`Recorder`).
+- Every flush checks that the file still has a name; records lost with a deleted file
+  (or folder) are written again to a new one before anything is answered
+  (:class:`Recorder`). A moved file keeps its records and is noticed by the probe.
 """
 
 import asyncio
@@ -154,7 +155,7 @@ class Recorder:
     ``response``, ``close``).
 
     Nothing is answered unrecorded. Every flush checks that the file is
-    still where it was written: a file whose folder was deleted (an operator's ``rm -rf``, a
+    still named where it was written: a file whose folder was deleted (an operator's ``rm -rf``, a
     volume unmounted) takes every record written to it since it was opened, so the folder
     is created again, a new file opened, and the records of every exchange still in flight
     written to it once more before any of them is answered. A failed write (disk full, read
@@ -262,7 +263,7 @@ class Recorder:
             return self.ready  # a worker thread is writing: look next time
         if self._stream is not None:
             try:
-                self._check_file()
+                self._check_file(moved=True)
             except _FileMoved:
                 self._finish()
             except _FileLost as exc:
@@ -547,13 +548,22 @@ class Recorder:
                     self._write_response(exchange)
                     self.rewritten += 1
 
-    def _check_file(self) -> None:
+    def _check_file(self, moved: bool = False) -> None:
         """Raise :class:`_FileLost` when the current file has no name left (its folder or
-        itself deleted), :class:`_FileMoved` when its name now leads elsewhere."""
+        itself deleted); with ``moved``, :class:`_FileMoved` when its name now leads
+        elsewhere.
+
+        Every flush checks for loss (one ``fstat``), which would take acknowledged records
+        with it; the probe, every ``probe_interval_s``, also for a move (one ``stat`` of the
+        path more), which takes none: the records stay in the moved file, and the next
+        ones go to a new file in the folder.
+        """
         assert self._stream is not None
         opened = os.fstat(self._stream.fileno())
         if opened.st_nlink == 0:
             raise _FileLost(f"{self.files[-1]} was deleted (its folder removed?)")
+        if not moved:
+            return
         try:
             named = os.stat(self.files[-1])
         except FileNotFoundError:
