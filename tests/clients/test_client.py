@@ -9,9 +9,11 @@ import pytest
 from plotgate.clients import (
     AsyncClient,
     Client,
+    ClusterUnavailable,
     InvalidInputError,
     RecordingUnavailable,
     ServerError,
+    ServiceUnavailable,
     TransportError,
 )
 from plotgate.service.app import create_app
@@ -72,6 +74,34 @@ def test_recording_unavailable():
     )
     with _client(503, body) as client, pytest.raises(RecordingUnavailable, match="r1"):
         client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+
+
+@pytest.mark.parametrize(
+    ("kind", "error"),
+    [
+        ("recording-unavailable", RecordingUnavailable),
+        ("cluster-unavailable", ClusterUnavailable),
+        ("something-new", ServiceUnavailable),
+    ],
+)
+def test_a_503_is_a_service_unavailable_of_its_kind(kind, error):
+    from plotgate.service.problems import PROBLEM_BASE, TITLES
+
+    body = (
+        f'{{"type":"{PROBLEM_BASE}{kind}","title":"{TITLES.get(kind, kind)}","status":503,'
+        '"detail":"not now"}'
+    )
+    with _client(503, body.encode()) as client, pytest.raises(ServiceUnavailable) as err:
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+    assert type(err.value) is error and err.value.attempts == 1
+    assert "attempts" not in str(err.value)
+
+
+def test_a_proxys_503_is_a_service_unavailable():
+    client = _client(503, b"no healthy upstream", "text/plain")
+    with client, pytest.raises(ServiceUnavailable, match="no healthy upstream") as err:
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+    assert type(err.value) is ServiceUnavailable
 
 
 def test_server_error_without_problem_body():
