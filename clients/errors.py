@@ -8,6 +8,9 @@ PlotgateClientError
     │   ├── RecordingUnavailable  it could not record the exchange, so it refused it
     │   └── ClusterUnavailable    its Dask cluster cannot be had
     └── ServerError             any other status (500 is a bug in plotgate)
+
+The clients retry a 503 and a failed connection before raising (see
+:class:`plotgate.clients.Client`); the exception of the last attempt says how many there were.
 """
 
 import httpx

@@ -61,7 +61,7 @@ def _client(status: int, body: bytes, content_type: str = "application/problem+j
     def handler(request: httpx.Request) -> httpx.Response:
         return httpx.Response(status, content=body, headers={"content-type": content_type})
 
-    return Client("http://plotgate", transport=httpx.MockTransport(handler))
+    return Client("http://plotgate", transport=httpx.MockTransport(handler), retries=0)
 
 
 GATE = RingGate(kind="ring", tau=1.0, v_max=10.0)
@@ -114,7 +114,7 @@ def test_transport_error():
     def refuse(request: httpx.Request) -> httpx.Response:
         raise httpx.ConnectError("connection refused", request=request)
 
-    with Client("http://plotgate", transport=httpx.MockTransport(refuse)) as client:
+    with Client("http://plotgate", transport=httpx.MockTransport(refuse), retries=0) as client:
         with pytest.raises(TransportError, match="gates.test"):
             client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
         assert not client.ready()
