@@ -30,6 +30,7 @@ from plotgate.clients import (
     TransportError,
 )
 from plotgate.clients import client as client_module
+from plotgate.clients.cli import main
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import CartesianPlot, GateResults, GateTestRequest, RingGate
@@ -393,3 +394,57 @@ def test_the_clients_own_request_id_header_is_kept(waits):
     with serving(server) as url, Client(url, headers={"X-Request-ID": "batch-7"}) as client:
         client.test_gate(GATE, FIRST, [SECOND])
     assert server.request_ids == ["batch-7", "batch-7"]
+
+
+# --- plotgate call --server -------------------------------------------------------------
+
+
+@pytest.fixture
+def request_file(tmp_path):
+    path = tmp_path / "request.json"
+    path.write_text(json.dumps(REQUEST))
+    return str(path)
+
+
+def test_cli_retries_0(waits, request_file, capsys):
+    server = Unavailable(failures=2)
+    with serving(server) as url:
+        code = main(["call", "gates.test", request_file, "--server", url, "--retries", "0"])
+    assert code == 1 and server.attempts == 1
+    out, err = capsys.readouterr()
+    assert json.loads(out)["type"].endswith(":recording-unavailable") and err == ""
+
+
+def test_cli_retries(waits, request_file, capsys):
+    server = Unavailable(failures=2)
+    with serving(server) as url:
+        code = main(["call", "gates.test", request_file, "--server", url, "--backoff", "0"])
+    assert code == 0 and server.attempts == 3 and waits == [0.0, 0.0]
+    assert json.loads(capsys.readouterr().out)["inside"] == [True]
+
+
+def test_cli_retries_exhausted(waits, request_file, capsys):
+    server = Unavailable(failures=10)
+    with serving(server) as url:
+        code = main(["call", "gates.test", request_file, "--server", url, "--retries", "2"])
+    assert code == 1 and server.attempts == 3
+    assert "still 503 after 3 attempts" in capsys.readouterr().err
+
+
+def test_cli_unreachable_server(waits, request_file, capsys):
+    url = f"http://127.0.0.1:{free_port()}"
+    assert main(["call", "gates.test", request_file, "--server", url, "--retries", "1"]) == 2
+    assert "after 2 attempts" in capsys.readouterr().err and len(waits) == 1
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--retries", "1"], "need --server"),
+        (["--server", "http://127.0.0.1:9", "--retries", "-1"], "integer >= 0"),
+        (["--server", "http://127.0.0.1:9", "--backoff", "nan"], "seconds >= 0"),
+    ],
+)
+def test_cli_bad_retry_options(request_file, capsys, args, message):
+    assert main(["call", "gates.test", request_file, *args]) == 2
+    assert message in capsys.readouterr().err
