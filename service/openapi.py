@@ -88,7 +88,7 @@ def openapi(app: FastAPI) -> dict[str, Any]:
     schemes = _security_schemes(settings)
     if schemes:
         schema["components"]["securitySchemes"] = schemes
-        required = [{name: []} for name in schemes]
+        required: list[dict[str, list[str]]] = [{name: []} for name in schemes]
         for path, item in schema["paths"].items():
             if path not in OPEN_PATHS:
                 for operation in item.values():
