@@ -1,50 +1,71 @@
-"""Service throughput with recording on and off, measured in one run.
+"""The service hot path against a bare FastAPI app doing the same work, in one run.
 
-Starts ``plotgate serve`` (one worker) on a loopback port, once recording and once not,
-and loads each with ``wrk`` (Debian package ``wrk``: a C load generator, so the client is
-not the bottleneck on a two-core machine) posting the same gate test: combined gate, 10
-candidates, at 1, 10 and 50 concurrent connections. Rounds alternate off/on so drift hits
-both alike; the best round of each is kept. Besides wrk's requests per second it reports
-the server's CPU time per request (from /proc), the load-independent cost of recording.
+Three servers on loopback, each one uvicorn worker on uvloop and httptools:
 
-    python bench/bench_service.py [--seconds 10 --connections 1,10,50 --rounds 3]
+* ``bare``: :mod:`bench.bare_app`, the same strict parse, operation handler and JSON
+  answer, and nothing else;
+* ``off``: ``plotgate serve --no-record``;
+* ``on``: ``plotgate serve``, recording every exchange.
+
+``wrk`` (Debian package ``wrk``: a C load generator, so the client is not the bottleneck on
+a two-core machine) posts the README's combined-gate test (3 candidates) at 1, 10 and 50
+concurrent connections, closed loop; rounds alternate the servers so drift hits all alike,
+and the best round of each is kept. Then:
+
+* **open loop**: at a half and a quarter of the recording server's saturated rate (its
+  best at 10 clients), 50 connections each wait an exponential time between requests
+  (wrk's ``delay()``), so requests arrive as a Poisson stream at about that rate (each
+  connection also waits for its answer, which at these latencies slows the arrivals by
+  a few percent); its p99;
+* **two workers**: ``plotgate serve --workers 2`` (recording), closed loop at 10 and 50
+  clients, against one worker: the scaling on this machine, where wrk shares the cores;
+* **profile** (``--profile``): py-spy samples the recording server under 10 clients and
+  the top entries, inclusive and self, are printed.
+
+Besides requests per second and latency it reports the server's CPU time per request
+(from /proc), the load-independent cost.
+
+    python bench/bench_service.py [--seconds 10 --connections 1,10,50 --rounds 3 --profile]
 """
 
 import argparse
-import json
+import collections
+import contextlib
 import os
 import re
 import shutil
 import subprocess
 import sys
 import tempfile
+import time
+from collections.abc import Iterator
 from pathlib import Path
 
-import numpy as np
+import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.servers import serve  # noqa: E402 - after the sys.path line
+from tests.servers import free_port, serve  # noqa: E402 - after the sys.path line
 
-LUA = """wrk.method = "POST"
+BODY = b"""{"gate": {"kind": "combined", "tau": 5, "v_min": 100, "v_max": 500, "P_G": 0.9},
+  "first": {"frame": "polar", "r": 50000, "az_deg": 0, "sigma_r": 200, "sigma_az_deg": 0.5},
+  "candidates": [
+    {"frame": "polar", "r": 51000, "az_deg": 0.5, "sigma_r": 200, "sigma_az_deg": 0.5},
+    {"frame": "cartesian", "x": 0, "y": 52600, "covariance": [[40000, 0], [0, 40000]]},
+    {"frame": "cartesian", "x": 0, "y": 60000, "covariance": [[40000, 0], [0, 40000]]}
+  ]}"""
+"""The README's combined-gate test: one first mark, three candidates."""
+
+POST = """wrk.method = "POST"
 wrk.headers["Content-Type"] = "application/json"
 local f = io.open("{body}", "rb"); wrk.body = f:read("*a"); f:close()
 """
-
-
-def body(candidates: int) -> bytes:
-    """A combined-gate test of one first mark against ``candidates`` seeded marks."""
-    rng = np.random.default_rng(1)
-    cov = [[200.0**2, 0.0], [0.0, 200.0**2]]
-    z = rng.uniform(-2500, 2500, (candidates, 2)) + [0.0, 50_000.0]
-    plots = [{"frame": "cartesian", "x": float(x), "y": float(y), "covariance": cov} for x, y in z]
-    return json.dumps(
-        {
-            "gate": {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0, "P_G": 0.9},
-            "first": {"frame": "cartesian", "x": 0.0, "y": 50_000.0, "covariance": cov},
-            "candidates": plots,
-        }
-    ).encode()
+POISSON = """
+function delay()
+  return -math.log(1 - math.random()) * {mean_ms}
+end
+"""
+SERVERS = ("bare", "off", "on")
 
 
 def _cpu_seconds(pid: int) -> float:
@@ -62,75 +83,183 @@ def _ms(text: str) -> float:
 
 def _wrk(url: str, script: Path, seconds: int, connections: int) -> dict[str, float]:
     out = subprocess.run(
-        [
-            "wrk",
-            "-t1",
-            f"-c{connections}",
-            f"-d{seconds}s",
-            "--latency",
-            "-s",
-            str(script),
-            url + "/v1/gates/test",
-        ],
+        ["wrk", "-t1", f"-c{connections}", f"-d{seconds}s", "--latency", "-s", str(script), url],
         capture_output=True,
         text=True,
         check=True,
     ).stdout
-    assert "Non-2xx" not in out and "Socket errors" not in out, out
+    if "Non-2xx" in out or "Socket errors" in out:
+        raise RuntimeError(f"wrk saw errors:\n{out}")
+
+    def field(pattern: str) -> str:
+        match = re.search(pattern, out, re.M)
+        if match is None:
+            raise RuntimeError(f"no {pattern!r} in wrk's output:\n{out}")
+        return match.group(1)
+
     return {
-        "requests": float(re.search(r"(\d+) requests in", out).group(1)),
-        "rate": float(re.search(r"Requests/sec:\s+([\d.]+)", out).group(1)),
-        "p50": _ms(re.search(r"^\s*50%\s+(\S+)", out, re.M).group(1)),
-        "p99": _ms(re.search(r"^\s*99%\s+(\S+)", out, re.M).group(1)),
+        "requests": float(field(r"(\d+) requests in")),
+        "rate": float(field(r"Requests/sec:\s+([\d.]+)")),
+        "p50": _ms(field(r"^\s*50%\s+(\S+)")),
+        "p99": _ms(field(r"^\s*99%\s+(\S+)")),
     }
+
+
+@contextlib.contextmanager
+def _bare() -> Iterator[tuple[subprocess.Popen, str]]:
+    port = free_port()
+    proc = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "uvicorn", "--factory", "bench.bare_app:create_app"),
+            *("--port", str(port), "--loop", "uvloop", "--http", "httptools"),
+            *("--no-access-log", "--log-level", "warning"),
+        ],
+        cwd=ROOT,
+    )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            with contextlib.suppress(httpx.TransportError):
+                if httpx.post(url + "/v1/gates/test", content=BODY).status_code == 200:
+                    break
+            if proc.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError("the bare app did not start")
+            time.sleep(0.2)
+        yield proc, url
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def _server(kind: str, folder: Path, *flags: str):
+    if kind == "bare":
+        return _bare()
+    return serve(folder / kind, *(["--no-record"] if kind == "off" else []), *flags)
+
+
+def _profile(pid: int, seconds: int, url: str, script: Path) -> str:
+    """py-spy's samples of ``pid`` under 10 clients, folded into the top entries."""
+    if not shutil.which("py-spy"):
+        return "py-spy not found: pip install py-spy"
+    with tempfile.NamedTemporaryFile(suffix=".txt") as raw:
+        load = subprocess.Popen(
+            ["wrk", "-t1", "-c10", f"-d{seconds + 2}s", "-s", str(script), url],
+            stdout=subprocess.DEVNULL,
+        )
+        time.sleep(1)
+        subprocess.run(
+            ["py-spy", "record", "-p", str(pid), "-d", str(seconds), "-r", "500"]
+            + ["-f", "raw", "-o", raw.name, "--nonblocking"],
+            capture_output=True,
+            check=True,
+        )
+        load.wait()
+        inclusive: collections.Counter[str] = collections.Counter()
+        own: collections.Counter[str] = collections.Counter()
+        total = 0
+        for line in Path(raw.name).read_text().splitlines():
+            stack, _, count = line.rpartition(" ")
+            n = int(count)
+            total += n
+            names = [re.sub(r" \((?:.*/)?([^/]*?):\d+\)$", r" (\1)", f) for f in stack.split(";")]
+            for name in set(names):
+                inclusive[name] += n
+            own[names[-1]] += n
+    lines = [f"{total} samples; inclusive:"]
+    lines += [f"  {100 * n / total:5.1f}% {name}" for name, n in inclusive.most_common(40)]
+    lines += ["self:"]
+    lines += [f"  {100 * n / total:5.1f}% {name}" for name, n in own.most_common(20)]
+    return "\n".join(lines)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=int, default=10)
-    parser.add_argument(
-        "--connections", default="1,10,50", help="comma-separated concurrent clients (1,10,50)"
-    )
-    parser.add_argument("--candidates", type=int, default=10)
+    parser.add_argument("--connections", default="1,10,50", help="concurrent clients")
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--profile", action="store_true", help="py-spy the recording server")
     args = parser.parse_args()
     if not shutil.which("wrk"):
         sys.exit("wrk not found: apt-get install wrk")
     levels = [int(c) for c in args.connections.split(",")]
     best: dict[tuple[int, str], dict[str, float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        payload = Path(tmp) / "body.json"
-        payload.write_bytes(body(args.candidates))
-        script = Path(tmp) / "post.lua"
-        script.write_text(LUA.format(body=payload))
+        folder = Path(tmp)
+        (folder / "body.json").write_bytes(BODY)
+        script = folder / "post.lua"
+        script.write_text(POST.format(body=folder / "body.json"))
         for _ in range(args.rounds):
-            for mode, flags in (("off", ["--no-record"]), ("on", [])):
-                with serve(Path(tmp) / mode, *flags) as (proc, url):
+            for kind in SERVERS:
+                with _server(kind, folder) as (proc, url):
+                    url += "/v1/gates/test"
                     _wrk(url, script, 2, max(levels))  # warm-up
                     for c in levels:
                         cpu = _cpu_seconds(proc.pid)
                         run = _wrk(url, script, args.seconds, c)
                         run["cpu_ms"] = (_cpu_seconds(proc.pid) - cpu) / run["requests"] * 1e3
-                        if (c, mode) not in best or run["rate"] > best[c, mode]["rate"]:
-                            best[c, mode] = run
-        size = sum(f.stat().st_size for f in (Path(tmp) / "on").glob("*.mcap"))
-        print(
-            f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, "
-            f"{args.candidates} candidates per request ({payload.stat().st_size} bytes)"
-        )
-    print("| clients | recording | requests/s | p50 ms | p99 ms | server CPU ms/request |")
-    print("|---:|---|---:|---:|---:|---:|")
+                        if (c, kind) not in best or run["rate"] > best[c, kind]["rate"]:
+                            best[c, kind] = run
+        saturated = best[10 if 10 in levels else max(levels), "on"]["rate"]
+        open_loop: dict[tuple[int, str], dict[str, float]] = {}
+        for kind in SERVERS:
+            with _server(kind, folder) as (_, url):
+                _wrk(url + "/v1/gates/test", script, 2, 10)
+                for share in (2, 4):
+                    paced = folder / f"paced{share}.lua"
+                    mean_ms = 5e4 * share / saturated
+                    paced.write_text(script.read_text() + POISSON.format(mean_ms=mean_ms))
+                    run = _wrk(url + "/v1/gates/test", paced, args.seconds, 50)
+                    open_loop[share, kind] = run
+        workers: dict[tuple[int, int], dict[str, float]] = {}
+        for count in (1, 2):
+            with _server("on", folder, "--workers", str(count)) as (_, url):
+                _wrk(url + "/v1/gates/test", script, 2, 50)
+                for c in (10, 50):
+                    workers[count, c] = _wrk(url + "/v1/gates/test", script, args.seconds, c)
+        profile = ""
+        if args.profile:
+            with _server("on", folder) as (proc, url):
+                _wrk(url + "/v1/gates/test", script, 2, 10)
+                profile = _profile(proc.pid, args.seconds, url + "/v1/gates/test", script)
+    print(
+        f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, the README's combined-gate "
+        f"test ({len(BODY)} bytes); one uvicorn worker each, uvloop and httptools"
+    )
+    print(
+        "\n| clients | server | requests/s | vs bare | p50 ms | p99 ms | p99 vs bare"
+        " | CPU ms/req |"
+    )
+    print("|---:|---|---:|---:|---:|---:|---:|---:|")
     for c in levels:
-        for mode in ("off", "on"):
-            r = best[c, mode]
+        bare = best[c, "bare"]
+        for kind in SERVERS:
+            r = best[c, kind]
             print(
-                f"| {c} | {mode} | {r['rate']:,.0f} | {r['p50']:.2f} | {r['p99']:.2f} | "
+                f"| {c} | {kind} | {r['rate']:,.0f} | {r['rate'] / bare['rate']:.2f}x | "
+                f"{r['p50']:.2f} | {r['p99']:.2f} | {r['p99'] / bare['p99']:.2f}x | "
                 f"{r['cpu_ms']:.3f} |"
             )
+    print()
     for c in levels:
-        ratio = best[c, "on"]["rate"] / best[c, "off"]["rate"]
-        print(f"{c} clients: throughput on/off {ratio:.3f} (recording costs {1 - ratio:.1%})")
-    print(f"recordings written: {size / 1e6:.1f} MB")
+        cost = 1 - best[c, "on"]["rate"] / best[c, "off"]["rate"]
+        print(f"{c} clients: recording costs {cost:.1%} of the throughput (on vs off)")
+    print(
+        f"\nopen loop, Poisson arrivals at a half and a quarter of {saturated:,.0f}/s "
+        "(recording, 10 clients), 50 connections:"
+    )
+    print("| share | server | requests/s | p50 ms | p99 ms |")
+    print("|---|---|---:|---:|---:|")
+    for (share, kind), r in open_loop.items():
+        print(f"| 1/{share} | {kind} | {r['rate']:,.0f} | {r['p50']:.2f} | {r['p99']:.2f} |")
+    print("\nplotgate serve --workers N, recording:")
+    print("| workers | clients | requests/s | scaling | p99 ms |")
+    print("|---:|---:|---:|---:|---:|")
+    for (count, c), r in sorted(workers.items()):
+        scaling = r["rate"] / workers[1, c]["rate"]
+        print(f"| {count} | {c} | {r['rate']:,.0f} | {scaling:.2f}x | {r['p99']:.2f} |")
+    if profile:
+        print("\npy-spy, recording server under 10 clients:\n" + profile)
 
 
 if __name__ == "__main__":

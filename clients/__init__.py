@@ -5,11 +5,13 @@ Imports only :mod:`plotgate.service.schemas` from the service side (pydantic, no
 
 from plotgate.clients.client import DEFAULT_TIMEOUT, DEFAULT_URL, AsyncClient, Client
 from plotgate.clients.errors import (
+    ClusterUnavailable,
     InvalidInputError,
     PlotgateClientError,
     ProblemError,
     RecordingUnavailable,
     ServerError,
+    ServiceUnavailable,
     TransportError,
 )
 
@@ -18,10 +20,12 @@ __all__ = [
     "DEFAULT_URL",
     "AsyncClient",
     "Client",
+    "ClusterUnavailable",
     "InvalidInputError",
     "PlotgateClientError",
     "ProblemError",
     "RecordingUnavailable",
     "ServerError",
+    "ServiceUnavailable",
     "TransportError",
 ]

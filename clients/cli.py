@@ -19,6 +19,7 @@ stderr and exit 2; a closed pipe (``| head``) ends the command quietly.
 
 import argparse
 import json
+import math
 import os
 import sys
 from datetime import UTC, datetime
@@ -86,7 +87,9 @@ def _serve(args: argparse.Namespace) -> int:
         port=settings.port,
         workers=settings.workers,
         http=HeaderDeadline,
+        loop="auto",
         log_level="info",
+        access_log=settings.access_log,
     )
     return 0
 
@@ -99,6 +102,28 @@ def _positive(text: str) -> int:
         value = 0
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    """An argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
+def _seconds(text: str) -> float:
+    """An argparse type: a finite number of seconds >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0 <= value < math.inf:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text!r}")
     return value
 
 
@@ -116,6 +141,9 @@ def _worker(args: argparse.Namespace) -> int:
 
 def _call(args: argparse.Namespace) -> int:
     """Print the answer (exit 0) or the problem (exit 1) of one request."""
+    if args.server is None and (args.retries is not None or args.backoff is not None):
+        print("plotgate call: --retries and --backoff need --server", file=sys.stderr)
+        return 2
     body = (
         sys.stdin.buffer.read() if args.request in (None, "-") else Path(args.request).read_bytes()
     )
@@ -136,19 +164,15 @@ def _call(args: argparse.Namespace) -> int:
             return 2
         status, content = outcome.status, outcome.content
     else:
-        import httpx
+        from plotgate.clients.client import DEFAULT_BACKOFF, DEFAULT_RETRIES, SLOW_TIMEOUT, Client
 
-        from plotgate.clients.client import SLOW_TIMEOUT
-        from plotgate.service.schemas import ENDPOINTS
-
-        path = ENDPOINTS[args.operation].path
-        answer = httpx.post(
-            args.server.rstrip("/") + path,
-            content=body,
-            timeout=SLOW_TIMEOUT,
-            headers={"content-type": "application/json"},
-        )
+        retries = DEFAULT_RETRIES if args.retries is None else args.retries
+        backoff = DEFAULT_BACKOFF if args.backoff is None else args.backoff
+        with Client(args.server, timeout=SLOW_TIMEOUT, retries=retries, backoff=backoff) as client:
+            answer = client.send(args.operation, body)
         status, content = answer.status_code, answer.content
+        if status == 503 and retries:
+            print(f"plotgate call: still 503 after {retries + 1} attempts", file=sys.stderr)
     sys.stdout.write(json.dumps(json.loads(content), indent=2) + "\n")
     return 0 if status < 400 else 1
 
@@ -451,7 +475,8 @@ def _parser() -> argparse.ArgumentParser:
         "call",
         help="run one operation on a JSON request and print the answer",
         description="Runs in-process through this build's registry (what the server would "
-        "answer), or on a live server with --server. initiation.evaluate's runs go to a Dask "
+        "answer), or on a live server with --server (a 503 or a failed connection tried again, "
+        "--retries times). initiation.evaluate's runs go to a Dask "
         "cluster with --dask or --local-workers, with the same numbers. Exit 0 on an answer, "
         "1 on a problem, 2 when the cluster cannot be had.",
     )
@@ -470,6 +495,20 @@ def _parser() -> argparse.ArgumentParser:
         metavar="N",
         help="in-process, with the Monte Carlo chunks on a local Dask cluster of N worker "
         "processes (started and stopped by the command)",
+    )
+    call.add_argument(
+        "--retries",
+        type=_count,
+        metavar="N",
+        help="with --server: tries again after a 503 or a failed connection, up to N times "
+        "(default 3; 0: never)",
+    )
+    call.add_argument(
+        "--backoff",
+        type=_seconds,
+        metavar="S",
+        help="with --server: the longest wait before the first retry, doubled for each one "
+        "after it, at least the 503's Retry-After, at most 30 (default 0.5)",
     )
     call.set_defaults(func=_call)
 

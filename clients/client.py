@@ -9,9 +9,20 @@ identification methods (``identify_pair``, ``identify_picture``, ``simulate_iden
 take their request model or the same as a dict (validated here, so a bad dict raises pydantic's
 ``ValidationError`` before any call).
 Errors are the exceptions of :mod:`plotgate.clients.errors`. The README shows a full example.
+
+Both clients retry a 503 and a failed connection, with jittered exponential backoff (see
+:class:`Client`): every operation is a pure function of its body, so sending one twice is
+harmless.
 """
 
+import math
+import re
+import uuid
+from asyncio import sleep as async_sleep
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from random import uniform
+from time import sleep
 from typing import Any
 
 import httpx
@@ -58,13 +69,40 @@ from plotgate.service.schemas import (
     TrajectorySolveResult,
 )
 
-__all__ = ["DEFAULT_TIMEOUT", "DEFAULT_URL", "SLOW_TIMEOUT", "AsyncClient", "Client"]
+__all__ = [
+    "DEFAULT_BACKOFF",
+    "DEFAULT_BACKOFF_MAX",
+    "DEFAULT_RETRIES",
+    "DEFAULT_TIMEOUT",
+    "DEFAULT_URL",
+    "RETRIED_ERRORS",
+    "SLOW_TIMEOUT",
+    "AsyncClient",
+    "Client",
+]
 
 DEFAULT_URL = "http://127.0.0.1:8000"
 DEFAULT_TIMEOUT = httpx.Timeout(30.0, connect=5.0)
 """No call can hang forever: 30 s for an answer, 5 s to connect."""
 SLOW_TIMEOUT = httpx.Timeout(600.0, connect=5.0)
 """For operations whose endpoint is marked ``slow`` (quadratures, gate design)."""
+DEFAULT_RETRIES = 3
+"""Retries after the first attempt: four requests at most."""
+DEFAULT_BACKOFF = 0.5
+"""Seconds: the longest wait before the first retry, doubled for each one after it."""
+DEFAULT_BACKOFF_MAX = 30.0
+"""Seconds: no wait between attempts is longer, whatever the doubling or ``Retry-After``."""
+RETRIED_ERRORS: tuple[type[httpx.TransportError], ...] = (
+    httpx.NetworkError,  # ConnectError, ReadError, WriteError, CloseError
+    httpx.ConnectTimeout,
+    httpx.PoolTimeout,
+    httpx.RemoteProtocolError,  # the server closed the connection without answering
+)
+"""The transport errors a call retries: the request did not get through, or the connection
+broke. A ReadTimeout is not among them: the server may still be working on the request, a
+long Monte Carlo say, and a second copy would double its load; nor a WriteTimeout: a server
+too slow to take the body is overloaded already."""
+_DELTA_SECONDS = re.compile(r"[0-9]+")
 
 
 def _model(operation: str, request: BaseModel | Mapping[str, Any]) -> BaseModel:
@@ -74,32 +112,107 @@ def _model(operation: str, request: BaseModel | Mapping[str, Any]) -> BaseModel:
     return request
 
 
-def _prepare(
-    operation: str, request: BaseModel, request_id: str | None
-) -> tuple[str, bytes, dict[str, str], Any]:
-    """Path, JSON body, headers and timeout of a call; refuses a request of the wrong type.
+def _check_type(operation: str, request: BaseModel) -> None:
+    """Refuse a request of the wrong type before sending anything."""
+    expected = ENDPOINTS[operation].request
+    if not isinstance(request, expected):
+        raise TypeError(f"{operation} takes {expected.__name__}, not {type(request).__name__}")
 
-    Slow operations get :data:`SLOW_TIMEOUT`; the others the client's own timeout.
+
+def _prepare(
+    operation: str, request_id: str | None, http: httpx.Client | httpx.AsyncClient
+) -> tuple[str, dict[str, str], Any]:
+    """Path, headers and timeout of a call.
+
+    Every attempt of a call carries one ``X-Request-ID``: ``request_id``, else the client's
+    own header, else a new one, so that the server's records of a retried call share its
+    id. Slow operations get :data:`SLOW_TIMEOUT`; the others the client's own timeout.
     """
     endpoint = ENDPOINTS[operation]
-    if not isinstance(request, endpoint.request):
-        raise TypeError(
-            f"{operation} takes {endpoint.request.__name__}, not {type(request).__name__}"
-        )
     headers = {"content-type": "application/json"}
-    if request_id:
-        headers["x-request-id"] = request_id
+    if request_id or "x-request-id" not in http.headers:
+        headers["x-request-id"] = request_id or uuid.uuid4().hex
     timeout = SLOW_TIMEOUT if endpoint.slow else httpx.USE_CLIENT_DEFAULT
-    return endpoint.path, request.model_dump_json().encode(), headers, timeout
+    return endpoint.path, headers, timeout
 
 
-def _parse(operation: str, response: httpx.Response) -> Any:
-    raise_for_problem(response)
+def _parse(operation: str, response: httpx.Response, attempts: int) -> Any:
+    raise_for_problem(response, attempts)
     return ENDPOINTS[operation].response.model_validate_json(response.content)
+
+
+def _retry_after(response: httpx.Response) -> float:
+    """A 503's ``Retry-After`` in seconds; 0 when absent or not delta-seconds (plotgate
+    sends whole seconds; an HTTP date, which only a proxy would send, is ignored)."""
+    value = response.headers.get("retry-after", "").strip()
+    return float(value) if _DELTA_SECONDS.fullmatch(value) else 0.0
+
+
+@dataclass(frozen=True)
+class _Retries:
+    """When to try a call again, and how long to wait before."""
+
+    retries: int
+    backoff: float
+    backoff_max: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.retries, int) or self.retries < 0:
+            raise ValueError(f"retries must be an integer >= 0, got {self.retries!r}")
+        for name in ("backoff", "backoff_max"):
+            value = getattr(self, name)
+            if not 0 <= value < math.inf:
+                raise ValueError(f"{name} must be a finite number of seconds >= 0, got {value!r}")
+
+    def wait(self, attempt: int, outcome: httpx.Response | httpx.TransportError) -> float | None:
+        """Seconds to wait after ``attempt`` (1 for the first request) ended in ``outcome``
+        before trying again; None when ``outcome`` is final.
+
+        Full jitter: uniform in [0, min(backoff_max, backoff * 2**(attempt - 1))], so clients
+        turned away together do not come back together; at least a 503's ``Retry-After``,
+        capped by ``backoff_max`` all the same.
+        """
+        if attempt > self.retries:
+            return None
+        if isinstance(outcome, httpx.Response):
+            if outcome.status_code != 503:
+                return None
+            at_least = _retry_after(outcome)
+        elif isinstance(outcome, RETRIED_ERRORS):
+            at_least = 0.0
+        else:
+            return None
+        # 2.0 ** 1024 overflows; long before that the doubling is past any cap
+        ceiling = min(self.backoff_max, self.backoff * 2.0 ** min(attempt - 1, 1023))
+        return min(self.backoff_max, max(at_least, uniform(0.0, ceiling)))
+
+
+def _unreachable(
+    operation: str, where: httpx.URL, exc: httpx.TransportError, attempts: int
+) -> TransportError:
+    """What a call raises when its last attempt, the ``attempts``-th, got no answer."""
+    tries = f" (after {attempts} attempts)" if attempts > 1 else ""
+    return TransportError(f"{operation} at {where}: {exc}{tries}")
 
 
 class Client:
     """Blocking client. Use as a context manager, or call :meth:`close`.
+
+    A call is retried when it may well get through later: on a 503 answer (the service
+    cannot record, or its cluster cannot be had, or a proxy has no server for it) and when
+    the request did not get through or the connection broke (:data:`RETRIED_ERRORS`:
+    connection refused or reset, connect or pool timeout, the server closing without an
+    answer). It is not retried on a read (or write) timeout, since the server may still be
+    working on it (a long Monte Carlo, say) and a second copy would double its load, nor on
+    any other answer: a 4xx is wrong the same way every time and a 500 is a bug.
+
+    Retry ``k`` (0, 1, ...) waits a random time in [0, min(backoff_max, backoff * 2**k)]
+    ("full jitter", so that clients turned away together do not all come back together), and
+    at least the 503's ``Retry-After`` seconds, capped by ``backoff_max`` too. Every attempt
+    of a call carries the same ``X-Request-ID`` (the caller's, else a new one), so the
+    server's records of a retried call share one id. When the last attempt fails the call
+    raises what it failed with, saying how many attempts there were. (The waits go through
+    this module's ``sleep``, ``async_sleep`` and ``uniform``, which tests replace.)
 
     Parameters
     ----------
@@ -107,6 +220,10 @@ class Client:
     timeout : an ``httpx.Timeout`` or seconds; defaults to :data:`DEFAULT_TIMEOUT`.
     transport : an httpx transport, e.g. ``httpx.ASGITransport(app)`` to call an app in-process.
     headers : extra headers for every call (an API key, say).
+    retries : how many times a call is tried again (default 3); 0 turns retries off.
+    backoff : seconds, the longest wait before the first retry, doubled for each one after it
+        (default 0.5).
+    backoff_max : seconds, the longest wait before any retry (default 30).
     """
 
     def __init__(
@@ -116,7 +233,11 @@ class Client:
         timeout: httpx.Timeout | float = DEFAULT_TIMEOUT,
         transport: httpx.BaseTransport | None = None,
         headers: dict[str, str] | None = None,
+        retries: int = DEFAULT_RETRIES,
+        backoff: float = DEFAULT_BACKOFF,
+        backoff_max: float = DEFAULT_BACKOFF_MAX,
     ) -> None:
+        self._retries = _Retries(retries, backoff, backoff_max)
         self._http = httpx.Client(
             base_url=base_url, timeout=timeout, transport=transport, headers=headers
         )
@@ -131,13 +252,36 @@ class Client:
         self._http.close()
 
     def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
-        """Run any operation by name; returns its response model."""
-        path, content, headers, timeout = _prepare(operation, request, request_id)
-        try:
-            response = self._http.post(path, content=content, headers=headers, timeout=timeout)
-        except httpx.TransportError as exc:
-            raise TransportError(f"{operation} at {self._http.base_url}: {exc}") from exc
-        return _parse(operation, response)
+        """Run any operation by name, retried as the class says; returns its response model."""
+        _check_type(operation, request)
+        body = request.model_dump_json().encode()
+        return _parse(operation, *self._post(operation, body, request_id))
+
+    def send(self, operation: str, body: bytes, request_id: str | None = None) -> httpx.Response:
+        """POST a JSON body as it is (the server validates it) to ``operation``, retried as
+        :meth:`call` is; returns the last answer whatever its status."""
+        return self._post(operation, body, request_id)[0]
+
+    def _post(
+        self, operation: str, body: bytes, request_id: str | None
+    ) -> tuple[httpx.Response, int]:
+        """The last answer and the number of attempts it took."""
+        path, headers, timeout = _prepare(operation, request_id, self._http)
+        attempts = 0
+        while True:
+            attempts += 1
+            outcome: httpx.Response | httpx.TransportError
+            try:
+                outcome = self._http.post(path, content=body, headers=headers, timeout=timeout)
+            except httpx.TransportError as exc:
+                outcome = exc
+            wait = self._retries.wait(attempts, outcome)
+            if wait is None:
+                break
+            sleep(wait)
+        if isinstance(outcome, httpx.TransportError):
+            raise _unreachable(operation, self._http.base_url, outcome, attempts) from outcome
+        return outcome, attempts
 
     def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
         """Test ``first`` against every candidate (operation ``gates.test``)."""
@@ -233,7 +377,8 @@ class Client:
 
 
 class AsyncClient:
-    """Asynchronous twin of :class:`Client`, same parameters and methods."""
+    """Asynchronous twin of :class:`Client`, same parameters and methods (its waits between
+    attempts are ``asyncio.sleep``)."""
 
     def __init__(
         self,
@@ -242,7 +387,11 @@ class AsyncClient:
         timeout: httpx.Timeout | float = DEFAULT_TIMEOUT,
         transport: httpx.AsyncBaseTransport | None = None,
         headers: dict[str, str] | None = None,
+        retries: int = DEFAULT_RETRIES,
+        backoff: float = DEFAULT_BACKOFF,
+        backoff_max: float = DEFAULT_BACKOFF_MAX,
     ) -> None:
+        self._retries = _Retries(retries, backoff, backoff_max)
         self._http = httpx.AsyncClient(
             base_url=base_url, timeout=timeout, transport=transport, headers=headers
         )
@@ -257,15 +406,41 @@ class AsyncClient:
         await self._http.aclose()
 
     async def call(self, operation: str, request: BaseModel, request_id: str | None = None) -> Any:
-        """Run any operation by name; returns its response model."""
-        path, content, headers, timeout = _prepare(operation, request, request_id)
-        try:
-            response = await self._http.post(
-                path, content=content, headers=headers, timeout=timeout
-            )
-        except httpx.TransportError as exc:
-            raise TransportError(f"{operation} at {self._http.base_url}: {exc}") from exc
-        return _parse(operation, response)
+        """Run any operation by name, retried as :class:`Client` says; returns its response
+        model."""
+        _check_type(operation, request)
+        body = request.model_dump_json().encode()
+        return _parse(operation, *await self._post(operation, body, request_id))
+
+    async def send(
+        self, operation: str, body: bytes, request_id: str | None = None
+    ) -> httpx.Response:
+        """POST a JSON body as it is (the server validates it) to ``operation``, retried as
+        :meth:`call` is; returns the last answer whatever its status."""
+        return (await self._post(operation, body, request_id))[0]
+
+    async def _post(
+        self, operation: str, body: bytes, request_id: str | None
+    ) -> tuple[httpx.Response, int]:
+        """The last answer and the number of attempts it took."""
+        path, headers, timeout = _prepare(operation, request_id, self._http)
+        attempts = 0
+        while True:
+            attempts += 1
+            outcome: httpx.Response | httpx.TransportError
+            try:
+                outcome = await self._http.post(
+                    path, content=body, headers=headers, timeout=timeout
+                )
+            except httpx.TransportError as exc:
+                outcome = exc
+            wait = self._retries.wait(attempts, outcome)
+            if wait is None:
+                break
+            await async_sleep(wait)
+        if isinstance(outcome, httpx.TransportError):
+            raise _unreachable(operation, self._http.base_url, outcome, attempts) from outcome
+        return outcome, attempts
 
     async def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
         """Test ``first`` against every candidate (operation ``gates.test``)."""

@@ -1,11 +1,16 @@
 """Client exceptions, one base to catch them all::
 
 PlotgateClientError
-├── TransportError            the server could not be reached or did not answer in time
-└── ProblemError              the server answered with an RFC 9457 problem
-    ├── InvalidInputError     400 / 422: the request named in ``problem.errors`` is wrong
-    ├── RecordingUnavailable  503: the server refused to answer unrecorded; retry later
-    └── ServerError           any other status (500 is a bug in plotgate)
+├── TransportError              the server could not be reached or did not answer in time
+└── ProblemError                the server answered with an RFC 9457 problem
+    ├── InvalidInputError       400 / 422: the request named in ``problem.errors`` is wrong
+    ├── ServiceUnavailable      503: the service cannot answer now; retry later
+    │   ├── RecordingUnavailable  it could not record the exchange, so it refused it
+    │   └── ClusterUnavailable    its Dask cluster cannot be had
+    └── ServerError             any other status (500 is a bug in plotgate)
+
+The clients retry a 503 and a failed connection before raising (see
+:class:`plotgate.clients.Client`); the exception of the last attempt says how many there were.
 """
 
 import httpx
@@ -13,14 +18,23 @@ import httpx
 from plotgate.service.schemas import Problem
 
 __all__ = [
+    "CLUSTER_UNAVAILABLE",
+    "RECORDING_UNAVAILABLE",
+    "ClusterUnavailable",
     "InvalidInputError",
     "PlotgateClientError",
     "ProblemError",
     "RecordingUnavailable",
     "ServerError",
+    "ServiceUnavailable",
     "TransportError",
     "raise_for_problem",
 ]
+
+RECORDING_UNAVAILABLE = "urn:plotgate:problem:recording-unavailable"
+"""The problem ``type`` of a 503 whose exchange could not be recorded."""
+CLUSTER_UNAVAILABLE = "urn:plotgate:problem:cluster-unavailable"
+"""The problem ``type`` of a 503 whose Dask cluster could not be had."""
 
 
 class PlotgateClientError(Exception):
@@ -32,15 +46,18 @@ class TransportError(PlotgateClientError):
 
 
 class ProblemError(PlotgateClientError):
-    """The service answered with a problem body."""
+    """The service answered with a problem body; ``attempts`` is how many requests it took
+    (more than one when the client retried)."""
 
-    def __init__(self, problem: Problem, url: str) -> None:
+    def __init__(self, problem: Problem, url: str, attempts: int = 1) -> None:
         self.problem = problem
         self.url = url
+        self.attempts = attempts
         fields = ", ".join(f"{e.field}: {e.reason}" for e in problem.errors)
+        tries = f" (after {attempts} attempts)" if attempts > 1 else ""
         super().__init__(
             f"{problem.status} {problem.title} from {url}"
-            f" (request {problem.request_id}): {fields or problem.detail}"
+            f" (request {problem.request_id}): {fields or problem.detail}{tries}"
         )
 
 
@@ -48,16 +65,26 @@ class InvalidInputError(ProblemError):
     """The request was refused; ``problem.errors`` names each offending field."""
 
 
-class RecordingUnavailable(ProblemError):
+class ServiceUnavailable(ProblemError):
+    """A 503: the service (or a proxy before it) cannot answer now; the same request may
+    succeed later."""
+
+
+class RecordingUnavailable(ServiceUnavailable):
     """The service could not record the exchange and so did not answer it."""
+
+
+class ClusterUnavailable(ServiceUnavailable):
+    """The service's Dask cluster could not be reached, or did not finish the work in time."""
 
 
 class ServerError(ProblemError):
     """Any other problem answer."""
 
 
-def raise_for_problem(response: httpx.Response) -> None:
-    """Raise the :class:`ProblemError` subclass matching a non-2xx answer."""
+def raise_for_problem(response: httpx.Response, attempts: int = 1) -> None:
+    """Raise the :class:`ProblemError` subclass matching a non-2xx answer, the last of
+    ``attempts`` requests."""
     if response.is_success:
         return
     try:
@@ -72,7 +99,11 @@ def raise_for_problem(response: httpx.Response) -> None:
         )
     url = str(response.request.url)
     if response.status_code in (400, 422):
-        raise InvalidInputError(problem, url)
+        raise InvalidInputError(problem, url, attempts)
     if response.status_code == 503:
-        raise RecordingUnavailable(problem, url)
-    raise ServerError(problem, url)
+        unavailable = {
+            RECORDING_UNAVAILABLE: RecordingUnavailable,
+            CLUSTER_UNAVAILABLE: ClusterUnavailable,
+        }.get(problem.type, ServiceUnavailable)
+        raise unavailable(problem, url, attempts)
+    raise ServerError(problem, url, attempts)

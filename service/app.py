@@ -1,13 +1,14 @@
 """The FastAPI application factory.
 
-``create_app(settings)`` builds the app: operation routes from the registry under
-``/v1``, ``/healthz`` and ``/readyz`` at the root, RFC 9457 problem bodies for every
-error FastAPI or Starlette raise themselves (404, 405, ...), the guards in front
-(:mod:`plotgate.service.guards`, outermost first: request ids on every response, authentication
-when a key or token is set, so an unauthenticated caller cannot make the service read a
-body, then the body-size limit), and a
-lifespan that opens the MCAP recorder on start and closes it (summary and index written)
-on shutdown.
+``create_app(settings)`` builds the app: the registry's operations under ``/v1``,
+answered as pure ASGI (:class:`plotgate.service.routes.Operations`), ``/healthz``,
+``/readyz`` and ``/metrics`` at the root, the docs served offline
+(:mod:`plotgate.service.openapi`), RFC 9457 problem bodies for every error FastAPI or
+Starlette raise themselves (404, 405, ...), the guards in front
+(:mod:`plotgate.service.guards`, outermost first: request ids on every response,
+authentication when a key or token is set, so an unauthenticated caller cannot make the
+service read a body, then the body-size limit), and a lifespan that opens the MCAP
+recorder on start and closes it (summary and index written) on shutdown.
 Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 """
 
@@ -16,12 +17,11 @@ import gc
 import logging
 from collections.abc import AsyncIterator, Mapping
 from contextlib import asynccontextmanager
-from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.openapi.utils import get_openapi
 from fastapi.responses import Response
+from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException
 
 from plotgate.service.cluster import configure
@@ -29,11 +29,12 @@ from plotgate.service.config import Settings, get_settings
 from plotgate.service.guards import Auth, BodyLimit, RequestId
 from plotgate.service.logs import REDACT_QUERY
 from plotgate.service.metrics import Metrics
+from plotgate.service.openapi import ASSETS_PATH, assets_folder, docs_router, openapi
 from plotgate.service.problems import ProblemError, field_errors, problem_json
 from plotgate.service.provenance import VERSION, provenance
 from plotgate.service.recorder import Recorder
 from plotgate.service.registry import OPERATIONS, check_limits
-from plotgate.service.routes import PROBLEM_JSON, health_router, operations_router, request_id_of
+from plotgate.service.routes import PROBLEM_JSON, Operations, health_router, request_id_of
 
 __all__ = ["create_app"]
 
@@ -85,15 +86,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         version=VERSION,
         summary="Radar track initiation and target localization, every exchange recorded.",
         lifespan=lifespan,
+        docs_url=None,
+        redoc_url=None,
     )
     app.state.settings = settings
     app.state.recorder = None
     app.state.metrics = Metrics(lambda: app.state.recorder)
-    app.include_router(operations_router())
     app.include_router(health_router())
+    app.include_router(docs_router(app.title))
+    app.mount(ASSETS_PATH, StaticFiles(directory=assets_folder()), name="docs-assets")
     app.add_exception_handler(HTTPException, _http_problem)
     app.add_exception_handler(RequestValidationError, _validation_problem)
-    app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]
+    app.openapi = lambda: openapi(app)  # type: ignore[method-assign]
+    app.add_middleware(Operations, state=app.state)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     if settings.api_key is not None or settings.bearer_token is not None:
         app.add_middleware(
@@ -141,31 +146,3 @@ async def _validation_problem(request: Request, exc: Exception) -> Response:
     errors = field_errors(exc.errors())
     detail = "; ".join(f"{e.field}: {e.reason}" for e in errors)
     return _render(ProblemError("invalid-input", 422, detail, errors), request)
-
-
-def _openapi(app: FastAPI) -> dict[str, Any]:
-    """FastAPI's schema plus the request models (routes read raw bodies) with each
-    operation's example body (:data:`plotgate.service.schemas.examples.EXAMPLES`), problem+json,
-    and
-    per operation ``x-plotgate-limits``: the sizes a server may cap and this server's caps
-    (null: only the schema's own bounds)."""
-    if app.openapi_schema:
-        return app.openapi_schema
-    schema = get_openapi(
-        title=app.title, version=app.version, summary=app.summary, routes=app.routes
-    )
-    components = schema.setdefault("components", {}).setdefault("schemas", {})
-    for op in OPERATIONS.values():
-        model = op.request.model_json_schema(ref_template="#/components/schemas/{model}")
-        components.update(model.pop("$defs", {}))
-        components[op.request.__name__] = model
-        post = schema["paths"][op.path]["post"]
-        post["requestBody"]["content"]["application/json"]["example"] = op.endpoint.example
-        if op.endpoint.work:
-            caps = app.state.settings.limits.get(op.name, {})
-            post["x-plotgate-limits"] = {size: caps.get(size) for size in op.endpoint.work}
-        for status, answer in post["responses"].items():
-            if status.startswith(("4", "5")) and "content" in answer:
-                answer["content"] = {PROBLEM_JSON: answer["content"]["application/json"]}
-    app.openapi_schema = schema
-    return schema

@@ -18,6 +18,7 @@ Dask (``distributed``) is an optional dependency: ``pip install "plotgate[cluste
 from __future__ import annotations
 
 import asyncio
+import gc
 import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator
@@ -64,11 +65,36 @@ def _connected() -> Any:
             raise ClusterUnavailable(
                 'PLOTGATE_DASK_SCHEDULER needs Dask: pip install "plotgate[cluster]"'
             ) from exc
+        assert _address is not None
+        _check_address(_address)
         try:
             _client = Client(_address, timeout="5s")
-        except (OSError, ValueError) as exc:  # ValueError: no address at all
-            raise ClusterUnavailable(f"no Dask scheduler answers at {_address}: {exc}") from exc
-        return _client
+        except (OSError, ValueError) as exc:
+            reason = str(exc)
+        else:
+            return _client
+        # A Client that failed to start sits in reference cycles; collected during a later
+        # Client's start, its finalizer waits on a lock that start holds, and the thread
+        # hangs for good (seen after ~15 failed connections). Collect it now instead.
+        gc.collect()
+        raise ClusterUnavailable(f"no Dask scheduler answers at {_address}: {reason}")
+
+
+def _check_address(address: str) -> None:
+    """Refuse (:class:`ClusterUnavailable`) an address Dask cannot parse, before a Client
+    is built for it: ``not-an-address``, ``tcp://host`` without a port, an unknown
+    protocol."""
+    from distributed.comm import parse_address
+    from distributed.comm.addressing import parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, location = parse_address(address)
+        get_backend(scheme)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except ValueError as exc:
+        raise ClusterUnavailable(f"{address!r} is no Dask scheduler address: {exc}") from None
 
 
 def mapper() -> Callable[..., Iterable[Any]] | None:
@@ -164,6 +190,8 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
                 dashboard_address=None,
             )
             address = local.scheduler_address
+        else:
+            _check_address(address)
         try:
             client = Client(address, timeout="10s")
         except (OSError, ValueError) as exc:  # ValueError: no address at all
@@ -192,6 +220,7 @@ def run_worker(address: str, nthreads: int = 1, wait: float = 10.0) -> None:
         from distributed import Worker
     except ImportError as exc:
         raise ClusterUnavailable('a worker needs Dask: pip install "plotgate[cluster]"') from exc
+    _check_address(address)
 
     async def work() -> None:
         stop = asyncio.Event()

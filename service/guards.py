@@ -11,10 +11,10 @@
   request never reaches an operation, so it is not recorded (like a 404).
 * :class:`Auth` requires, when ``Settings.api_key`` or ``Settings.bearer_token`` is set,
   an ``X-API-Key`` header or an ``Authorization: Bearer`` token on every path but the
-  open ones (``/healthz``, ``/readyz``, the docs and the OpenAPI schema), compared in
-  constant time (``hmac.compare_digest``); anything else answers 401 problem+json with
-  ``WWW-Authenticate``. The recorder writes request bodies only, never headers, so the
-  key is never recorded.
+  open ones (``/healthz``, ``/readyz``, the docs with their assets and the OpenAPI
+  schema), compared in constant time (``hmac.compare_digest``); anything else answers 401
+  problem+json with ``WWW-Authenticate``. The recorder writes request bodies only, never
+  headers, so the key is never recorded.
 """
 
 import hmac
@@ -28,7 +28,15 @@ from starlette.datastructures import Headers
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.schemas import REQUEST_ID_PATTERN, FieldError
 
-__all__ = ["OPEN_PATHS", "Auth", "BodyLimit", "RequestId", "replay_of", "request_id"]
+__all__ = [
+    "OPEN_PATHS",
+    "OPEN_PREFIX",
+    "Auth",
+    "BodyLimit",
+    "RequestId",
+    "replay_of",
+    "request_id",
+]
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -40,6 +48,8 @@ OPEN_PATHS = frozenset(
     {"/healthz", "/readyz", "/docs", "/docs/oauth2-redirect", "/redoc", "/openapi.json"}
 )
 """Paths that stay open when authentication is on."""
+OPEN_PREFIX = "/docs/assets/"
+"""And the docs' scripts, styles and icon under this prefix."""
 
 
 _SANE_ID = re.compile(REQUEST_ID_PATTERN)
@@ -157,7 +167,13 @@ class Auth:
         return False
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or scope.get("path") in OPEN_PATHS or self._allowed(scope):
+        path = scope.get("path", "")
+        if (
+            scope["type"] != "http"
+            or path in OPEN_PATHS
+            or path.startswith(OPEN_PREFIX)
+            or self._allowed(scope)
+        ):
             await self.app(scope, receive, send)
             return
         ways = [

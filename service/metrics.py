@@ -7,13 +7,24 @@ the OS), ``plotgate_recorder_bytes_total``, ``plotgate_recorder_files_rotated_to
 ``plotgate_recorder_queue_depth`` (records added, waiting for their flush),
 ``plotgate_recorder_ready`` and the flush-latency histogram
 ``plotgate_recorder_flush_seconds``; with best-effort recording,
-``plotgate_unrecorded_total{operation}``. Each app has its own registry, so several apps in
-one process (tests) never share counters.
+``plotgate_unrecorded_total{operation}``. The process: prometheus_client's default
+collectors, ``process_*`` (CPU seconds, resident memory, open file descriptors, start
+time), ``python_info`` and ``python_gc_*`` (collections and the objects they freed, by
+generation). Each app has its own registry, so several apps in one process (tests) never
+share counters.
 """
 
 from collections.abc import Callable, Iterator
 
-from prometheus_client import CollectorRegistry, Counter, Histogram, generate_latest
+from prometheus_client import (
+    CollectorRegistry,
+    Counter,
+    GCCollector,
+    Histogram,
+    PlatformCollector,
+    ProcessCollector,
+    generate_latest,
+)
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
 from prometheus_client.registry import Collector
 
@@ -108,11 +119,25 @@ class Metrics:
             registry=self.registry,
         )
         self.registry.register(_RecorderCollector(recorder))
+        ProcessCollector(registry=self.registry)
+        PlatformCollector(registry=self.registry)
+        GCCollector(registry=self.registry)
+        self._answered: dict[tuple[str, int], Callable[[float], None]] = {}
 
     def observe(self, operation: str, status: int, seconds: float) -> None:
-        """Count one answered request."""
-        self.requests.labels(operation, str(status)).inc()
-        self.latency.labels(operation).observe(seconds)
+        """Count one answered request (the labelled children are looked up once per
+        operation and status, not per request)."""
+        key = (operation, status)
+        if key not in self._answered:
+            count = self.requests.labels(operation, str(status))
+            latency = self.latency.labels(operation)
+
+            def answered(seconds: float) -> None:
+                count.inc()
+                latency.observe(seconds)
+
+            self._answered[key] = answered
+        self._answered[key](seconds)
 
     def unrecorded(self, operation: str) -> None:
         """Count an exchange answered although its record could not be written."""

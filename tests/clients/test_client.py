@@ -9,9 +9,11 @@ import pytest
 from plotgate.clients import (
     AsyncClient,
     Client,
+    ClusterUnavailable,
     InvalidInputError,
     RecordingUnavailable,
     ServerError,
+    ServiceUnavailable,
     TransportError,
 )
 from plotgate.service.app import create_app
@@ -59,7 +61,7 @@ def _client(status: int, body: bytes, content_type: str = "application/problem+j
     def handler(request: httpx.Request) -> httpx.Response:
         return httpx.Response(status, content=body, headers={"content-type": content_type})
 
-    return Client("http://plotgate", transport=httpx.MockTransport(handler))
+    return Client("http://plotgate", transport=httpx.MockTransport(handler), retries=0)
 
 
 GATE = RingGate(kind="ring", tau=1.0, v_max=10.0)
@@ -74,6 +76,34 @@ def test_recording_unavailable():
         client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
 
 
+@pytest.mark.parametrize(
+    ("kind", "error"),
+    [
+        ("recording-unavailable", RecordingUnavailable),
+        ("cluster-unavailable", ClusterUnavailable),
+        ("something-new", ServiceUnavailable),
+    ],
+)
+def test_a_503_is_a_service_unavailable_of_its_kind(kind, error):
+    from plotgate.service.problems import PROBLEM_BASE, TITLES
+
+    body = (
+        f'{{"type":"{PROBLEM_BASE}{kind}","title":"{TITLES.get(kind, kind)}","status":503,'
+        '"detail":"not now"}'
+    )
+    with _client(503, body.encode()) as client, pytest.raises(ServiceUnavailable) as err:
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+    assert type(err.value) is error and err.value.attempts == 1
+    assert "attempts" not in str(err.value)
+
+
+def test_a_proxys_503_is_a_service_unavailable():
+    client = _client(503, b"no healthy upstream", "text/plain")
+    with client, pytest.raises(ServiceUnavailable, match="no healthy upstream") as err:
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+    assert type(err.value) is ServiceUnavailable
+
+
 def test_server_error_without_problem_body():
     client = _client(502, b"bad gateway", "text/plain")
     with client, pytest.raises(ServerError, match="502"):
@@ -84,7 +114,7 @@ def test_transport_error():
     def refuse(request: httpx.Request) -> httpx.Response:
         raise httpx.ConnectError("connection refused", request=request)
 
-    with Client("http://plotgate", transport=httpx.MockTransport(refuse)) as client:
+    with Client("http://plotgate", transport=httpx.MockTransport(refuse), retries=0) as client:
         with pytest.raises(TransportError, match="gates.test"):
             client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
         assert not client.ready()

@@ -144,6 +144,7 @@ def test_an_unreachable_server_is_one_line_and_exit_2(settings, tmp_path, capsys
     assert len(err.strip().splitlines()) == 1
     request = tmp_path / "request.json"
     request.write_text(json.dumps(GOOD))
-    assert main(["call", "gates.test", str(request), "--server", url]) == 2
+    assert main(["call", "gates.test", str(request), "--server", url, "--backoff", "0"]) == 2
     err = capsys.readouterr().err
-    assert f"cannot reach {url}/v1/gates/test" in err and len(err.strip().splitlines()) == 1
+    assert f"gates.test at {url}: " in err and "(after 4 attempts)" in err
+    assert len(err.strip().splitlines()) == 1

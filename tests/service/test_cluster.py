@@ -93,11 +93,11 @@ def test_an_unreachable_scheduler_is_exit_2_with_a_message(tmp_path, capsys):
     body.write_text('{"runs": 2}')
     assert main(["call", "initiation.evaluate", str(body), "--dask", "tcp://127.0.0.1:9"]) == 2
     assert "no Dask scheduler answers at tcp://127.0.0.1:9" in capsys.readouterr().err
-    # not an address at all: the same message and exit code, no traceback
+    # not an address at all: exit 2 with a message, no traceback
     assert main(["call", "initiation.evaluate", str(body), "--dask", "not-an-address"]) == 2
-    assert "no Dask scheduler answers at not-an-address" in capsys.readouterr().err
+    assert "'not-an-address' is no Dask scheduler address" in capsys.readouterr().err
     assert main(["worker", "not-an-address"]) == 2
-    assert "plotgate worker: no Dask scheduler answers at not-an-address" in (
+    assert "plotgate worker: 'not-an-address' is no Dask scheduler address" in (
         capsys.readouterr().err
     )
 
@@ -189,6 +189,7 @@ def test_an_unreachable_scheduler_answers_503_with_retry_after_and_is_recorded(s
 
     garbled = _post(settings.model_copy(update={"dask_scheduler": "not-an-address"}))
     assert garbled.status_code == 503 and "retry-after" in garbled.headers
+    assert "'not-an-address' is no Dask scheduler address" in garbled.json()["detail"]
     r = _post(settings.model_copy(update={"dask_scheduler": "tcp://127.0.0.1:9"}))
     assert r.status_code == 503 and r.headers["retry-after"] == "1"
     assert r.headers["content-type"] == "application/problem+json"
@@ -240,3 +241,22 @@ def test_a_progress_bar_counts_the_chunks_on_stderr(capsys):
     assert "3/3" in capsys.readouterr().err
     evaluate(scenario, SCORE, runs, 1, mapper=mapper())  # outside: no bar
     assert capsys.readouterr().err == ""
+
+
+def test_a_malformed_address_never_builds_a_client_however_often_it_is_asked(monkeypatch):
+    """Each failed Client start left a Client behind whose finalizer, run by a later
+    start's garbage collection, deadlocked the service after about 15 requests."""
+    import distributed
+
+    from plotgate.service.cluster import ClusterUnavailable, configure
+
+    built = []
+    monkeypatch.setattr(distributed, "Client", lambda *a, **k: built.append(a))
+    configure("tcp://host-without-port", 5.0)
+    try:
+        for _ in range(50):
+            with pytest.raises(ClusterUnavailable, match="is no Dask scheduler address"):
+                mapper()
+    finally:
+        configure(None)
+    assert built == []
