@@ -63,8 +63,9 @@ _PROBLEMS = {
     "413": "The body is over the server's size limit (PLOTGATE_MAX_BODY_BYTES).",
     "422": "A field is invalid; `errors` names each one.",
     "503": "The exchange could not be recorded, so it was refused; or the Dask "
-    "cluster of a Monte Carlo could not be reached or did not finish in time; "
-    "retry after `Retry-After` seconds.",
+    "cluster of a Monte Carlo could not be reached; retry after `Retry-After` seconds.",
+    "504": "The Monte Carlo did not finish on the Dask cluster within the server's "
+    "timeout (PLOTGATE_DASK_TIMEOUT_S); its work was cancelled.",
 }
 _UNAUTHORIZED = "The credentials are missing or wrong (`WWW-Authenticate` says which)."
 
