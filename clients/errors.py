@@ -75,7 +75,8 @@ class RecordingUnavailable(ServiceUnavailable):
 
 
 class ClusterUnavailable(ServiceUnavailable):
-    """The service's Dask cluster could not be reached, or did not finish the work in time."""
+    """The service's Dask cluster could not be reached. (Work that did not finish on it in
+    time is a 504 ``cluster-timeout``, a :class:`ServerError`, not retried.)"""
 
 
 class ServerError(ProblemError):

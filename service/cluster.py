@@ -27,7 +27,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-__all__ = ["ClusterUnavailable", "cluster", "configure", "mapper", "run_worker"]
+__all__ = ["ClusterTimeout", "ClusterUnavailable", "cluster", "configure", "mapper", "run_worker"]
 
 _client: Any = None
 _address: str | None = None  # the service's scheduler, connected on first use
@@ -38,7 +38,13 @@ _lock = threading.Lock()
 
 class ClusterUnavailable(RuntimeError):
     """Dask is not installed, the scheduler cannot be reached, or the work on it did not
-    finish in time."""
+    finish in time (:class:`ClusterTimeout`)."""
+
+
+class ClusterTimeout(ClusterUnavailable):
+    """The work did not finish on the cluster within the timeout; its tasks are cancelled.
+    The service answers 504, which a client does not retry: the same work would take as
+    long again."""
 
 
 def configure(address: str | None, timeout: float | None = None) -> None:
@@ -123,7 +129,7 @@ def mapper() -> Callable[..., Iterable[Any]] | None:
                     bar.update()
             except TimeoutError as exc:
                 client.cancel(futures)
-                raise ClusterUnavailable(
+                raise ClusterTimeout(
                     f"the work did not finish on the cluster within {timeout:g} s"
                 ) from exc
         return list(client.gather(futures))

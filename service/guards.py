@@ -36,6 +36,7 @@ __all__ = [
     "RequestId",
     "replay_of",
     "request_id",
+    "route_path",
 ]
 
 Scope = MutableMapping[str, Any]
@@ -53,6 +54,14 @@ OPEN_PREFIX = "/docs/assets/"
 
 
 _SANE_ID = re.compile(REQUEST_ID_PATTERN)
+
+
+def route_path(scope: Scope) -> str:
+    """The request's path below the app's ``root_path`` (``--root-path /api``, or the app
+    mounted under a prefix): what the routes are matched against, as Starlette does."""
+    path: str = scope.get("path", "")
+    root: str = scope.get("root_path", "")
+    return path[len(root) :] if root and path.startswith(root) else path
 
 
 def request_id(scope: Scope) -> str:
@@ -167,7 +176,7 @@ class Auth:
         return False
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        path = scope.get("path", "")
+        path = route_path(scope)
         if (
             scope["type"] != "http"
             or path in OPEN_PATHS

@@ -72,7 +72,7 @@ class _RecorderCollector(Collector):
         )
         yield CounterMetricFamily(
             "plotgate_recorder_files_rotated",
-            "Files closed for size or age.",
+            "Files closed for size, age or chunk count.",
             value=recorder.rotations,
         )
         yield GaugeMetricFamily(

@@ -21,7 +21,7 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any, Literal
 
-from fastapi import APIRouter, FastAPI
+from fastapi import APIRouter, FastAPI, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.openapi.docs import (
     get_redoc_html,
@@ -63,8 +63,9 @@ _PROBLEMS = {
     "413": "The body is over the server's size limit (PLOTGATE_MAX_BODY_BYTES).",
     "422": "A field is invalid; `errors` names each one.",
     "503": "The exchange could not be recorded, so it was refused; or the Dask "
-    "cluster of a Monte Carlo could not be reached or did not finish in time; "
-    "retry after `Retry-After` seconds.",
+    "cluster of a Monte Carlo could not be reached; retry after `Retry-After` seconds.",
+    "504": "The Monte Carlo did not finish on the Dask cluster within the server's "
+    "timeout (PLOTGATE_DASK_TIMEOUT_S); its work was cancelled.",
 }
 _UNAUTHORIZED = "The credentials are missing or wrong (`WWW-Authenticate` says which)."
 
@@ -161,18 +162,20 @@ def _security_schemes(settings: Settings) -> dict[str, Any]:
 
 def docs_router(title: str, openapi_url: str = "/openapi.json") -> APIRouter:
     """``/docs`` and ``/redoc``, their scripts from :data:`ASSETS_PATH` (mounted by the app
-    on :func:`assets_folder`)."""
+    on :func:`assets_folder`); every URL in the pages under the app's root path, as
+    FastAPI's own pages do, so they work behind a proxy that strips a prefix."""
     router = APIRouter(include_in_schema=False)
 
     @router.get("/docs")
-    async def swagger_ui() -> HTMLResponse:
+    async def swagger_ui(request: Request) -> HTMLResponse:
+        root = request.scope.get("root_path", "")
         return get_swagger_ui_html(
-            openapi_url=openapi_url,
+            openapi_url=root + openapi_url,
             title=f"{title} - Swagger UI",
-            swagger_js_url=f"{ASSETS_PATH}/swagger-ui-bundle.js",
-            swagger_css_url=f"{ASSETS_PATH}/swagger-ui.css",
-            swagger_favicon_url=f"{ASSETS_PATH}/favicon.png",
-            oauth2_redirect_url="/docs/oauth2-redirect",
+            swagger_js_url=f"{root}{ASSETS_PATH}/swagger-ui-bundle.js",
+            swagger_css_url=f"{root}{ASSETS_PATH}/swagger-ui.css",
+            swagger_favicon_url=f"{root}{ASSETS_PATH}/favicon.png",
+            oauth2_redirect_url=f"{root}/docs/oauth2-redirect",
         )
 
     @router.get("/docs/oauth2-redirect")
@@ -180,12 +183,13 @@ def docs_router(title: str, openapi_url: str = "/openapi.json") -> APIRouter:
         return get_swagger_ui_oauth2_redirect_html()
 
     @router.get("/redoc")
-    async def redoc() -> HTMLResponse:
+    async def redoc(request: Request) -> HTMLResponse:
+        root = request.scope.get("root_path", "")
         return get_redoc_html(
-            openapi_url=openapi_url,
+            openapi_url=root + openapi_url,
             title=f"{title} - ReDoc",
-            redoc_js_url=f"{ASSETS_PATH}/redoc.standalone.js",
-            redoc_favicon_url=f"{ASSETS_PATH}/favicon.png",
+            redoc_js_url=f"{root}{ASSETS_PATH}/redoc.standalone.js",
+            redoc_favicon_url=f"{root}{ASSETS_PATH}/favicon.png",
             with_google_fonts=False,
         )
 

@@ -10,7 +10,9 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``request-timeout`` (408): the body did not arrive within the deadline;
 - ``recording-unavailable`` (503): the exchange could not be recorded, so it is refused;
 - ``cluster-unavailable`` (503): the Dask scheduler (``PLOTGATE_DASK_SCHEDULER``) cannot
-  be reached, or the work on it did not finish within ``PLOTGATE_DASK_TIMEOUT_S``;
+  be reached;
+- ``cluster-timeout`` (504): the work on the cluster did not finish within
+  ``PLOTGATE_DASK_TIMEOUT_S`` (its tasks are cancelled; not worth retrying as it is);
 - ``internal`` (500): a bug; never bad input.
 """
 
@@ -38,6 +40,7 @@ TITLES = {
     "method-not-allowed": "Method not allowed",
     "recording-unavailable": "Recording unavailable",
     "cluster-unavailable": "Cluster unavailable",
+    "cluster-timeout": "Cluster timeout",
     "internal": "Internal error",
 }
 

@@ -483,22 +483,25 @@ class Recorder:
         self._writer, self._stream = None, None
         self.rotations += 1
         path = self.files[-1]
+        size = stream.tell()
+        with self._sizes:  # counted now, so bytes_written never goes down meanwhile
+            self._bytes_closed += size
         try:
             asyncio.get_running_loop()
         except RuntimeError:
-            self._summarize(writer, stream, path)
+            self._summarize(writer, stream, path, size)
             return
         if self._summaries is None:
             self._summaries = ThreadPoolExecutor(1, thread_name_prefix="plotgate-summary")
-        self._summaries.submit(self._summarize, writer, stream, path)
+        self._summaries.submit(self._summarize, writer, stream, path, size)
 
-    def _summarize(self, writer: Writer, stream: IO[bytes], path: Path) -> None:
-        """Write a rotated file's summary and index and close it. Its records are already
-        with the OS: a failure here loses the index only, which ``plotgate recover``
-        rebuilds."""
+    def _summarize(self, writer: Writer, stream: IO[bytes], path: Path, counted: int) -> None:
+        """Write a rotated file's summary and index and close it (``counted``: its bytes
+        already in :attr:`bytes_written`). Its records are already with the OS: a failure
+        here loses the index only, which ``plotgate recover`` rebuilds."""
         try:
             writer.finish()
-            size = stream.tell()
+            size = stream.tell() - counted
             stream.close()
         except OSError as exc:
             log.warning("could not finish %s: %s (plotgate recover rebuilds its index)", path, exc)
@@ -516,6 +519,7 @@ class Recorder:
         which mcap's writer keeps in the chunk being built.
         """
         self._finish()
+        self._find_gone()
         self.directory.mkdir(parents=True, exist_ok=True)
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
         self._seq += 1
@@ -595,6 +599,8 @@ class Recorder:
                 self._lost = True
             if exchange.answered:
                 self._lost = True
+        if whole_file:
+            self._find_gone(but=self._seq)
         self._unflushed.clear()
         self._answered.clear()
         self.pending = 0
@@ -603,6 +609,23 @@ class Recorder:
                 self._stream.close()
         self._writer = None
         self._stream = None
+
+    def _find_gone(self, but: int = 0) -> None:
+        """Mark for writing again the request records of in-flight exchanges whose file, one
+        closed since (rotated), has no name left: a slow operation's request, written
+        before a rotation, then the folder removed. ``but``: a file already dealt with. A
+        file merely moved is taken for gone too: its request is then recorded twice, never
+        lost."""
+        gone: dict[int, bool] = {}
+        for exchange in list(self._inflight):
+            number = exchange.file
+            if number in (0, but) or number > len(self.files):
+                continue
+            if number not in gone:
+                gone[number] = not self.files[number - 1].exists()
+            if gone[number]:
+                exchange.file, exchange.flushed = 0, False
+                self._lost = True
 
 
 class _FileLost(OSError):

@@ -19,7 +19,7 @@ from pydantic import BaseModel, ValidationError
 
 from plotgate.core import PlotgateError
 from plotgate.service.bodies import is_strict_json, shape_problem, value_ceiling
-from plotgate.service.cluster import ClusterUnavailable
+from plotgate.service.cluster import ClusterTimeout, ClusterUnavailable
 from plotgate.service.fields import FieldMap, resolve
 from plotgate.service.operations import (
     gates,
@@ -208,6 +208,8 @@ def run(
             response = op.handler(request)
         except PlotgateError as exc:
             raise from_core(exc, resolve(op.fields, request, exc)) from exc
+        except ClusterTimeout as exc:
+            raise ProblemError("cluster-timeout", 504, str(exc)) from exc
         except ClusterUnavailable as exc:
             raise ProblemError("cluster-unavailable", 503, str(exc)) from exc
     except ProblemError as exc:

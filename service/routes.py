@@ -39,7 +39,15 @@ from plotgate.service.bodies import (
     value_ceiling,
 )
 from plotgate.service.config import Settings
-from plotgate.service.guards import ASGIApp, Receive, Scope, Send, replay_of, request_id
+from plotgate.service.guards import (
+    ASGIApp,
+    Receive,
+    Scope,
+    Send,
+    replay_of,
+    request_id,
+    route_path,
+)
 from plotgate.service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.recorder import (
@@ -143,7 +151,14 @@ class Operations:
         self.operations = {op.path: op for op in OPERATIONS.values()}
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        op = self.operations.get(scope["path"]) if scope["type"] == "http" else None
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        path = route_path(scope)
+        op = self.operations.get(path)
+        if op is None and path.endswith("/") and path[:-1] in self.operations:
+            await _redirect(send, scope, path[:-1])  # as FastAPI's router did
+            return
         if op is None:
             await self.app(scope, receive, send)
             return
@@ -231,6 +246,21 @@ class Operations:
 
     def _retry_after(self) -> Header:
         return b"retry-after", retry_after(self.state.settings).encode()
+
+
+async def _redirect(send: Send, scope: Scope, path: str) -> None:
+    """307 to ``path`` (under the root path, the query kept): a trailing slash, as
+    Starlette's ``redirect_slashes`` answers it, so a client follows with its body."""
+    query = scope.get("query_string", b"")
+    location = (scope.get("root_path", "") + path).encode() + (b"?" + query if query else b"")
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 307,
+            "headers": [(b"location", location), (b"content-length", b"0")],
+        }
+    )
+    await send({"type": "http.response.body", "body": b""})
 
 
 async def _send(send: Send, status: int, body: bytes, headers: list[Header]) -> None:

@@ -201,13 +201,14 @@ def test_an_unreachable_scheduler_answers_503_with_retry_after_and_is_recorded(s
     assert exchange.operation == "initiation.evaluate" and exchange.response["status"] == 503
 
 
-def test_work_past_the_timeout_answers_503(settings):
+def test_work_past_the_timeout_answers_504_not_retried(settings):
     with LocalCluster(
         n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
     ) as local:
         update = {"dask_scheduler": local.scheduler_address, "dask_timeout_s": 0.05}
         r = _post(settings.model_copy(update=update), {**BODY, "scenario": {"clutter": 500}})
-    assert r.status_code == 503 and "retry-after" in r.headers
+    assert r.status_code == 504 and "retry-after" not in r.headers
+    assert r.json()["type"] == "urn:plotgate:problem:cluster-timeout"
     assert "did not finish on the cluster within 0.05 s" in r.json()["detail"]
 
 

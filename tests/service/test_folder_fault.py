@@ -20,7 +20,7 @@ from mcap.writer import Writer
 
 from plotgate.clients.recordings import read_recording
 from plotgate.service.app import create_app
-from plotgate.service.recorder import Recorder, RecordingError
+from plotgate.service.recorder import Recorder, RecordingError, request_record, response_record
 from plotgate.service.registry import OPERATIONS
 from tests.servers import serve
 from tests.service.test_recording import GOOD
@@ -206,3 +206,48 @@ def test_two_failed_writes_refuse_the_answers_waiting_on_them(tmp_path, monkeypa
     assert not recorder.ready
     assert recorder.probe() and recorder.ready  # the folder itself is fine
     recorder.close()
+
+
+def test_a_request_written_before_a_rotation_is_written_again_when_the_folder_goes(tmp_path):
+    """A slow operation's request flushed to a file that then rotated (by age): the folder
+    removed before it is answered, its request is written again beside its response."""
+    op = OPERATIONS["gates.test"]
+    folder = tmp_path / "rec"
+
+    async def session() -> Recorder:
+        rec = Recorder(folder, OPERATIONS.values(), max_age_s=0.2).start()
+        slow = await rec.arequest(op.name, request_record("SLOW", op.name, b"{}", True))
+        await asyncio.sleep(0.3)  # flushed to file 1, now past its age
+        fast = await rec.arequest(op.name, request_record("FAST", op.name, b"{}", True))
+        await rec.aresponse(fast, response_record("FAST", op.name, 200, 0.001, b"{}"))
+        assert rec.rotations == 1
+        shutil.rmtree(folder)
+        await rec.aresponse(slow, response_record("SLOW", op.name, 200, 0.3, b"{}"))
+        rec.close()
+        return rec
+
+    rec = asyncio.run(session())
+    assert rec.rewritten >= 1
+    assert "SLOW" in _answered(folder)
+
+
+def test_bytes_written_never_goes_down_across_a_rotation(tmp_path, monkeypatch):
+    """The rotated file's bytes are counted when it is handed to the summary thread, not
+    when the thread is done (a Prometheus counter must not go down)."""
+    monkeypatch.setattr("plotgate.service.recorder.MAX_CHUNKS", 2)
+    op = OPERATIONS["gates.test"]
+
+    async def session() -> list[int]:
+        rec = Recorder(tmp_path / "rec", OPERATIONS.values()).start()
+        seen = []
+        for i in range(12):
+            ex = await rec.arequest(op.name, request_record(f"r{i}", op.name, b"{}", True))
+            await rec.aresponse(ex, response_record(f"r{i}", op.name, 200, 0.001, b"{}"))
+            seen.append(rec.bytes_written)
+        rec.close()
+        seen.append(rec.bytes_written)
+        return seen
+
+    seen = asyncio.run(session())
+    assert seen == sorted(seen), seen
+    assert seen[-1] == sum(f.stat().st_size for f in (tmp_path / "rec").glob("*.mcap"))

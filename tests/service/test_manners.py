@@ -121,3 +121,26 @@ def test_files_rotate_by_chunk_count_their_summaries_written_by_a_thread(
     counts = [report["total_messages"] for _, report in reports]
     assert counts == [6, 6, 6, 2]  # a request and a response per exchange
     assert recorder.bytes_written == sum(f.stat().st_size for f in files)
+
+
+def test_operations_answer_under_a_root_path_and_when_mounted(tmp_path):
+    """Behind a proxy that strips a prefix (``--root-path /api``) or mounted in another
+    app, the operations are found as FastAPI's router found them; the docs point under the
+    prefix; a trailing slash is redirected (307) as before."""
+    from starlette.applications import Starlette
+    from starlette.routing import Mount
+
+    app = create_app(Settings(log_dir=tmp_path / "rec", record=False))
+    with TestClient(app, root_path="/api") as c:
+        assert c.post("/api/v1/gates/test", json=GOOD).status_code == 200
+        r = c.post("/api/v1/gates/test/?x=1", json=GOOD, follow_redirects=False)
+        assert r.status_code == 307 and r.headers["location"] == "/api/v1/gates/test?x=1"
+        page = c.get("/api/docs").text
+        assert "/api/openapi.json" in page and "/api/docs/assets/swagger-ui.css" in page
+        assert c.get("/api/docs/assets/swagger-ui.css").status_code == 200
+    outer = Starlette(routes=[Mount("/pg", create_app(Settings(record=False)))])
+    with TestClient(outer) as c:
+        assert c.post("/pg/v1/gates/test", json=GOOD).status_code == 200
+        assert c.get("/pg/v1/gates/test").status_code == 405
+    with _client(tmp_path) as c:
+        assert c.post("/v1/gates/test/", json=GOOD).status_code == 200  # followed
