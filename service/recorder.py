@@ -391,9 +391,9 @@ class Recorder:
                 if self._writer is None:
                     return False
                 self._writer.flush()
-                self._check_file()
+                size = self._check_file()
                 self._chunks += 1
-                self._full = self._chunks >= MAX_CHUNKS or self._tell() >= self.max_bytes
+                self._full = self._chunks >= MAX_CHUNKS or size >= self.max_bytes
             except _FileMoved:
                 self._finish()  # its records are safe where it went; the next file is here
                 return True
@@ -460,10 +460,6 @@ class Recorder:
             self._flush_waiting = True
         else:
             self.flush()
-
-    def _tell(self) -> int:
-        assert self._stream is not None
-        return self._stream.tell()
 
     def _rotation_due(self) -> bool:
         """The current file reached its size or chunk count (as of the last flush) or age."""
@@ -551,10 +547,10 @@ class Recorder:
                     self._write_response(exchange)
                     self.rewritten += 1
 
-    def _check_file(self, moved: bool = False) -> None:
-        """Raise :class:`_FileLost` when the current file has no name left (its folder or
-        itself deleted); with ``moved``, :class:`_FileMoved` when its name now leads
-        elsewhere.
+    def _check_file(self, moved: bool = False) -> int:
+        """The current file's size as the OS has it (all of it, after a flush); raise
+        :class:`_FileLost` when the file has no name left (its folder or itself deleted);
+        with ``moved``, :class:`_FileMoved` when its name now leads elsewhere.
 
         Every flush checks for loss (one ``fstat``), which would take acknowledged records
         with it; the probe, every ``probe_interval_s``, also for a move (one ``stat`` of the
@@ -565,14 +561,14 @@ class Recorder:
         opened = os.fstat(self._stream.fileno())
         if opened.st_nlink == 0:
             raise _FileLost(f"{self.files[-1]} was deleted (its folder removed?)")
-        if not moved:
-            return
-        try:
-            named = os.stat(self.files[-1])
-        except FileNotFoundError:
-            raise _FileMoved from None
-        if (named.st_dev, named.st_ino) != (opened.st_dev, opened.st_ino):
-            raise _FileMoved
+        if moved:
+            try:
+                named = os.stat(self.files[-1])
+            except FileNotFoundError:
+                raise _FileMoved from None
+            if (named.st_dev, named.st_ino) != (opened.st_dev, opened.st_ino):
+                raise _FileMoved
+        return opened.st_size
 
     def _finish(self) -> None:
         """Write the summary and index and close the file."""
