@@ -37,6 +37,7 @@ from pydantic.json_schema import models_json_schema
 from plotgate.service.config import Settings
 from plotgate.service.guards import OPEN_PATHS
 from plotgate.service.registry import OPERATIONS
+from plotgate.service.routes import PROBLEM_JSON
 from plotgate.service.schemas import Problem
 
 __all__ = ["ASSETS_PATH", "assets_folder", "docs_router", "openapi"]
@@ -56,7 +57,6 @@ BEARER = HTTPBearer(
     auto_error=False,
 )
 
-PROBLEM_JSON = "application/problem+json"
 _PROBLEMS = {
     "400": "The body is not JSON.",
     "408": "The body did not arrive within the server's deadline.",
