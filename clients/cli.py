@@ -22,6 +22,7 @@ import json
 import math
 import os
 import sys
+from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -94,26 +95,19 @@ def _serve(args: argparse.Namespace) -> int:
     return 0
 
 
-def _positive(text: str) -> int:
-    """An argparse type: an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return value
+def _at_least(minimum: int) -> Callable[[str], int]:
+    """An argparse type: an integer >= ``minimum``."""
 
+    def integer(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = minimum - 1
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {minimum}, got {text!r}")
+        return value
 
-def _count(text: str) -> int:
-    """An argparse type: an integer >= 0."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
-    return value
+    return integer
 
 
 def _seconds(text: str) -> float:
@@ -491,14 +485,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     where.add_argument(
         "--local-workers",
-        type=_positive,
+        type=_at_least(1),
         metavar="N",
         help="in-process, with the Monte Carlo chunks on a local Dask cluster of N worker "
         "processes (started and stopped by the command)",
     )
     call.add_argument(
         "--retries",
-        type=_count,
+        type=_at_least(0),
         metavar="N",
         help="with --server: tries again after a 503 or a failed connection, up to N times "
         "(default 3; 0: never)",
@@ -520,7 +514,7 @@ def _parser() -> argparse.ArgumentParser:
         "(exit 0). Exit 2 when Dask is missing or no scheduler answers within 10 s.",
     )
     wrk.add_argument("address", help="the scheduler, e.g. tcp://scheduler:8786")
-    wrk.add_argument("--nthreads", type=_positive, default=1, help="threads (1)")
+    wrk.add_argument("--nthreads", type=_at_least(1), default=1, help="threads (1)")
     wrk.set_defaults(func=_worker)
 
     ins = sub.add_parser(
