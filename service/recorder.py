@@ -245,7 +245,7 @@ class Recorder:
     @property
     def ready(self) -> bool:
         """True while records can be written: open, no failed write, directory writable."""
-        return not self._closed and self._error is None and os.access(self.directory, os.W_OK)
+        return not self._closed and self._error is None and self._folder_writable()
 
     def probe(self) -> bool:
         """Look after the folder without waiting for traffic; then :attr:`ready`.
@@ -267,24 +267,37 @@ class Recorder:
                 self._finish()
             except _FileLost as exc:
                 self._drop(exc, whole_file=True)
-        if self._error is not None or not os.access(self.directory, os.W_OK):
-            probe = self.directory / f".plotgate-probe-{os.getpid()}"
-            try:
-                self.directory.mkdir(parents=True, exist_ok=True)
-                with open(probe, "wb") as f:
-                    f.write(b"\0" * 4096)
-                    f.flush()
-                    os.fsync(f.fileno())
-                probe.unlink()
-            except OSError as exc:
-                with contextlib.suppress(OSError):
-                    probe.unlink()
-                self._error = self._error or exc
+        if self._error is not None or not self._folder_writable():
+            failure = self._write_probe()
+            if failure is not None:
+                self._error = self._error or failure
                 return False
             self._error = None
         if self._lost:
             self.flush()
         return self.ready
+
+    def _folder_writable(self) -> bool:
+        """The folder is a folder (not a file put in its place) and may be written."""
+        return self.directory.is_dir() and os.access(self.directory, os.W_OK)
+
+    def _write_probe(self) -> OSError | None:
+        """Write a small file into the folder (creating it if missing), sync and remove it;
+        the error when that fails. The probe is removed either way, so trying leaves
+        nothing behind, however often it is tried on a full disk."""
+        probe = self.directory / f".plotgate-probe-{os.getpid()}"
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            with open(probe, "wb") as f:
+                f.write(b"\0" * 4096)
+                f.flush()
+                os.fsync(f.fileno())
+            probe.unlink()
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                probe.unlink()
+            return exc
+        return None
 
     def request(self, operation: str, data: bytes, log_time: int | None = None) -> Exchange:
         """Add a request record (plain code: it is written by the next ``flush``).
@@ -513,9 +526,17 @@ class Recorder:
 
         Lazily, on a record: a file without messages would lose its schemas and channels,
         which mcap's writer keeps in the chunk being built.
+
+        After a failed write no file is created until a probe (:meth:`_write_probe`) can
+        write to the folder: on a full disk every refused request used to leave one empty
+        file behind (thousands a second), which the readers then took for recordings.
         """
         self._finish()
         self._find_gone()
+        if self._error is not None:
+            failure = self._write_probe()
+            if failure is not None:
+                raise RecordingError(f"cannot write to {self.directory}: {failure}")
         self.directory.mkdir(parents=True, exist_ok=True)
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
         self._seq += 1
@@ -523,6 +544,7 @@ class Recorder:
         path = self.directory / name
         self._stream = open(path, "wb")  # noqa: SIM115 - open for the file's whole life
         self.files.append(path)
+        self._chunks, self._full = 0, False  # before anything can fail: see _drop
         writer = Writer(self._stream, compression=CompressionType.LZ4)
         writer.start(profile="", library="plotgate")
         writer.add_metadata("plotgate", self.metadata)
@@ -535,7 +557,6 @@ class Recorder:
         writer.flush()
         self._writer = writer
         self._opened_at = time.monotonic()
-        self._chunks, self._full = 0, False
         self._error = None
         if self._lost:
             self._lost = False
@@ -564,7 +585,7 @@ class Recorder:
         if moved:
             try:
                 named = os.stat(self.files[-1])
-            except FileNotFoundError:
+            except OSError:  # gone, or its folder now a file (ENOTDIR) or unreadable
                 raise _FileMoved from None
             if (named.st_dev, named.st_ino) != (opened.st_dev, opened.st_ino):
                 raise _FileMoved
@@ -601,10 +622,24 @@ class Recorder:
         self._answered.clear()
         self.pending = 0
         if self._stream is not None:
+            if self._chunks == 0 and not whole_file:
+                self._remove_unflushed()
             with contextlib.suppress(OSError):
                 self._stream.close()
         self._writer = None
         self._stream = None
+
+    def _remove_unflushed(self) -> None:
+        """Remove the current file, none of whose flushes succeeded: it holds nothing
+        acknowledged (at most part of its header and of records that are written again or
+        refused), and left behind it would be an empty or headless file that the readers
+        must skip. Only while its name still leads to it: never someone else's file."""
+        assert self._stream is not None
+        with contextlib.suppress(OSError):
+            opened = os.fstat(self._stream.fileno())
+            named = os.stat(self.files[-1])
+            if (named.st_dev, named.st_ino) == (opened.st_dev, opened.st_ino):
+                self.files[-1].unlink()
 
     def _find_gone(self, but: int = 0) -> None:
         """Mark for writing again the request records of in-flight exchanges whose file, one
