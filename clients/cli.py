@@ -33,9 +33,14 @@ __all__ = ["main"]
 REPLAY_EXIT_CODES = """exit status:
   0  every exchange compared and unchanged
   1  something changed: an answer, a recorded failure that now succeeds or fails
-     differently, or an exchange that did not answer within --timeout
-  2  nothing comparable (--allow-empty makes that 0), a file that is not a
-     recording at all, a usage or connection error (2 wins over 1)
+     differently, or an exchange that did not answer within --timeout; or two
+     records of one exchange (same id and time) that differ: a conflict
+  2  nothing comparable (--allow-empty makes that 0), a file that cannot be read,
+     no recording among the files, a FIFO, socket or device among the paths, a
+     usage or connection error (2 wins over 1)
+
+skipped with a note, deciding no exit code when other files are recordings: files
+that are empty or not MCAP at all.
 
 not compared, counted apart with the reason: requests never answered, answers
 whose request record is lost, bodies that timed out (408), replays whose original
@@ -206,7 +211,7 @@ def _replay(args: argparse.Namespace) -> int:
         limits=limits,
     )
     code = report.exit_code(args.allow_empty)
-    for error in report.unreadable:
+    for error in report.unreadable + report.skipped:
         print(f"plotgate replay: {error}", file=sys.stderr)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
@@ -232,13 +237,14 @@ def _recover(args: argparse.Namespace) -> int:
     return 0
 
 
-def _unreadable(command: str, unreadable: list[str], files: int) -> int:
-    """2, after saying why, when a file could not be read at all or there was none."""
-    for error in unreadable:
+def _unreadable(command: str, unreadable: list[str], skipped: list[str], recordings: int) -> int:
+    """2, after saying why, when a file could not be read at all or none was a recording;
+    files skipped (empty, not MCAP) are noted and decide nothing when others are read."""
+    for error in unreadable + skipped:
         print(f"plotgate {command}: {error}", file=sys.stderr)
-    if not files:
-        print(f"plotgate {command}: no MCAP files there", file=sys.stderr)
-    return 2 if unreadable or not files else 0
+    if not recordings:
+        print(f"plotgate {command}: no MCAP recordings there", file=sys.stderr)
+    return 2 if unreadable or not recordings else 0
 
 
 def _inspect(args: argparse.Namespace) -> int:
@@ -246,7 +252,9 @@ def _inspect(args: argparse.Namespace) -> int:
 
     summary = inspect(args.paths, _filters(args))
     if _write(json.dumps(summary, indent=2) if args.json else format_inspection(summary)):
-        return _unreadable("inspect", summary["unreadable"], len(summary["files"]))
+        return _unreadable(
+            "inspect", summary["unreadable"], summary["skipped"], summary["recordings"]
+        )
     return 0
 
 
@@ -267,7 +275,12 @@ def _cat(args: argparse.Namespace) -> int:
                 "more damaged records",
                 file=sys.stderr,
             )
-    return _unreadable("cat", reader.unreadable, len(reader.files))
+    for conflict in reader.conflicts:
+        print(f"plotgate cat: conflict: {conflict}", file=sys.stderr)
+    if reader.conflict_count > len(reader.conflicts):
+        more = reader.conflict_count - len(reader.conflicts)
+        print(f"plotgate cat: ... and {more} more conflicts", file=sys.stderr)
+    return _unreadable("cat", reader.unreadable, reader.skipped, reader.recordings)
 
 
 def _plot(args: argparse.Namespace) -> int:

@@ -3,6 +3,7 @@ comparable or unusable input), the tally (exchanges = compared + not compared, c
 unchanged + changed, each exchange once, across files), and no traceback on any of it."""
 
 import json
+import os
 import time
 from pathlib import Path
 
@@ -181,6 +182,10 @@ def test_unchanged_changed_and_unreadable(settings, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "CHANGED gates.test r0 inside[1]" in out and "1 changed" in out
     (altered / "junk.mcap").write_bytes(b"not a recording")
+    assert main(["replay", str(altered)]) == 1  # a file that is not a recording is a note
+    assert "junk.mcap is not an MCAP file (it does not start" in capsys.readouterr().err
+    (altered / "junk.mcap").unlink()
+    os.mkfifo(altered / "junk.mcap")
     assert main(["replay", str(altered)]) == 2  # 2 wins over 1: the input is not all usable
 
 
@@ -334,3 +339,55 @@ def test_filters_pick_operations_and_times(settings, tmp_path):
     assert compared("--since", str(middle)) == 2
     assert compared("--until", str(middle)) == 1
     assert compared("--operation", "gates.test", "--since", str(middle)) == 1
+
+
+def test_empty_and_foreign_files_are_skipped_and_decide_nothing(settings, tmp_path, capsys):
+    """A full disk once left an empty file per refused request among sound recordings:
+    replay exited 2 ("not an MCAP file") though every exchange replayed unchanged."""
+    folder = _session(settings, [GOOD_BODY, BAD_BODY])
+    for i in range(5):
+        (folder / f"plotgate-29990101T000000.000000Z-pid1-{i:04d}.mcap").touch()
+    (folder / "notes.mcap").write_text("not a recording\n")
+    report = tmp_path / "report.json"
+    assert main(["replay", str(folder), "--report", str(report)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("is empty (0 bytes), not an MCAP file: skipped") == 5
+    assert "notes.mcap is not an MCAP file" in err
+    tally = json.loads(report.read_text())
+    assert (tally["compared"], tally["unchanged"], tally["recordings"]) == (2, 2, 1)
+    assert len(tally["skipped"]) == 6 and not tally["unreadable"]
+    only_empty = tmp_path / "only-empty"
+    only_empty.mkdir()
+    (only_empty / "a.mcap").touch()
+    assert main(["replay", str(only_empty), "--allow-empty"]) == 2  # not one recording
+
+
+def _conflicting(folder: Path) -> None:
+    """r0 recorded twice at one time with different bodies (and answers): the recorder
+    writes a record again only byte for byte, so this is a recording that contradicts
+    itself."""
+    answers = _answers()
+    events = []
+    for n, kind in enumerate(("ok", "changed")):
+        body, status, content = answers[kind]
+        if n:
+            body = body.replace(b"[", b"[ ", 1)  # another body: the same id, the same time
+        events.append((T0, "request", request_record("r0", OP, body)))
+        events.append((T0 + MS, "response", response_record("r0", OP, status, 0.001, content)))
+    write_files(folder, events, {1})
+
+
+def test_a_request_id_conflict_is_reported_by_file_and_offset_and_exits_1(tmp_path, capsys):
+    folder = tmp_path / "conflict"
+    _conflicting(folder)
+    report = tmp_path / "report.json"
+    assert main(["replay", str(folder), "--report", str(report)]) == 1
+    out = capsys.readouterr().out
+    tally = json.loads(report.read_text())
+    assert tally["written_twice"] == 0 and tally["conflict_count"] == 2  # request, response
+    assert (tally["exchanges"], tally["compared"], tally["unchanged"]) == (1, 1, 1)
+    first, second = sorted(folder.glob("*.mcap"))
+    request_conflict = tally["conflicts"][0]
+    assert request_conflict.startswith(f"{OP} r0 at ") and "the request record" in request_conflict
+    assert f"{second} at offset " in request_conflict and f"{first} at offset " in request_conflict
+    assert "CONFLICT" in out and "2 conflicting records (exit 1)" in out
