@@ -211,8 +211,7 @@ def _replay(args: argparse.Namespace) -> int:
         limits=limits,
     )
     code = report.exit_code(args.allow_empty)
-    for error in report.unreadable + report.skipped:
-        print(f"plotgate replay: {error}", file=sys.stderr)
+    _notes("replay", report.unreadable + report.skipped)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
     text = report.text()
@@ -237,11 +236,21 @@ def _recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def _notes(command: str, notes: list[str]) -> None:
+    """The first hundred notes on stderr, then how many more: a full disk could once
+    leave thousands of empty files, each of which would be a line."""
+    from plotgate.clients.recordings import MAX_LISTED
+
+    for note in notes[:MAX_LISTED]:
+        print(f"plotgate {command}: {note}", file=sys.stderr)
+    if len(notes) > MAX_LISTED:
+        print(f"plotgate {command}: ... and {len(notes) - MAX_LISTED} more", file=sys.stderr)
+
+
 def _unreadable(command: str, unreadable: list[str], skipped: list[str], recordings: int) -> int:
     """2, after saying why, when a file could not be read at all or none was a recording;
     files skipped (empty, not MCAP) are noted and decide nothing when others are read."""
-    for error in unreadable + skipped:
-        print(f"plotgate {command}: {error}", file=sys.stderr)
+    _notes(command, unreadable + skipped)
     if not recordings:
         print(f"plotgate {command}: no MCAP recordings there", file=sys.stderr)
     return 2 if unreadable or not recordings else 0
