@@ -63,6 +63,12 @@ ms. At this bound: about 9 MB, under 3 ms, and 42 ms of summary, written off the
 LARGE_RECORD_BYTES = 2**20
 """Records over this size are written from a worker thread, not on the event loop."""
 
+PROBE_BYTES = 2**16
+"""Bytes the probe writes: more than a new file's first flush (its schemas and channels,
+35 KB for the operations of this build), so that a disk a probe passes has room to open a
+file, and one with less refuses at once without creating and removing a file per
+request."""
+
 
 class RecordingError(RuntimeError):
     """The recorder could not write a record (disk full, directory gone, closed)."""
@@ -289,7 +295,7 @@ class Recorder:
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             with open(probe, "wb") as f:
-                f.write(b"\0" * 4096)
+                f.write(b"\0" * PROBE_BYTES)
                 f.flush()
                 os.fsync(f.fileno())
             probe.unlink()
