@@ -40,6 +40,7 @@ it as a replay of its original, never under the original's id.
 """
 
 import contextlib
+import errno
 import json
 import signal
 import threading
@@ -500,7 +501,7 @@ class _SessionWriter:
         from plotgate.service.recorder import Recorder
         from plotgate.service.registry import OPERATIONS
 
-        out = Path(out)
+        out = self._out = Path(out)
         metadata = {
             "plotgate_version": VERSION,
             "replayed_from": ", ".join(map(str, sources))[:10_000],
@@ -510,17 +511,29 @@ class _SessionWriter:
         ).start()
 
     def __call__(self, exchange: Exchange, rid: str, answer: Answer, duration_s: float) -> None:
-        from plotgate.service.recorder import request_record, response_record
+        """Write one replayed exchange; ``OSError`` naming ``--out`` when it cannot be
+        written (a full disk), so the run ends with that message and exit 2, not as a bug,
+        and never with records silently missing."""
+        from plotgate.service.recorder import RecordingError, request_record, response_record
 
         op = exchange.operation
-        written = self._recorder.request(
-            op, request_record(rid, op, exchange.body, replay_of=exchange.request_id)
-        )
-        content = json.dumps(answer.content).encode()
-        self._recorder.response(
-            written, response_record(rid, op, answer.status or 0, duration_s, content)
-        )
-        self._recorder.flush()
+        try:
+            written = self._recorder.request(
+                op, request_record(rid, op, exchange.body, replay_of=exchange.request_id)
+            )
+            content = json.dumps(answer.content).encode()
+            self._recorder.response(
+                written, response_record(rid, op, answer.status or 0, duration_s, content)
+            )
+            flushed = self._recorder.flush()
+        except RecordingError as exc:
+            raise self._unwritable(exc.__cause__ or exc) from exc
+        if not flushed:
+            raise self._unwritable(self._recorder.error)
+
+    def _unwritable(self, failure: BaseException | None) -> OSError:
+        code = failure.errno if isinstance(failure, OSError) and failure.errno else errno.EIO
+        return OSError(code, f"the replayed session cannot be written: {failure}", str(self._out))
 
     def __enter__(self) -> "_SessionWriter":
         return self

@@ -249,6 +249,11 @@ class Recorder:
             self._summaries.shutdown(wait=True)
 
     @property
+    def error(self) -> Exception | None:
+        """The failure that stopped the last write, until a write or the probe works."""
+        return self._error
+
+    @property
     def ready(self) -> bool:
         """True while records can be written: open, no failed write, directory writable."""
         return not self._closed and self._error is None and self._folder_writable()
@@ -380,12 +385,14 @@ class Recorder:
                 current = self._stream.tell()
         return self._bytes_closed + current
 
-    def flush(self) -> None:
+    def flush(self) -> bool:
         """Hand every added record to the OS and release the answers waiting on them.
 
         The chunk is closed and flushed, then the file checked: still linked in its folder.
         A lost or failed file is replaced once (:meth:`_commit`); if that fails too, the
-        waiting answers get :class:`RecordingError`.
+        waiting answers get :class:`RecordingError`, and False is returned, so that plain
+        code, which has no answer waiting, learns it too (True: every record is with the
+        OS).
         """
         batch, self._batch = self._batch, None
         started = time.perf_counter()
@@ -394,11 +401,12 @@ class Recorder:
         except RecordingError as exc:
             if batch is not None and not batch.done():
                 batch.set_exception(exc)
-            return
+            return False
         if wrote and self.on_flush is not None:
             self.on_flush(time.perf_counter() - started)
         if batch is not None and not batch.done():
             batch.set_result(None)
+        return True
 
     def _commit(self) -> bool:
         """Flush the current file; on loss or failure, write the in-flight records to a new
@@ -548,6 +556,9 @@ class Recorder:
         self._seq += 1
         name = self.file_name or f"plotgate-{stamp}-pid{os.getpid()}-{self._seq:04d}.mcap"
         path = self.directory / name
+        if self.file_name is not None and self.files and path.exists():
+            # the one file failed: opening its name again would truncate what it holds
+            raise RecordingError(f"{path}: {self._error}; not opened again over its records")
         self._stream = open(path, "wb")  # noqa: SIM115 - open for the file's whole life
         self.files.append(path)
         self._chunks, self._full = 0, False  # before anything can fail: see _drop

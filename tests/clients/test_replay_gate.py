@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.cli import main
+from plotgate.clients.recordings import read_recording
 from plotgate.clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
 from plotgate.service import registry
 from plotgate.service.app import create_app
@@ -391,3 +392,29 @@ def test_a_request_id_conflict_is_reported_by_file_and_offset_and_exits_1(tmp_pa
     assert request_conflict.startswith(f"{OP} r0 at ") and "the request record" in request_conflict
     assert f"{second} at offset " in request_conflict and f"{first} at offset " in request_conflict
     assert "CONFLICT" in out and "2 conflicting records (exit 1)" in out
+
+
+def test_a_full_disk_under_replay_out_is_a_message_and_exit_2(
+    settings, tmp_path, monkeypatch, capsys
+):
+    """--out on a disk that fills after the first exchange: the flush that fails is not
+    silent, and the run ends with the file and the reason, exit 2, not as a bug."""
+    folder = _session(settings, [GOOD_BODY, GOOD_BODY, GOOD_BODY])
+    real, calls = Writer.flush, []
+
+    def flush(writer):
+        calls.append(1)
+        if len(calls) > 2:  # the new file's schemas, then the first exchange
+            raise OSError(28, "No space left on device")
+        return real(writer)
+
+    monkeypatch.setattr(Writer, "flush", flush)
+    out = tmp_path / "out" / "session.mcap"
+    out.parent.mkdir()
+    assert main(["replay", str(folder), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{out}: the replayed session cannot be written: " in err, err
+    assert "No space left on device" in err and "internal error" not in err
+    monkeypatch.undo()
+    [kept] = read_recording(out).exchanges  # the exchange flushed before is not truncated
+    assert kept.replay_of == "r0"
