@@ -86,6 +86,14 @@ def _serve(args: argparse.Namespace) -> int:
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
     settings = Settings()
+    if settings.record:
+        from plotgate.service.recorder import Recorder, RecordingError
+
+        try:  # here, since a failure in the app's start-up is a traceback and exit 3
+            Recorder(settings.log_dir, ()).start()
+        except RecordingError as exc:
+            print(f"plotgate serve: {exc}", file=sys.stderr)
+            return 2
     uvicorn.run(
         "plotgate.service.app:create_app",
         factory=True,

@@ -231,9 +231,13 @@ class Recorder:
         self._lost = False  # some in-flight record must be written again
 
     def start(self) -> "Recorder":
-        """Check the folder can be written; the first file is opened by the first record."""
-        self.directory.mkdir(parents=True, exist_ok=True)
-        if not os.access(self.directory, os.W_OK):
+        """Check the folder can be written (:class:`RecordingError` saying why, a file in
+        its place included); the first file is opened by the first record."""
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise RecordingError(f"cannot create the folder {self.directory}: {exc}") from exc
+        if not self._folder_writable():
             raise RecordingError(f"cannot write to {self.directory}")
         return self
 

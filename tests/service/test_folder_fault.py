@@ -275,3 +275,24 @@ def test_a_file_in_place_of_the_moved_folder_makes_readyz_503_not_500(settings, 
             c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "b"}).status_code == 200
         )
     assert set(_answered(moved)) == {"a"} and set(_answered(folder)) == {"b"}
+
+
+def test_serve_into_a_file_is_a_message_and_exit_2(tmp_path, capsys, monkeypatch):
+    """A file where the recordings folder should be: one line and exit 2 before the
+    server starts, not the app's start-up traceback and uvicorn's exit 3."""
+    from plotgate.clients.cli import main
+    from tests.servers import free_port
+
+    for name in ("PLOTGATE_HOST", "PLOTGATE_PORT", "PLOTGATE_LOG_DIR"):  # serve sets them
+        monkeypatch.setenv(name, "")
+    folder = tmp_path / "recordings"
+    folder.write_text("not a folder")
+    code = main(
+        ["serve", "--host", "127.0.0.1", "--port", str(free_port()), "--log-dir", str(folder)]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert (
+        err.startswith(f"plotgate serve: cannot create the folder {folder}: ")
+        and "Traceback" not in err
+    )
