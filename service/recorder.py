@@ -164,9 +164,12 @@ class Recorder:
     volume unmounted) takes every record written to it since it was opened, so the folder
     is created again, a new file opened, and the records of every exchange still in flight
     written to it once more before any of them is answered. A failed write (disk full, read
-    only) is tried once more in a new file the same way; if that fails too, the exchanges
-    waiting on the flush get :class:`RecordingError` (the service answers 503) and the
-    recorder is not :attr:`ready` until :meth:`probe` can write to the folder again.
+    only) is tried once more in a new file the same way, opened only when a probe can
+    write to the folder; if that fails too, the exchanges waiting on the flush get
+    :class:`RecordingError` (the service answers 503) and the recorder is not
+    :attr:`ready` until :meth:`probe` can write to the folder again. Meanwhile no file is
+    created (each refused request used to leave an empty one), and a file none of whose
+    flushes succeeded is removed.
 
     Parameters
     ----------
