@@ -33,9 +33,14 @@ __all__ = ["main"]
 REPLAY_EXIT_CODES = """exit status:
   0  every exchange compared and unchanged
   1  something changed: an answer, a recorded failure that now succeeds or fails
-     differently, or an exchange that did not answer within --timeout
-  2  nothing comparable (--allow-empty makes that 0), a file that is not a
-     recording at all, a usage or connection error (2 wins over 1)
+     differently, or an exchange that did not answer within --timeout; or two
+     records of one exchange (same id and time) that differ: a conflict
+  2  nothing comparable (--allow-empty makes that 0), a file that cannot be read,
+     no recording among the files, a FIFO, socket or device among the paths, a
+     usage or connection error (2 wins over 1)
+
+skipped with a note, deciding no exit code when other files are recordings: files
+that are empty or not MCAP at all.
 
 not compared, counted apart with the reason: requests never answered, answers
 whose request record is lost, bodies that timed out (408), replays whose original
@@ -81,6 +86,14 @@ def _serve(args: argparse.Namespace) -> int:
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
     settings = Settings()
+    if settings.record:
+        from plotgate.service.recorder import Recorder, RecordingError
+
+        try:  # here, since a failure in the app's start-up is a traceback and exit 3
+            Recorder(settings.log_dir, ()).start()
+        except RecordingError as exc:
+            print(f"plotgate serve: {exc}", file=sys.stderr)
+            return 2
     uvicorn.run(
         "plotgate.service.app:create_app",
         factory=True,
@@ -206,8 +219,7 @@ def _replay(args: argparse.Namespace) -> int:
         limits=limits,
     )
     code = report.exit_code(args.allow_empty)
-    for error in report.unreadable:
-        print(f"plotgate replay: {error}", file=sys.stderr)
+    _notes("replay", report.unreadable + report.skipped)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
     text = report.text()
@@ -232,13 +244,24 @@ def _recover(args: argparse.Namespace) -> int:
     return 0
 
 
-def _unreadable(command: str, unreadable: list[str], files: int) -> int:
-    """2, after saying why, when a file could not be read at all or there was none."""
-    for error in unreadable:
-        print(f"plotgate {command}: {error}", file=sys.stderr)
-    if not files:
-        print(f"plotgate {command}: no MCAP files there", file=sys.stderr)
-    return 2 if unreadable or not files else 0
+def _notes(command: str, notes: list[str]) -> None:
+    """The first hundred notes on stderr, then how many more: a full disk could once
+    leave thousands of empty files, each of which would be a line."""
+    from plotgate.clients.recordings import MAX_LISTED
+
+    for note in notes[:MAX_LISTED]:
+        print(f"plotgate {command}: {note}", file=sys.stderr)
+    if len(notes) > MAX_LISTED:
+        print(f"plotgate {command}: ... and {len(notes) - MAX_LISTED} more", file=sys.stderr)
+
+
+def _unreadable(command: str, unreadable: list[str], skipped: list[str], recordings: int) -> int:
+    """2, after saying why, when a file could not be read at all or none was a recording;
+    files skipped (empty, not MCAP) are noted and decide nothing when others are read."""
+    _notes(command, unreadable + skipped)
+    if not recordings:
+        print(f"plotgate {command}: no MCAP recordings there", file=sys.stderr)
+    return 2 if unreadable or not recordings else 0
 
 
 def _inspect(args: argparse.Namespace) -> int:
@@ -246,7 +269,9 @@ def _inspect(args: argparse.Namespace) -> int:
 
     summary = inspect(args.paths, _filters(args))
     if _write(json.dumps(summary, indent=2) if args.json else format_inspection(summary)):
-        return _unreadable("inspect", summary["unreadable"], len(summary["files"]))
+        return _unreadable(
+            "inspect", summary["unreadable"], summary["skipped"], summary["recordings"]
+        )
     return 0
 
 
@@ -267,7 +292,12 @@ def _cat(args: argparse.Namespace) -> int:
                 "more damaged records",
                 file=sys.stderr,
             )
-    return _unreadable("cat", reader.unreadable, len(reader.files))
+    for conflict in reader.conflicts:
+        print(f"plotgate cat: conflict: {conflict}", file=sys.stderr)
+    if reader.conflict_count > len(reader.conflicts):
+        more = reader.conflict_count - len(reader.conflicts)
+        print(f"plotgate cat: ... and {more} more conflicts", file=sys.stderr)
+    return _unreadable("cat", reader.unreadable, reader.skipped, reader.recordings)
 
 
 def _plot(args: argparse.Namespace) -> int:

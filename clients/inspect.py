@@ -34,7 +34,8 @@ class OperationStats:
 def inspect(
     paths: Path | str | Iterable[Path | str], filters: Filters | None = None
 ) -> dict[str, Any]:
-    """Per file: state, time range, metadata and damage; per operation (the exchanges the
+    """Per file: state, time range, metadata and damage (or why it is skipped: empty, not
+    MCAP); records written twice and conflicting records; per operation (the exchanges the
     filters take): counts, error counts by status, latency p50/p90/p99/max."""
     reader = Reader(paths, filters)
     durations: dict[str, array] = defaultdict(lambda: array("d"))
@@ -60,7 +61,11 @@ def inspect(
     return {
         "files": [rec.summary() for rec in reader.files],
         "unreadable": reader.unreadable,
+        "skipped": reader.skipped,
+        "recordings": reader.recordings,
         "written_twice": reader.written_twice,
+        "conflict_count": reader.conflict_count,
+        "conflicts": reader.conflicts,
         "operations": {op: vars(s) for op, s in sorted(stats.items())},
     }
 
@@ -69,8 +74,8 @@ def format_inspection(summary: dict[str, Any]) -> str:
     """The summary as plain text: a line per file (and per damage listed), then a table."""
     lines = []
     for f in summary["files"]:
-        if f["error"]:
-            lines.append(f"{f['path']}: {f['error']}")
+        if f["error"] or f["skipped"]:
+            lines.append(f["error"] or f["skipped"])
             continue
         state = "complete" if f["complete"] else "no footer (its writer did not finish)"
         span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
@@ -88,6 +93,9 @@ def format_inspection(summary: dict[str, Any]) -> str:
         lines.append(
             f"{summary['written_twice']} records written twice by the recorder, counted once"
         )
+    lines += [f"CONFLICT {c}" for c in summary["conflicts"]]
+    if summary["conflict_count"] > len(summary["conflicts"]):
+        lines.append(f"... and {summary['conflict_count'] - len(summary['conflicts'])} more")
     lines.append(
         f"{'operation':<24}{'requests':>9}{'answered':>9}{'errors':>8}{'replays':>8}"
         f"{'p50 ms':>9}{'p90 ms':>9}{'p99 ms':>9}{'max ms':>9}"

@@ -12,22 +12,41 @@ A message that is not is damage too, reported with its offset and skipped.
 Requests and responses are paired across every file read (:class:`Reader`), by operation,
 request id and time, so an exchange whose response went to the next file after a rotation
 is one exchange. Records the recorder wrote twice (a request written again into a new file
-after its file was lost: the same id, the same time) count once.
+after its file was lost: the same id, the same time, the same bytes) count once. Two
+records with the same id and time but different bytes are a conflict, which the recorder
+never writes: the first read is kept, and the conflict is reported naming both by file and
+offset.
+
+Only regular files are opened (a FIFO named ``*.mcap`` would block a reader forever): a
+FIFO, socket, device or folder among the paths is refused before anything is read
+(:class:`~plotgate.clients.scan.NotRegular`). A file that is empty or does not start with
+the MCAP magic is not a recording: it is skipped with a note, and decides no exit code
+when other files are recordings.
 """
 
+import hashlib
 import json
+import os
 import re
 from collections import OrderedDict, deque
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from mcap.records import Channel, Message, Metadata, Schema
 
-from plotgate.clients.scan import MAX_RECORD_BYTES, Damage, Located, NotMcap, Scan
+from plotgate.clients.scan import (
+    MAX_RECORD_BYTES,
+    Damage,
+    Located,
+    NotMcap,
+    Scan,
+    check_regular,
+    location,
+)
 from plotgate.service.schemas import REQUEST_ID_PATTERN, Problem
 
 __all__ = [
@@ -107,7 +126,9 @@ class Recording:
     """The first :data:`MAX_LISTED` pieces of damage, each with its offset."""
     damage_count: int = 0
     error: str | None = None
-    """Why the file could not be read at all (not MCAP, unreadable); None otherwise."""
+    """Why the file could not be read at all (an I/O error); None otherwise."""
+    skipped: str | None = None
+    """Why the file is not a recording (empty, or no MCAP magic); None when it is one."""
 
     @property
     def stopped_by(self) -> str | None:
@@ -129,6 +150,7 @@ class Recording:
             "size": self.size,
             "complete": self.complete,
             "error": self.error,
+            "skipped": self.skipped,
             "messages": self.messages,
             "chunks": self.chunks,
             "chunks_damaged": self.chunks_damaged,
@@ -172,7 +194,9 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
     """The MCAP files at ``paths`` (files, or folders whose ``*.mcap`` are taken), each once,
     in name order (names start with their UTC time, so this is time order).
 
-    Raises ``FileNotFoundError`` for a path that does not exist.
+    Raises ``FileNotFoundError`` for a path that does not exist, and
+    :class:`~plotgate.clients.scan.NotRegular` for one, given or in a folder, that is not a
+    regular file (a FIFO, socket, device or folder): refused before anything is read.
     """
     if isinstance(paths, str | Path):
         paths = [paths]
@@ -185,6 +209,7 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
         else:
             raise FileNotFoundError(f"no such file or folder: {path}")
         for f in files:
+            check_regular(f, os.stat(f).st_mode)
             found.setdefault(f.resolve(), f)
     return sorted(found.values(), key=lambda f: (f.name, str(f)))
 
@@ -283,12 +308,30 @@ def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | s
     return operation, kind
 
 
+class _Source(NamedTuple):
+    """Where a record was read, and a digest of its bytes: enough to tell a record the
+    recorder wrote twice (the same bytes) from a conflicting one, and to name both."""
+
+    digest: bytes
+    file: str
+    offset: int
+    inner: int | None
+
+    def __str__(self) -> str:
+        return f"{self.file} at {location(self.offset, self.inner)}"
+
+
+def _source(file: str, item: Located, data: bytes) -> _Source:
+    return _Source(hashlib.blake2b(data, digest_size=16).digest(), file, item.offset, item.inner)
+
+
 @dataclass
 class _Waiting:
     operation: str
     request_id: str
     log_time: int
     file: str
+    source: _Source
     data: bytes | None
     """The raw record; None for a request the filters leave out."""
     record: dict[str, Any] | None = None
@@ -307,10 +350,14 @@ class Reader:
     request (an answer without one by itself).
 
     ``files`` holds a :class:`Recording` for each file as it is read; ``unreadable`` the
-    files that could not be read at all; ``written_twice`` the records seen a second time.
-    Memory holds the requests waiting for an answer (raw and parsed), the keys of the last
-    100,000 answered exchanges and the (operation, id) of every original request read (to
-    know a replay whose original was read).
+    files that could not be read at all; ``skipped`` the files that are not recordings
+    (empty, or without the MCAP magic); ``written_twice`` the records seen a second time,
+    byte for byte; ``conflicts`` (the first :data:`MAX_LISTED`; ``conflict_count`` all)
+    the records with the key and time of one read before but other bytes, each naming both
+    records by file and offset. Memory holds the requests waiting for an answer (raw and
+    parsed), the keys, digests and places of the last 100,000 answered exchanges and the
+    (operation, id) of every original request read (to know a replay whose original was
+    read).
     """
 
     def __init__(
@@ -325,12 +372,20 @@ class Reader:
         self.max_record_bytes = max_record_bytes
         self.files: list[Recording] = []
         self.unreadable: list[str] = []
+        self.skipped: list[str] = []
         self.written_twice = 0
+        self.conflicts: list[str] = []
+        self.conflict_count = 0
         self._requests: dict[tuple[str, str], deque[_Waiting]] = {}
         self._responses: dict[tuple[str, str], deque[_Waiting]] = {}
-        self._seen: set[tuple[str, str, str, int]] = set()  # (kind, op, id, time) waiting
-        self._recent: OrderedDict[tuple[str, str, str, int], None] = OrderedDict()
+        self._seen: dict[tuple[str, str, str, int], _Source] = {}  # (kind, op, id, time) waiting
+        self._recent: OrderedDict[tuple[str, str, str, int], _Source] = OrderedDict()
         self._originals: set[tuple[str, str]] = set()
+
+    @property
+    def recordings(self) -> int:
+        """Files read so far that are recordings (neither skipped nor unreadable)."""
+        return sum(rec.error is None and rec.skipped is None for rec in self.files)
 
     def __iter__(self) -> Iterator[Exchange]:
         for path in self.paths:
@@ -356,7 +411,8 @@ class Reader:
                 elif isinstance(item.record, Message):
                     yield from self._message(rec, channels, item)
         except NotMcap as exc:
-            rec.error = str(exc)
+            rec.skipped = f"{exc}: skipped"
+            self.skipped.append(rec.skipped)
         except OSError as exc:
             rec.error = f"{rec.path}: cannot be read ({exc.strerror or exc})"
         if rec.error is not None:
@@ -387,8 +443,10 @@ class Reader:
         rid = record["request_id"]
         key = (operation, rid)
         mark = (kind, operation, rid, t)
-        if mark in self._seen or mark in self._recent:
-            self.written_twice += 1
+        source = _source(str(rec.path), item, message.data)
+        first = self._seen.get(mark) or self._recent.get(mark)
+        if first is not None:
+            self._again(mark, first, source)
             return
         keep = kind == "response" or self.filters.admit(operation, t)
         current = _Waiting(
@@ -396,6 +454,7 @@ class Reader:
             rid,
             t,
             str(rec.path),
+            source,
             message.data if keep else None,
             record if keep else None,
         )
@@ -408,23 +467,37 @@ class Reader:
         counterparts = other.get(key)
         if not counterparts:
             mine.setdefault(key, deque()).append(current)
-            self._seen.add(mark)
+            self._seen[mark] = source
             return
         waiting = counterparts.popleft()
         if not counterparts:
             del other[key]
-        self._seen.discard(
-            (("response" if kind == "request" else "request"), *key, waiting.log_time)
+        self._seen.pop(
+            (("response" if kind == "request" else "request"), *key, waiting.log_time), None
         )
         request, response = (current, waiting) if kind == "request" else (waiting, current)
-        for done in (("request", *key, request.log_time), ("response", *key, response.log_time)):
-            self._recent[done] = None
+        for done, kind_of in ((request, "request"), (response, "response")):
+            self._recent[(kind_of, *key, done.log_time)] = done.source
         while len(self._recent) > _RECENT:
             self._recent.popitem(last=False)
         if request.data is not None:
             exchange = self._exchange(request)
             exchange.response, exchange.response_bytes = response.record, response.data
             yield exchange
+
+    def _again(self, mark: tuple[str, str, str, int], first: _Source, again: _Source) -> None:
+        """A record with the key and time of one read before: written twice by the
+        recorder when the bytes are the same, else a conflict (the first one read stays)."""
+        if again.digest == first.digest:
+            self.written_twice += 1
+            return
+        self.conflict_count += 1
+        if len(self.conflicts) < MAX_LISTED:
+            kind, operation, rid, t = mark
+            self.conflicts.append(
+                f"{operation} {rid} at {iso_time(t)}: the {kind} record {again} differs from "
+                f"the one at {first} (that one kept)"
+            )
 
     def _exchange(self, request: _Waiting) -> Exchange:
         record = request.record or {}

@@ -12,7 +12,9 @@ when anything in it was damaged or missing, so a replay of the folder reads each
 once.
 
 A file that does not start with the MCAP magic is refused (:class:`Refused`) and left as
-it is: it is not a recording, and an empty copy would pass for one.
+it is: it is not a recording, and an empty copy would pass for one. So is a path that is
+not a regular file (a FIFO, socket, device or folder), at once: it is never opened to
+read, where a FIFO would block.
 """
 
 import os
@@ -23,7 +25,7 @@ from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.recordings import MAX_LISTED, parse_record, plotgate_channel
-from plotgate.clients.scan import MAGIC, Damage, NotMcap, Scan
+from plotgate.clients.scan import MAGIC, Damage, NotMcap, NotRegular, Scan, not_mcap, open_regular
 
 __all__ = ["Recovery", "Refused", "recover"]
 
@@ -152,6 +154,21 @@ class _Copy:
             self.recovery.damage.append(str(damage))
 
 
+def _check_magic(path: Path) -> None:
+    """Refuse ``path`` unless it is a regular file that starts with the MCAP magic."""
+    try:
+        fd = open_regular(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no such file: {path}") from None
+    except NotRegular as exc:
+        raise Refused(f"{path} is {exc.strerror}; left as it is") from None
+    try:
+        if os.pread(fd, len(MAGIC), 0) != MAGIC:
+            raise Refused(f"{not_mcap(path, os.fstat(fd).st_size)}; left as it is")
+    finally:
+        os.close(fd)
+
+
 def recover(path: Path | str, out: Path | str | None = None, keep: bool = False) -> Recovery:
     """Copy every intact record of ``path`` into a complete, indexed MCAP file.
 
@@ -162,19 +179,12 @@ def recover(path: Path | str, out: Path | str | None = None, keep: bool = False)
     keep : leave the original as it is (default: rename it to ``<name>.partial`` when
         anything in it was damaged or missing).
 
-    Raises :class:`Refused` for a file without the MCAP magic (left untouched),
-    ``FileNotFoundError`` for a missing one.
+    Raises :class:`Refused` for a file without the MCAP magic (left untouched) or a path
+    that is not a regular file, ``FileNotFoundError`` for a missing one.
     """
     path = Path(path)
     out = Path(out) if out is not None else path.with_name(f"{path.stem}.recovered.mcap")
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
-    with open(path, "rb") as f:
-        if f.read(len(MAGIC)) != MAGIC:
-            raise Refused(
-                f"{path} is not an MCAP file (it does not start with the MCAP "
-                "magic); left as it is"
-            )
+    _check_magic(path)
     if out.exists() and out.resolve() == path.resolve():
         raise Refused(f"the copy would overwrite {path}; name another with --out")
     recovery = Recovery(path, out)

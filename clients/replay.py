@@ -11,9 +11,19 @@ The exit code is a contract (docs/architecture.md, :meth:`ReplayReport.exit_code
 
 - 0: every exchange compared was unchanged (and at least one was compared);
 - 1: something changed, a recorded failure that now succeeds or fails differently
-  included, or an exchange did not answer within ``timeout``;
+  included, or an exchange did not answer within ``timeout``; or the recording
+  contradicts itself: two records of one exchange (same operation, request id, kind and
+  time) with different bytes, a conflict;
 - 2: the run could not do what was asked: nothing comparable (unless ``allow_empty``), a
-  file that is not a recording at all, a usage or connection error. 2 wins over 1.
+  file that cannot be read, no recording among the files given, a path that is not a
+  regular file, a usage or connection error. 2 wins over 1.
+
+A file that is empty or not MCAP at all (no MCAP magic) is skipped with a note: it
+decides no exit code when other files are recordings (a full disk used to leave empty
+files among sound ones). A conflict is counted apart from the tally: the first record
+read is the one replayed and compared, the other is named with it (file and offset) in
+``conflicts``; it exits 1 because which of the two the service answered cannot be told,
+so the session cannot be called unchanged.
 
 Not every exchange can be compared; these are counted apart, each with its reason, and do
 not change the exit code by themselves: a request never answered (the server stopped
@@ -30,6 +40,7 @@ it as a replay of its original, never under the original's id.
 """
 
 import contextlib
+import errno
 import json
 import signal
 import threading
@@ -106,20 +117,28 @@ class ReplayReport:
     not_compared: dict[str, int] = field(default_factory=dict)
     written_twice: int = 0
     """Records the recorder wrote twice (after losing a file), read once."""
+    conflict_count: int = 0
+    """Records with the key and time of one read before but other bytes."""
+    conflicts: list[str] = field(default_factory=list)
+    """The first :data:`MAX_LISTED` conflicts, each naming both records."""
     unreadable: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    """Files that are not recordings (empty, or no MCAP magic), passed over."""
+    recordings: int = 0
+    """Files read that are recordings."""
     changes: list[Change] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     """Exceptions raised in process (each answered as the server's 500)."""
 
     @property
     def ok(self) -> bool:
-        return self.changed == 0
+        return self.changed == 0 and self.conflict_count == 0
 
     def exit_code(self, allow_empty: bool = False) -> int:
         """0, 1 or 2 as the module's contract says."""
-        if self.unreadable:
+        if self.unreadable or (self.skipped and not self.recordings):
             return 2
-        if self.changed:
+        if self.changed or self.conflict_count:
             return 1
         return 0 if self.compared or allow_empty else 2
 
@@ -131,8 +150,12 @@ class ReplayReport:
             "changed": self.changed,
             "not_compared": self.not_compared,
             "written_twice": self.written_twice,
+            "conflict_count": self.conflict_count,
+            "conflicts": self.conflicts,
             "ok": self.ok,
             "unreadable": self.unreadable,
+            "skipped": self.skipped,
+            "recordings": self.recordings,
             "files": self.files,
             "changes": [vars(c) for c in self.changes],
             "notes": self.notes,
@@ -141,6 +164,9 @@ class ReplayReport:
     def text(self) -> str:
         lines = [_file_line(f) for f in self.files]
         lines += [f"unreadable: {u}" for u in self.unreadable]
+        lines += [f"CONFLICT {c}" for c in self.conflicts]
+        if self.conflict_count > len(self.conflicts):
+            lines.append(f"... and {self.conflict_count - len(self.conflicts)} more conflicts")
         for c in self.changes:
             lines.append(
                 f"CHANGED {c.operation} {c.request_id} {c.field}: "
@@ -158,6 +184,11 @@ class ReplayReport:
             lines.append(
                 f"  {self.written_twice} records written twice by the recorder, read once"
             )
+        if self.conflict_count:
+            lines.append(
+                f"  {self.conflict_count} conflicting records (exit 1): the first read of "
+                "each compared"
+            )
         lines.append(
             f"{self.compared} compared: {self.unchanged} unchanged, {self.changed} changed"
         )
@@ -165,8 +196,8 @@ class ReplayReport:
 
 
 def _file_line(f: dict[str, Any]) -> str:
-    if f["error"]:
-        return f"{f['path']}: {f['error']}"
+    if f["error"] or f["skipped"]:
+        return str(f["error"] or f["skipped"])
     span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
     state = "complete" if f["complete"] else f"truncated, recovered {f['messages']} messages"
     text = f"{f['path']}: {state}, {span}"
@@ -399,7 +430,10 @@ def replay(
     report.not_compared = dict(not_compared)
     report.files = [rec.summary() for rec in reader.files]
     report.unreadable = list(reader.unreadable)
+    report.skipped = list(reader.skipped)
+    report.recordings = reader.recordings
     report.written_twice = reader.written_twice
+    report.conflict_count, report.conflicts = reader.conflict_count, list(reader.conflicts)
     return report
 
 
@@ -467,7 +501,7 @@ class _SessionWriter:
         from plotgate.service.recorder import Recorder
         from plotgate.service.registry import OPERATIONS
 
-        out = Path(out)
+        out = self._out = Path(out)
         metadata = {
             "plotgate_version": VERSION,
             "replayed_from": ", ".join(map(str, sources))[:10_000],
@@ -477,17 +511,29 @@ class _SessionWriter:
         ).start()
 
     def __call__(self, exchange: Exchange, rid: str, answer: Answer, duration_s: float) -> None:
-        from plotgate.service.recorder import request_record, response_record
+        """Write one replayed exchange; ``OSError`` naming ``--out`` when it cannot be
+        written (a full disk), so the run ends with that message and exit 2, not as a bug,
+        and never with records silently missing."""
+        from plotgate.service.recorder import RecordingError, request_record, response_record
 
         op = exchange.operation
-        written = self._recorder.request(
-            op, request_record(rid, op, exchange.body, replay_of=exchange.request_id)
-        )
-        content = json.dumps(answer.content).encode()
-        self._recorder.response(
-            written, response_record(rid, op, answer.status or 0, duration_s, content)
-        )
-        self._recorder.flush()
+        try:
+            written = self._recorder.request(
+                op, request_record(rid, op, exchange.body, replay_of=exchange.request_id)
+            )
+            content = json.dumps(answer.content).encode()
+            self._recorder.response(
+                written, response_record(rid, op, answer.status or 0, duration_s, content)
+            )
+            flushed = self._recorder.flush()
+        except RecordingError as exc:
+            raise self._unwritable(exc.__cause__ or exc) from exc
+        if not flushed:
+            raise self._unwritable(self._recorder.error)
+
+    def _unwritable(self, failure: BaseException | None) -> OSError:
+        code = failure.errno if isinstance(failure, OSError) and failure.errno else errno.EIO
+        return OSError(code, f"the replayed session cannot be written: {failure}", str(self._out))
 
     def __enter__(self) -> "_SessionWriter":
         return self

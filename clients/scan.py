@@ -27,9 +27,11 @@ The data section's CRC (``DataEnd``, which plotgate's recorder does not write) i
 checked. Format: https://mcap.dev/spec.
 """
 
+import errno
 import io
 import os
 import re
+import stat
 import struct
 import zlib
 from collections.abc import Generator, Iterator
@@ -41,7 +43,20 @@ import lz4.frame
 import zstandard
 from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 
-__all__ = ["MAGIC", "MAX_CHUNK_BYTES", "MAX_RECORD_BYTES", "Damage", "Located", "NotMcap", "Scan"]
+__all__ = [
+    "MAGIC",
+    "MAX_CHUNK_BYTES",
+    "MAX_RECORD_BYTES",
+    "Damage",
+    "Located",
+    "NotMcap",
+    "NotRegular",
+    "Scan",
+    "check_regular",
+    "location",
+    "not_mcap",
+    "open_regular",
+]
 
 MAGIC = b"\x89MCAP0\r\n"
 MAX_RECORD_BYTES = 2**27
@@ -88,6 +103,65 @@ class NotMcap(Exception):
     """The file does not start with the MCAP magic: it is not a recording at all."""
 
 
+class NotRegular(OSError):
+    """The path is a FIFO, socket, device or folder, not a regular file. Readers open
+    only regular files: opening a FIFO blocks until a writer comes, which may be never."""
+
+
+_KINDS = {
+    stat.S_IFIFO: "a FIFO",
+    stat.S_IFSOCK: "a socket",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFDIR: "a folder",
+}
+
+
+def check_regular(path: Path | str, mode: int) -> None:
+    """Raise :class:`NotRegular` unless ``mode`` (an ``st_mode`` of ``path``) is a
+    regular file's."""
+    if not stat.S_ISREG(mode):
+        kind = _KINDS.get(stat.S_IFMT(mode), "a special file")
+        raise NotRegular(
+            errno.EINVAL,
+            f"{kind}, not a regular file (readers open only regular files)",
+            str(path),
+        )
+
+
+def open_regular(path: Path | str) -> int:
+    """A read-only descriptor of the regular file ``path``; :class:`NotRegular` for
+    anything else, at once.
+
+    The path is looked at before it is opened, and opened non-blocking, so that a FIFO
+    put there between the two still cannot block; the descriptor is checked again.
+    """
+    check_regular(path, os.stat(path).st_mode)
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        check_regular(path, os.fstat(fd).st_mode)
+    except NotRegular:
+        os.close(fd)
+        raise
+    return fd
+
+
+def not_mcap(path: Path | str, size: int) -> str:
+    """Why ``path`` (of ``size`` bytes) is not a recording: empty, or no MCAP magic."""
+    if size == 0:
+        return f"{path} is empty (0 bytes), not an MCAP file"
+    return f"{path} is not an MCAP file (it does not start with the MCAP magic)"
+
+
+def location(offset: int, inner: int | None) -> str:
+    """Where a record is: its file offset, and for one inside a chunk (the chunk's
+    offset) its byte offset among the chunk's uncompressed records."""
+    where = f"offset {offset}"
+    if inner is not None:
+        where += f" (chunk), byte {inner} of its records"
+    return where
+
+
 @dataclass(frozen=True)
 class Damage:
     """Something in a file that is not an intact record, and what was skipped for it.
@@ -101,10 +175,7 @@ class Damage:
     inner: int | None = None
 
     def __str__(self) -> str:
-        where = f"offset {self.offset}"
-        if self.inner is not None:
-            where += f" (chunk), byte {self.inner} of its records"
-        return f"{where}: {self.reason}"
+        return f"{location(self.offset, self.inner)}: {self.reason}"
 
 
 @dataclass(frozen=True)
@@ -244,7 +315,8 @@ class Scan:
     piece of damage (:class:`Damage`), in file order.
 
     Raises :class:`NotMcap` (before yielding anything) when the file does not start with
-    the MCAP magic, and ``OSError`` when it cannot be read. After the iteration,
+    the MCAP magic (an empty file included), :class:`NotRegular` when it is not a regular
+    file, and ``OSError`` when it cannot be read. After the iteration,
     ``complete`` says whether the file ended with its footer and magic, and the counters
     say what was kept and dropped.
     """
@@ -272,13 +344,11 @@ class Scan:
         self._after_damaged_chunk = False
 
     def __iter__(self) -> Iterator[Located | Damage]:
-        with open(self.path, "rb") as f:
-            self._fd = f.fileno()
+        self._fd = open_regular(self.path)
+        try:
             self.size = os.fstat(self._fd).st_size
             if os.pread(self._fd, len(MAGIC), 0) != MAGIC:
-                raise NotMcap(
-                    f"{self.path} is not an MCAP file (it does not start with the MCAP magic)"
-                )
+                raise NotMcap(not_mcap(self.path, self.size))
             yield from self._summary_channels()
             yield from self._records(len(MAGIC))
             if not self.complete:
@@ -287,6 +357,8 @@ class Scan:
                     "the file ends without its footer (its writer did not "
                     "finish it: killed, or still writing)",
                 )
+        finally:
+            os.close(self._fd)
 
     def _pread(self, n: int, at: int) -> bytes:
         return os.pread(self._fd, n, at)

@@ -63,6 +63,12 @@ ms. At this bound: about 9 MB, under 3 ms, and 42 ms of summary, written off the
 LARGE_RECORD_BYTES = 2**20
 """Records over this size are written from a worker thread, not on the event loop."""
 
+PROBE_BYTES = 2**16
+"""Bytes the probe writes: more than a new file's first flush (its schemas and channels,
+35 KB for the operations of this build), so that a disk a probe passes has room to open a
+file, and one with less refuses at once without creating and removing a file per
+request."""
+
 
 class RecordingError(RuntimeError):
     """The recorder could not write a record (disk full, directory gone, closed)."""
@@ -158,9 +164,12 @@ class Recorder:
     volume unmounted) takes every record written to it since it was opened, so the folder
     is created again, a new file opened, and the records of every exchange still in flight
     written to it once more before any of them is answered. A failed write (disk full, read
-    only) is tried once more in a new file the same way; if that fails too, the exchanges
-    waiting on the flush get :class:`RecordingError` (the service answers 503) and the
-    recorder is not :attr:`ready` until :meth:`probe` can write to the folder again.
+    only) is tried once more in a new file the same way, opened only when a probe can
+    write to the folder; if that fails too, the exchanges waiting on the flush get
+    :class:`RecordingError` (the service answers 503) and the recorder is not
+    :attr:`ready` until :meth:`probe` can write to the folder again. Meanwhile no file is
+    created (each refused request used to leave an empty one), and a file none of whose
+    flushes succeeded is removed.
 
     Parameters
     ----------
@@ -225,9 +234,13 @@ class Recorder:
         self._lost = False  # some in-flight record must be written again
 
     def start(self) -> "Recorder":
-        """Check the folder can be written; the first file is opened by the first record."""
-        self.directory.mkdir(parents=True, exist_ok=True)
-        if not os.access(self.directory, os.W_OK):
+        """Check the folder can be written (:class:`RecordingError` saying why, a file in
+        its place included); the first file is opened by the first record."""
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise RecordingError(f"cannot create the folder {self.directory}: {exc}") from exc
+        if not self._folder_writable():
             raise RecordingError(f"cannot write to {self.directory}")
         return self
 
@@ -243,9 +256,14 @@ class Recorder:
             self._summaries.shutdown(wait=True)
 
     @property
+    def error(self) -> Exception | None:
+        """The failure that stopped the last write, until a write or the probe works."""
+        return self._error
+
+    @property
     def ready(self) -> bool:
         """True while records can be written: open, no failed write, directory writable."""
-        return not self._closed and self._error is None and os.access(self.directory, os.W_OK)
+        return not self._closed and self._error is None and self._folder_writable()
 
     def probe(self) -> bool:
         """Look after the folder without waiting for traffic; then :attr:`ready`.
@@ -267,24 +285,37 @@ class Recorder:
                 self._finish()
             except _FileLost as exc:
                 self._drop(exc, whole_file=True)
-        if self._error is not None or not os.access(self.directory, os.W_OK):
-            probe = self.directory / f".plotgate-probe-{os.getpid()}"
-            try:
-                self.directory.mkdir(parents=True, exist_ok=True)
-                with open(probe, "wb") as f:
-                    f.write(b"\0" * 4096)
-                    f.flush()
-                    os.fsync(f.fileno())
-                probe.unlink()
-            except OSError as exc:
-                with contextlib.suppress(OSError):
-                    probe.unlink()
-                self._error = self._error or exc
+        if self._error is not None or not self._folder_writable():
+            failure = self._write_probe()
+            if failure is not None:
+                self._error = self._error or failure
                 return False
             self._error = None
         if self._lost:
             self.flush()
         return self.ready
+
+    def _folder_writable(self) -> bool:
+        """The folder is a folder (not a file put in its place) and may be written."""
+        return self.directory.is_dir() and os.access(self.directory, os.W_OK)
+
+    def _write_probe(self) -> OSError | None:
+        """Write a small file into the folder (creating it if missing), sync and remove it;
+        the error when that fails. The probe is removed either way, so trying leaves
+        nothing behind, however often it is tried on a full disk."""
+        probe = self.directory / f".plotgate-probe-{os.getpid()}"
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            with open(probe, "wb") as f:
+                f.write(b"\0" * PROBE_BYTES)
+                f.flush()
+                os.fsync(f.fileno())
+            probe.unlink()
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                probe.unlink()
+            return exc
+        return None
 
     def request(self, operation: str, data: bytes, log_time: int | None = None) -> Exchange:
         """Add a request record (plain code: it is written by the next ``flush``).
@@ -361,12 +392,14 @@ class Recorder:
                 current = self._stream.tell()
         return self._bytes_closed + current
 
-    def flush(self) -> None:
+    def flush(self) -> bool:
         """Hand every added record to the OS and release the answers waiting on them.
 
         The chunk is closed and flushed, then the file checked: still linked in its folder.
         A lost or failed file is replaced once (:meth:`_commit`); if that fails too, the
-        waiting answers get :class:`RecordingError`.
+        waiting answers get :class:`RecordingError`, and False is returned, so that plain
+        code, which has no answer waiting, learns it too (True: every record is with the
+        OS).
         """
         batch, self._batch = self._batch, None
         started = time.perf_counter()
@@ -375,11 +408,12 @@ class Recorder:
         except RecordingError as exc:
             if batch is not None and not batch.done():
                 batch.set_exception(exc)
-            return
+            return False
         if wrote and self.on_flush is not None:
             self.on_flush(time.perf_counter() - started)
         if batch is not None and not batch.done():
             batch.set_result(None)
+        return True
 
     def _commit(self) -> bool:
         """Flush the current file; on loss or failure, write the in-flight records to a new
@@ -513,16 +547,28 @@ class Recorder:
 
         Lazily, on a record: a file without messages would lose its schemas and channels,
         which mcap's writer keeps in the chunk being built.
+
+        After a failed write no file is created until a probe (:meth:`_write_probe`) can
+        write to the folder: on a full disk every refused request used to leave one empty
+        file behind (thousands a second), which the readers then took for recordings.
         """
         self._finish()
         self._find_gone()
+        if self._error is not None:
+            failure = self._write_probe()
+            if failure is not None:
+                raise RecordingError(f"cannot write to {self.directory}: {failure}")
         self.directory.mkdir(parents=True, exist_ok=True)
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
         self._seq += 1
         name = self.file_name or f"plotgate-{stamp}-pid{os.getpid()}-{self._seq:04d}.mcap"
         path = self.directory / name
+        if self.file_name is not None and self.files and path.exists():
+            # the one file failed: opening its name again would truncate what it holds
+            raise RecordingError(f"{path}: {self._error}; not opened again over its records")
         self._stream = open(path, "wb")  # noqa: SIM115 - open for the file's whole life
         self.files.append(path)
+        self._chunks, self._full = 0, False  # before anything can fail: see _drop
         writer = Writer(self._stream, compression=CompressionType.LZ4)
         writer.start(profile="", library="plotgate")
         writer.add_metadata("plotgate", self.metadata)
@@ -535,7 +581,6 @@ class Recorder:
         writer.flush()
         self._writer = writer
         self._opened_at = time.monotonic()
-        self._chunks, self._full = 0, False
         self._error = None
         if self._lost:
             self._lost = False
@@ -564,7 +609,7 @@ class Recorder:
         if moved:
             try:
                 named = os.stat(self.files[-1])
-            except FileNotFoundError:
+            except OSError:  # gone, or its folder now a file (ENOTDIR) or unreadable
                 raise _FileMoved from None
             if (named.st_dev, named.st_ino) != (opened.st_dev, opened.st_ino):
                 raise _FileMoved
@@ -601,10 +646,24 @@ class Recorder:
         self._answered.clear()
         self.pending = 0
         if self._stream is not None:
+            if self._chunks == 0 and not whole_file:
+                self._remove_unflushed()
             with contextlib.suppress(OSError):
                 self._stream.close()
         self._writer = None
         self._stream = None
+
+    def _remove_unflushed(self) -> None:
+        """Remove the current file, none of whose flushes succeeded: it holds nothing
+        acknowledged (at most part of its header and of records that are written again or
+        refused), and left behind it would be an empty or headless file that the readers
+        must skip. Only while its name still leads to it: never someone else's file."""
+        assert self._stream is not None
+        with contextlib.suppress(OSError):
+            opened = os.fstat(self._stream.fileno())
+            named = os.stat(self.files[-1])
+            if (named.st_dev, named.st_ino) == (opened.st_dev, opened.st_ino):
+                self.files[-1].unlink()
 
     def _find_gone(self, but: int = 0) -> None:
         """Mark for writing again the request records of in-flight exchanges whose file, one

@@ -96,3 +96,28 @@ def test_inspect_shows_time_ranges_and_filters(settings, capsys):
         == 0
     )
     assert list(json.loads(capsys.readouterr().out)["operations"]) == ["identification.pair"]
+
+
+def test_empty_and_foreign_files_are_noted_not_fatal(settings, capsys):
+    """Empty files (a full disk's litter) and a file that is not MCAP beside a recording:
+    cat and inspect read the recording, note the others, and exit 0; with nothing but
+    such files there is no recording, exit 2."""
+    _session(settings)
+    folder = settings.log_dir
+    (folder / "plotgate-29990101T000000.000000Z-pid1-0001.mcap").touch()
+    (folder / "notes.mcap").write_text("not a recording\n")
+    assert main(["cat", str(folder)]) == 0
+    out, err = capsys.readouterr()
+    assert len(out.splitlines()) == 4
+    assert "is empty (0 bytes), not an MCAP file: skipped" in err and "notes.mcap is not" in err
+    assert main(["inspect", str(folder)]) == 0
+    out, err = capsys.readouterr()
+    assert "is empty (0 bytes)" in out and "is empty (0 bytes)" in err
+    assert main(["inspect", str(folder), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["recordings"], len(summary["skipped"])) == (1, 2)
+    for recording in folder.glob("plotgate-2*.mcap"):
+        if recording.stat().st_size:
+            recording.unlink()
+    assert main(["cat", str(folder)]) == 2
+    assert "no MCAP recordings there" in capsys.readouterr().err

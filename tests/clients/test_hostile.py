@@ -8,6 +8,7 @@ independent reader rejects every damaged file and accepts the sound ones.
 """
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -156,3 +157,35 @@ def test_what_recover_writes_from_any_of_them_is_sound(hostile, tmp_path, mcap_c
         if expect[name].exchanges is not None:
             answered = [ex for ex in Reader([out]) if ex.request and ex.response]
             assert len(answered) == expect[name].exchanges, name
+
+
+@pytest.mark.parametrize("command", ["inspect", "cat", "replay", "recover"])
+def test_a_fifo_socket_or_device_is_refused_at_once(command, tmp_path):
+    """Readers open only regular files: a FIFO named *.mcap (given, or in a folder) blocked
+    inspect, cat and replay forever, and recover called it "no such file"."""
+    import socket
+
+    fifo, sock, device = tmp_path / "fifo.mcap", tmp_path / "socket.mcap", tmp_path / "dev.mcap"
+    os.mkfifo(fifo)
+    server = socket.socket(socket.AF_UNIX)
+    server.bind(str(sock))
+    device.symlink_to("/dev/zero")
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    os.mkfifo(folder / "plotgate-x.mcap")
+    paths = [fifo, sock, device] + ([] if command == "recover" else [folder])
+    kinds = ["a FIFO", "a socket", "a character device", "a FIFO"]
+    try:
+        for path, kind in zip(paths, kinds, strict=False):
+            run = subprocess.run(
+                [sys.executable, "-m", "plotgate.clients.cli", command, str(path)],
+                cwd=ROOT,
+                capture_output=True,
+                text=True,
+                timeout=120,  # a hang, not a speed: the refusal takes well under a second
+            )
+            assert run.returncode == 2, (path, run.stdout, run.stderr)
+            assert f"{kind}, not a regular file" in run.stderr, run.stderr
+            assert "Traceback" not in run.stderr and len(run.stderr.splitlines()) == 1
+    finally:
+        server.close()

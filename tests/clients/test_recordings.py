@@ -58,7 +58,7 @@ def test_cut_anywhere_keeps_a_prefix(settings):
     for cut in range(0, len(data), max(1, len(data) // 40)):
         path.write_bytes(data[:cut])
         if cut < 8:
-            assert read_recording(path).error is not None  # no magic: not a recording
+            assert read_recording(path).skipped is not None  # no magic: not a recording
             continue
         rec = read_recording(path)
         got = [ex.request_id for ex in rec.exchanges]
@@ -101,3 +101,28 @@ def test_a_response_in_the_next_file_pairs_with_its_request(settings, tmp_path):
     assert [(ex.request_id, ex.response["status"]) for ex in exchanges] == [("a", 200), ("b", 422)]
     assert reader.written_twice == 1
     assert all(rec.complete and not rec.damage for rec in reader.files)
+
+
+def test_the_same_id_and_time_with_other_bytes_is_a_conflict_not_a_record_written_twice(
+    tmp_path,
+):
+    """The recorder writes a record again only byte for byte: two records of one key and
+    time that differ are a conflict, reported with both places, the first read kept."""
+    from plotgate.service.recorder import Recorder, request_record, response_record
+    from plotgate.service.registry import OPERATIONS
+
+    recorder = Recorder(tmp_path, OPERATIONS.values(), max_bytes=1).start()
+    for body in (b'{"gate": {}}', b'{"gate": {"other": 1}}'):
+        exchange = recorder.request("gates.test", request_record("a", "gates.test", body), 1000)
+        recorder.response(exchange, response_record("a", "gates.test", 200, 0.1, b"{}"), 2000)
+        recorder.flush()
+        recorder.forget(exchange)
+    recorder.close()
+    first, second = sorted(tmp_path.glob("*.mcap"))
+    reader = Reader([first, second])
+    [exchange] = list(reader)
+    assert exchange.request == {"request_id": "a", "operation": "gates.test", "body": {"gate": {}}}
+    assert (reader.written_twice, reader.conflict_count) == (1, 1)  # the response is the same
+    [conflict] = reader.conflicts
+    assert conflict.startswith("gates.test a at 1970-01-01T00:00:00.000001Z: the request record")
+    assert f"{second} at offset " in conflict and f"the one at {first} at offset " in conflict

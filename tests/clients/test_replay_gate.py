@@ -3,6 +3,7 @@ comparable or unusable input), the tally (exchanges = compared + not compared, c
 unchanged + changed, each exchange once, across files), and no traceback on any of it."""
 
 import json
+import os
 import time
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from hypothesis import strategies as st
 from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.cli import main
+from plotgate.clients.recordings import read_recording
 from plotgate.clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
 from plotgate.service import registry
 from plotgate.service.app import create_app
@@ -181,6 +183,10 @@ def test_unchanged_changed_and_unreadable(settings, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "CHANGED gates.test r0 inside[1]" in out and "1 changed" in out
     (altered / "junk.mcap").write_bytes(b"not a recording")
+    assert main(["replay", str(altered)]) == 1  # a file that is not a recording is a note
+    assert "junk.mcap is not an MCAP file (it does not start" in capsys.readouterr().err
+    (altered / "junk.mcap").unlink()
+    os.mkfifo(altered / "junk.mcap")
     assert main(["replay", str(altered)]) == 2  # 2 wins over 1: the input is not all usable
 
 
@@ -334,3 +340,81 @@ def test_filters_pick_operations_and_times(settings, tmp_path):
     assert compared("--since", str(middle)) == 2
     assert compared("--until", str(middle)) == 1
     assert compared("--operation", "gates.test", "--since", str(middle)) == 1
+
+
+def test_empty_and_foreign_files_are_skipped_and_decide_nothing(settings, tmp_path, capsys):
+    """A full disk once left an empty file per refused request among sound recordings:
+    replay exited 2 ("not an MCAP file") though every exchange replayed unchanged."""
+    folder = _session(settings, [GOOD_BODY, BAD_BODY])
+    for i in range(5):
+        (folder / f"plotgate-29990101T000000.000000Z-pid1-{i:04d}.mcap").touch()
+    (folder / "notes.mcap").write_text("not a recording\n")
+    report = tmp_path / "report.json"
+    assert main(["replay", str(folder), "--report", str(report)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("is empty (0 bytes), not an MCAP file: skipped") == 5
+    assert "notes.mcap is not an MCAP file" in err
+    tally = json.loads(report.read_text())
+    assert (tally["compared"], tally["unchanged"], tally["recordings"]) == (2, 2, 1)
+    assert len(tally["skipped"]) == 6 and not tally["unreadable"]
+    only_empty = tmp_path / "only-empty"
+    only_empty.mkdir()
+    (only_empty / "a.mcap").touch()
+    assert main(["replay", str(only_empty), "--allow-empty"]) == 2  # not one recording
+
+
+def _conflicting(folder: Path) -> None:
+    """r0 recorded twice at one time with different bodies (and answers): the recorder
+    writes a record again only byte for byte, so this is a recording that contradicts
+    itself."""
+    answers = _answers()
+    events = []
+    for n, kind in enumerate(("ok", "changed")):
+        body, status, content = answers[kind]
+        if n:
+            body = body.replace(b"[", b"[ ", 1)  # another body: the same id, the same time
+        events.append((T0, "request", request_record("r0", OP, body)))
+        events.append((T0 + MS, "response", response_record("r0", OP, status, 0.001, content)))
+    write_files(folder, events, {1})
+
+
+def test_a_request_id_conflict_is_reported_by_file_and_offset_and_exits_1(tmp_path, capsys):
+    folder = tmp_path / "conflict"
+    _conflicting(folder)
+    report = tmp_path / "report.json"
+    assert main(["replay", str(folder), "--report", str(report)]) == 1
+    out = capsys.readouterr().out
+    tally = json.loads(report.read_text())
+    assert tally["written_twice"] == 0 and tally["conflict_count"] == 2  # request, response
+    assert (tally["exchanges"], tally["compared"], tally["unchanged"]) == (1, 1, 1)
+    first, second = sorted(folder.glob("*.mcap"))
+    request_conflict = tally["conflicts"][0]
+    assert request_conflict.startswith(f"{OP} r0 at ") and "the request record" in request_conflict
+    assert f"{second} at offset " in request_conflict and f"{first} at offset " in request_conflict
+    assert "CONFLICT" in out and "2 conflicting records (exit 1)" in out
+
+
+def test_a_full_disk_under_replay_out_is_a_message_and_exit_2(
+    settings, tmp_path, monkeypatch, capsys
+):
+    """--out on a disk that fills after the first exchange: the flush that fails is not
+    silent, and the run ends with the file and the reason, exit 2, not as a bug."""
+    folder = _session(settings, [GOOD_BODY, GOOD_BODY, GOOD_BODY])
+    real, calls = Writer.flush, []
+
+    def flush(writer):
+        calls.append(1)
+        if len(calls) > 2:  # the new file's schemas, then the first exchange
+            raise OSError(28, "No space left on device")
+        return real(writer)
+
+    monkeypatch.setattr(Writer, "flush", flush)
+    out = tmp_path / "out" / "session.mcap"
+    out.parent.mkdir()
+    assert main(["replay", str(folder), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{out}: the replayed session cannot be written: " in err, err
+    assert "No space left on device" in err and "internal error" not in err
+    monkeypatch.undo()
+    [kept] = read_recording(out).exchanges  # the exchange flushed before is not truncated
+    assert kept.replay_of == "r0"

@@ -251,3 +251,48 @@ def test_bytes_written_never_goes_down_across_a_rotation(tmp_path, monkeypatch):
     seen = asyncio.run(session())
     assert seen == sorted(seen), seen
     assert seen[-1] == sum(f.stat().st_size for f in (tmp_path / "rec").glob("*.mcap"))
+
+
+def test_a_file_in_place_of_the_moved_folder_makes_readyz_503_not_500(settings, tmp_path):
+    """The folder moved away (its open file with it, still linked) and a file put in its
+    place: the recorder's check of its file's name meets ENOTDIR, which is a move, not a
+    bug; /readyz says 503 until the folder is back, and the moved file keeps its records."""
+    folder, moved = settings.log_dir, tmp_path / "moved"
+    with TestClient(create_app(settings)) as c:
+        assert (
+            c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "a"}).status_code == 200
+        )
+        folder.rename(moved)
+        folder.write_text("not a folder")
+        ready = c.get("/readyz")
+        assert ready.status_code == 503 and ready.headers["retry-after"] == "1"
+        assert ready.headers["content-type"] == "application/problem+json"
+        r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "refused"})
+        assert r.status_code == 503
+        folder.unlink()
+        assert c.get("/readyz").status_code == 200
+        assert (
+            c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "b"}).status_code == 200
+        )
+    assert set(_answered(moved)) == {"a"} and set(_answered(folder)) == {"b"}
+
+
+def test_serve_into_a_file_is_a_message_and_exit_2(tmp_path, capsys, monkeypatch):
+    """A file where the recordings folder should be: one line and exit 2 before the
+    server starts, not the app's start-up traceback and uvicorn's exit 3."""
+    from plotgate.clients.cli import main
+    from tests.servers import free_port
+
+    for name in ("PLOTGATE_HOST", "PLOTGATE_PORT", "PLOTGATE_LOG_DIR"):  # serve sets them
+        monkeypatch.setenv(name, "")
+    folder = tmp_path / "recordings"
+    folder.write_text("not a folder")
+    code = main(
+        ["serve", "--host", "127.0.0.1", "--port", str(free_port()), "--log-dir", str(folder)]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert (
+        err.startswith(f"plotgate serve: cannot create the folder {folder}: ")
+        and "Traceback" not in err
+    )
