@@ -37,6 +37,7 @@ import httpx
 from pydantic import BaseModel, ValidationError
 
 from plotgate.clients.errors import (
+    MESSAGE_CHARS,
     InvalidResponseError,
     ResponseTooLarge,
     TransportError,
@@ -182,11 +183,13 @@ def parse_answer(operation: str, response: httpx.Response, attempts: int = 1) ->
 
 
 def _what_was_wrong(exc: ValidationError, shown: int = 3) -> str:
-    """The first ``shown`` of pydantic's errors, without the input (the body may be huge)."""
+    """The first ``shown`` of pydantic's errors, without the input (the body may be huge),
+    within :data:`~plotgate.clients.errors.MESSAGE_CHARS` (a key may be huge too)."""
     errors = exc.errors(include_url=False, include_input=False, include_context=False)
     parts = [f"{'.'.join(str(p) for p in e['loc']) or 'body'}: {e['msg']}" for e in errors[:shown]]
     more = f" (and {len(errors) - shown} more)" if len(errors) > shown else ""
-    return "; ".join(parts) + more
+    what = "; ".join(parts) + more
+    return what if len(what) <= MESSAGE_CHARS else what[:MESSAGE_CHARS] + "..."
 
 
 def _invalid(

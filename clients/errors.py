@@ -26,6 +26,7 @@ from plotgate.service.schemas import Problem
 
 __all__ = [
     "CLUSTER_UNAVAILABLE",
+    "MESSAGE_CHARS",
     "RECORDING_UNAVAILABLE",
     "ClusterUnavailable",
     "InvalidInputError",
@@ -44,6 +45,9 @@ RECORDING_UNAVAILABLE = "urn:plotgate:problem:recording-unavailable"
 """The problem ``type`` of a 503 whose exchange could not be recorded."""
 CLUSTER_UNAVAILABLE = "urn:plotgate:problem:cluster-unavailable"
 """The problem ``type`` of a 503 whose Dask cluster could not be had."""
+MESSAGE_CHARS = 2000
+"""The longest part of a message taken from an answer (a problem's title, or its fields or
+detail): a server, or a proxy, may send megabytes of them."""
 
 
 class PlotgateClientError(Exception):
@@ -87,12 +91,22 @@ class ProblemError(PlotgateClientError):
         self.problem = problem
         self.url = url
         self.attempts = attempts
-        fields = ", ".join(f"{e.field}: {e.reason}" for e in problem.errors)
         tries = f" (after {attempts} attempts)" if attempts > 1 else ""
         super().__init__(
-            f"{problem.status} {problem.title} from {url}"
-            f" (request {problem.request_id}): {fields or problem.detail}{tries}"
+            f"{problem.status} {problem.title[:MESSAGE_CHARS]} from {url}"
+            f" (request {problem.request_id}): {_what(problem)}{tries}"
         )
+
+
+def _what(problem: Problem, shown: int = 5) -> str:
+    """The first ``shown`` offending fields, else the detail, within :data:`MESSAGE_CHARS`:
+    the whole problem stays on the exception, the message stays readable."""
+    errors = problem.errors
+    fields = ", ".join(f"{e.field}: {e.reason}" for e in errors[:shown])
+    if len(errors) > shown:
+        fields += f" (and {len(errors) - shown} more)"
+    what = fields or problem.detail
+    return what if len(what) <= MESSAGE_CHARS else what[:MESSAGE_CHARS] + "..."
 
 
 class InvalidInputError(ProblemError):

@@ -3,6 +3,7 @@
 import asyncio
 import gzip
 import itertools
+import json
 import math
 from collections.abc import AsyncIterator, Iterable, Iterator
 
@@ -233,6 +234,7 @@ MALFORMED = {
     "deep nesting": b"[" * 100_000 + b"]" * 100_000,
     "empty": b"",
     "not utf-8": b'{"kind":"\xff\xfe"}',
+    "huge key": b'{"' + b"k" * 10**6 + b'": 1}',
 }
 
 
@@ -414,3 +416,13 @@ def test_the_hierarchy():
     assert issubclass(ResponseTooLarge, InvalidResponseError)
     assert issubclass(InvalidResponseError, PlotgateClientError)
     assert not issubclass(InvalidResponseError, ProblemError)
+
+
+def test_a_problem_with_a_million_fields_makes_a_readable_message():
+    errors = [{"field": f"candidates[{i}].r", "reason": "x" * 100} for i in range(10**5)]
+    problem = {"type": "about:blank", "title": "T" * 10**5, "status": 422, "detail": "d"}
+    body = json.dumps({**problem, "errors": errors}).encode()
+    with _mock(_answering(422, body, [])) as client, pytest.raises(InvalidInputError) as err:
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+    assert len(err.value.problem.errors) == 10**5  # all of it kept on the exception
+    assert len(str(err.value)) < 5000 and "(and 99995 more)" in str(err.value)
