@@ -307,9 +307,10 @@ class _Retries:
 def _unreachable(
     operation: str, where: httpx.URL, exc: httpx.TransportError, attempts: int
 ) -> TransportError:
-    """What a call raises when its last attempt, the ``attempts``-th, got no answer."""
+    """What a call raises when its last attempt, the ``attempts``-th, got no answer (named
+    by its type when it says nothing, as a connection reset under asyncio does)."""
     tries = f" (after {attempts} attempts)" if attempts > 1 else ""
-    return TransportError(f"{operation} at {where}: {exc}{tries}")
+    return TransportError(f"{operation} at {where}: {str(exc) or type(exc).__name__}{tries}")
 
 
 class Client:

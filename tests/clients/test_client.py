@@ -426,3 +426,11 @@ def test_a_problem_with_a_million_fields_makes_a_readable_message():
         client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
     assert len(err.value.problem.errors) == 10**5  # all of it kept on the exception
     assert len(str(err.value)) < 5000 and "(and 99995 more)" in str(err.value)
+
+
+def test_a_transport_error_that_says_nothing_is_named_by_its_type():
+    def reset(request: httpx.Request) -> httpx.Response:
+        raise httpx.ReadError("", request=request)
+
+    with _mock(reset, retries=0) as client, pytest.raises(TransportError, match=r"ReadError$"):
+        client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
