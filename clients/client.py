@@ -30,7 +30,7 @@ from asyncio import sleep as async_sleep
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from random import uniform
-from time import sleep
+from time import monotonic, sleep
 from typing import Any, TypeVar
 
 import httpx
@@ -99,7 +99,8 @@ __all__ = [
 
 DEFAULT_URL = "http://127.0.0.1:8000"
 DEFAULT_TIMEOUT = httpx.Timeout(30.0, connect=5.0)
-"""No call can hang forever: 30 s for an answer, 5 s to connect."""
+"""No call can hang forever: 30 s for an answer's headers, 30 s more for its whole body
+(however slowly it trickles), 5 s to connect."""
 SLOW_TIMEOUT = httpx.Timeout(600.0, connect=5.0)
 """For operations whose endpoint is marked ``slow`` (quadratures, gate design)."""
 DEFAULT_RETRIES = 3
@@ -218,10 +219,14 @@ def _check_max_bytes(max_response_bytes: int) -> int:
 
 
 class _Body:
-    """An answer's body, taken piece by piece as it arrives and refused past ``max_bytes``.
+    """An answer's body, taken piece by piece as it arrives and refused past ``max_bytes``,
+    or when it is still coming a read timeout after the headers.
 
     The cap applies to the decoded body (what the caller would hold), so a compressed answer
     is bounded too; a ``Content-Length`` over the cap is refused before reading anything.
+    httpx's read timeout bounds each wait for the next bytes only: a body trickling a byte
+    every few seconds would never end, so the whole body must also come within that timeout
+    (checked as each piece arrives), else ``httpx.ReadTimeout``, not retried, as any other.
     """
 
     def __init__(self, response: httpx.Response, max_bytes: int, attempts: int) -> None:
@@ -230,6 +235,9 @@ class _Body:
         self.attempts = attempts
         self.pieces: list[bytes] = []
         self.size = 0
+        timeouts = response.request.extensions.get("timeout", {})
+        self.read_timeout: float | None = timeouts.get("read")
+        self.deadline = math.inf if self.read_timeout is None else monotonic() + self.read_timeout
         declared = response.headers.get("content-length", "")
         if declared.isdigit() and int(declared) > max_bytes:
             raise self._too_large(f"Content-Length {declared}")
@@ -238,6 +246,12 @@ class _Body:
         self.size += len(piece)
         if self.size > self.max_bytes:
             raise self._too_large(f"more than {self.size - len(piece)} bytes")
+        if monotonic() > self.deadline:
+            raise httpx.ReadTimeout(
+                f"the body was still coming {self.read_timeout:g} s after the headers "
+                f"({self.size} bytes so far)",
+                request=self.response.request,
+            )
         self.pieces.append(piece)
 
     def _too_large(self, size: str) -> ResponseTooLarge:
@@ -330,12 +344,14 @@ class Client:
     of a call carries the same ``X-Request-ID`` (the caller's, else a new one), so the
     server's records of a retried call share one id. When the last attempt fails the call
     raises what it failed with, saying how many attempts there were. (The waits go through
-    this module's ``sleep``, ``async_sleep`` and ``uniform``, which tests replace.)
+    this module's ``sleep``, ``async_sleep`` and ``uniform``, and the body's deadline through
+    its ``monotonic``, which tests replace.)
 
     Parameters
     ----------
     base_url : where the service listens.
-    timeout : an ``httpx.Timeout`` or seconds; defaults to :data:`DEFAULT_TIMEOUT`.
+    timeout : an ``httpx.Timeout`` or seconds; defaults to :data:`DEFAULT_TIMEOUT`. Its read
+        timeout also bounds the whole of an answer's body, from its headers.
     transport : an httpx transport, e.g. ``httpx.ASGITransport(app)`` to call an app in-process.
     headers : extra headers for every call (an API key, say).
     retries : how many times a call is tried again (default 3); 0 turns retries off.

@@ -434,3 +434,43 @@ def test_a_transport_error_that_says_nothing_is_named_by_its_type():
 
     with _mock(reset, retries=0) as client, pytest.raises(TransportError, match=r"ReadError$"):
         client.test_gate(GATE, _plot(0, 0), [_plot(1, 1)])
+
+
+class Clock:
+    """The client's ``monotonic``, moved on a second by every piece of a trickling body."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+    def trickle(self) -> Iterator[bytes]:
+        while True:
+            self.now += 1.0
+            yield b" "
+
+
+@pytest.mark.parametrize("asynchronous", [False, True])
+def test_a_body_trickling_past_the_read_timeout_ends_the_call(monkeypatch, asynchronous):
+    """A byte a second never trips httpx's read timeout (a wait for the next bytes); the
+    whole body gets that timeout too, and like any timeout once connected it is not
+    retried."""
+    from plotgate.clients import client as client_module
+
+    clock = Clock()
+    monkeypatch.setattr(client_module, "monotonic", clock)
+    body = Streamed(clock.trickle())
+    handler = _streaming(200, body)
+    with pytest.raises(TransportError, match="still coming 10 s after the headers") as err:
+        if asynchronous:
+
+            async def call() -> None:
+                async with _async_mock(handler, timeout=10.0) as client:
+                    await client.send("gates.test", b"{}")
+
+            asyncio.run(call())
+        else:
+            with _mock(handler, timeout=10.0) as client:
+                client.send("gates.test", b"{}")
+    assert body.produced == 11 and "attempts" not in str(err.value)
