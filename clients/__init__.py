@@ -9,6 +9,7 @@ from plotgate.clients.client import (
     DEFAULT_URL,
     AsyncClient,
     Client,
+    parse_answer,
 )
 from plotgate.clients.errors import (
     ClusterUnavailable,
@@ -39,4 +40,5 @@ __all__ = [
     "ServerError",
     "ServiceUnavailable",
     "TransportError",
+    "parse_answer",
 ]

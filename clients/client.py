@@ -398,7 +398,9 @@ class Client:
 
     def send(self, operation: str, body: bytes, request_id: str | None = None) -> httpx.Response:
         """POST a JSON body as it is (the server validates it) to ``operation``, retried as
-        :meth:`call` is; returns the last answer whatever its status."""
+        :meth:`call` is; returns the last answer whatever its status, its body read and
+        decoded within ``max_response_bytes`` (else ``ResponseTooLarge``). :func:`parse_answer`
+        turns it into the operation's response model or the error :meth:`call` would raise."""
         return self._post(operation, body, request_id)[0]
 
     def _post(
@@ -571,7 +573,9 @@ class AsyncClient:
         self, operation: str, body: bytes, request_id: str | None = None
     ) -> httpx.Response:
         """POST a JSON body as it is (the server validates it) to ``operation``, retried as
-        :meth:`call` is; returns the last answer whatever its status."""
+        :meth:`call` is; returns the last answer whatever its status, its body read and
+        decoded within ``max_response_bytes`` (else ``ResponseTooLarge``). :func:`parse_answer`
+        turns it into the operation's response model or the error :meth:`call` would raise."""
         return (await self._post(operation, body, request_id))[0]
 
     async def _post(
