@@ -154,34 +154,58 @@ def _call(args: argparse.Namespace) -> int:
     body = (
         sys.stdin.buffer.read() if args.request in (None, "-") else Path(args.request).read_bytes()
     )
-    if args.server is None:
-        from plotgate.service.cluster import ClusterUnavailable, cluster
-        from plotgate.service.registry import OPERATIONS, execute, internal_error
+    if args.server is not None:
+        return _call_server(args, body)
+    from plotgate.service.cluster import ClusterUnavailable, cluster
+    from plotgate.service.registry import OPERATIONS, execute, internal_error
 
-        op = OPERATIONS[args.operation]
-        try:
-            with cluster(args.dask, args.local_workers, progress=sys.stderr.isatty()):
-                try:
-                    outcome = execute(op, body)
-                except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
-                    print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
-                    outcome = internal_error(op, None)
-        except ClusterUnavailable as exc:
-            print(f"plotgate call: {exc}", file=sys.stderr)
-            return 2
-        status, content = outcome.status, outcome.content
-    else:
-        from plotgate.clients.client import DEFAULT_BACKOFF, DEFAULT_RETRIES, SLOW_TIMEOUT, Client
+    op = OPERATIONS[args.operation]
+    try:
+        with cluster(args.dask, args.local_workers, progress=sys.stderr.isatty()):
+            try:
+                outcome = execute(op, body)
+            except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
+                print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
+                outcome = internal_error(op, None)
+    except ClusterUnavailable as exc:
+        print(f"plotgate call: {exc}", file=sys.stderr)
+        return 2
+    sys.stdout.write(json.dumps(json.loads(outcome.content), indent=2) + "\n")
+    return 0 if outcome.status < 400 else 1
 
-        retries = DEFAULT_RETRIES if args.retries is None else args.retries
-        backoff = DEFAULT_BACKOFF if args.backoff is None else args.backoff
+
+def _call_server(args: argparse.Namespace, body: bytes) -> int:
+    """``plotgate call --server``: the answer (exit 0) or the problem (exit 1), the one the
+    server sent or, for an error body that is not one (a proxy's HTML 502), the one the
+    client makes of its status and text; exit 2, with a message, when no usable answer came
+    (unreachable, or an answer that is not the operation's: not JSON, the wrong schema, over
+    the client's size cap)."""
+    from plotgate.clients.client import (
+        DEFAULT_BACKOFF,
+        DEFAULT_RETRIES,
+        SLOW_TIMEOUT,
+        Client,
+        parse_answer,
+    )
+    from plotgate.clients.errors import PlotgateClientError, ProblemError
+
+    retries = DEFAULT_RETRIES if args.retries is None else args.retries
+    backoff = DEFAULT_BACKOFF if args.backoff is None else args.backoff
+    try:
         with Client(args.server, timeout=SLOW_TIMEOUT, retries=retries, backoff=backoff) as client:
             answer = client.send(args.operation, body)
-        status, content = answer.status_code, answer.content
-        if status == 503 and retries:
+        parse_answer(args.operation, answer)
+    except ProblemError as exc:
+        if answer.status_code == 503 and retries:
             print(f"plotgate call: still 503 after {retries + 1} attempts", file=sys.stderr)
-    sys.stdout.write(json.dumps(json.loads(content), indent=2) + "\n")
-    return 0 if status < 400 else 1
+        problem = exc.problem.model_dump(mode="json", exclude_none=True)
+        sys.stdout.write(json.dumps(problem, indent=2) + "\n")
+        return 1
+    except PlotgateClientError as exc:
+        print(f"plotgate call: {exc}", file=sys.stderr)
+        return 2
+    sys.stdout.write(json.dumps(json.loads(answer.content), indent=2) + "\n")
+    return 0
 
 
 def _filters(args: argparse.Namespace):
@@ -502,7 +526,8 @@ def _parser() -> argparse.ArgumentParser:
         "answer), or on a live server with --server (a 503 or a failed connection tried again, "
         "--retries times). initiation.evaluate's runs go to a Dask "
         "cluster with --dask or --local-workers, with the same numbers. Exit 0 on an answer, "
-        "1 on a problem, 2 when the cluster cannot be had.",
+        "1 on a problem, 2 when the cluster cannot be had or no usable answer came from the "
+        "server (unreachable, not the operation's answer, over 128 MiB).",
     )
     call.add_argument("operation", choices=sorted(ENDPOINTS), help="operation name")
     call.add_argument("request", nargs="?", help="JSON request file (default: stdin)")

@@ -13,6 +13,14 @@ Errors are the exceptions of :mod:`plotgate.clients.errors`. The README shows a 
 Both clients retry a 503 and a failed connection, with jittered exponential backoff (see
 :class:`Client`): every operation is a pure function of its body, so sending one twice is
 harmless.
+
+Every failure is a :class:`~plotgate.clients.errors.PlotgateClientError`: no answer is a
+``TransportError``, a problem answer a ``ProblemError``, and an answer that is not the
+operation's (HTML, JSON cut short, the wrong schema, NaN where the schema has none, nesting
+too deep) an ``InvalidResponseError``. Bodies are read in pieces and refused once they pass
+``max_response_bytes`` (:data:`DEFAULT_MAX_RESPONSE_BYTES`), a ``ResponseTooLarge``: a
+server, or something in its place, that streams without end costs the caller that much
+memory and no more.
 """
 
 import math
@@ -22,13 +30,19 @@ from asyncio import sleep as async_sleep
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from random import uniform
-from time import sleep
-from typing import Any
+from time import monotonic, sleep
+from typing import Any, TypeVar
 
 import httpx
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
-from plotgate.clients.errors import TransportError, raise_for_problem
+from plotgate.clients.errors import (
+    MESSAGE_CHARS,
+    InvalidResponseError,
+    ResponseTooLarge,
+    TransportError,
+    raise_for_problem,
+)
 from plotgate.service.schemas import (
     ENDPOINTS,
     CrlbRequest,
@@ -72,6 +86,7 @@ from plotgate.service.schemas import (
 __all__ = [
     "DEFAULT_BACKOFF",
     "DEFAULT_BACKOFF_MAX",
+    "DEFAULT_MAX_RESPONSE_BYTES",
     "DEFAULT_RETRIES",
     "DEFAULT_TIMEOUT",
     "DEFAULT_URL",
@@ -79,11 +94,13 @@ __all__ = [
     "SLOW_TIMEOUT",
     "AsyncClient",
     "Client",
+    "parse_answer",
 ]
 
 DEFAULT_URL = "http://127.0.0.1:8000"
 DEFAULT_TIMEOUT = httpx.Timeout(30.0, connect=5.0)
-"""No call can hang forever: 30 s for an answer, 5 s to connect."""
+"""No call can hang forever: 30 s for an answer's headers, 30 s more for its whole body
+(however slowly it trickles), 5 s to connect."""
 SLOW_TIMEOUT = httpx.Timeout(600.0, connect=5.0)
 """For operations whose endpoint is marked ``slow`` (quadratures, gate design)."""
 DEFAULT_RETRIES = 3
@@ -92,6 +109,19 @@ DEFAULT_BACKOFF = 0.5
 """Seconds: the longest wait before the first retry, doubled for each one after it."""
 DEFAULT_BACKOFF_MAX = 30.0
 """Seconds: no wait between attempts is longer, whatever the doubling or ``Retry-After``."""
+DEFAULT_MAX_RESPONSE_BYTES = 2**27
+"""The largest answer body a client reads, decoded (128 MiB); past it the call raises
+``ResponseTooLarge``.
+
+The service sets no cap on its answers, and the largest one its schemas allow is
+``identification.picture`` at 10,000 x 10,000 tracks: about 45 bytes of JSON per pair
+(measured at 200 x 200), some 4.5 GB, which would bound nothing (the endless body this cap
+answers reached 7.4 GB).
+128 MiB is instead the largest record plotgate's own MCAP readers hold
+(``plotgate.clients.scan.MAX_RECORD_BYTES``): an answer over it could not be replayed
+either. Every other operation's largest answer is far below it (measured: a gate test of
+100,000 candidates is 2.0 MB, a simulation of 100,000 plots 12 MB); a picture past about
+1,700 x 1,700 tracks needs a larger ``max_response_bytes``."""
 RETRIED_ERRORS: tuple[type[httpx.TransportError], ...] = (
     httpx.NetworkError,  # ConnectError, ReadError, WriteError, CloseError
     httpx.ConnectTimeout,
@@ -103,6 +133,7 @@ broke. A ReadTimeout is not among them: the server may still be working on the r
 long Monte Carlo say, and a second copy would double its load; nor a WriteTimeout: a server
 too slow to take the body is overloaded already."""
 _DELTA_SECONDS = re.compile(r"[0-9]+")
+_Invalid = TypeVar("_Invalid", bound=InvalidResponseError)
 
 
 def _model(operation: str, request: BaseModel | Mapping[str, Any]) -> BaseModel:
@@ -119,10 +150,10 @@ def _check_type(operation: str, request: BaseModel) -> None:
         raise TypeError(f"{operation} takes {expected.__name__}, not {type(request).__name__}")
 
 
-def _prepare(
-    operation: str, request_id: str | None, http: httpx.Client | httpx.AsyncClient
-) -> tuple[str, dict[str, str], Any]:
-    """Path, headers and timeout of a call.
+def _request(
+    operation: str, body: bytes, request_id: str | None, http: httpx.Client | httpx.AsyncClient
+) -> httpx.Request:
+    """The POST of a call, sent as it is by every attempt.
 
     Every attempt of a call carries one ``X-Request-ID``: ``request_id``, else the client's
     own header, else a new one, so that the server's records of a retried call share its
@@ -133,12 +164,112 @@ def _prepare(
     if request_id or "x-request-id" not in http.headers:
         headers["x-request-id"] = request_id or uuid.uuid4().hex
     timeout = SLOW_TIMEOUT if endpoint.slow else httpx.USE_CLIENT_DEFAULT
-    return endpoint.path, headers, timeout
+    return http.build_request(
+        "POST", endpoint.path, content=body, headers=headers, timeout=timeout
+    )
 
 
-def _parse(operation: str, response: httpx.Response, attempts: int) -> Any:
+def parse_answer(operation: str, response: httpx.Response, attempts: int = 1) -> Any:
+    """The response model of ``operation`` from ``response``, the last of ``attempts``
+    requests (what :meth:`Client.call` returns): a non-2xx answer raises its
+    :class:`~plotgate.clients.errors.ProblemError`, a 2xx body that is not the operation's
+    response :class:`InvalidResponseError`. For an answer got with :meth:`Client.send`."""
     raise_for_problem(response, attempts)
-    return ENDPOINTS[operation].response.model_validate_json(response.content)
+    model = ENDPOINTS[operation].response
+    try:
+        return model.model_validate_json(response.content)
+    except ValidationError as exc:
+        reason = f"not a {model.__name__}: {_what_was_wrong(exc)}"
+        raise _invalid(InvalidResponseError, reason, response, attempts) from exc
+
+
+def _what_was_wrong(exc: ValidationError, shown: int = 3) -> str:
+    """The first ``shown`` of pydantic's errors, without the input (the body may be huge),
+    within :data:`~plotgate.clients.errors.MESSAGE_CHARS` (a key may be huge too)."""
+    errors = exc.errors(include_url=False, include_input=False, include_context=False)
+    parts = [f"{'.'.join(str(p) for p in e['loc']) or 'body'}: {e['msg']}" for e in errors[:shown]]
+    more = f" (and {len(errors) - shown} more)" if len(errors) > shown else ""
+    what = "; ".join(parts) + more
+    return what if len(what) <= MESSAGE_CHARS else what[:MESSAGE_CHARS] + "..."
+
+
+def _invalid(
+    kind: type[_Invalid], reason: str, response: httpx.Response, attempts: int
+) -> _Invalid:
+    """An :class:`InvalidResponseError` of ``kind`` about ``response``, the last of
+    ``attempts`` requests."""
+    request = response.request
+    request_id = response.headers.get("x-request-id") or request.headers.get("x-request-id")
+    return kind(reason, response.status_code, str(request.url), request_id, attempts)
+
+
+def _undecodable(
+    response: httpx.Response, exc: httpx.DecodingError, attempts: int
+) -> InvalidResponseError:
+    reason = f"body does not decode as its Content-Encoding says: {exc}"
+    return _invalid(InvalidResponseError, reason, response, attempts)
+
+
+def _check_max_bytes(max_response_bytes: int) -> int:
+    if isinstance(max_response_bytes, bool) or not isinstance(max_response_bytes, int):
+        raise ValueError(f"max_response_bytes must be an integer, got {max_response_bytes!r}")
+    if max_response_bytes < 1:
+        raise ValueError(f"max_response_bytes must be >= 1, got {max_response_bytes}")
+    return max_response_bytes
+
+
+class _Body:
+    """An answer's body, taken piece by piece as it arrives and refused past ``max_bytes``,
+    or when it is still coming a read timeout after the headers.
+
+    The cap applies to the decoded body (what the caller would hold), so a compressed answer
+    is bounded too; a ``Content-Length`` over the cap is refused before reading anything.
+    httpx's read timeout bounds each wait for the next bytes only: a body trickling a byte
+    every few seconds would never end, so the whole body must also come within that timeout
+    (checked as each piece arrives), else ``httpx.ReadTimeout``, not retried, as any other.
+    """
+
+    def __init__(self, response: httpx.Response, max_bytes: int, attempts: int) -> None:
+        self.response = response
+        self.max_bytes = max_bytes
+        self.attempts = attempts
+        self.pieces: list[bytes] = []
+        self.size = 0
+        timeouts = response.request.extensions.get("timeout", {})
+        self.read_timeout: float | None = timeouts.get("read")
+        self.deadline = math.inf if self.read_timeout is None else monotonic() + self.read_timeout
+        declared = response.headers.get("content-length", "")
+        if declared.isdigit() and int(declared) > max_bytes:
+            raise self._too_large(f"Content-Length {declared}")
+
+    def add(self, piece: bytes) -> None:
+        self.size += len(piece)
+        if self.size > self.max_bytes:
+            raise self._too_large(f"more than {self.size - len(piece)} bytes")
+        if monotonic() > self.deadline:
+            raise httpx.ReadTimeout(
+                f"the body was still coming {self.read_timeout:g} s after the headers "
+                f"({self.size} bytes so far)",
+                request=self.response.request,
+            )
+        self.pieces.append(piece)
+
+    def _too_large(self, size: str) -> ResponseTooLarge:
+        reason = f"body is {size}; the client reads at most {self.max_bytes} (max_response_bytes)"
+        return _invalid(ResponseTooLarge, reason, self.response, self.attempts)
+
+    def whole(self) -> httpx.Response:
+        """The answer with its body in memory, decoded: the headers that described the bytes
+        on the wire (encoding, length, framing) are dropped, since they no longer apply."""
+        wire = {"content-encoding", "content-length", "transfer-encoding"}
+        headers = [(k, v) for k, v in self.response.headers.multi_items() if k not in wire]
+        return httpx.Response(
+            self.response.status_code,
+            headers=headers,
+            content=b"".join(self.pieces),
+            request=self.response.request,
+            extensions=self.response.extensions,
+        )
 
 
 def _retry_after(response: httpx.Response) -> float:
@@ -190,9 +321,10 @@ class _Retries:
 def _unreachable(
     operation: str, where: httpx.URL, exc: httpx.TransportError, attempts: int
 ) -> TransportError:
-    """What a call raises when its last attempt, the ``attempts``-th, got no answer."""
+    """What a call raises when its last attempt, the ``attempts``-th, got no answer (named
+    by its type when it says nothing, as a connection reset under asyncio does)."""
     tries = f" (after {attempts} attempts)" if attempts > 1 else ""
-    return TransportError(f"{operation} at {where}: {exc}{tries}")
+    return TransportError(f"{operation} at {where}: {str(exc) or type(exc).__name__}{tries}")
 
 
 class Client:
@@ -212,18 +344,23 @@ class Client:
     of a call carries the same ``X-Request-ID`` (the caller's, else a new one), so the
     server's records of a retried call share one id. When the last attempt fails the call
     raises what it failed with, saying how many attempts there were. (The waits go through
-    this module's ``sleep``, ``async_sleep`` and ``uniform``, which tests replace.)
+    this module's ``sleep``, ``async_sleep`` and ``uniform``, and the body's deadline through
+    its ``monotonic``, which tests replace.)
 
     Parameters
     ----------
     base_url : where the service listens.
-    timeout : an ``httpx.Timeout`` or seconds; defaults to :data:`DEFAULT_TIMEOUT`.
+    timeout : an ``httpx.Timeout`` or seconds; defaults to :data:`DEFAULT_TIMEOUT`. Its read
+        timeout also bounds the whole of an answer's body, from its headers.
     transport : an httpx transport, e.g. ``httpx.ASGITransport(app)`` to call an app in-process.
     headers : extra headers for every call (an API key, say).
     retries : how many times a call is tried again (default 3); 0 turns retries off.
     backoff : seconds, the longest wait before the first retry, doubled for each one after it
         (default 0.5).
     backoff_max : seconds, the longest wait before any retry (default 30).
+    max_response_bytes : the largest answer body read, decoded (default
+        :data:`DEFAULT_MAX_RESPONSE_BYTES`, 128 MiB); a larger one raises
+        ``ResponseTooLarge``, whatever its status, and is not retried.
     """
 
     def __init__(
@@ -236,8 +373,10 @@ class Client:
         retries: int = DEFAULT_RETRIES,
         backoff: float = DEFAULT_BACKOFF,
         backoff_max: float = DEFAULT_BACKOFF_MAX,
+        max_response_bytes: int = DEFAULT_MAX_RESPONSE_BYTES,
     ) -> None:
         self._retries = _Retries(retries, backoff, backoff_max)
+        self._max_response_bytes = _check_max_bytes(max_response_bytes)
         self._http = httpx.Client(
             base_url=base_url, timeout=timeout, transport=transport, headers=headers
         )
@@ -255,24 +394,26 @@ class Client:
         """Run any operation by name, retried as the class says; returns its response model."""
         _check_type(operation, request)
         body = request.model_dump_json().encode()
-        return _parse(operation, *self._post(operation, body, request_id))
+        return parse_answer(operation, *self._post(operation, body, request_id))
 
     def send(self, operation: str, body: bytes, request_id: str | None = None) -> httpx.Response:
         """POST a JSON body as it is (the server validates it) to ``operation``, retried as
-        :meth:`call` is; returns the last answer whatever its status."""
+        :meth:`call` is; returns the last answer whatever its status, its body read and
+        decoded within ``max_response_bytes`` (else ``ResponseTooLarge``). :func:`parse_answer`
+        turns it into the operation's response model or the error :meth:`call` would raise."""
         return self._post(operation, body, request_id)[0]
 
     def _post(
         self, operation: str, body: bytes, request_id: str | None
     ) -> tuple[httpx.Response, int]:
         """The last answer and the number of attempts it took."""
-        path, headers, timeout = _prepare(operation, request_id, self._http)
+        request = _request(operation, body, request_id, self._http)
         attempts = 0
         while True:
             attempts += 1
             outcome: httpx.Response | httpx.TransportError
             try:
-                outcome = self._http.post(path, content=body, headers=headers, timeout=timeout)
+                outcome = self._exchange(request, attempts)
             except httpx.TransportError as exc:
                 outcome = exc
             wait = self._retries.wait(attempts, outcome)
@@ -282,6 +423,19 @@ class Client:
         if isinstance(outcome, httpx.TransportError):
             raise _unreachable(operation, self._http.base_url, outcome, attempts) from outcome
         return outcome, attempts
+
+    def _exchange(self, request: httpx.Request, attempts: int) -> httpx.Response:
+        """Send ``request`` (the ``attempts``-th time) and read its answer within the cap."""
+        response = self._http.send(request, stream=True)
+        try:
+            body = _Body(response, self._max_response_bytes, attempts)
+            for piece in response.iter_bytes():
+                body.add(piece)
+        except httpx.DecodingError as exc:
+            raise _undecodable(response, exc, attempts) from exc
+        finally:
+            response.close()
+        return body.whole()
 
     def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
         """Test ``first`` against every candidate (operation ``gates.test``)."""
@@ -371,7 +525,8 @@ class Client:
     def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
         try:
-            return self._http.get("/readyz").status_code == 200
+            with self._http.stream("GET", "/readyz") as response:
+                return response.status_code == 200  # the body is never read
         except httpx.TransportError:
             return False
 
@@ -390,8 +545,10 @@ class AsyncClient:
         retries: int = DEFAULT_RETRIES,
         backoff: float = DEFAULT_BACKOFF,
         backoff_max: float = DEFAULT_BACKOFF_MAX,
+        max_response_bytes: int = DEFAULT_MAX_RESPONSE_BYTES,
     ) -> None:
         self._retries = _Retries(retries, backoff, backoff_max)
+        self._max_response_bytes = _check_max_bytes(max_response_bytes)
         self._http = httpx.AsyncClient(
             base_url=base_url, timeout=timeout, transport=transport, headers=headers
         )
@@ -410,28 +567,28 @@ class AsyncClient:
         model."""
         _check_type(operation, request)
         body = request.model_dump_json().encode()
-        return _parse(operation, *await self._post(operation, body, request_id))
+        return parse_answer(operation, *await self._post(operation, body, request_id))
 
     async def send(
         self, operation: str, body: bytes, request_id: str | None = None
     ) -> httpx.Response:
         """POST a JSON body as it is (the server validates it) to ``operation``, retried as
-        :meth:`call` is; returns the last answer whatever its status."""
+        :meth:`call` is; returns the last answer whatever its status, its body read and
+        decoded within ``max_response_bytes`` (else ``ResponseTooLarge``). :func:`parse_answer`
+        turns it into the operation's response model or the error :meth:`call` would raise."""
         return (await self._post(operation, body, request_id))[0]
 
     async def _post(
         self, operation: str, body: bytes, request_id: str | None
     ) -> tuple[httpx.Response, int]:
         """The last answer and the number of attempts it took."""
-        path, headers, timeout = _prepare(operation, request_id, self._http)
+        request = _request(operation, body, request_id, self._http)
         attempts = 0
         while True:
             attempts += 1
             outcome: httpx.Response | httpx.TransportError
             try:
-                outcome = await self._http.post(
-                    path, content=body, headers=headers, timeout=timeout
-                )
+                outcome = await self._exchange(request, attempts)
             except httpx.TransportError as exc:
                 outcome = exc
             wait = self._retries.wait(attempts, outcome)
@@ -441,6 +598,19 @@ class AsyncClient:
         if isinstance(outcome, httpx.TransportError):
             raise _unreachable(operation, self._http.base_url, outcome, attempts) from outcome
         return outcome, attempts
+
+    async def _exchange(self, request: httpx.Request, attempts: int) -> httpx.Response:
+        """Send ``request`` (the ``attempts``-th time) and read its answer within the cap."""
+        response = await self._http.send(request, stream=True)
+        try:
+            body = _Body(response, self._max_response_bytes, attempts)
+            async for piece in response.aiter_bytes():
+                body.add(piece)
+        except httpx.DecodingError as exc:
+            raise _undecodable(response, exc, attempts) from exc
+        finally:
+            await response.aclose()
+        return body.whole()
 
     async def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
         """Test ``first`` against every candidate (operation ``gates.test``)."""
@@ -538,6 +708,7 @@ class AsyncClient:
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
         try:
-            return (await self._http.get("/readyz")).status_code == 200
+            async with self._http.stream("GET", "/readyz") as response:
+                return response.status_code == 200  # the body is never read
         except httpx.TransportError:
             return False

@@ -1,17 +1,21 @@
-"""A real ``plotgate serve`` in a subprocess, for the tests and benchmarks that need one."""
+"""Real servers for the tests and benchmarks that need one: ``plotgate serve`` in a
+subprocess, or any ASGI app under uvicorn in a thread."""
 
 import contextlib
 import os
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import httpx
+import uvicorn
 
-__all__ = ["free_port", "serve"]
+__all__ = ["free_port", "serve", "serving"]
 
 
 def free_port() -> int:
@@ -80,3 +84,26 @@ def serve(
             proc.wait(timeout=30)
         if proc.stderr:
             proc.stderr.close()
+
+
+@contextlib.contextmanager
+def serving(app: Any) -> Iterator[str]:
+    """Serve the ASGI ``app`` with uvicorn in a thread on a free loopback port; yields its
+    URL."""
+    port = free_port()
+    config = uvicorn.Config(
+        app, host="127.0.0.1", port=port, lifespan="off", ws="none", log_level="warning"
+    )
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 30
+    while not server.started:
+        assert thread.is_alive(), "the test server stopped before it started"
+        assert time.monotonic() < deadline, "the test server did not start in 30 s"
+        time.sleep(0.01)
+    try:
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=30)

@@ -53,3 +53,69 @@ def test_call_on_a_live_server(tmp_path, capsys):
         assert main(["call", "solves.position", str(path), "--server", url]) == 0
     answer = json.loads(capsys.readouterr().out)
     np.testing.assert_allclose(answer["solutions"][0]["position"], TARGET, atol=1e-6)
+
+
+class Answering:
+    """An ASGI app that answers every request with one status, body and content type (a
+    proxy, a captive portal or a broken build in the server's place)."""
+
+    def __init__(self, status: int, body: bytes, content_type: str, **headers: str) -> None:
+        self.status = status
+        self.body = body
+        self.headers = [(b"content-type", content_type.encode())]
+        self.headers += [(k.encode(), v.encode()) for k, v in headers.items()]
+
+    async def __call__(self, scope, receive, send) -> None:
+        while (await receive()).get("more_body"):
+            pass
+        await send({"type": "http.response.start", "status": self.status, "headers": self.headers})
+        await send({"type": "http.response.body", "body": self.body})
+
+
+HTML = b"<html><body><h1>502 Bad Gateway</h1></body></html>"
+
+
+@pytest.mark.parametrize(
+    ("status", "body", "kind", "code", "said"),
+    [
+        (502, HTML, "text/html", 1, ""),
+        (503, HTML, "text/html", 1, ""),
+        (200, HTML, "text/html", 2, "invalid answer: not a PositionSolveResult"),
+        (200, b'{"solutions": [{"pos', "application/json", 2, "EOF while parsing"),
+        (200, b'{"wrong": "schema"}', "application/json", 2, "solutions: Field required"),
+    ],
+    ids=["html-502", "html-503", "html-200", "truncated-200", "wrong-schema-200"],
+)
+def test_call_on_a_server_answering_what_is_no_answer(
+    tmp_path, capsys, status, body, kind, code, said
+):
+    """A message and the contracted exit code, never a traceback: a non-2xx body that is no
+    problem is printed as the problem the client makes of it (exit 1); a 2xx body that is not
+    the operation's answer is no answer (exit 2)."""
+    from tests.servers import serving
+
+    path = tmp_path / "request.json"
+    path.write_text(json.dumps(REQUEST))
+    with serving(Answering(status, body, kind)) as url:
+        args = ["call", "solves.position", str(path), "--server", url, "--retries", "0"]
+        assert main(args) == code
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err and "internal error" not in err and said in err
+    if code == 1:
+        problem = json.loads(out)
+        assert problem["status"] == status and "502 Bad Gateway" in problem["detail"]
+    else:
+        assert out == "" and url in err
+
+
+def test_call_on_a_server_announcing_an_answer_over_the_cap(tmp_path, capsys):
+    from tests.servers import serving
+
+    path = tmp_path / "request.json"
+    path.write_text(json.dumps(REQUEST))
+    app = Answering(200, b"{}", "application/json", **{"content-length": str(2**40)})
+    with serving(app) as url:
+        assert main(["call", "solves.position", str(path), "--server", url]) == 2
+    err = capsys.readouterr().err.splitlines()  # with the test server's own complaint
+    said = [line for line in err if line.startswith("plotgate call: ")]
+    assert len(said) == 1 and "200 from" in said[0] and "max_response_bytes" in said[0]

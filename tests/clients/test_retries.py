@@ -6,16 +6,11 @@ recorded ``sleep`` and a chosen ``uniform`` check the waits without waiting.
 """
 
 import asyncio
-import contextlib
 import json
 import random
-import threading
-import time
-from collections.abc import Iterator
 
 import httpx
 import pytest
-import uvicorn
 from starlette.requests import Request
 from starlette.responses import Response
 from starlette.types import Receive, Scope, Send
@@ -34,7 +29,7 @@ from plotgate.clients.cli import main
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import CartesianPlot, GateResults, GateTestRequest, RingGate
-from tests.servers import free_port
+from tests.servers import free_port, serving
 
 GATE = RingGate(kind="ring", tau=5.0, v_min=100.0, v_max=500.0)
 FIRST = CartesianPlot(frame="cartesian", x=0.0, y=0.0, covariance=((1e4, 0.0), (0.0, 1e4)))
@@ -80,28 +75,6 @@ class Unavailable:
             outcome = execute(self._operations[request.url.path], body)
             response = Response(outcome.content, outcome.status, media_type="application/json")
         await response(scope, receive, send)
-
-
-@contextlib.contextmanager
-def serving(app: Unavailable) -> Iterator[str]:
-    """Serve ``app`` with uvicorn in a thread on a free loopback port; yields its URL."""
-    port = free_port()
-    config = uvicorn.Config(
-        app, host="127.0.0.1", port=port, lifespan="off", ws="none", log_level="warning"
-    )
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started:
-        assert thread.is_alive(), "the test server stopped before it started"
-        assert time.monotonic() < deadline, "the test server did not start in 30 s"
-        time.sleep(0.01)
-    try:
-        yield f"http://127.0.0.1:{port}"
-    finally:
-        server.should_exit = True
-        thread.join(timeout=30)
 
 
 @pytest.fixture

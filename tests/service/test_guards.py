@@ -160,3 +160,46 @@ def test_work_sizes_are_request_fields():
 def test_limits_come_from_the_environment(monkeypatch, tmp_path):
     monkeypatch.setenv("PLOTGATE_LIMITS", '{"solves.position": {"problems": 5}}')
     assert Settings(log_dir=tmp_path).limits == {"solves.position": {"problems": 5}}
+
+
+NOT_PUBLIC = [
+    ("POST", "/v1/gates/test/"),  # an operation's path with a trailing slash: 307 otherwise
+    ("POST", "/v1/gates/test//"),
+    ("POST", "/v1/gates/test/?x=1"),
+    ("GET", "/v1/gates/test"),  # another method on an operation: 405 otherwise
+    ("DELETE", "/v1/gates/test/"),
+    ("POST", "/v1/no/such/operation"),  # 404 otherwise
+    ("GET", "/metrics/"),
+    ("GET", "/healthz/"),
+    ("POST", "/docs/assets"),
+]
+
+
+@pytest.mark.parametrize(("method", "path"), NOT_PUBLIC, ids=[f"{m} {p}" for m, p in NOT_PUBLIC])
+@pytest.mark.parametrize("root", ["", "/api"])
+def test_401_before_any_redirect_404_or_405(tmp_path, method, path, root):
+    """Without credentials, a path that is not public answers 401 whatever the routes would
+    have answered: nobody learns which paths exist, or is sent on, before showing a key."""
+    app = create_app(Settings(log_dir=tmp_path / "rec", record=False, api_key=KEY))
+    with TestClient(app, root_path=root) as c:
+        r = c.request(method, root + path, follow_redirects=False)
+        _problem(r, 401, "unauthorized", "credentials")
+        authorized = c.request(method, root + path, headers={"x-api-key": KEY})
+        assert authorized.status_code != 401
+
+
+def test_401_before_a_redirect_when_mounted(tmp_path):
+    from starlette.applications import Starlette
+    from starlette.routing import Mount
+
+    app = create_app(Settings(log_dir=tmp_path / "rec", record=False, bearer_token=TOKEN))
+    with TestClient(Starlette(routes=[Mount("/api", app=app)])) as c:
+        r = c.post("/api/v1/gates/test/", json={}, follow_redirects=False)
+        _problem(r, 401, "unauthorized", "credentials")
+        r = c.post(
+            "/api/v1/gates/test/",
+            json={},
+            headers={"authorization": f"Bearer {TOKEN}"},
+            follow_redirects=False,
+        )
+        assert r.status_code == 307 and r.headers["location"] == "/api/v1/gates/test"
