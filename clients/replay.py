@@ -21,10 +21,11 @@ first), an answer whose request record was lost to damage, a body that timed out
 the body never arrived whole, so it cannot be sent again), a replay whose original was read
 before it (a folder replayed into itself would otherwise grow and compare twice), and, in
 process, a request over this replay's work caps (the server's: the defaults with
-``PLOTGATE_LIMITS`` over them; ``no_limits`` runs it). Such a request is not run, not
-refused: a recording made under higher caps answered it, and a 422 here would read as a
-change. The tally adds up: exchanges = compared + not compared, compared = unchanged +
-changed, each exchange counted once.
+``PLOTGATE_LIMITS`` over them; ``no_limits`` runs it) whose recorded answer is not that
+same cap's refusal: a recording made under higher caps answered it, and a 422 here would
+read as a change. A recorded refusal by the same cap is refused again and compared. The
+tally adds up: exchanges = compared + not compared, compared = unchanged + changed, each
+exchange counted once.
 
 A replay over HTTP sends each request under a new request id with header
 ``X-Plotgate-Replay-Of: <original id>``, so a server recording into the same folder records
@@ -291,10 +292,13 @@ def in_process(
                     assert parsed.problem is not None
                     outcome = failed(op, parsed.problem, rid)
                 else:
-                    caps = (limits or {}).get(op.name, {})
-                    if over_caps(op, parsed.request, caps) is not None:
+                    over = over_caps(op, parsed.request, (limits or {}).get(op.name, {}))
+                    if over is None:
+                        outcome = run(op, parsed.request, rid)
+                    elif _refused_alike(exchange, over.status, [e.field for e in over.errors]):
+                        outcome = failed(op, over, rid)  # the recorded cap refusal, again
+                    else:
                         return Answer(None, skip=OVER_CAPS)
-                    outcome = run(op, parsed.request, rid)
         except _Overtime:
             return Answer(None, note=f"no answer within {timeout:g} s (--timeout)")
         except Exception as exc:  # noqa: BLE001 - a bug in an operation: the server's 500
@@ -406,6 +410,15 @@ def replay(
     report.unreadable = list(reader.unreadable)
     report.written_twice = reader.written_twice
     return report
+
+
+def _refused_alike(exchange: Exchange, status: int, fields: list[str]) -> bool:
+    """Whether the recording holds the refusal a cap gives now (its status and fields): the
+    server recorded it under the same cap, so it compares; any other recorded answer was
+    given under other caps, and is not compared."""
+    recorded = exchange.response or {}
+    old = _failure(recorded.get("status", 0), recorded.get("error"))
+    return old["status"] == status and old["fields"] == sorted(fields)
 
 
 def _not_comparable(exchange: Exchange) -> str | None:

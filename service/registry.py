@@ -153,8 +153,8 @@ def over_caps(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> Pro
 def _cap_origin(op: Operation, size: str, cap: int) -> str:
     if op.endpoint.caps.get(size) == cap:
         return (
-            f"the default, which keeps the largest request under {MEMORY_BUDGET_MIB} MiB of "
-            "memory; PLOTGATE_LIMITS sets another"
+            f"the default, which bounds one request's work (under {MEMORY_BUDGET_MIB} MiB of "
+            "memory); PLOTGATE_LIMITS sets another"
         )
     return "PLOTGATE_LIMITS"
 

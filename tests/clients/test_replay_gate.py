@@ -16,6 +16,7 @@ from plotgate.clients.cli import main
 from plotgate.clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
 from plotgate.service import registry
 from plotgate.service.app import create_app
+from plotgate.service.config import Settings
 from plotgate.service.recorder import request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import request_schema, response_schema
@@ -334,3 +335,17 @@ def test_filters_pick_operations_and_times(settings, tmp_path):
     assert compared("--since", str(middle)) == 2
     assert compared("--until", str(middle)) == 1
     assert compared("--operation", "gates.test", "--since", str(middle)) == 1
+
+
+def test_a_recorded_cap_refusal_is_refused_again_and_compared(settings, monkeypatch):
+    """A server's 422 for a work size over its cap is compared in process under the same
+    caps (it used to be set aside as over the caps, never compared); an answer recorded
+    under higher caps is still set aside."""
+    monkeypatch.setenv("PLOTGATE_LIMITS", json.dumps({OP: {"candidates": 1}}))
+    capped = settings.model_copy(update={"limits": Settings().limits})
+    folder = _session(capped, [GOOD_BODY])
+    report = replay(folder, progress=False, limits=Settings().limits)
+    assert (report.compared, report.unchanged, report.not_compared) == (1, 1, {})
+    higher = settings.model_copy(update={"log_dir": settings.log_dir.parent / "higher"})
+    report = replay(_session(higher, [GOOD_BODY]), progress=False, limits=Settings().limits)
+    assert (report.compared, report.not_compared) == (0, {OVER_CAPS: 1})
