@@ -72,6 +72,7 @@ def _serve(args: argparse.Namespace) -> int:
 
     from plotgate.service.config import Settings
     from plotgate.service.connections import HeaderDeadline
+    from plotgate.service.registry import check_limits
 
     overrides = {
         "PLOTGATE_HOST": args.host,
@@ -81,7 +82,12 @@ def _serve(args: argparse.Namespace) -> int:
         "PLOTGATE_RECORD": args.record,
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
-    settings = Settings()
+    try:  # settings the app would refuse at start: a usage error, not a bug
+        settings = Settings()
+        check_limits(settings.limits)
+    except ValueError as exc:
+        print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
+        return 2
     uvicorn.run(
         "plotgate.service.app:create_app",
         factory=True,
