@@ -44,7 +44,8 @@ that are empty or not MCAP at all.
 
 not compared, counted apart with the reason: requests never answered, answers
 whose request record is lost, bodies that timed out (408), replays whose original
-was read before them, in-process requests over PLOTGATE_LIMITS (--no-limits)."""
+was read before them, in-process requests over the work caps: the defaults and
+PLOTGATE_LIMITS (--no-limits runs them)."""
 
 
 def _write(text: str | bytes) -> bool:
@@ -76,6 +77,7 @@ def _serve(args: argparse.Namespace) -> int:
 
     from plotgate.service.config import Settings
     from plotgate.service.connections import HeaderDeadline
+    from plotgate.service.registry import check_limits
 
     overrides = {
         "PLOTGATE_HOST": args.host,
@@ -85,7 +87,12 @@ def _serve(args: argparse.Namespace) -> int:
         "PLOTGATE_RECORD": args.record,
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
-    settings = Settings()
+    try:  # settings the app would refuse at start: a usage error, not a bug
+        settings = Settings()
+        check_limits(settings.limits)
+    except ValueError as exc:
+        print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
+        return 2
     if settings.record:
         from plotgate.service.recorder import Recorder, RecordingError
 
@@ -151,6 +158,12 @@ def _call(args: argparse.Namespace) -> int:
     if args.server is None and (args.retries is not None or args.backoff is not None):
         print("plotgate call: --retries and --backoff need --server", file=sys.stderr)
         return 2
+    if args.server is not None and args.no_limits:
+        print(
+            "plotgate call: --no-limits is for in-process runs (a server applies its own caps)",
+            file=sys.stderr,
+        )
+        return 2
     body = (
         sys.stdin.buffer.read() if args.request in (None, "-") else Path(args.request).read_bytes()
     )
@@ -161,9 +174,14 @@ def _call(args: argparse.Namespace) -> int:
 
     op = OPERATIONS[args.operation]
     try:
+        caps = (_in_process_caps(args) or {}).get(op.name)
+    except ValueError as exc:
+        print(f"plotgate call: the service's settings: {exc}", file=sys.stderr)
+        return 2
+    try:
         with cluster(args.dask, args.local_workers, progress=sys.stderr.isatty()):
             try:
-                outcome = execute(op, body)
+                outcome = execute(op, body, limits=caps)
             except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
                 print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
                 outcome = internal_error(op, None)
@@ -217,20 +235,29 @@ def _filters(args: argparse.Namespace):
     return Filters(operations, args.since, args.until)
 
 
+def _in_process_caps(args: argparse.Namespace) -> dict[str, dict[str, int]] | None:
+    """The work caps an in-process run applies: the server's (the defaults with
+    PLOTGATE_LIMITS over them), so it answers what the server would; None with
+    ``--no-limits`` or ``--server`` (the server applies its own). Raises ValueError for
+    PLOTGATE_LIMITS the server would refuse to start with."""
+    if args.no_limits or args.server is not None:
+        return None
+    from plotgate.service.config import Settings
+    from plotgate.service.registry import check_limits
+
+    limits = Settings().limits
+    check_limits(limits)
+    return limits
+
+
 def _replay(args: argparse.Namespace) -> int:
     from plotgate.clients.replay import replay
 
-    limits = None
-    if not args.no_limits and args.server is None:
-        from plotgate.service.config import Settings
-        from plotgate.service.registry import check_limits
-
-        try:
-            limits = Settings().limits
-            check_limits(limits)
-        except ValueError as exc:
-            print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
-            return 2
+    try:
+        limits = _in_process_caps(args)
+    except ValueError as exc:
+        print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
+        return 2
     report = replay(
         args.paths,
         server=args.server,
@@ -490,7 +517,8 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument(
         "--no-limits",
         action="store_true",
-        help="in-process: run requests over the service's work caps (PLOTGATE_LIMITS) too",
+        help="in-process: run requests over the service's work caps (its defaults and "
+        "PLOTGATE_LIMITS) too",
     )
     rep.add_argument(
         "--allow-empty",
@@ -523,7 +551,8 @@ def _parser() -> argparse.ArgumentParser:
         "call",
         help="run one operation on a JSON request and print the answer",
         description="Runs in-process through this build's registry (what the server would "
-        "answer), or on a live server with --server (a 503 or a failed connection tried again, "
+        "answer, its work caps included: --no-limits lifts them), or on a live server with "
+        "--server (a 503 or a failed connection tried again, "
         "--retries times). initiation.evaluate's runs go to a Dask "
         "cluster with --dask or --local-workers, with the same numbers. Exit 0 on an answer, "
         "1 on a problem, 2 when the cluster cannot be had or no usable answer came from the "
@@ -558,6 +587,12 @@ def _parser() -> argparse.ArgumentParser:
         metavar="S",
         help="with --server: the longest wait before the first retry, doubled for each one "
         "after it, at least the 503's Retry-After, at most 30 (default 0.5)",
+    )
+    call.add_argument(
+        "--no-limits",
+        action="store_true",
+        help="in-process: run a request over the service's work caps (the defaults that "
+        "keep a request under the server's memory budget, and PLOTGATE_LIMITS) too",
     )
     call.set_defaults(func=_call)
 

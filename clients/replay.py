@@ -30,9 +30,12 @@ not change the exit code by themselves: a request never answered (the server sto
 first), an answer whose request record was lost to damage, a body that timed out (408:
 the body never arrived whole, so it cannot be sent again), a replay whose original was read
 before it (a folder replayed into itself would otherwise grow and compare twice), and, in
-process, a request over this replay's work caps (``PLOTGATE_LIMITS``; ``no_limits`` runs
-it). The tally adds up: exchanges = compared + not compared, compared = unchanged +
-changed, each exchange counted once.
+process, a request over this replay's work caps (the server's: the defaults with
+``PLOTGATE_LIMITS`` over them; ``no_limits`` runs it) whose recorded answer is not that
+same cap's refusal: a recording made under higher caps answered it, and a 422 here would
+read as a change. A recorded refusal by the same cap is refused again and compared. The
+tally adds up: exchanges = compared + not compared, compared = unchanged + changed, each
+exchange counted once.
 
 A replay over HTTP sends each request under a new request id with header
 ``X-Plotgate-Replay-Of: <original id>``, so a server recording into the same folder records
@@ -73,7 +76,7 @@ NEVER_ANSWERED = "never answered (the server stopped first)"
 REQUEST_LOST = "answer whose request record was lost to damage"
 BODY_TIMEOUT = "body timed out (408): it never arrived whole, so it cannot be sent again"
 REPLAYED_ORIGINAL = "replay of an exchange read before it"
-OVER_CAPS = "over this replay's work caps (PLOTGATE_LIMITS; --no-limits runs it)"
+OVER_CAPS = "over this replay's work caps (the defaults and PLOTGATE_LIMITS; --no-limits runs it)"
 
 
 @dataclass(frozen=True)
@@ -301,7 +304,14 @@ def in_process(
     operation becomes the server's 500 problem (its text kept as a note), an exchange over
     ``timeout`` seconds is stopped, one over ``limits`` (the server's ``PLOTGATE_LIMITS``
     caps) is not run."""
-    from plotgate.service.registry import OPERATIONS, failed, internal_error, parse, run
+    from plotgate.service.registry import (
+        OPERATIONS,
+        failed,
+        internal_error,
+        over_caps,
+        parse,
+        run,
+    )
 
     def answer(exchange: Exchange, rid: str) -> Answer:
         op = OPERATIONS[exchange.operation]
@@ -313,15 +323,13 @@ def in_process(
                     assert parsed.problem is not None
                     outcome = failed(op, parsed.problem, rid)
                 else:
-                    caps = (limits or {}).get(op.name, {})
-                    over = [
-                        f"{size} {value} > {cap}"
-                        for size, cap in caps.items()
-                        if (value := op.endpoint.work[size](parsed.request)) > cap
-                    ]
-                    if over:
+                    over = over_caps(op, parsed.request, (limits or {}).get(op.name, {}))
+                    if over is None:
+                        outcome = run(op, parsed.request, rid)
+                    elif _refused_alike(exchange, over.status, [e.field for e in over.errors]):
+                        outcome = failed(op, over, rid)  # the recorded cap refusal, again
+                    else:
                         return Answer(None, skip=OVER_CAPS)
-                    outcome = run(op, parsed.request, rid)
         except _Overtime:
             return Answer(None, note=f"no answer within {timeout:g} s (--timeout)")
         except Exception as exc:  # noqa: BLE001 - a bug in an operation: the server's 500
@@ -385,8 +393,9 @@ def replay(
     progress : show a progress bar; None shows it only on a terminal.
     filters : replay only these operations and request times.
     timeout : seconds each exchange may take (None: no limit).
-    limits : in-process work caps, ``{operation: {size: cap}}`` (``PLOTGATE_LIMITS``);
-        exchanges over them are not run.
+    limits : in-process work caps, ``{operation: {size: cap}}`` (the server's are
+        ``Settings().limits``: the defaults with ``PLOTGATE_LIMITS`` over them); exchanges
+        over them are not run. None runs every exchange.
 
     Raises :class:`plotgate.clients.TransportError` when the server cannot be reached, and
     ``FileNotFoundError`` for a path that does not exist.
@@ -435,6 +444,15 @@ def replay(
     report.written_twice = reader.written_twice
     report.conflict_count, report.conflicts = reader.conflict_count, list(reader.conflicts)
     return report
+
+
+def _refused_alike(exchange: Exchange, status: int, fields: list[str]) -> bool:
+    """Whether the recording holds the refusal a cap gives now (its status and fields): the
+    server recorded it under the same cap, so it compares; any other recorded answer was
+    given under other caps, and is not compared."""
+    recorded = exchange.response or {}
+    old = _failure(recorded.get("status", 0), recorded.get("error"))
+    return old["status"] == status and old["fields"] == sorted(fields)
 
 
 def _not_comparable(exchange: Exchange) -> str | None:

@@ -3,8 +3,10 @@
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import Field, SecretStr
+from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
+
+from plotgate.service.schemas import MEMORY_BUDGET_MIB, work_caps
 
 __all__ = ["Settings", "get_settings"]
 
@@ -59,9 +61,12 @@ class Settings(BaseSettings):
     )
     limits: dict[str, dict[str, int]] = Field(
         default_factory=dict,
+        validate_default=True,
         description="Per-operation caps below the schema's bounds, JSON: {operation: "
-        '{size: max}}, e.g. {"initiation.evaluate": {"runs": 1000}}; the sizes each '
-        "operation offers are in the OpenAPI schema (x-plotgate-limits).",
+        '{size: max}}, e.g. {"initiation.evaluate": {"runs": 1000}}, laid over the default '
+        f"caps that keep the largest request under {MEMORY_BUDGET_MIB} MiB (an operator's cap "
+        "lowers or raises a default); the sizes each operation offers, and the caps in force, "
+        "are in the OpenAPI schema (x-plotgate-limits).",
     )
     dask_scheduler: str | None = Field(
         default=None,
@@ -79,6 +84,15 @@ class Settings(BaseSettings):
     bearer_token: SecretStr | None = Field(
         default=None, description="When set, requests need Authorization: Bearer <token>."
     )
+
+    @field_validator("limits")
+    @classmethod
+    def _over_defaults(cls, limits: dict[str, dict[str, int]]) -> dict[str, dict[str, int]]:
+        """The caps in force: the operations' defaults, then the operator's over them
+        (:func:`plotgate.service.schemas.work_caps`), so every reader of the settings (the
+        routes, the OpenAPI schema, the recording's metadata, in-process replay and call)
+        sees one table."""
+        return work_caps(limits)
 
 
 @lru_cache

@@ -30,7 +30,7 @@ from plotgate.service.operations import (
     study,
 )
 from plotgate.service.problems import ProblemError, from_core, from_validation, problem_json
-from plotgate.service.schemas import ENDPOINTS, Endpoint, FieldError
+from plotgate.service.schemas import ENDPOINTS, MEMORY_BUDGET_MIB, Endpoint, FieldError
 
 __all__ = [
     "OPERATIONS",
@@ -42,6 +42,7 @@ __all__ = [
     "failed",
     "internal_error",
     "misshapen",
+    "over_caps",
     "parse",
     "run",
 ]
@@ -131,14 +132,31 @@ def check_limits(limits: Mapping[str, Mapping[str, int]]) -> None:
                 raise ValueError(f"PLOTGATE_LIMITS: {name}.{size} must be >= 1, got {cap}")
 
 
-def _over_limit(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> None:
+def over_caps(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> ProblemError | None:
+    """The 422 refusing ``request`` for the first work size over its cap in ``caps``, or None.
+
+    Work sizes are read from the validated request alone, so this runs before any work. The
+    problem names the size as its field and says whether the cap is the operation's default
+    (:attr:`~plotgate.service.schemas.Endpoint.caps`, set to a memory budget) or an
+    operator's.
+    """
     for size, cap in caps.items():
         value = op.endpoint.work[size](request)
         if value > cap:
-            reason = f"is {value}; this server allows at most {cap} (PLOTGATE_LIMITS)"
-            raise ProblemError(
+            reason = f"is {value}; this server allows at most {cap} ({_cap_origin(op, size, cap)})"
+            return ProblemError(
                 "invalid-input", 422, f"{size}: {reason}", [FieldError(field=size, reason=reason)]
             )
+    return None
+
+
+def _cap_origin(op: Operation, size: str, cap: int) -> str:
+    if op.endpoint.caps.get(size) == cap:
+        return (
+            f"the default, which bounds one request's work (under {MEMORY_BUDGET_MIB} MiB of "
+            "memory); PLOTGATE_LIMITS sets another"
+        )
+    return "PLOTGATE_LIMITS"
 
 
 @dataclass(frozen=True)
@@ -198,12 +216,15 @@ def run(
 
     Bad input (a server cap passed, core's errors) becomes an :class:`Outcome` whose content
     is an RFC 9457 problem naming the field (``instance`` is the operation's path). Anything
-    else that escapes is a bug. ``limits`` are the server's caps on the operation's work
-    sizes (``PLOTGATE_LIMITS``); replay runs without them.
+    else that escapes is a bug. ``limits`` are the caps on the operation's work sizes, checked
+    before the handler runs: a server's are the defaults with ``PLOTGATE_LIMITS`` laid over
+    them (:attr:`plotgate.service.config.Settings.limits`); None runs without any (in-process
+    replay's ``--no-limits``).
     """
     try:
-        if limits:
-            _over_limit(op, request, limits)
+        over = over_caps(op, request, limits or {})
+        if over is not None:
+            raise over
         try:
             response = op.handler(request)
         except PlotgateError as exc:

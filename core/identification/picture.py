@@ -2,11 +2,12 @@
 
 * :func:`identify_picture`: P passive and A active tracks at once. The Z matrix
   Z[i, j] = wrap(mean_act_j - mean_pas_i) sqrt(m_j) / sigma_i comes from per-track
-  circular means (sums of sines and cosines over the valid samples of padded arrays,
-  so tracks may have different sample counts); the pairs with |Z| <= z_{1-alpha/2} may be
-  identified, and ``scipy.optimize.linear_sum_assignment`` on |Z| picks a one-to-one
-  identification among them (each passive track to at most one active track). The rest
-  are unassigned on both sides.
+  circular means (sums of sines and cosines over each track's valid samples, laid end
+  to end, so tracks may have different sample counts at a memory linear in the samples);
+  the pairs with |Z| <= z_{1-alpha/2} may be identified, and
+  ``scipy.optimize.linear_sum_assignment`` on |Z| picks a one-to-one identification
+  among them (each passive track to at most one active track). The rest are unassigned
+  on both sides.
 * :func:`sequential`: the test repeated as active samples accumulate (Kvasnov's third
   condition: identification repeats every 2-20 s). Stateless: the samples in, the
   decision after each new active sample out, from cumulative sums.
@@ -31,34 +32,47 @@ from plotgate.core.validation import as_array, as_probability
 __all__ = ["Picture", "Sequence", "identify_picture", "sequential"]
 
 
-def _tracks(name: str, value: ArrayLike | list[ArrayLike]) -> tuple[np.ndarray, np.ndarray]:
-    """Padded (T, K) angles and the (T, K) mask of valid samples (NaN pads a short track)."""
+def _tracks(
+    name: str, value: ArrayLike | list[ArrayLike]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every track's valid angles end to end (NaN pads of a (T, K) array dropped), the
+    track of each angle, and the (T,) count of each track's angles.
+
+    Memory is linear in the samples: a ragged picture (one track of 100,000 samples among
+    thousands of two) is never padded to its longest track.
+    """
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
         tracks = cast(Iterable[ArrayLike], value)  # ragged: a list of tracks
         rows = [np.asarray(as_array(f"{name}[{i}]", r), float) for i, r in enumerate(tracks)]
-        width = max((r.size for r in rows), default=0)
-        a = np.full((len(rows), width), np.nan)
-        for i, r in enumerate(rows):  # one copy per ragged track
-            a[i, : r.size] = r
-    if a.ndim != 2 or a.shape[0] == 0:
+        shape: tuple[int, ...] = (len(rows),)
+    else:
+        rows, shape = list(a) if a.ndim == 2 else [], a.shape
+    if not rows or any(r.ndim != 1 for r in rows):
         raise ParameterError(
-            name, f"must be a list of tracks, each a list of angles; got shape {a.shape}"
+            name, f"must be a list of tracks, each a list of angles; got shape {shape}"
         )
-    valid = ~np.isnan(a)
-    bad = ~np.isfinite(a) & valid
+    angles = np.concatenate(rows)
+    track = np.repeat(np.arange(len(rows)), [r.size for r in rows])
+    valid = ~np.isnan(angles)
+    bad = ~np.isfinite(angles) & valid
     if bad.any():
-        raise ParameterError(name, "must be finite angles", int(np.argmax(bad.any(axis=1))))
-    count = valid.sum(axis=1)
+        raise ParameterError(name, "must be finite angles", int(track[np.argmax(bad)]))
+    angles, track = angles[valid], track[valid]
+    count = np.bincount(track, minlength=len(rows))
     if (count < 2).any():
         i = int(np.argmax(count < 2))
         raise ParameterError(name, f"track {i} has {count[i]} samples; at least 2 are needed", i)
-    return np.where(valid, a, 0.0), valid
+    return angles, track, count
 
 
-def _means(a: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    means: np.ndarray = np.arctan2((np.sin(a) * valid).sum(1), (np.cos(a) * valid).sum(1))
+def _means(angles: np.ndarray, track: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """Circular mean of each track's angles."""
+    n = count.size
+    means: np.ndarray = np.arctan2(
+        np.bincount(track, np.sin(angles), n), np.bincount(track, np.cos(angles), n)
+    )
     return means
 
 
@@ -128,12 +142,12 @@ def identify_picture(
     ([[0, 1], [1, 0]], [2])
     """
     alpha = float(as_probability("alpha", alpha))
-    pa, pv = _tracks("passive", passive)
-    aa, av = _tracks("active", active)
-    mean_p, mean_a = _means(pa, pv), _means(aa, av)
+    pa, pt, pn = _tracks("passive", passive)
+    aa, at, an = _tracks("active", active)
+    mean_p, mean_a = _means(pa, pt, pn), _means(aa, at, an)
     if sigma is None:
-        dev = wrap_finite(pa - mean_p[:, None]) * pv
-        s = np.sqrt((dev * dev).sum(1) / (pv.sum(1) - 1))
+        dev = wrap_finite(pa - mean_p[pt])
+        s = np.sqrt(np.bincount(pt, dev * dev, pn.size) / (pn - 1))
         if not (s >= MIN_ESTIMATED_SIGMA).all():
             raise ParameterError(
                 "sigma",
@@ -144,7 +158,7 @@ def identify_picture(
         s = np.broadcast_to(as_array("sigma", sigma), mean_p.shape).astype(float)
         if not (s > 0).all():
             raise ParameterError("sigma", "must be positive angles")
-    z = wrap_finite(mean_a[None, :] - mean_p[:, None]) * np.sqrt(av.sum(1))[None, :] / s[:, None]
+    z = wrap_finite(mean_a[None, :] - mean_p[:, None]) * np.sqrt(an)[None, :] / s[:, None]
     crit = float(stats.norm.ppf(1.0 - alpha / 2.0))
     passes = np.abs(z) <= crit
     cost = np.where(passes, np.abs(z), 2.0 * crit * (1 + min(z.shape)) + 1.0)
@@ -199,12 +213,12 @@ def sequential(
     ([False, False, False, False, False, False, False], 2)
     """
     alpha = float(as_probability("alpha", alpha))
-    pa, pv = _tracks("passive", [passive])
-    aa, _ = _tracks("active", [active])
-    mean_p = _means(pa, pv)[0]
-    s = float(bearing_sigma("sigma", sigma, pa[0]))
-    m = np.arange(1, aa.shape[1] + 1)
-    mean_a = np.arctan2(np.cumsum(np.sin(aa[0])), np.cumsum(np.cos(aa[0])))
+    pa, pt, pn = _tracks("passive", [passive])
+    aa, _, _ = _tracks("active", [active])
+    mean_p = _means(pa, pt, pn)[0]
+    s = float(bearing_sigma("sigma", sigma, pa))
+    m = np.arange(1, aa.size + 1)
+    mean_a = np.arctan2(np.cumsum(np.sin(aa)), np.cumsum(np.cos(aa)))
     z = (wrap_finite(mean_a - mean_p) * np.sqrt(m) / s)[1:]
     ident = np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)
     change = np.flatnonzero(ident != ident[-1])

@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike
 from plotgate.core.errors import ParameterError
 from plotgate.core.validation import as_array
 
-__all__ = ["NoiseEstimate", "range_sum_noise", "smooth_positions"]
+__all__ = ["SMOOTHING_CELLS", "NoiseEstimate", "range_sum_noise", "smooth_positions"]
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,13 @@ class NoiseEstimate:
     smoothed: np.ndarray
     residuals: np.ndarray
     dof: int
+
+
+SMOOTHING_CELLS = 2**20
+"""Most window x (degree + 1) Vandermonde entries :func:`smooth_positions` builds at once
+(8 MB, about 40 MB with the pseudo-inverse's work arrays): the samples are smoothed in
+blocks, so memory stays bounded at any window (one window of a whole 10,000-sample series
+at degree 10 would otherwise take 8 GB at once)."""
 
 
 def _as_degree(degree: object) -> int:
@@ -96,6 +103,22 @@ def _as_series(name: str, value: ArrayLike, n_samples: int) -> np.ndarray:
             f"must have shape (T, ...) with T = {n_samples} samples as t, got shape {x.shape}",
         )
     return x
+
+
+def _centred_fits(
+    t: np.ndarray, y: np.ndarray, samples: np.ndarray, start: np.ndarray, degree: int, window: int
+) -> np.ndarray:
+    """The polynomial of each of ``samples`` fitted to its window (the ``window`` samples
+    from its ``start``) and evaluated at the sample: (len(samples), columns)."""
+    rows = start[:, None] + np.arange(window)  # (B, window)
+    tw = t[rows]
+    half = 0.5 * (tw[:, -1] - tw[:, 0]) if window > 1 else np.ones(samples.size)
+    # local time centred on the evaluated sample: the fit there is coefficient 0
+    tau = (tw - t[samples, None]) / half[:, None]
+    V = _vandermonde(tau, degree)  # (B, window, q + 1)
+    coef = np.linalg.pinv(V) @ y[rows]  # (B, q + 1, columns)
+    fitted: np.ndarray = coef[:, 0, :]
+    return fitted
 
 
 def _vandermonde(tau: np.ndarray, degree: int) -> np.ndarray:
@@ -251,14 +274,10 @@ def smooth_positions(t: ArrayLike, x: ArrayLike, window: int, degree: int = 2) -
     y = x.reshape(t.size, -1)
     n = t.size
     start = np.clip(np.arange(n) - window // 2, 0, n - window)
-    rows = start[:, None] + np.arange(window)  # (T, window)
-    tw = t[rows]
-    half = 0.5 * (tw[:, -1] - tw[:, 0])
-    if window == 1:
-        half = np.ones(n)
-    # local time centred on the evaluated sample: the fit there is coefficient 0
-    tau = (tw - t[:, None]) / half[:, None]
-    V = _vandermonde(tau, degree)  # (T, window, q + 1)
-    coef = np.linalg.pinv(V) @ y[rows]  # (T, q + 1, columns)
-    smoothed: np.ndarray = coef[:, 0, :].reshape(x.shape)
+    block = max(1, SMOOTHING_CELLS // (window * (degree + 1)))
+    fits = [
+        _centred_fits(t, y, np.arange(i, min(i + block, n)), start[i : i + block], degree, window)
+        for i in range(0, n, block)
+    ]
+    smoothed: np.ndarray = np.concatenate(fits).reshape(x.shape)
     return smoothed

@@ -18,7 +18,7 @@ from plotgate.service.schemas.crlb import (
     CrlbResult,
     SingleShotBound,
 )
-from plotgate.service.schemas.endpoints import ENDPOINTS, Endpoint
+from plotgate.service.schemas.endpoints import ENDPOINTS, MEMORY_BUDGET_MIB, Endpoint, work_caps
 from plotgate.service.schemas.gates import (
     CombinedGate,
     CombinedRegion,
@@ -56,6 +56,7 @@ from plotgate.service.schemas.identification import (
 )
 from plotgate.service.schemas.initiation import (
     MAX_EVALUATION_PLOTS,
+    MAX_GATE_CLUTTER,
     MAX_SCANS,
     EvaluateRequest,
     EvaluateResult,
@@ -135,6 +136,7 @@ __all__ = [
     "MAX_CURVE_POINTS",
     "MAX_DISTANCE",
     "MAX_EVALUATION_PLOTS",
+    "MAX_GATE_CLUTTER",
     "MAX_MEASUREMENTS",
     "MAX_PICTURE_SAMPLES",
     "MAX_PLOTS",
@@ -151,6 +153,7 @@ __all__ = [
     "MAX_STUDY_TRACK_WORK",
     "MAX_TRACK_SAMPLES",
     "MAX_UNCONDITIONAL_POINTS",
+    "MEMORY_BUDGET_MIB",
     "MIN_RANGE",
     "AccumulatedBound",
     "AreaApproximation",
@@ -241,4 +244,5 @@ __all__ = [
     "Velocity",
     "request_schema",
     "response_schema",
+    "work_caps",
 ]

@@ -6,7 +6,7 @@ Clients read this table to call the service without importing it; the registry
 
 import copy
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,7 +47,12 @@ from plotgate.service.schemas.probability import (
 from plotgate.service.schemas.study import StudyRequest, StudyResult
 from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
-__all__ = ["ENDPOINTS", "Endpoint"]
+__all__ = ["ENDPOINTS", "MEMORY_BUDGET_MIB", "Endpoint", "work_caps"]
+
+MEMORY_BUDGET_MIB = 1024
+"""The peak RSS, MiB, a server process stays under while it answers the largest request
+its default caps accept (:attr:`Endpoint.caps`; ``bench/bench_worst_requests.py``
+measures each operation's worst request in a fresh process)."""
 
 
 @dataclass(frozen=True)
@@ -72,7 +77,19 @@ class Endpoint:
     slow: bool = False
     work: dict[str, Callable[[Any], int]] = field(default_factory=dict)
     """The sizes a server may limit below the schema's own bounds (``PLOTGATE_LIMITS``):
-    name (the request field it counts) -> its value for a validated request."""
+    name (the request field it counts; ``a x b`` for a product of two) -> its value for a
+    validated request."""
+    caps: dict[str, int] = field(default_factory=dict)
+    """Default caps on some of the ``work`` sizes: those whose memory or time grows faster
+    than the body (a matrix of passive x active tracks, runs x samples, a smoothing window
+    fitted at every sample), each set so that the largest request they accept keeps the
+    process under :data:`MEMORY_BUDGET_MIB` (measured by ``bench/bench_worst_requests.py``).
+    An operator's ``PLOTGATE_LIMITS`` lowers or raises any of them (:func:`work_caps`)."""
+
+    def __post_init__(self) -> None:
+        unknown = set(self.caps) - set(self.work)
+        if unknown:
+            raise ValueError(f"{self.name}: default caps on sizes it lacks: {sorted(unknown)}")
 
     @property
     def tag(self) -> str:
@@ -83,6 +100,12 @@ class Endpoint:
         """A small valid request body (:data:`plotgate.service.schemas.examples.EXAMPLES`), a
         copy."""
         return copy.deepcopy(EXAMPLES[self.name])
+
+
+def _study_range_sums(request: StudyRequest) -> int:
+    """The range sums a study simulates, each held with its solves (about 470 bytes each:
+    2.4 million took 1.37 GB of RSS)."""
+    return request.runs * len(request.sample_times) * len(request.receivers)
 
 
 ENDPOINTS: dict[str, Endpoint] = {
@@ -179,7 +202,13 @@ ENDPOINTS: dict[str, Endpoint] = {
             NoiseRequest,
             NoiseResult,
             slow=True,
-            work={"sample_times": lambda r: len(r.sample_times)},
+            work={
+                "sample_times": lambda r: len(r.sample_times),
+                "sample_times x window": lambda r: len(r.sample_times) * (r.window or 0),
+            },
+            # one pseudo-inverse per sample over its window: time, not memory (core fits in
+            # blocks); 1000 samples x a window of 1000 at degree 10 took 23 s on 2 loaded cores
+            caps={"sample_times x window": 1_000_000},
         ),
         Endpoint(
             "solves.study",
@@ -189,7 +218,12 @@ ENDPOINTS: dict[str, Endpoint] = {
             StudyRequest,
             StudyResult,
             slow=True,
-            work={"runs": lambda r: r.runs, "sample_times": lambda r: len(r.sample_times)},
+            work={
+                "runs": lambda r: r.runs,
+                "sample_times": lambda r: len(r.sample_times),
+                "runs x sample_times x receivers": _study_range_sums,
+            },
+            caps={"runs x sample_times x receivers": 1_200_000},
         ),
         Endpoint(
             "initiation.initiate",
@@ -250,7 +284,11 @@ ENDPOINTS: dict[str, Endpoint] = {
             work={
                 "passive_deg": lambda r: len(r.passive_deg),
                 "active_deg": lambda r: len(r.active_deg),
+                "passive_deg x active_deg": lambda r: len(r.passive_deg) * len(r.active_deg),
             },
+            # Z, p-values and passes: about 195 bytes a cell in the answer (4,000,000 cells
+            # took 1023 MiB of RSS); 2,500,000 take about 720 MiB
+            caps={"passive_deg x active_deg": 2_500_000},
         ),
         Endpoint(
             "identification.simulate",
@@ -259,7 +297,24 @@ ENDPOINTS: dict[str, Endpoint] = {
             IdentifySimulateRequest,
             IdentifySimulateResult,
             slow=True,
-            work={"runs": lambda r: r.runs},
+            work={"runs": lambda r: r.runs, "runs x (n + m)": lambda r: r.runs * (r.n + r.m)},
+            # the (runs, n) and (runs, m) draws and their temporaries: 50,000,000 bearings
+            # took 991 MiB of RSS, 25,000,000 take 627 MiB
+            caps={"runs x (n + m)": 25_000_000},
         ),
     )
 }
+
+
+def work_caps(operator: Mapping[str, Mapping[str, int]]) -> dict[str, dict[str, int]]:
+    """The caps a server applies: every operation's defaults (:attr:`Endpoint.caps`) with
+    the operator's (``PLOTGATE_LIMITS``) laid over them, size by size.
+
+    An operator's cap wins whether it is lower or higher than the default: raising one
+    trades the memory budget for larger requests, knowingly. Entries naming no operation
+    are kept as they are, for :func:`plotgate.service.registry.check_limits` to refuse.
+    """
+    caps = {name: dict(e.caps) for name, e in ENDPOINTS.items() if e.caps}
+    for name, sizes in operator.items():
+        caps[name] = {**caps.get(name, {}), **sizes}
+    return caps

@@ -119,3 +119,39 @@ def test_call_on_a_server_announcing_an_answer_over_the_cap(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()  # with the test server's own complaint
     said = [line for line in err if line.startswith("plotgate call: ")]
     assert len(said) == 1 and "200 from" in said[0] and "max_response_bytes" in said[0]
+
+
+PICTURE = {"passive_deg": [[10.0, 10.2], [45.0, 45.1]], "active_deg": [[10.1, 10.0]]}
+
+
+def test_call_in_process_applies_the_servers_caps_and_no_limits_lifts_them(
+    tmp_path, monkeypatch, capsys
+):
+    """In-process, call answers what the server would: the work caps in force (the defaults
+    with PLOTGATE_LIMITS over them) refuse before any work; --no-limits runs the request."""
+    monkeypatch.setenv(
+        "PLOTGATE_LIMITS", '{"identification.picture": {"passive_deg x active_deg": 1}}'
+    )
+    path = tmp_path / "picture.json"
+    path.write_text(json.dumps(PICTURE))
+    assert main(["call", "identification.picture", str(path)]) == 1
+    problem = json.loads(capsys.readouterr().out)
+    assert [e["field"] for e in problem["errors"]] == ["passive_deg x active_deg"]
+    assert main(["call", "identification.picture", str(path), "--no-limits"]) == 0
+    assert len(json.loads(capsys.readouterr().out)["z"]) == 2
+
+
+def test_call_refuses_no_limits_with_a_server(tmp_path, capsys):
+    path = tmp_path / "picture.json"
+    path.write_text(json.dumps(PICTURE))
+    args = ["call", "identification.picture", str(path), "--server", "http://127.0.0.1:9"]
+    assert main([*args, "--no-limits"]) == 2
+    assert "--no-limits is for in-process runs" in capsys.readouterr().err
+
+
+def test_call_refuses_limits_the_server_would_not_start_with(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("PLOTGATE_LIMITS", '{"identification.picture": {"plots": 1}}')
+    path = tmp_path / "picture.json"
+    path.write_text(json.dumps(PICTURE))
+    assert main(["call", "identification.picture", str(path)]) == 2
+    assert "PLOTGATE_LIMITS: identification.picture has no size 'plots'" in capsys.readouterr().err

@@ -18,6 +18,7 @@ from plotgate.clients.recordings import read_recording
 from plotgate.clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
 from plotgate.service import registry
 from plotgate.service.app import create_app
+from plotgate.service.config import Settings
 from plotgate.service.recorder import request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import request_schema, response_schema
@@ -418,3 +419,17 @@ def test_a_full_disk_under_replay_out_is_a_message_and_exit_2(
     monkeypatch.undo()
     [kept] = read_recording(out).exchanges  # the exchange flushed before is not truncated
     assert kept.replay_of == "r0"
+
+
+def test_a_recorded_cap_refusal_is_refused_again_and_compared(settings, monkeypatch):
+    """A server's 422 for a work size over its cap is compared in process under the same
+    caps (it used to be set aside as over the caps, never compared); an answer recorded
+    under higher caps is still set aside."""
+    monkeypatch.setenv("PLOTGATE_LIMITS", json.dumps({OP: {"candidates": 1}}))
+    capped = settings.model_copy(update={"limits": Settings().limits})
+    folder = _session(capped, [GOOD_BODY])
+    report = replay(folder, progress=False, limits=Settings().limits)
+    assert (report.compared, report.unchanged, report.not_compared) == (1, 1, {})
+    higher = settings.model_copy(update={"log_dir": settings.log_dir.parent / "higher"})
+    report = replay(_session(higher, [GOOD_BODY]), progress=False, limits=Settings().limits)
+    assert (report.compared, report.not_compared) == (0, {OVER_CAPS: 1})

@@ -177,3 +177,24 @@ def test_bad_pictures_are_named():
     with pytest.raises(ParameterError) as info:
         identify_picture([[0.1, 0.2], [0.0, 1e-300]], [[0.1, 0.2]])
     assert info.value.field == "sigma" and info.value.index == 1
+
+
+def test_a_ragged_picture_takes_memory_linear_in_its_samples():
+    """One long track among many short ones is not padded to a (tracks, longest) matrix
+    (issue 24: 9,000 tracks with one of 100,000 samples would have taken 7 GB)."""
+    import tracemalloc
+
+    rng = np.random.default_rng(24)
+    passive = [rng.normal(0.0, 0.01, 2) for _ in range(499)] + [rng.normal(0.0, 0.01, 20_000)]
+    active = [rng.normal(0.0, 0.01, 3) for _ in range(3)]
+    tracemalloc.start()
+    try:
+        pic = identify_picture(passive, active)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 10 * 2**20  # padded: 500 x 20,000 x 8 bytes = 80 MB, twice
+    padded = np.full((500, 20_000), np.nan)
+    for i, track in enumerate(passive):
+        padded[i, : track.size] = track
+    np.testing.assert_allclose(pic.z, identify_picture(padded, active).z, rtol=1e-12)

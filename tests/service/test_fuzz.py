@@ -94,9 +94,11 @@ def test_operation(case):
         if response.status_code in (413, 422):  # a body problem names its field or limit
             assert problem["errors"] and all(e["field"] for e in problem["errors"]), problem
         if response.status_code == 422:  # fields of the request, never of the answer:
-            # the model's, a key the body sent (an unknown one), or the body itself
+            # the model's, a key the body sent (an unknown one), the body itself, or a
+            # declared work size over its cap (``passive_deg x active_deg``)
             sent = case.body if isinstance(case.body, dict) else {}
-            fields = {*OPERATIONS[OPERATION_OF[case.path]].request.model_fields, *sent, "body"}
+            op = OPERATIONS[OPERATION_OF[case.path]]
+            fields = {*op.request.model_fields, *op.endpoint.work, *sent, "body"}
             tops = {e["field"].replace("[", ".").split(".")[0] for e in problem["errors"]}
             assert tops <= fields, problem
 

@@ -1,11 +1,14 @@
 """The guards in front of the routes: the body-size limit (413) and authentication (401)."""
 
+import re
+
 import pytest
 from fastapi.testclient import TestClient
 
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.registry import OPERATIONS
+from plotgate.service.schemas import work_caps
 
 KEY, TOKEN = "k3y-0f-the-day", "t0ken-0f-the-day"
 
@@ -152,14 +155,19 @@ def test_operators_cap_work_per_operation(tmp_path):
 
 
 def test_work_sizes_are_request_fields():
+    """A size names the field it counts, or the fields of a product (``runs x (n + m)``)."""
     for op in OPERATIONS.values():
         for size in op.endpoint.work:
-            assert size.split(".")[0] in op.request.model_fields, (op.name, size)
+            for factor in re.findall(r"[A-Za-z_][\w.]*", size.replace(" x ", " ")):
+                assert factor.split(".")[0] in op.request.model_fields, (op.name, size)
 
 
 def test_limits_come_from_the_environment(monkeypatch, tmp_path):
     monkeypatch.setenv("PLOTGATE_LIMITS", '{"solves.position": {"problems": 5}}')
-    assert Settings(log_dir=tmp_path).limits == {"solves.position": {"problems": 5}}
+    assert Settings(log_dir=tmp_path).limits == {
+        **work_caps({}),
+        "solves.position": {"problems": 5},
+    }
 
 
 NOT_PUBLIC = [

@@ -5,7 +5,12 @@ import pytest
 
 from plotgate.core.errors import NonFiniteError, ParameterError
 from plotgate.core.multistatic.model import platform_positions, range_sums
-from plotgate.core.multistatic.noise import NoiseEstimate, range_sum_noise, smooth_positions
+from plotgate.core.multistatic.noise import (
+    SMOOTHING_CELLS,
+    NoiseEstimate,
+    range_sum_noise,
+    smooth_positions,
+)
 
 
 def test_noise_of_quadratic_plus_noise_series_is_recovered():
@@ -140,3 +145,31 @@ def test_smooth_positions_refuses_bad_input(kwargs, error, field):
     with pytest.raises(error) as info:
         smooth_positions(**args)
     assert info.value.field == field
+
+
+def test_smoothing_a_long_window_builds_its_fits_in_bounded_blocks():
+    """A window of the whole series is smoothed in blocks of SMOOTHING_CELLS (issue 24: a
+    10,000-sample window at degree 10 would have built 8 GB at once)."""
+    import tracemalloc
+
+    rng = np.random.default_rng(24)
+    t = np.arange(600.0)
+    x = np.column_stack([3.0 * t, -2.0 * t]) + rng.normal(0.0, 5.0, (600, 2))
+    tracemalloc.start()
+    try:
+        smooth_positions(t, x, window=600, degree=10)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 8 * SMOOTHING_CELLS * 8  # at once: 600 x 600 x 11 x 8 = 32 MB, x 4
+
+
+def test_smoothing_in_blocks_gives_the_numbers_of_one_block(monkeypatch):
+    from plotgate.core.multistatic import noise
+
+    rng = np.random.default_rng(25)
+    t = np.cumsum(rng.uniform(0.5, 1.5, 300))
+    x = np.column_stack([3.0 * t, -2.0 * t]) + rng.normal(0.0, 5.0, (300, 2))
+    whole = smooth_positions(t, x, window=41, degree=3)  # one block: 300 x 41 x 4 cells
+    monkeypatch.setattr(noise, "SMOOTHING_CELLS", 41 * 4 * 7)  # blocks of 7 samples
+    np.testing.assert_array_equal(smooth_positions(t, x, window=41, degree=3), whole)
