@@ -33,7 +33,8 @@ positive definite):
   :data:`~plotgate.core.initiation.filter.SPEED_SIGMAS` of the track's own velocity sigma
   (initiation drops a faster track); covariances no tighter than the track's plots can
   measure; range and cross-range sigmas within a plot's (:class:`PlotBounds`, the
-  caller's limits); initiators within the capture window; confirmation no sooner than
+  caller's limits); an initiator's range, azimuth and sigmas those of its z, R and
+  sensor; initiators within the capture window; confirmation no sooner than
   confirm_k plots (under k/m within the first confirm_m scans), a tentative track one
   that neither confirms nor drops; no track twice and none sharing two plots with a
   confirmed one; one time a scan, the last the state's, later scans not earlier.
@@ -57,6 +58,7 @@ from typing import Any
 import numpy as np
 
 from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
+from plotgate.core.frames import wrap_angle
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.filter import SPEED_SIGMAS, speed_excess
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
@@ -502,6 +504,41 @@ def _check_sigmas(state: InitiationState, bounds: PlotBounds) -> None:
     _within("state.tracks.sigma_az", tr.ranges[:, -1] * tr.sigma_az, low, high, "cross-range")
 
 
+def _check_polar_copies(state: InitiationState) -> None:
+    """An initiator's range, azimuth and sigmas are its z, R and sensor seen from the
+    sensor (a scan derives each form from the other once), so a copy changed alone
+    disagrees. Tolerances: 1e-9 of the distances involved for the range and for the
+    azimuth's cross-range, 1e-9 of trace R for the variances (one conversion rounds at
+    about 1e-16 of them)."""
+    ini, f = state.initiators, "state.initiators"
+    rel = ini.z - ini.sensor
+    r, az = np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 0], rel[:, 1])
+    near = 1e-9 * (np.abs(ini.z).sum(axis=1) + np.abs(ini.sensor).sum(axis=1) + ini.r)
+    _require(
+        f"{f}.r",
+        np.abs(ini.r - r) <= near,
+        lambda i: f"is {ini.r[i]} m, but its z is {r[i]} m from its sensor",
+    )
+    _require(
+        f"{f}.az",
+        np.abs(wrap_angle(ini.az - az)) * ini.r <= near,
+        lambda i: f"is {ini.az[i]} rad, but its z is at {az[i]} rad from its sensor",
+    )
+    radial = np.column_stack([np.sin(ini.az), np.cos(ini.az)])
+    across = np.column_stack([radial[:, 1], -radial[:, 0]])
+    tolerance = 1e-9 * np.trace(ini.R, axis1=1, axis2=2)
+    for name, sigma, axis in (
+        ("sigma_r", ini.sigma_r, radial),
+        ("sigma_az", ini.r * ini.sigma_az, across),
+    ):
+        variance = np.einsum("ni,nij,nj->n", axis, ini.R, axis)
+
+        def disagrees(i: int, s: np.ndarray = sigma, v: np.ndarray = variance) -> str:
+            return f"makes a sigma of {s[i]} m where its R gives {np.sqrt(v[i])} m"
+
+        _require(f"{f}.{name}", np.abs(sigma**2 - variance) <= tolerance, disagrees)
+
+
 def _check_information(state: InitiationState, config: InitiationConfig, b: PlotBounds) -> None:
     """No track knows more than its plots tell. Its covariance is at least the inverse of
     the information of its n plots and the velocity prior (score confirmation), whatever
@@ -716,6 +753,7 @@ def _check_against(state: InitiationState, config: InitiationConfig, bounds: Plo
     plots: the digest is a fingerprint anyone can recompute, not a signature, so a state
     of other settings under a forged one is known by its contents."""
     _check_sigmas(state, bounds)
+    _check_polar_copies(state)
     _check_information(state, config, bounds)
     _check_speeds(state, config)
     _check_windows(state, config)

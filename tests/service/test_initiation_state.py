@@ -369,6 +369,31 @@ TAMPERED = [
     ),
     ("plot index past its scan", _index_past_its_scan, "state.initiators.plot[3]"),
     (
+        "initiator moved off its range and azimuth",
+        _set("initiators", "z", INI, lambda z: [z[0] + 100.0, z[1]]),
+        "state.initiators.r[3]",
+    ),
+    (
+        "initiator sensor moved",
+        _set("initiators", "sensor", INI, [0.0, 50.0]),
+        "state.initiators.r[3]",
+    ),
+    (
+        "initiator azimuth turned",
+        _set("initiators", "az", INI, lambda az: az + 0.01),
+        "state.initiators.az[3]",
+    ),
+    (
+        "initiator sigma_r off its R",
+        _set("initiators", "sigma_r", INI, lambda v: 2.0 * v),
+        "state.initiators.sigma_r[3]",
+    ),
+    (
+        "initiator R widened",
+        _set("initiators", "R", INI, lambda R: [[4.0 * v for v in row] for row in R]),
+        "state.initiators.sigma_r[3]",
+    ),
+    (
         "initiator time off its scan's",
         _set("initiators", "t", INI, lambda v: v - 0.5),
         "state.initiators.t[3]",
