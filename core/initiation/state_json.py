@@ -608,12 +608,16 @@ def _check_confirmation(state: InitiationState, config: InitiationConfig) -> Non
             f"{config.confirm_m} scans of a track (its first is {tr.first_scan[i]})"
         ),
     )
+    age = state.scans - tr.first_scan  # scans from its first to the last, both counted
     _require(
         f"{f}.n",
-        tr.confirmed | (tr.n < k),
-        lambda i: f"is {tr.n[i]} for a tentative track; with confirm_k = {k} it is confirmed",
+        tr.confirmed | (tr.n < k) | (age > config.confirm_m),
+        lambda i: (
+            f"is {tr.n[i]} for a tentative track {age[i]} scans old; with confirm_k = {k} "
+            f"within confirm_m = {config.confirm_m} scans it is confirmed"
+        ),
     )
-    reach = tr.n + config.confirm_m - (state.scans - tr.first_scan)
+    reach = tr.n + config.confirm_m - age
     _require(
         f"{f}.first_scan",
         tr.confirmed | (reach >= k),

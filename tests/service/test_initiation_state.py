@@ -650,6 +650,7 @@ def test_schema_bounds_match_core():
             history=6,
             drop_misses=3,
         ),
+        InitiationConfig(v_max=30.0, capture_scans=3, confirm_k=1, confirm_m=1, history=2),
         InitiationConfig(v_max=30.0, confirmation="score", surveillance_area=15000.0**2),
         InitiationConfig(
             mode="polar",
@@ -666,6 +667,7 @@ def test_schema_bounds_match_core():
         "expanded-alpha-beta-nearest",
         "long-history",
         "polar-2-over-T",
+        "1-of-1",
         "score",
         "polar-score-short-history",
     ],
