@@ -24,7 +24,8 @@ positive definite):
   ``confirmed_scan`` set exactly when confirmed; every track at the state's time;
 - domains: ranges at least :data:`~plotgate.core.initiation.scan.MIN_SENSOR_RANGE`, azimuths in
   [-pi, pi], sigmas and costs positive, plot covariances symmetric positive definite
-  with core's condition bound, track covariances symmetric positive definite; scores
+  with core's condition bound, track covariances symmetric positive semi-definite to
+  rounding (:data:`ROUNDING`) with positive variances; scores
   finite, 0 under k/m confirmation, an initiator's that of a single plot under score
   confirmation;
 - against the settings and the plots (:func:`_check_against`; the digest is a plain
@@ -77,7 +78,7 @@ from plotgate.core.initiation.state import (
 )
 from plotgate.core.validation import as_covariance, first_index
 
-__all__ = ["MAX_PLOT_ID", "PlotBounds", "check_state", "state_from_json"]
+__all__ = ["MAX_PLOT_ID", "ROUNDING", "PlotBounds", "check_state", "state_from_json"]
 
 MAX_PLOT_ID = MAX_SESSION_SCANS * PLOT_STRIDE
 """Plot ids are below this (2^52)."""
@@ -108,6 +109,9 @@ class PlotBounds:
     max_time: float = math.inf
 
 
+ROUNDING = 1e-12
+"""How far below zero, relative to its trace, a track covariance's smallest computed
+eigenvalue may lie (rounding of an exactly singular one is about 1e-16)."""
 _KEYS = ("version", "config_digest", "scans", "t", "next_track", "initiators", "tracks")
 _KINDS: dict[type, str] = {
     np.int64: "i",
@@ -335,10 +339,15 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
         lambda i: f"is not symmetric: {tr.P[i].tolist()}",
         CovarianceError,
     )
+    # positive semi-definite to rounding, with positive variances: initiation's own
+    # covariances can be singular in exact arithmetic (a two-point start from a plot of
+    # 1e-3 m^2 and one of 1e11 m^2), and eigvalsh then rounds their smallest eigenvalue
+    # to about -1e-16 of the trace; a tampered one is off by far more
     low = np.linalg.eigvalsh(tr.P).min(axis=1, initial=np.inf)
+    variances = np.diagonal(tr.P, axis1=1, axis2=2)
     _require(
         f"{f}.P",
-        low > 0,
+        (low >= -ROUNDING * scale) & (variances > 0).all(axis=1),
         lambda i: (
             f"is not positive definite (smallest eigenvalue {low[i]:.3g}): {tr.P[i].tolist()}"
         ),

@@ -771,3 +771,30 @@ def test_a_state_of_other_settings_under_a_forged_digest_is_refused(client, sess
     forged = {**state, "config_digest": digest}
     row = _confirmed_row(state)
     invalid_input(_post(client, forged, scans, stricter), f"state.tracks.confirmed_scan[{row}]")
+
+
+def test_a_two_point_start_from_a_thin_plot_is_taken_back(client):
+    """A wide plot, then a thin one (both within the wire's limits) start a track whose
+    covariance is singular in exact arithmetic; eigvalsh rounds its smallest eigenvalue to
+    -6e-12, and the landed check refused the state the service had just answered."""
+    wide = cartesian(0.0, 10000.0, 1e6, 1e6)
+    thin = cartesian(
+        1.0, 10001.0, 0.006935750499211673, 0.0030642495008522046, -0.00461008351384289
+    )
+    config = {"v_max": 30.0}
+    first = answer(
+        client.post(
+            "/v1/initiation/initiate",
+            json={
+                "config": config,
+                "scans": [{"t": 0.0, "plots": [wide]}, {"t": 1.0, "plots": [thin]}],
+            },
+        )
+    )
+    assert len(first["tracks"]) == 1
+    answer(
+        client.post(
+            "/v1/initiation/initiate",
+            json={"config": config, "state": first["state"], "scans": [{"t": 2.0, "plots": []}]},
+        )
+    )
