@@ -622,6 +622,7 @@ def test_schema_bounds_match_core():
     assert wire.MAX_SESSION_SCANS == core_state.MAX_SESSION_SCANS
     assert wire.MAX_TRACK_ID == core_state.MAX_TRACK_ID
     assert wire.MAX_PLOT_ID == core_state.MAX_SESSION_SCANS * PLOT_STRIDE
+    assert wire.PLOT_STRIDE == PLOT_STRIDE
 
 
 @pytest.mark.parametrize(
