@@ -33,7 +33,10 @@ Each scan, in this order:
    tentative tracks sharing two or more plots with a confirmed track are pruned.
 6. Dropped: l misses in a row; a tentative track whose k is no longer reachable within
    m scans, or under score confirmation whose score is at or below Wald's
-   ln(beta / (1 - alpha)).
+   ln(beta / (1 - alpha)); any track whose speed exceeds v_max by more than
+   :data:`~plotgate.core.initiation.filter.SPEED_SIGMAS` of its velocity sigma (before
+   it may confirm; a clutter track the filter has run away with, or a target faster
+   than the settings describe).
 7. Plots of the scan used by no track and captured by no initiator become initiators;
    initiators past their window expire.
 
@@ -55,10 +58,12 @@ from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.assignment import one_to_one
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.filter import (
+    SPEED_SIGMAS,
     alpha_beta_gain,
     kalman_gain,
     one_point,
     predict,
+    speed_excess,
     two_point,
     update,
 )
@@ -86,10 +91,10 @@ from plotgate.core.sym2 import sym2
 
 __all__ = ["DROP_REASONS", "ScanReport", "initiate"]
 
-DROP_REASONS = ("misses", "window", "acceleration", "pruned", "score")
+DROP_REASONS = ("misses", "window", "acceleration", "speed", "pruned", "score")
 """Why a track was dropped: l misses in a row; k unreachable within m; the polar
-acceleration check; sharing two or more plots with a confirmed track; a tentative track's
-score at or below Wald's deletion threshold."""
+acceleration check; a speed beyond v_max (filter.speed_excess); sharing two or more plots
+with a confirmed track; a tentative track's score at or below Wald's deletion threshold."""
 
 
 @dataclass(frozen=True)
@@ -299,6 +304,12 @@ def _step(
         dropped.append(jerky)
         reasons.append("acceleration")
         ready &= ~jerky
+    # faster than v_max allows, confirmed or not: neither confirms nor prunes, and no
+    # state carries it (a state with one is refused as tampered)
+    fast = speed_excess(tracks.x, tracks.P, config.v_max) > SPEED_SIGMAS
+    dropped.append(fast)
+    reasons.append("speed")
+    ready &= ~fast
     order = np.flatnonzero(ready)
     if config.confirmation == "score":  # the likelier track first
         rank = -tracks.score[order]
@@ -312,7 +323,7 @@ def _step(
     newly[order[keep]] = True
     tentative = np.flatnonzero(~confirmed)
     pruned = np.zeros(tracks.size, dtype=bool)
-    pruned[tentative] = shares_two(tracks.plots[tentative], tracks.plots[confirmed])
+    pruned[tentative] = shares_two(tracks.plots[tentative], tracks.plots[confirmed & ~fast])
     dropped.append(pruned)
     reasons.append("pruned")
     tracks = replace(

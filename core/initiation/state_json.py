@@ -24,9 +24,26 @@ positive definite):
   ``confirmed_scan`` set exactly when confirmed; every track at the state's time;
 - domains: ranges at least :data:`~plotgate.core.initiation.scan.MIN_SENSOR_RANGE`, azimuths in
   [-pi, pi], sigmas and costs positive, plot covariances symmetric positive definite
-  with core's condition bound, track covariances symmetric positive definite; scores
+  with core's condition bound, track covariances symmetric positive semi-definite to
+  rounding (:data:`ROUNDING`) with positive variances; scores
   finite, 0 under k/m confirmation, an initiator's that of a single plot under score
-  confirmation.
+  confirmation;
+- against the settings and the plots (:func:`_check_against`; the digest is a plain
+  fingerprint anyone can recompute, so a state of other settings under a forged one is
+  known by these): speeds within v_max but for
+  :data:`~plotgate.core.initiation.filter.SPEED_SIGMAS` of the track's own velocity sigma
+  (initiation drops a faster track); covariances no tighter than the track's plots can
+  measure; range and cross-range sigmas within a plot's (:class:`PlotBounds`, the
+  caller's limits); an initiator's range, azimuth and sigmas those of its z, R and
+  sensor; initiators within the capture window; confirmation no sooner than
+  confirm_k plots (under k/m within the first confirm_m scans), a tentative track one
+  that neither confirms nor drops; no track twice and none sharing two plots with a
+  confirmed one; one time a scan, the last the state's, later scans not earlier.
+
+Not checked, because a state does not carry what it would take: whether a plot index is
+below its scan's real plot count (the wire refuses an index no scan reaches, a request's
+MAX_PLOTS or more); whether a state of other settings that is consistent with these was
+made under them (such a state is one these settings could have made).
 
 Each refusal names the state's own field, ``state.<name>`` or ``state.<part>.<name>``,
 with the row as ``index`` (``state.tracks.misses``, index 3: ``state.tracks.misses[3]``).
@@ -34,16 +51,20 @@ with the row as ``index`` (``state.tracks.misses``, index 3: ``state.tracks.miss
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 
 from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
+from plotgate.core.frames import wrap_angle
 from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.filter import SPEED_SIGMAS, speed_excess
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
-from plotgate.core.initiation.score import first_plot_score, log_clutter_density
+from plotgate.core.initiation.score import first_plot_score, log_clutter_density, wald_thresholds
+from plotgate.core.initiation.sharing import keep_greedy, shares_two
 from plotgate.core.initiation.state import (
     MAX_SESSION_SCANS,
     MAX_TRACK_ID,
@@ -57,10 +78,40 @@ from plotgate.core.initiation.state import (
 )
 from plotgate.core.validation import as_covariance, first_index
 
-__all__ = ["MAX_PLOT_ID", "check_state", "state_from_json"]
+__all__ = ["MAX_PLOT_ID", "ROUNDING", "PlotBounds", "check_state", "state_from_json"]
 
 MAX_PLOT_ID = MAX_SESSION_SCANS * PLOT_STRIDE
 """Plot ids are below this (2^52)."""
+
+
+@dataclass(frozen=True)
+class PlotBounds:
+    """What the caller's plots can be, and so what a state's copies of them and the tracks
+    made of them can be.
+
+    Core takes any plot with a positive definite covariance (the defaults bound nothing
+    further); the service passes its wire limits, from which a state's bounds follow:
+
+    Attributes
+    ----------
+    min_variance : float
+        Smallest eigenvalue of any plot's covariance, m^2. A range sigma and a cross-range
+        sigma (range x azimuth sigma) are at least its root, and a track's covariance is
+        no tighter than all its plots' information allows (:func:`check_state`).
+    max_sigma : float
+        Largest range or cross-range sigma of any plot, m.
+    max_time : float
+        Largest |t| of a scan, s.
+    """
+
+    min_variance: float = 0.0
+    max_sigma: float = math.inf
+    max_time: float = math.inf
+
+
+ROUNDING = 1e-12
+"""How far below zero, relative to its trace, a track covariance's smallest computed
+eigenvalue may lie (rounding of an exactly singular one is about 1e-16)."""
 _KEYS = ("version", "config_digest", "scans", "t", "next_track", "initiators", "tracks")
 _KINDS: dict[type, str] = {
     np.int64: "i",
@@ -288,10 +339,15 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
         lambda i: f"is not symmetric: {tr.P[i].tolist()}",
         CovarianceError,
     )
+    # positive semi-definite to rounding, with positive variances: initiation's own
+    # covariances can be singular in exact arithmetic (a two-point start from a plot of
+    # 1e-3 m^2 and one of 1e11 m^2), and eigvalsh then rounds their smallest eigenvalue
+    # to about -1e-16 of the trace; a tampered one is off by far more
     low = np.linalg.eigvalsh(tr.P).min(axis=1, initial=np.inf)
+    variances = np.diagonal(tr.P, axis1=1, axis2=2)
     _require(
         f"{f}.P",
-        low > 0,
+        (low >= -ROUNDING * scale) & (variances > 0).all(axis=1),
         lambda i: (
             f"is not positive definite (smallest eigenvalue {low[i]:.3g}): {tr.P[i].tolist()}"
         ),
@@ -432,7 +488,296 @@ def _check_track_histories(state: InitiationState) -> None:
     )
 
 
-def check_state(state: InitiationState, config: InitiationConfig) -> None:
+def _within(field: str, values: np.ndarray, low: float, high: float, what: str) -> None:
+    """Every value (NaN, where no plot is, aside) in [low, high]; rows of a history at once."""
+    ok = (values >= low) & (values <= high) | np.isnan(values)
+    _require(
+        field,
+        ok.all(axis=1) if ok.ndim == 2 else ok,
+        lambda i: (
+            f"makes a {what} sigma of {values[i].tolist()} m; a plot's is {low:.3g} to "
+            f"{high:.3g} m"
+        ),
+    )
+
+
+def _check_sigmas(state: InitiationState, bounds: PlotBounds) -> None:
+    """A state's plots' sigmas within the plots' own: the range sigma, and the azimuth
+    sigma as the cross-range sigma it makes at the plot's range (an azimuth sigma alone
+    has no bound: a Cartesian plot 1 m from its sensor may have one of 10^9 rad)."""
+    low, high = math.sqrt(bounds.min_variance), bounds.max_sigma
+    ini, tr = state.initiators, state.tracks
+    _within("state.initiators.sigma_r", ini.sigma_r, low, high, "range")
+    _within("state.initiators.sigma_az", ini.r * ini.sigma_az, low, high, "cross-range")
+    _within("state.tracks.sigma_r", tr.sigma_r, low, high, "range")
+    _within("state.tracks.sigma_az", tr.ranges[:, -1] * tr.sigma_az, low, high, "cross-range")
+
+
+def _check_polar_copies(state: InitiationState) -> None:
+    """An initiator's range, azimuth and sigmas are its z, R and sensor seen from the
+    sensor (a scan derives each form from the other once), so a copy changed alone
+    disagrees. Tolerances: 1e-9 of the distances involved for the range and for the
+    azimuth's cross-range, 1e-9 of trace R for the variances (one conversion rounds at
+    about 1e-16 of them)."""
+    ini, f = state.initiators, "state.initiators"
+    rel = ini.z - ini.sensor
+    r, az = np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 0], rel[:, 1])
+    near = 1e-9 * (np.abs(ini.z).sum(axis=1) + np.abs(ini.sensor).sum(axis=1) + ini.r)
+    _require(
+        f"{f}.r",
+        np.abs(ini.r - r) <= near,
+        lambda i: f"is {ini.r[i]} m, but its z is {r[i]} m from its sensor",
+    )
+    _require(
+        f"{f}.az",
+        np.abs(wrap_angle(ini.az - az)) * ini.r <= near,
+        lambda i: f"is {ini.az[i]} rad, but its z is at {az[i]} rad from its sensor",
+    )
+    radial = np.column_stack([np.sin(ini.az), np.cos(ini.az)])
+    across = np.column_stack([radial[:, 1], -radial[:, 0]])
+    tolerance = 1e-9 * np.trace(ini.R, axis1=1, axis2=2)
+    for name, sigma, axis in (
+        ("sigma_r", ini.sigma_r, radial),
+        ("sigma_az", ini.r * ini.sigma_az, across),
+    ):
+        variance = np.einsum("ni,nij,nj->n", axis, ini.R, axis)
+
+        def disagrees(i: int, s: np.ndarray = sigma, v: np.ndarray = variance) -> str:
+            return f"makes a sigma of {s[i]} m where its R gives {np.sqrt(v[i])} m"
+
+        _require(f"{f}.{name}", np.abs(sigma**2 - variance) <= tolerance, disagrees)
+
+
+def _check_information(state: InitiationState, config: InitiationConfig, b: PlotBounds) -> None:
+    """No track knows more than its plots tell. Its covariance is at least the inverse of
+    the information of its n plots and the velocity prior (score confirmation), whatever
+    the filter (a Kalman filter attains the bound, the alpha-beta gains do worse):
+    J <= sum_i H_i^T R_i^-1 H_i + 4 / v_max^2, with H_i = [I, dt_i I], |dt_i| <= 2 max_time
+    and R_i >= min_variance, so each diagonal element of P is at least 1 / lambda_max(J).
+    Loose (10^-39 for three plots under the wire's limits) but it refuses a covariance no
+    measurement could give (P = 1e-300 I)."""
+    if b.min_variance <= 0.0 or not math.isfinite(b.max_time):
+        return
+    tr = state.tracks
+    with np.errstate(over="ignore", divide="ignore"):
+        prior = 4.0 / np.float64(config.v_max) ** 2
+        most = tr.n * ((1.0 + (2.0 * b.max_time) ** 2) / b.min_variance) + prior
+    floor = 1.0 / most
+    diagonal = np.diagonal(tr.P, axis1=1, axis2=2)
+    _require(
+        "state.tracks.P",
+        (diagonal >= floor[:, None]).all(axis=1),
+        lambda i: (
+            f"has variances {diagonal[i].tolist()}: tighter than {tr.n[i]} plots can "
+            f"measure (each at least {floor[i]:.3g})"
+        ),
+        CovarianceError,
+    )
+
+
+def _check_speeds(state: InitiationState, config: InitiationConfig) -> None:
+    """Speeds within v_max but for SPEED_SIGMAS of the track's own velocity sigma, as
+    initiation keeps them (it drops a faster track, reason "speed")."""
+    tr = state.tracks
+    excess = speed_excess(tr.x, tr.P, config.v_max)
+    _require(
+        "state.tracks.x",
+        excess <= SPEED_SIGMAS,
+        lambda i: (
+            f"is {tr.x[i].tolist()}: a speed {excess[i]:.3g} of its velocity sigmas above "
+            f"v_max = {config.v_max} m/s (at most {SPEED_SIGMAS:g}; initiation drops a "
+            "faster track)"
+        ),
+    )
+
+
+def _check_confirmation(state: InitiationState, config: InitiationConfig) -> None:
+    """Confirmation as the settings' rule allows it: no sooner than confirm_k plots (and,
+    under k/m, within the first confirm_m scans); a tentative track one that neither
+    confirms nor drops under these settings."""
+    tr, f, k = state.tracks, "state.tracks", config.confirm_k
+    earliest = tr.first_scan + k - 1
+    _require(
+        f"{f}.confirmed_scan",
+        ~tr.confirmed | (tr.confirmed_scan >= earliest),
+        lambda i: (
+            f"is {tr.confirmed_scan[i]}, but a track first seen in scan {tr.first_scan[i]} "
+            f"holds confirm_k = {k} plots in scan {earliest[i]} at the soonest"
+        ),
+    )
+    if config.confirmation == "score":
+        _check_tentative_scores(state, config)
+        return
+    latest = tr.first_scan + config.confirm_m - 1
+    _require(
+        f"{f}.confirmed_scan",
+        ~tr.confirmed | (tr.confirmed_scan <= latest),
+        lambda i: (
+            f"is {tr.confirmed_scan[i]}, but k/m confirms within the first confirm_m = "
+            f"{config.confirm_m} scans of a track (its first is {tr.first_scan[i]})"
+        ),
+    )
+    age = state.scans - tr.first_scan  # scans from its first to the last, both counted
+    _require(
+        f"{f}.n",
+        tr.confirmed | (tr.n < k) | (age > config.confirm_m),
+        lambda i: (
+            f"is {tr.n[i]} for a tentative track {age[i]} scans old; with confirm_k = {k} "
+            f"within confirm_m = {config.confirm_m} scans it is confirmed"
+        ),
+    )
+    reach = tr.n + config.confirm_m - age
+    _require(
+        f"{f}.first_scan",
+        tr.confirmed | (reach >= k),
+        lambda i: (
+            f"is {tr.first_scan[i]}: a tentative track of {tr.n[i]} plots that can no longer "
+            f"reach confirm_k = {k} within confirm_m = {config.confirm_m} scans is dropped"
+        ),
+    )
+
+
+def _check_tentative_scores(state: InitiationState, config: InitiationConfig) -> None:
+    tr = state.tracks
+    confirm_at, delete_at = wald_thresholds(config)
+    _require(
+        "state.tracks.score",
+        tr.confirmed | (tr.score > delete_at),
+        lambda i: f"is {tr.score[i]}; a tentative track at or below {delete_at} is dropped",
+    )
+    _require(
+        "state.tracks.score",
+        tr.confirmed | (tr.n < config.confirm_k) | (tr.score < confirm_at),
+        lambda i: (
+            f"is {tr.score[i]} with {tr.n[i]} plots; a tentative track at {confirm_at} with "
+            f"confirm_k = {config.confirm_k} plots is confirmed"
+        ),
+    )
+
+
+def _check_windows(state: InitiationState, config: InitiationConfig) -> None:
+    """Initiators within the settings' capture window (2/N or 2/T): older ones expire."""
+    ini = state.initiators
+    if config.capture_time is None:
+        _require(
+            "state.initiators.scan",
+            ini.scan > state.scans - config.capture_scans,
+            lambda i: (
+                f"is {ini.scan[i]}: past the capture window of capture_scans = "
+                f"{config.capture_scans} (scans after {state.scans - config.capture_scans})"
+            ),
+        )
+        return
+    now = state.t if state.t is not None else np.inf
+    _require(
+        "state.initiators.t",
+        now - ini.t < config.capture_time,
+        lambda i: (
+            f"is {ini.t[i]} s: past the capture window of capture_time = "
+            f"{config.capture_time} s before the state's time {state.t} s"
+        ),
+    )
+
+
+def _check_sharing(state: InitiationState, config: InitiationConfig) -> None:
+    """The plot-reuse rules hold: no track twice (two rows holding the same whole history),
+    no track sharing two or more plots with a confirmed one. Initiation keeps both: it
+    starts one track per (initiator, plot) and prunes a track that shares two plots with
+    a confirmed one. A row longer than its history may match another's (their first plots
+    differ, out of sight)."""
+    tr = state.tracks
+    rows = np.flatnonzero(tr.n <= config.history)
+    again = np.zeros(tr.size, dtype=bool)
+    if rows.size:
+        _, first, inverse = np.unique(
+            tr.plots[rows], axis=0, return_index=True, return_inverse=True
+        )
+        again[rows] = first[inverse.ravel()] != np.arange(rows.size)
+    _require(
+        "state.tracks.plots",
+        ~again,
+        lambda i: f"is {tr.plots[i].tolist()}, the whole history of another track: a duplicate",
+    )
+    confirmed, tentative = np.flatnonzero(tr.confirmed), np.flatnonzero(~tr.confirmed)
+    clash = np.zeros(tr.size, dtype=bool)
+    clash[confirmed] = ~keep_greedy(tr.plots[confirmed])
+    clash[tentative] = shares_two(tr.plots[tentative], tr.plots[confirmed])
+    _require(
+        "state.tracks.plots",
+        ~clash,
+        lambda i: (
+            f"is {tr.plots[i].tolist()}, sharing two or more plots with a confirmed track "
+            "(initiation prunes such a track)"
+        ),
+    )
+
+
+def _scan_times(scan: np.ndarray, t: np.ndarray, state: InitiationState) -> np.ndarray:
+    """Per plot, its scan's time: the state's for the last scan, else the time most of the
+    scan's plots in the state carry (of equally many, the earliest); NaN for a scan whose
+    time comes before an earlier scan's (scans come in time order)."""
+    order = np.lexsort((t, scan))
+    s, u = scan[order], t[order]
+    start = np.flatnonzero(np.r_[True, (s[1:] != s[:-1]) | (u[1:] != u[:-1])])
+    length = np.diff(np.r_[start, s.size])
+    pick = np.lexsort((-length, s[start]))  # per scan, its longest run of one time first
+    pick = pick[np.r_[True, s[start][pick][1:] != s[start][pick][:-1]]]
+    scans, times = s[start][pick], u[start][pick]
+    if state.t is not None:
+        times[scans == state.scans - 1] = state.t
+    times[1:][times[1:] < np.maximum.accumulate(times)[:-1]] = np.nan
+    expected: np.ndarray = times[np.searchsorted(scans, scan)]
+    return expected
+
+
+def _check_scan_times(state: InitiationState) -> None:
+    """Every plot of one scan has that scan's time, the last scan's the state's, and a
+    later scan is not earlier: a plot id moved to another scan (its index past its own
+    scan's plots) shows as a time out of place."""
+    ini, tr = state.initiators, state.tracks
+    present = tr.plots >= 0
+    track, _ = np.nonzero(present)
+    scan = np.concatenate([ini.scan, tr.plots[present] // PLOT_STRIDE])
+    t = np.concatenate([ini.t, tr.times[present]])
+    if scan.size == 0:
+        return
+    expected = _scan_times(scan, t, state)
+    off = t != expected
+    if not off.any():
+        return
+    j = first_index(off)
+    assert j is not None
+    field, row = (
+        ("state.initiators.t", j)
+        if j < ini.plot.size
+        else ("state.tracks.times", track[j - ini.plot.size])
+    )
+    raise ParameterError(
+        field,
+        f"puts a plot of scan {scan[j]} at {t[j]} s, where that scan is at "
+        f"{expected[j]} s (one time a scan, the last one the state's, later scans not "
+        "earlier)",
+        int(row),
+    )
+
+
+def _check_against(state: InitiationState, config: InitiationConfig, bounds: PlotBounds) -> None:
+    """What a state that is well formed must also be to come from these settings and these
+    plots: the digest is a fingerprint anyone can recompute, not a signature, so a state
+    of other settings under a forged one is known by its contents."""
+    _check_sigmas(state, bounds)
+    _check_polar_copies(state)
+    _check_information(state, config, bounds)
+    _check_speeds(state, config)
+    _check_windows(state, config)
+    _check_confirmation(state, config)
+    _check_sharing(state, config)
+    _check_scan_times(state)
+
+
+def check_state(
+    state: InitiationState, config: InitiationConfig, bounds: PlotBounds = PlotBounds()
+) -> None:
     """Check a state against every invariant of the states :func:`initiate` produces.
 
     Parameters
@@ -442,6 +787,8 @@ def check_state(state: InitiationState, config: InitiationConfig) -> None:
         builds them).
     config : InitiationConfig
         The settings the state must have been made under.
+    bounds : PlotBounds
+        What the caller's plots can be (the default: any plot core takes).
 
     Raises
     ------
@@ -491,9 +838,12 @@ def check_state(state: InitiationState, config: InitiationConfig) -> None:
             "is a plot no track took"
         ),
     )
+    _check_against(state, config, bounds)
 
 
-def state_from_json(data: Any, config: InitiationConfig) -> InitiationState:
+def state_from_json(
+    data: Any, config: InitiationConfig, bounds: PlotBounds = PlotBounds()
+) -> InitiationState:
     """Rebuild a state from :meth:`InitiationState.to_json` and check it for ``config``.
 
     Parameters
@@ -502,6 +852,8 @@ def state_from_json(data: Any, config: InitiationConfig) -> InitiationState:
         The JSON object a previous call returned.
     config : InitiationConfig
         The settings of this call; the state must have been made under them.
+    bounds : PlotBounds
+        What the caller's plots can be (the default: any plot core takes).
 
     Returns
     -------
@@ -547,5 +899,5 @@ def state_from_json(data: Any, config: InitiationConfig) -> InitiationState:
         _part(Initiators, "initiators", data["initiators"], h),
         _part(Tracks, "tracks", data["tracks"], h),
     )
-    check_state(state, config)
+    check_state(state, config, bounds)
     return state

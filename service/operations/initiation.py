@@ -20,6 +20,7 @@ them to the request. A plot's own covariance is checked before the scan is built
 ``scans[i].plots[j].covariance`` (a polar plot: ``scans[i].plots[j]``).
 """
 
+import math
 from typing import Any
 
 import numpy as np
@@ -46,6 +47,8 @@ from plotgate.core.initiation.scan import merged_scan
 from plotgate.core.initiation.simulate import Scenario
 from plotgate.core.initiation.simulate import simulate as core_simulate
 from plotgate.core.initiation.state import PLOT_STRIDE
+from plotgate.core.initiation.state_json import PlotBounds
+from plotgate.core.validation import MAX_CONDITION
 from plotgate.service.cluster import mapper
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
@@ -66,14 +69,17 @@ from plotgate.service.schemas import (
     SimulateRequest,
     SimulateResult,
 )
+from plotgate.service.schemas.common import MAX_DISTANCE, MIN_VARIANCE
 from plotgate.service.schemas.initiation_state import (
     MAX_HISTORY_CELLS,
     MAX_STATE_INITIATORS,
     MAX_STATE_TRACKS,
 )
+from plotgate.service.schemas.solves import MAX_TIME
 
 __all__ = [
     "EVALUATE_FIELDS",
+    "PLOT_BOUNDS",
     "SCENARIO_FIELDS",
     "SIMULATE_FIELDS",
     "INITIATE_FIELDS",
@@ -81,6 +87,18 @@ __all__ = [
     "initiate",
     "simulate",
 ]
+
+
+PLOT_BOUNDS = PlotBounds(
+    min_variance=MIN_VARIANCE / MAX_CONDITION,
+    max_sigma=math.pi * MAX_DISTANCE,
+    max_time=MAX_TIME,
+)
+"""What a plot on the wire can be, so what a state that comes back can hold: a plot's
+covariance has an eigenvalue of at least MIN_VARIANCE (its larger one: a diagonal
+element or a squared range sigma) over the condition bound, 10^-18 m^2; its range and
+cross-range sigmas reach at most pi MAX_DISTANCE (a polar plot's 180 degrees at 10^9 m;
+a Cartesian plot's at most sqrt(2) 10^9 m); scan times stay within MAX_TIME."""
 
 
 def _config(settings: InitiationSettings) -> InitiationConfig:
@@ -190,6 +208,7 @@ def initiate(request: InitiateRequest) -> InitiateResult:
         state = state_from_json(
             {**dict(wire), "initiators": dict(wire.initiators), "tracks": dict(wire.tracks)},
             config,
+            PLOT_BOUNDS,
         )
     scans = [_scan(i, s) for i, s in enumerate(request.scans)]
     most = min(MAX_STATE_TRACKS, MAX_HISTORY_CELLS // config.history)

@@ -20,6 +20,7 @@ __all__ = [
     "MAX_DISTANCE",
     "MAX_PLOTS",
     "MIN_RANGE",
+    "MIN_VARIANCE",
     "CartesianPlot",
     "FieldError",
     "Plot",
@@ -36,6 +37,9 @@ MAX_DISTANCE = 1e9
 """Largest coordinate or range, m (beyond geostationary orbit)."""
 MIN_RANGE = 1.0
 """Smallest range of a plot from the radar it is measured about, m."""
+MIN_VARIANCE = 1e-6
+"""Smallest variance on a Cartesian plot's diagonal, m^2 (a polar plot's range sigma is at
+least its root, 1 mm)."""
 
 
 Loc = tuple[str | int, ...]
@@ -69,7 +73,7 @@ Coordinate = Annotated[float, Field(ge=-MAX_DISTANCE, le=MAX_DISTANCE)]
 Position = tuple[Coordinate, Coordinate]
 """A point (x east, y north) in metres."""
 
-Variance = Annotated[float, Field(ge=1e-6, le=MAX_DISTANCE**2)]
+Variance = Annotated[float, Field(ge=MIN_VARIANCE, le=MAX_DISTANCE**2)]
 CrossCovariance = Annotated[float, Field(ge=-(MAX_DISTANCE**2), le=MAX_DISTANCE**2)]
 Covariance = tuple[tuple[Variance, CrossCovariance], tuple[CrossCovariance, Variance]]
 
@@ -95,7 +99,9 @@ class PolarPlot(Schema):
     frame: Literal["polar"] = Field(description="Discriminator: polar plot.")
     r: float = Field(ge=MIN_RANGE, le=MAX_DISTANCE, description="Range from the sensor, m.")
     az_deg: float = Field(ge=-360, le=360, description="Azimuth, degrees clockwise from north.")
-    sigma_r: float = Field(ge=1e-3, le=MAX_DISTANCE, description="Range error sigma, m.")
+    sigma_r: float = Field(
+        ge=MIN_VARIANCE**0.5, le=MAX_DISTANCE, description="Range error sigma, m."
+    )
     sigma_az_deg: float = Field(ge=1e-6, le=180, description="Azimuth error sigma, degrees.")
     sensor: Position = Field(default=(0.0, 0.0), description="Position of the radar, m.")
 

@@ -264,10 +264,10 @@ class ScanOutcome(Schema):
     started: list[int] = Field(description="Ids of tentative tracks started.")
     confirmed: list[int] = Field(description="Ids of tracks confirmed.")
     dropped: list[int] = Field(description="Ids of tracks dropped.")
-    reasons: list[Literal["misses", "window", "acceleration", "pruned", "score"]] = Field(
+    reasons: list[Literal["misses", "window", "acceleration", "speed", "pruned", "score"]] = Field(
         description="Why each was dropped: misses in a row, k out of reach in m, the polar "
-        "acceleration check, sharing two plots with a confirmed track, a score at or below "
-        "the deletion threshold."
+        "acceleration check, a speed beyond v_max by more than 6 of its sigmas, sharing two "
+        "plots with a confirmed track, a score at or below the deletion threshold."
     )
 
 

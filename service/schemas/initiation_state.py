@@ -27,7 +27,7 @@ would leave more is refused, naming ``scans``.
 import math
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import AfterValidator, Field, model_validator
 
 from plotgate.service.schemas.common import MAX_DISTANCE, MAX_PLOTS, MIN_RANGE, Schema, invalid
 from plotgate.service.schemas.solves import MAX_TIME
@@ -41,6 +41,7 @@ __all__ = [
     "MAX_STATE_TRACKS",
     "MAX_TRACK_ID",
     "MAX_TRACK_VALUE",
+    "PLOT_STRIDE",
     "STATE_DISTANCE",
     "SessionInitiators",
     "SessionState",
@@ -67,7 +68,22 @@ STATE_DISTANCE = 4 * MAX_DISTANCE
 MAX_TRACK_VALUE = 1e100
 """Largest magnitude of a track's state, covariance and cost."""
 
-PlotId = Annotated[int, Field(ge=0, lt=MAX_PLOT_ID)]
+PLOT_STRIDE = 2**20
+"""Plot id = scan * PLOT_STRIDE + index (core.initiation.state.PLOT_STRIDE)."""
+
+
+def _index_in_a_scan(plot: int) -> int:
+    """A plot id whose index no scan reaches (a request carries at most MAX_PLOTS plots)
+    is refused; -1, no plot, passes."""
+    if plot >= 0 and plot % PLOT_STRIDE >= MAX_PLOTS:
+        raise ValueError(
+            f"plot id {plot} is scan {plot // PLOT_STRIDE}'s plot {plot % PLOT_STRIDE}, but a "
+            f"scan holds at most {MAX_PLOTS} plots (indices 0 to {MAX_PLOTS - 1})"
+        )
+    return plot
+
+
+PlotId = Annotated[int, Field(ge=0, lt=MAX_PLOT_ID), AfterValidator(_index_in_a_scan)]
 ScanNumber = Annotated[int, Field(ge=0, lt=MAX_SESSION_SCANS)]
 Seconds = Annotated[float, Field(ge=-MAX_TIME, le=MAX_TIME)]
 Distance = Annotated[float, Field(ge=-STATE_DISTANCE, le=STATE_DISTANCE)]
@@ -156,7 +172,7 @@ class SessionTracks(Schema):
     )
     plots: list[
         Annotated[
-            list[Annotated[int, Field(ge=-1, lt=MAX_PLOT_ID)]],
+            list[Annotated[int, Field(ge=-1, lt=MAX_PLOT_ID), AfterValidator(_index_in_a_scan)]],
             Field(min_length=2, max_length=MAX_HISTORY),
         ]
     ] = Field(max_length=MAX_STATE_TRACKS, description="Ids of its last plots.")

@@ -19,7 +19,7 @@ from plotgate.core.initiation import (
     state_from_json,
 )
 from plotgate.core.initiation.evaluate import evaluate
-from plotgate.core.initiation.filter import predict
+from plotgate.core.initiation.filter import SPEED_SIGMAS, predict, speed_excess
 from plotgate.core.initiation.pairs import track_pairs, window_coefficients
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
@@ -451,3 +451,25 @@ def test_evaluation_without_clutter_initiates_every_target():
     # by distance (100 m) one track in 25 confirmed is too far: at 11 km the azimuth
     # error alone is 38 m and a three-plot velocity extrapolates it
     assert ev.mean_true_by_distance >= 4.6 and ev.mean_time_to_confirmation == 2.0
+
+
+@pytest.mark.parametrize(
+    ("config", "clutter", "scans", "seed"),
+    [
+        (InitiationConfig(v_max=30.0, capture_gate="combined", capture_scans=3), 250.0, 15, 0),
+        (InitiationConfig(v_max=30.0, capture_gate="expanded", filter="alpha_beta"), 250.0, 15, 1),
+    ],
+    ids=["kalman", "alpha-beta"],
+)
+def test_a_track_faster_than_v_max_allows_is_dropped(config, clutter, scans, seed):
+    """In dense clutter the filter runs away with some tracks (the landed logic kept them
+    at up to 31 of their velocity sigmas above v_max, 490 m/s for a v_max of 30): each is
+    dropped, reason "speed", so no state carries one and every state passes its check."""
+    reasons: set[str] = set()
+    state = None
+    for scan in simulate(mu_scenario(clutter, scans=scans), seed).scans:
+        state, (report,) = initiate(state, [scan], config)
+        reasons.update(report.reasons.tolist())
+        excess = speed_excess(state.tracks.x, state.tracks.P, config.v_max)
+        assert (excess <= SPEED_SIGMAS).all()
+    assert "speed" in reasons

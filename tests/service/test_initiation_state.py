@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from plotgate.core.frames import polar_covariance_to_cartesian, polar_to_cartesian
 from plotgate.core.initiation import (
     PLOT_STRIDE,
     InitiationConfig,
@@ -23,6 +24,7 @@ from plotgate.core.initiation.simulate import mu_scenario, simulate
 from plotgate.core.initiation.state_json import state_from_json
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
+from plotgate.service.operations.initiation import PLOT_BOUNDS
 from plotgate.service.schemas import MAX_STATE_INITIATORS, MAX_STATE_TRACKS, SessionState
 from plotgate.service.schemas import initiation_state as wire
 from tests.conftest import answer, cartesian, invalid_input
@@ -316,13 +318,104 @@ MUTATIONS = [
 ]
 
 
+# ---------------------------------------------------------------- issue 24, finding 10
+# Each tampered state below passed every check of the landed main.
+
+
+def _confirmed_row(state: dict) -> int:
+    return state["tracks"]["confirmed"].index(True)
+
+
+def _copy_rows(state: dict, row: int, copies: int) -> None:
+    """Append ``copies`` copies of track ``row`` under fresh ids (a forged duplicate)."""
+    tracks = state["tracks"]
+    for c in range(copies):
+        for column in tracks.values():
+            column.append(copy.deepcopy(column[row]))
+        tracks["id"][-1] = state["next_track"] + c
+    state["next_track"] += copies
+
+
+def _velocity(s: dict) -> None:
+    s["tracks"]["x"][TRACK][2] = 1e7
+
+
+def _tiny_covariance(s: dict) -> None:
+    s["tracks"]["P"][TRACK] = (np.eye(4) * 1e-300).tolist()
+
+
+def _confirmed_at_0(s: dict) -> None:
+    s["tracks"]["confirmed_scan"][_confirmed_row(s)] = 0
+
+
+def _index_past_its_scan(s: dict) -> None:
+    scan = s["initiators"]["scan"][INI]
+    s["initiators"]["plot"][INI] = scan * PLOT_STRIDE + 500_000
+
+
+TAMPERED = [
+    ("velocity 1e7 m/s", _velocity, "state.tracks.x[1]"),
+    ("P = 1e-300 I", _tiny_covariance, "state.tracks.P[1]"),
+    ("track sigma_az 1e9", _set("tracks", "sigma_az", TRACK, 1e9), "state.tracks.sigma_az[1]"),
+    (
+        "initiator sigma_az 1e9",
+        _set("initiators", "sigma_az", INI, 1e9),
+        "state.initiators.sigma_az[3]",
+    ),
+    (
+        "confirmed_scan 0",
+        _confirmed_at_0,
+        lambda s: f"state.tracks.confirmed_scan[{_confirmed_row(s)}]",
+    ),
+    ("plot index past its scan", _index_past_its_scan, "state.initiators.plot[3]"),
+    (
+        "initiator moved off its range and azimuth",
+        _set("initiators", "z", INI, lambda z: [z[0] + 100.0, z[1]]),
+        "state.initiators.r[3]",
+    ),
+    (
+        "initiator sensor moved",
+        _set("initiators", "sensor", INI, [0.0, 50.0]),
+        "state.initiators.r[3]",
+    ),
+    (
+        "initiator azimuth turned",
+        _set("initiators", "az", INI, lambda az: az + 0.01),
+        "state.initiators.az[3]",
+    ),
+    (
+        "initiator sigma_r off its R",
+        _set("initiators", "sigma_r", INI, lambda v: 2.0 * v),
+        "state.initiators.sigma_r[3]",
+    ),
+    (
+        "initiator R widened",
+        _set("initiators", "R", INI, lambda R: [[4.0 * v for v in row] for row in R]),
+        "state.initiators.sigma_r[3]",
+    ),
+    (
+        "initiator time off its scan's",
+        _set("initiators", "t", INI, lambda v: v - 0.5),
+        "state.initiators.t[3]",
+    ),
+    (
+        "track plot index past its scan",
+        _set("tracks", "plots", TRACK, lambda row: [*row[:-1], row[-1] + 500_000]),
+        "state.tracks.plots[1][7]",
+    ),
+]
+
+
 @pytest.mark.parametrize(
-    ("change", "field"), [m[1:] for m in MUTATIONS], ids=[m[0] for m in MUTATIONS]
+    ("change", "field"),
+    [m[1:] for m in MUTATIONS + TAMPERED],
+    ids=[m[0] for m in MUTATIONS + TAMPERED],
 )
 def test_each_mutated_field_is_named(client, session, change, field):
     state, scans = session
     hostile = copy.deepcopy(state)
     change(hostile)
+    field = field(state) if callable(field) else field
     problem = invalid_input(_post(client, hostile, scans), field)
     assert all(e["field"].startswith("state") for e in problem["errors"]), problem
 
@@ -529,6 +622,7 @@ def test_schema_bounds_match_core():
     assert wire.MAX_SESSION_SCANS == core_state.MAX_SESSION_SCANS
     assert wire.MAX_TRACK_ID == core_state.MAX_TRACK_ID
     assert wire.MAX_PLOT_ID == core_state.MAX_SESSION_SCANS * PLOT_STRIDE
+    assert wire.PLOT_STRIDE == PLOT_STRIDE
 
 
 @pytest.mark.parametrize(
@@ -557,18 +651,151 @@ def test_schema_bounds_match_core():
             history=6,
             drop_misses=3,
         ),
+        InitiationConfig(v_max=30.0, capture_scans=3, confirm_k=1, confirm_m=1, history=2),
+        InitiationConfig(v_max=30.0, confirmation="score", surveillance_area=15000.0**2),
+        InitiationConfig(
+            mode="polar",
+            v_max=30.0,
+            confirmation="score",
+            clutter_density=1e-6,
+            history=4,
+            capture_scans=3,
+        ),
     ],
-    ids=["polar", "combined", "expanded-alpha-beta-nearest", "long-history", "polar-2-over-T"],
+    ids=[
+        "polar",
+        "combined",
+        "expanded-alpha-beta-nearest",
+        "long-history",
+        "polar-2-over-T",
+        "1-of-1",
+        "score",
+        "polar-score-short-history",
+    ],
 )
 def test_every_state_initiation_produces_passes_every_check(config):
     """After each of 12 scans of a cluttered scene (clutter 250, two seeds), the state
-    passes the invariants and the wire schema: what a call answers, the next takes."""
+    passes the invariants under the service's plot bounds and the wire schema: what a
+    call answers, the next takes."""
     for seed in (0, 1):
         sim = simulate(mu_scenario(250.0, scans=12), seed)
         state = None
         for scan in sim.scans:
             state, _ = initiate(state, [scan], config)
-            check_state(state, config)
+            check_state(state, config, PLOT_BOUNDS)
             data = SessionState.model_validate(state.to_json()).model_dump()
-            assert state_from_json(data, config).to_json() == state.to_json()
+            assert state_from_json(data, config, PLOT_BOUNDS).to_json() == state.to_json()
         assert state.tracks.size > 0
+
+
+def _as_cartesian(plot: dict) -> dict:
+    """A simulated polar plot as the Cartesian plot of the same position and covariance."""
+    az, saz = np.radians(plot["az_deg"]), np.radians(plot["sigma_az_deg"])
+    (x, y), R = (
+        polar_to_cartesian(plot["r"], az),
+        polar_covariance_to_cartesian(plot["r"], az, plot["sigma_r"], saz),
+    )
+    return cartesian(float(x), float(y), float(R[0, 0]), float(R[1, 1]), float(R[0, 1]))
+
+
+@pytest.mark.parametrize("frame", ["polar", "cartesian"])
+@pytest.mark.parametrize(
+    "config",
+    [
+        {"v_max": 30.0},
+        {"mode": "polar", "v_max": 30.0},
+        {"v_max": 30.0, "confirmation": "score", "surveillance_area": 15000.0**2},
+        {"mode": "polar", "v_max": 30.0, "confirmation": "score", "clutter_density": 1e-6},
+    ],
+    ids=["k-of-m", "polar-k-of-m", "score", "polar-score"],
+)
+def test_the_service_takes_back_every_state_it_answers(client, frame, config):
+    """Seeded sessions sent one scan a call, each call passing back the state the last
+    answered: the new checks refuse nothing the service itself produces."""
+    for seed in (2, 3):
+        sim = answer(
+            client.post(
+                "/v1/initiation/simulate",
+                json={"scenario": {"clutter": 100.0, "scans": 8}, "seed": seed},
+            )
+        )
+        state = None
+        for scan in sim["scans"]:
+            if frame == "cartesian":
+                scan = {**scan, "plots": [_as_cartesian(p) for p in scan["plots"]]}
+            body = answer(
+                client.post(
+                    "/v1/initiation/initiate",
+                    json={"config": config, "state": state, "scans": [scan]},
+                )
+            )
+            state = body["state"]
+        assert state["tracks"]["id"], "the session ends with live tracks"
+
+
+@pytest.mark.parametrize("copies", [2, 100])
+@pytest.mark.parametrize("confirmed", [True, False], ids=["confirmed", "tentative"])
+def test_duplicated_tracks_are_refused(client, session, copies, confirmed):
+    """A track copied under fresh ids, its history identical: refused naming the first
+    copy's plots (the original row stays valid)."""
+    state, scans = session
+    hostile = copy.deepcopy(state)
+    row = _confirmed_row(state) if confirmed else TRACK
+    first_copy = len(state["tracks"]["id"])
+    _copy_rows(hostile, row, copies)
+    invalid_input(_post(client, hostile, scans), f"state.tracks.plots[{first_copy}]")
+
+
+def _state_under(client, config: dict, scans: list[dict]) -> dict:
+    return answer(client.post("/v1/initiation/initiate", json={"config": config, "scans": scans}))[
+        "state"
+    ]
+
+
+def test_a_state_of_other_settings_under_a_forged_digest_is_refused(client, session):
+    """The digest is a fingerprint anyone can recompute, so a forged one is caught by the
+    contents: initiators older than the settings' capture window, tracks confirmed
+    sooner than their k allows."""
+    state, scans = session
+    sim = answer(
+        client.post(
+            "/v1/initiation/simulate", json={"scenario": {"clutter": 20.0, "scans": 4}, "seed": 4}
+        )
+    )["scans"]
+    wide = _state_under(client, {**POLAR, "capture_scans": 3}, sim[:3])
+    forged = {**wide, "config_digest": state["config_digest"]}
+    body = invalid_input(_post(client, forged, sim[3:]), "state.initiators.scan[0]")
+    assert "capture" in body["detail"]
+
+    stricter = {**POLAR, "confirm_k": 4, "confirm_m": 4}
+    digest = _state_under(client, stricter, sim[:1])["config_digest"]
+    forged = {**state, "config_digest": digest}
+    row = _confirmed_row(state)
+    invalid_input(_post(client, forged, scans, stricter), f"state.tracks.confirmed_scan[{row}]")
+
+
+def test_a_two_point_start_from_a_thin_plot_is_taken_back(client):
+    """A wide plot, then a thin one (both within the wire's limits) start a track whose
+    covariance is singular in exact arithmetic; eigvalsh rounds its smallest eigenvalue to
+    -6e-12, and the landed check refused the state the service had just answered."""
+    wide = cartesian(0.0, 10000.0, 1e6, 1e6)
+    thin = cartesian(
+        1.0, 10001.0, 0.006935750499211673, 0.0030642495008522046, -0.00461008351384289
+    )
+    config = {"v_max": 30.0}
+    first = answer(
+        client.post(
+            "/v1/initiation/initiate",
+            json={
+                "config": config,
+                "scans": [{"t": 0.0, "plots": [wide]}, {"t": 1.0, "plots": [thin]}],
+            },
+        )
+    )
+    assert len(first["tracks"]) == 1
+    answer(
+        client.post(
+            "/v1/initiation/initiate",
+            json={"config": config, "state": first["state"], "scans": [{"t": 2.0, "plots": []}]},
+        )
+    )
