@@ -25,7 +25,7 @@ from plotgate.core.initiation import InitiationConfig
 from plotgate.core.initiation.evaluate import CHUNK_RUNS, evaluate, sweep
 from plotgate.core.initiation.simulate import mu_scenario
 from plotgate.service.cluster import CONNECT_S, ClusterUnavailable, cluster, configure, mapper
-from tests.servers import free_port
+from tests.servers import free_port, serve
 
 SCORE = InitiationConfig(
     mode="polar", v_max=30.0, confirmation="score", P_D=0.8, surveillance_area=15000.0**2
@@ -497,3 +497,40 @@ def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
     assert closed - answered < MARGIN_S
     [exchange] = _exchanges(settings)
     assert exchange.response["status"] == 503
+
+
+def test_sigterm_never_waits_on_a_stuck_cluster_call_past_the_graceful_timeout(tmp_path):
+    """The issue's reproduction, on a real server: a request stuck on a scheduler that
+    never speaks, then SIGTERM. The server stops within its graceful-shutdown timeout
+    (and the recordings' closing), not at the cluster call's deadline, nor never."""
+    import httpx
+
+    env = {"PLOTGATE_DASK_TIMEOUT_S": "600", "PLOTGATE_GRACEFUL_SHUTDOWN_S": "1"}
+    log, recordings = tmp_path / "serve.log", tmp_path / "recordings"
+    with (
+        _peer(None) as address,
+        serve(recordings, env={**env, "PLOTGATE_DASK_SCHEDULER": address}, log=log) as (
+            proc,
+            url,
+        ),
+    ):
+        body = {"scenario": {"scans": 4, "clutter": 5}, "runs": 30, "seed": 1}
+
+        def post() -> None:
+            try:
+                httpx.post(url + "/v1/initiation/evaluate", json=body, timeout=60)
+            except httpx.TransportError:
+                pass  # cut at shutdown: never answered, so nothing acknowledged is lost
+
+        thread = threading.Thread(target=post, daemon=True)
+        thread.start()
+        time.sleep(1.5)  # the request is in, and stuck on the handshake
+        stopping = time.monotonic()
+        proc.terminate()
+        proc.wait(timeout=60)
+        stopped = time.monotonic()
+        thread.join(timeout=MARGIN_S)
+    # uvicorn shuts down gracefully, then re-raises the signal: exit by SIGTERM
+    assert proc.returncode in (0, -signal.SIGTERM)
+    assert stopped - stopping < 1 + MARGIN_S
+    assert "Application shutdown complete" in log.read_text()  # the recordings closed
