@@ -57,6 +57,9 @@ _CLOSE_S = 2.0
 """Longest wait for Dask to cancel tasks or close a client, s: cleanup past a deadline is
 bounded too, and the caller waits this much longer than its deadline at most."""
 
+_DASK_SHARE = 0.8
+"""Dask's own connect timeout, as a share of the caller's deadline (:func:`_connect`)."""
+
 _T = TypeVar("_T")
 
 _client: Any = None  # an asynchronous distributed.Client living on _loop
@@ -181,11 +184,13 @@ async def _as_cluster_errors(work: Coroutine[Any, Any, _T], failing: str) -> _T:
 
 async def _connect(address: str, within: float) -> Any:
     """An asynchronous Client of the scheduler at ``address``, closed again if it does not
-    start (``within``: Dask's own connect timeout, and how long it tries to reconnect
-    when the scheduler goes away later)."""
+    start. Dask's own connect timeout (also how long it tries to reconnect when the
+    scheduler goes away later) is 80% of ``within``, so a refused connection ends with
+    Dask's reason before the caller's deadline cuts it short."""
     from distributed import Client
 
-    client = Client(address, asynchronous=True, timeout=within, set_as_default=False)
+    patience = _DASK_SHARE * within
+    client = Client(address, asynchronous=True, timeout=patience, set_as_default=False)
     try:
         await client
     except BaseException:
@@ -234,7 +239,7 @@ def _open(address: str, within: float) -> Any:
     failing = f"no Dask scheduler answers at {address}"
 
     def late() -> ClusterUnavailable:
-        return ClusterUnavailable(f"{failing}: no handshake within {within:g} s")
+        return ClusterUnavailable(f"{failing} within {within:g} s")
 
     return _talk(_connect(address, within), within, failing, late)
 
