@@ -42,6 +42,7 @@ __all__ = [
     "CONNECT_S",
     "ClusterTimeout",
     "ClusterUnavailable",
+    "cancel_calls",
     "cluster",
     "configure",
     "mapper",
@@ -101,11 +102,19 @@ def configure(address: str | None, timeout: float | None = None) -> None:
         if old is not None:
             _client = None
         _address, _timeout = address, timeout
+    cancel_calls()
+    if old is not None:
+        _close(old)
+
+
+def cancel_calls() -> None:
+    """Cancel every talk with Dask in flight: each caller gets :class:`ClusterUnavailable`
+    at once (the service answers 503), and its tasks are cancelled. Quick, so a signal
+    handler's callback on the event loop may call it."""
+    with _lock:
         stuck = list(_calls)
     for call in stuck:
         call.cancel()
-    if old is not None:
-        _close(old)
 
 
 def _cluster_loop() -> asyncio.AbstractEventLoop:
