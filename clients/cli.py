@@ -111,6 +111,7 @@ def _serve(args: argparse.Namespace) -> int:
         loop="auto",
         log_level="info",
         access_log=settings.access_log,
+        timeout_graceful_shutdown=settings.graceful_shutdown_s,
     )
     return 0
 

@@ -15,8 +15,11 @@ Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 import asyncio
 import gc
 import logging
-from collections.abc import AsyncIterator, Mapping
+import signal
+import threading
+from collections.abc import AsyncIterator, Callable, Mapping
 from contextlib import asynccontextmanager
+from types import FrameType
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -24,7 +27,7 @@ from fastapi.responses import Response
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException
 
-from plotgate.service.cluster import configure
+from plotgate.service.cluster import cancel_calls, configure
 from plotgate.service.config import Settings, get_settings
 from plotgate.service.guards import Auth, BodyLimit, RequestId
 from plotgate.service.logs import REDACT_QUERY
@@ -41,6 +44,10 @@ __all__ = ["create_app"]
 log = logging.getLogger("plotgate")
 
 _KINDS = {404: "not-found", 405: "method-not-allowed"}
+
+_ANSWER_S = 1.0
+"""Time left, at the end of the graceful shutdown, for requests whose cluster calls were
+cancelled to answer and be recorded, s."""
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -72,9 +79,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         watch = None
         if recorder is not None:
             watch = asyncio.create_task(_watch(recorder, settings.probe_interval_s))
+        restore_signals = _stop_cluster_calls_within(settings.graceful_shutdown_s)
         try:
             yield
         finally:
+            restore_signals()
             if watch is not None:
                 watch.cancel()
             if recorder is not None:
@@ -110,6 +119,38 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     app.add_middleware(RequestId)
     return app
+
+
+def _stop_cluster_calls_within(grace_s: float) -> Callable[[], None]:
+    """On SIGTERM or SIGINT, cancel the cluster calls still in flight
+    :data:`_ANSWER_S` before uvicorn's graceful shutdown (``grace_s``) runs out, so each
+    of their requests is answered 503 ``cluster-unavailable`` and recorded, instead of
+    being cancelled by uvicorn unrecorded (which answers a bare 500). uvicorn's own
+    handler still runs first, and is put back on shutdown; the function returned does
+    that. Outside the main thread (a test's client), or when no server handles the
+    signals (their default: the process just ends), they are not ours to take.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGINT)}
+    handlers = {sig: handler for sig, handler in previous.items() if callable(handler)}
+    if len(handlers) < len(previous):
+        return lambda: None
+    loop = asyncio.get_running_loop()
+    delay = max(grace_s - _ANSWER_S, 0.0)
+
+    def stopping(sig: int, frame: FrameType | None) -> None:
+        handlers[signal.Signals(sig)](sig, frame)
+        loop.call_soon_threadsafe(loop.call_later, delay, cancel_calls)
+
+    for sig in previous:
+        signal.signal(sig, stopping)
+
+    def restore() -> None:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+    return restore
 
 
 async def _watch(recorder: Recorder, interval_s: float) -> None:

@@ -7,10 +7,20 @@ chunks run. :func:`cluster` opens a ``distributed.Client`` on an existing schedu
 and :func:`mapper` is then that client's ``map`` (results gathered in order), or None
 without a cluster, which core reads as the builtin ``map`` in this process. The service
 names its scheduler once (:func:`configure`, from ``PLOTGATE_DASK_SCHEDULER``) and
-connects on first use; an unreachable scheduler or work past ``PLOTGATE_DASK_TIMEOUT_S``
-raises :class:`ClusterUnavailable`, which the service answers 503 with ``Retry-After``.
-The chunks' seeds are spawned per run, so the numbers are bit-identical in-process and
-on any number of workers.
+connects on first use; an unreachable scheduler raises :class:`ClusterUnavailable`
+(the service answers 503 with ``Retry-After``), work past ``PLOTGATE_DASK_TIMEOUT_S``
+raises :class:`ClusterTimeout` (504). The chunks' seeds are spawned per run, so the
+numbers are bit-identical in-process and on any number of workers.
+
+Every talk with Dask runs as a coroutine on one event loop in a daemon thread
+(:func:`_talk`), under a deadline this module keeps itself: Dask's own connect timeout
+does not cover a peer that accepts and then never speaks (its handshake reads without
+one), and a peer that speaks something else makes it raise whatever its parser hits
+(an HTTP banner read as a frame length is a 3 EiB ``MemoryError``). So past the
+deadline the coroutine is cancelled, and anything Dask raises while connecting or
+talking becomes :class:`ClusterUnavailable`, whatever its type; only an error a task
+itself raised on a worker comes back as it is, as it would in-process.
+:func:`configure` cancels the calls in flight, so a stuck call never holds up shutdown.
 
 Dask (``distributed``) is an optional dependency: ``pip install "plotgate[cluster]"``.
 """
@@ -18,27 +28,53 @@ Dask (``distributed``) is an optional dependency: ``pip install "plotgate[cluste
 from __future__ import annotations
 
 import asyncio
-import gc
+import concurrent.futures
 import signal
 import threading
-from collections.abc import Callable, Iterable, Iterator
+import time
+from collections.abc import Callable, Coroutine, Iterable, Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
 
 from tqdm import tqdm
 
-__all__ = ["ClusterTimeout", "ClusterUnavailable", "cluster", "configure", "mapper", "run_worker"]
+__all__ = [
+    "CONNECT_S",
+    "ClusterTimeout",
+    "ClusterUnavailable",
+    "cancel_calls",
+    "cluster",
+    "configure",
+    "mapper",
+    "run_worker",
+]
 
-_client: Any = None
+CONNECT_S = 5.0
+"""Longest wait for a scheduler's handshake, s; the service waits at most its
+``PLOTGATE_DASK_TIMEOUT_S`` when that is shorter (a request's whole wait on the cluster,
+connecting included, is bounded by it)."""
+
+_CLOSE_S = 2.0
+"""Longest wait for Dask to cancel tasks or close a client, s: cleanup past a deadline is
+bounded too, and the caller waits this much longer than its deadline at most."""
+
+_DASK_SHARE = 0.8
+"""Dask's own connect timeout, as a share of the caller's deadline (:func:`_connect`)."""
+
+_T = TypeVar("_T")
+
+_client: Any = None  # an asynchronous distributed.Client living on _loop
 _address: str | None = None  # the service's scheduler, connected on first use
 _timeout: float | None = None
 _progress = False  # inside cluster(progress=True)
-_lock = threading.Lock()
+_lock = threading.Lock()  # guards the names above and _calls; never held while Dask talks
+_calls: set[concurrent.futures.Future[Any]] = set()  # talks in flight, for configure
+_loop: asyncio.AbstractEventLoop | None = None
 
 
 class ClusterUnavailable(RuntimeError):
-    """Dask is not installed, the scheduler cannot be reached, or the work on it did not
-    finish in time (:class:`ClusterTimeout`)."""
+    """Dask is not installed, the scheduler cannot be reached or answers nonsense, or the
+    work on it did not finish in time (:class:`ClusterTimeout`)."""
 
 
 class ClusterTimeout(ClusterUnavailable):
@@ -47,43 +83,196 @@ class ClusterTimeout(ClusterUnavailable):
     long again."""
 
 
+class _TaskFailed(Exception):
+    """A task raised on a worker: its own error (core's, or a bug), not the cluster's."""
+
+    def __init__(self, error: BaseException) -> None:
+        super().__init__(str(error))
+        self.error = error
+
+
 def configure(address: str | None, timeout: float | None = None) -> None:
     """The service's cluster: connect to ``address`` on first use (None: in-process), and
-    wait at most ``timeout`` seconds for one request's work (None: no limit)."""
+    wait at most ``timeout`` seconds for one request's work, connecting included (None:
+    no limit). The calls in flight are cancelled (their callers get
+    :class:`ClusterUnavailable` at once) and the previous client is closed."""
     global _address, _timeout, _client
     with _lock:
-        if _client is not None and _address is not None:
-            _client.close()
+        old = _client if _address is not None else None
+        if old is not None:
             _client = None
         _address, _timeout = address, timeout
+    cancel_calls()
+    if old is not None:
+        _close(old)
 
 
-def _connected() -> Any:
+def cancel_calls() -> None:
+    """Cancel every talk with Dask in flight: each caller gets :class:`ClusterUnavailable`
+    at once (the service answers 503), and its tasks are cancelled. Quick, so a signal
+    handler's callback on the event loop may call it."""
+    with _lock:
+        stuck = list(_calls)
+    for call in stuck:
+        call.cancel()
+
+
+def _cluster_loop() -> asyncio.AbstractEventLoop:
+    """The event loop every talk with Dask runs on, in a daemon thread started on first
+    use: a daemon, so a talk that never ends cannot keep the process from exiting."""
+    global _loop
+    with _lock:
+        if _loop is None:
+            loop = asyncio.new_event_loop()
+            thread = threading.Thread(target=loop.run_forever, name="plotgate-dask", daemon=True)
+            thread.start()
+            _loop = loop
+        return _loop
+
+
+def _talk(
+    work: Coroutine[Any, Any, _T],
+    within: float | None,
+    failing: str,
+    late: Callable[[], ClusterUnavailable],
+) -> _T:
+    """Run ``work`` on the cluster loop and wait for it at most ``within`` s (None: no
+    limit). Past that it is cancelled and ``late()`` raised; anything else it raises is
+    :class:`ClusterUnavailable` (``failing``: what failed, with what Dask raised), but for
+    an error of a task of its own (:class:`_TaskFailed`), re-raised as the task raised it.
+    """
+    call = asyncio.run_coroutine_threadsafe(_bounded(work, within, failing, late), _cluster_loop())
+    with _lock:
+        _calls.add(call)
+    try:
+        # the loop enforces `within` itself; this wait only covers a loop that stalls
+        return call.result(None if within is None else within + _CLOSE_S + 1.0)
+    except _TaskFailed as exc:
+        raise exc.error from None
+    except concurrent.futures.CancelledError:
+        raise ClusterUnavailable(
+            f"{failing}: the call was cancelled (the cluster reconfigured or the service stopping)"
+        ) from None
+    except TimeoutError:
+        call.cancel()
+        raise late() from None
+    finally:
+        with _lock:
+            _calls.discard(call)
+
+
+async def _bounded(
+    work: Coroutine[Any, Any, _T],
+    within: float | None,
+    failing: str,
+    late: Callable[[], ClusterUnavailable],
+) -> _T:
+    """``work`` under ``within`` s, its errors the cluster's (:func:`_as_cluster_errors`)."""
+    try:
+        return await asyncio.wait_for(_as_cluster_errors(work, failing), within)
+    except TimeoutError:
+        raise late() from None
+
+
+async def _as_cluster_errors(work: Coroutine[Any, Any, _T], failing: str) -> _T:
+    """``work``, with anything it raises as :class:`ClusterUnavailable` but a task's own
+    error (:class:`_TaskFailed`) and this call being cancelled. A CancelledError Dask
+    raises on its own (a scheduler lost, its futures cancelled) is the cluster failing."""
+    try:
+        return await work
+    except (ClusterUnavailable, _TaskFailed):
+        raise
+    except asyncio.CancelledError as exc:
+        task = asyncio.current_task()
+        if task is not None and task.cancelling():
+            raise
+        raise ClusterUnavailable(f"{failing}: the work was cancelled ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - whatever Dask raises while talking
+        raise ClusterUnavailable(f"{failing}: {type(exc).__name__}: {exc}") from exc
+
+
+async def _connect(address: str, within: float) -> Any:
+    """An asynchronous Client of the scheduler at ``address``, closed again if it does not
+    start. Dask's own connect timeout (also how long it tries to reconnect when the
+    scheduler goes away later) is 80% of ``within``, so a refused connection ends with
+    Dask's reason before the caller's deadline cuts it short."""
+    from distributed import Client
+
+    patience = _DASK_SHARE * within
+    client = Client(address, asynchronous=True, timeout=patience, set_as_default=False)
+    try:
+        await client
+    except BaseException:
+        await _quietly_closed(client)
+        raise
+    return client
+
+
+async def _quietly_closed(client: Any) -> None:
+    """Close ``client`` within :data:`_CLOSE_S`, whatever state it is in."""
+    try:
+        await asyncio.wait_for(client.close(), _CLOSE_S)
+    except Exception:  # noqa: BLE001, S110 - a client that cannot close cleanly is dropped
+        pass
+
+
+def _close(client: Any) -> None:
+    """Close ``client`` on the cluster loop, waiting :data:`_CLOSE_S` at most: a client
+    that will not close is left to the daemon loop, so shutdown goes on."""
+
+    async def close() -> None:
+        await _quietly_closed(client)
+
+    closing = asyncio.run_coroutine_threadsafe(close(), _cluster_loop())
+    try:
+        closing.result(_CLOSE_S + 1.0)
+    except TimeoutError:
+        closing.cancel()
+
+
+def _open(address: str, within: float) -> Any:
+    """A running client of the scheduler at ``address``, connected within ``within`` s.
+
+    Raises
+    ------
+    ClusterUnavailable
+        Dask is not installed, ``address`` is no scheduler address, or no scheduler
+        answered at it in time or sensibly.
+    """
+    try:
+        import distributed  # noqa: F401
+    except ImportError as exc:
+        raise ClusterUnavailable('a cluster needs Dask: pip install "plotgate[cluster]"') from exc
+    _check_address(address)
+
+    failing = f"no Dask scheduler answers at {address}"
+
+    def late() -> ClusterUnavailable:
+        return ClusterUnavailable(f"{failing} within {within:g} s")
+
+    return _talk(_connect(address, within), within, failing, late)
+
+
+def _connected(within: float) -> Any:
     """The client of the configured scheduler, connecting (again) when there is none or
-    it has lost the scheduler."""
+    it has lost the scheduler. Two requests may connect at once; the later client is
+    closed and the first one kept."""
     global _client
     with _lock:
-        if _client is not None and _client.status == "running":
-            return _client
-        try:
-            from distributed import Client
-        except ImportError as exc:
-            raise ClusterUnavailable(
-                'PLOTGATE_DASK_SCHEDULER needs Dask: pip install "plotgate[cluster]"'
-            ) from exc
-        assert _address is not None
-        _check_address(_address)
-        try:
-            _client = Client(_address, timeout="5s")
-        except (OSError, ValueError) as exc:
-            reason = str(exc)
-        else:
-            return _client
-        # A Client that failed to start sits in reference cycles; collected during a later
-        # Client's start, its finalizer waits on a lock that start holds, and the thread
-        # hangs for good (seen after ~15 failed connections). Collect it now instead.
-        gc.collect()
-        raise ClusterUnavailable(f"no Dask scheduler answers at {_address}: {reason}")
+        client, address = _client, _address
+    if client is not None and client.status == "running":
+        return client
+    assert address is not None
+    client = _open(address, within)
+    with _lock:
+        if _address == address and (_client is None or _client.status != "running"):
+            _client = client
+            return client
+        kept = _client if _address == address else None
+    _close(client)
+    if kept is None:
+        raise ClusterUnavailable("the service's cluster was reconfigured meanwhile")
+    return kept
 
 
 def _check_address(address: str) -> None:
@@ -108,33 +297,64 @@ def mapper() -> Callable[..., Iterable[Any]] | None:
     ``cluster(progress=True)`` the map draws a progress bar of the chunks done on stderr,
     in this process too.
 
+    The service's timeout starts here: connecting and all the work mapped then share it.
+
     Raises
     ------
     ClusterUnavailable
-        The configured scheduler cannot be reached; or, when mapping, the work did not
-        finish within the timeout (its tasks are cancelled).
+        The configured scheduler cannot be reached; or, when mapping, the cluster failed
+        (:class:`ClusterUnavailable`) or the work did not finish within the timeout
+        (:class:`ClusterTimeout`, its tasks cancelled).
     """
     if _client is None and _address is None:
         return _in_process if _progress else None
-    client = _connected() if _address is not None else _client
     timeout = _timeout
+    deadline = None if timeout is None else time.monotonic() + timeout
+    if _address is not None:
+        client = _connected(CONNECT_S if timeout is None else min(CONNECT_S, timeout))
+    else:
+        client = _client
+
+    def late() -> ClusterUnavailable:
+        return ClusterTimeout(f"the work did not finish on the cluster within {timeout:g} s")
 
     def mapped(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
-        from distributed import as_completed
-
-        futures = client.map(function, list(items), pure=False)
-        with _bar(len(futures)) as bar:
-            try:
-                for _ in as_completed(futures, timeout=timeout):
-                    bar.update()
-            except TimeoutError as exc:
-                client.cancel(futures)
-                raise ClusterTimeout(
-                    f"the work did not finish on the cluster within {timeout:g} s"
-                ) from exc
-        return list(client.gather(futures))
+        items = list(items)
+        left = None if deadline is None else max(deadline - time.monotonic(), 0.0)
+        with _bar(len(items)) as bar:
+            return _talk(
+                _mapped(client, function, items, bar), left, "the Dask cluster failed", late
+            )
 
     return mapped
+
+
+async def _mapped(
+    client: Any, function: Callable[..., Any], items: list[Any], bar: tqdm[Any]
+) -> list[Any]:
+    """``function`` over ``items`` on the cluster, results in order; the tasks are
+    cancelled when this is (past the deadline) or anything fails."""
+    from distributed import as_completed
+
+    futures = client.map(function, items, pure=False)
+    try:
+        async for _ in as_completed(futures, loop=client.loop):
+            bar.update()
+        return list(await client.gather(futures))
+    except BaseException as exc:
+        failed = [f for f in futures if f.status == "error"]
+        await _cancelled(client, futures)
+        if failed and isinstance(exc, Exception):
+            raise _TaskFailed(exc) from exc
+        raise
+
+
+async def _cancelled(client: Any, futures: list[Any]) -> None:
+    """Cancel ``futures`` on the cluster within :data:`_CLOSE_S`, if it still listens."""
+    try:
+        await asyncio.wait_for(client.cancel(futures), _CLOSE_S)
+    except Exception:  # noqa: BLE001, S110 - a lost scheduler has nothing left to cancel
+        pass
 
 
 def _bar(total: int) -> tqdm[Any]:
@@ -160,14 +380,15 @@ def cluster(
     """Run the batch work inside on a cluster: the scheduler at ``address``, or a
     LocalCluster of ``local_workers`` single-threaded worker processes; neither, in this
     process. ``progress``: draw the chunks done as a bar on stderr (the command line, on
-    a terminal).
+    a terminal). The work inside has no time limit (the command line's user can stop
+    it); connecting has :data:`CONNECT_S`.
 
     Raises
     ------
     ClusterUnavailable
-        Dask is not installed, or the scheduler does not answer within 10 s.
+        Dask is not installed, or no scheduler answers, in time or sensibly.
     """
-    global _client, _progress
+    global _progress
     _progress = progress
     try:
         with _cluster(address, local_workers):
@@ -183,7 +404,7 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
         yield
         return
     try:
-        from distributed import Client, LocalCluster
+        from distributed import LocalCluster
     except ImportError as exc:
         raise ClusterUnavailable('a cluster needs Dask: pip install "plotgate[cluster]"') from exc
     local = None
@@ -196,18 +417,13 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
                 dashboard_address=None,
             )
             address = local.scheduler_address
-        else:
-            _check_address(address)
-        try:
-            client = Client(address, timeout="10s")
-        except (OSError, ValueError) as exc:  # ValueError: no address at all
-            raise ClusterUnavailable(f"no Dask scheduler answers at {address}: {exc}") from exc
+        client = _open(address, CONNECT_S)
         _client = client
         try:
             yield
         finally:
             _client = None
-            client.close()
+            _close(client)
     finally:
         if local is not None:
             local.close()

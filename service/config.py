@@ -76,7 +76,17 @@ class Settings(BaseSettings):
     dask_timeout_s: float = Field(
         default=300.0,
         gt=0,
-        description="Longest wait for one request's work on the Dask cluster, s (503 after).",
+        description="Longest wait for one request on the Dask cluster, connecting included, "
+        "s (504 cluster-timeout after it; a scheduler that does not answer in time, or "
+        "answers nonsense, is 503 cluster-unavailable, within 5 s when this is longer).",
+    )
+    graceful_shutdown_s: int = Field(
+        default=20,
+        ge=1,
+        le=3600,
+        description="On SIGTERM, how long requests in flight may finish, s; then they are "
+        "cancelled and the recordings closed (plotgate serve only). 20 s leaves a 30 s "
+        "termination grace period (Kubernetes' default) room to close the recordings.",
     )
     api_key: SecretStr | None = Field(
         default=None, description="When set, requests need this X-API-Key header."

@@ -5,11 +5,16 @@ Each test that needs a cluster starts a LocalCluster of single-threaded worker p
 (about a second here) and closes it.
 """
 
+import contextlib
 import json
 import os
 import signal
+import socket
+import subprocess
+import sys
 import threading
 import time
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -19,7 +24,8 @@ from plotgate.clients.cli import main
 from plotgate.core.initiation import InitiationConfig
 from plotgate.core.initiation.evaluate import CHUNK_RUNS, evaluate, sweep
 from plotgate.core.initiation.simulate import mu_scenario
-from plotgate.service.cluster import cluster, mapper
+from plotgate.service.cluster import CONNECT_S, ClusterUnavailable, cluster, configure, mapper
+from tests.servers import free_port, serve
 
 SCORE = InitiationConfig(
     mode="polar", v_max=30.0, confirmation="score", P_D=0.8, surveillance_area=15000.0**2
@@ -130,9 +136,6 @@ def test_a_worker_killed_mid_evaluation_changes_nothing():
 
 
 def test_plotgate_worker_joins_a_scheduler_and_leaves_on_sigterm():
-    import subprocess
-    import sys
-
     scenario = mu_scenario(50.0)
     expected = evaluate(scenario, SCORE, 50, 4)
     with (
@@ -205,11 +208,14 @@ def test_work_past_the_timeout_answers_504_not_retried(settings):
     with LocalCluster(
         n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
     ) as local:
-        update = {"dask_scheduler": local.scheduler_address, "dask_timeout_s": 0.05}
-        r = _post(settings.model_copy(update=update), {**BODY, "scenario": {"clutter": 500}})
+        # connecting counts against the timeout too: 1 s leaves the connection to a local
+        # scheduler room, and not 300 runs in dense clutter on one worker
+        update = {"dask_scheduler": local.scheduler_address, "dask_timeout_s": 1.0}
+        heavy = {**BODY, "runs": 300, "scenario": {"clutter": 500}}
+        r = _post(settings.model_copy(update=update), heavy)
     assert r.status_code == 504 and "retry-after" not in r.headers
     assert r.json()["type"] == "urn:plotgate:problem:cluster-timeout"
-    assert "did not finish on the cluster within 0.05 s" in r.json()["detail"]
+    assert "did not finish on the cluster within 1 s" in r.json()["detail"]
 
 
 def test_the_compose_file_names_this_builds_commands_and_settings():
@@ -261,3 +267,303 @@ def test_a_malformed_address_never_builds_a_client_however_often_it_is_asked(mon
     finally:
         configure(None)
     assert built == []
+
+
+# ------------------------------------------------- a scheduler address that is no scheduler
+#
+# Dask's connect timeout does not cover a peer that accepts and never speaks (its handshake
+# read has no deadline), and a peer that speaks first is parsed as Dask frames (an HTTP
+# status line read as a 3 EiB frame length). Each peer below listens on 127.0.0.1 and
+# holds every connection it accepts for at most PEER_HOLD_S.
+
+PEER_HOLD_S = 120.0
+TIMEOUT_S = 3.0  # PLOTGATE_DASK_TIMEOUT_S in these tests: below cluster.CONNECT_S
+MARGIN_S = 10.0  # a hang detector on a loaded machine, not a speed figure
+
+
+def _listen() -> socket.socket:
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    sock.listen(16)
+    sock.settimeout(0.2)
+    return sock
+
+
+@contextlib.contextmanager
+def _peer(greeting: bytes | None) -> Iterator[str]:
+    """A port that accepts and sends ``greeting`` (None: nothing), then holds the
+    connection open; yields its Dask address."""
+    sock, stop, held = _listen(), threading.Event(), []
+
+    def accept() -> None:
+        deadline = time.monotonic() + PEER_HOLD_S
+        while not stop.is_set() and time.monotonic() < deadline:
+            try:
+                conn, _ = sock.accept()
+            except TimeoutError:
+                continue
+            if greeting is not None:
+                conn.sendall(greeting)
+            held.append(conn)
+
+    thread = threading.Thread(target=accept, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{sock.getsockname()[1]}"
+    finally:
+        stop.set()
+        thread.join(timeout=5)
+        for conn in held:
+            conn.close()
+        sock.close()
+
+
+@contextlib.contextmanager
+def _http_server(folder) -> Iterator[str]:
+    """``python3 -m http.server`` on a loopback port: reads a request line, and waits."""
+    import functools
+    from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
+
+    class Quiet(SimpleHTTPRequestHandler):
+        def log_message(self, *args) -> None:
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(Quiet, directory=str(folder)))
+    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.1})
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{server.server_address[1]}"
+    finally:
+        server.shutdown()
+        server.server_close()
+        thread.join(timeout=5)
+
+
+@pytest.fixture(params=["silent", "banner", "http"])
+def no_scheduler(request, tmp_path) -> Iterator[str]:
+    """The address of a port that is no Dask scheduler, each kind in turn."""
+    if request.param == "http":
+        with _http_server(tmp_path) as address:
+            yield address
+    else:
+        banner = (
+            b"HTTP/1.1 200 OK\r\nServer: not-dask\r\n\r\n" if request.param == "banner" else None
+        )
+        with _peer(banner) as address:
+            yield address
+
+
+def _exchanges(settings):
+    from plotgate.clients.recordings import read_recording
+
+    return [
+        e
+        for path in sorted(settings.log_dir.glob("*.mcap"))
+        for e in read_recording(path).exchanges
+    ]
+
+
+def test_a_port_that_is_no_scheduler_answers_a_recorded_503_in_time(settings, no_scheduler):
+    from fastapi.testclient import TestClient
+
+    from plotgate.service.app import create_app
+
+    update = {"dask_scheduler": no_scheduler, "dask_timeout_s": TIMEOUT_S}
+    app = create_app(settings.model_copy(update=update))
+    started = time.monotonic()
+    with TestClient(app, raise_server_exceptions=False) as c:
+        body = {"scenario": {"scans": 4, "clutter": 5}, "runs": 30, "seed": 1}
+        r = c.post("/v1/initiation/evaluate", json=body)
+        answered = time.monotonic()
+    closed = time.monotonic()
+    assert r.status_code == 503, r.text
+    assert r.headers["retry-after"] == "1"
+    assert r.json()["type"] == "urn:plotgate:problem:cluster-unavailable"
+    assert f"no Dask scheduler answers at {no_scheduler}" in r.json()["detail"]
+    assert answered - started < TIMEOUT_S + MARGIN_S
+    assert closed - answered < MARGIN_S  # the shutdown waited on nothing
+    [exchange] = _exchanges(settings)
+    assert exchange.response["status"] == 503
+
+
+def test_the_cli_ends_with_a_message_and_exit_2_on_a_port_that_is_no_scheduler(
+    tmp_path, capsys, no_scheduler
+):
+    body = tmp_path / "evaluate.json"
+    body.write_text('{"runs": 2}')
+    started = time.monotonic()
+    assert main(["call", "initiation.evaluate", str(body), "--dask", no_scheduler]) == 2
+    assert time.monotonic() - started < CONNECT_S + MARGIN_S
+    err = capsys.readouterr().err
+    assert f"plotgate call: no Dask scheduler answers at {no_scheduler}" in err
+    assert "Traceback" not in err
+
+
+def test_reconfiguring_releases_a_caller_stuck_on_a_silent_scheduler_at_once():
+    """What the service's shutdown does (``configure(None)``): the call in flight ends
+    now, not at its deadline."""
+    outcome = {}
+
+    def call() -> None:
+        try:
+            mapper()
+        except ClusterUnavailable as exc:
+            outcome["error"] = exc
+
+    with _peer(None) as address:
+        configure(address, 120.0)
+        thread = threading.Thread(target=call, daemon=True)
+        thread.start()
+        time.sleep(1.0)  # connecting, to a peer that will not speak in 120 s
+        released = time.monotonic()
+        configure(None)
+        thread.join(timeout=MARGIN_S)
+        assert not thread.is_alive()
+        assert time.monotonic() - released < MARGIN_S
+    assert "the call was cancelled" in str(outcome["error"])
+
+
+def test_a_task_s_own_error_comes_back_as_the_task_raised_it():
+    """Only what Dask raises is the cluster's: a chunk's own error is the same error it
+    would be in this process (core's error answers 4xx, a bug 500), not a 503."""
+    with cluster(local_workers=1):
+        with pytest.raises(ZeroDivisionError):
+            mapper()(lambda x: 1 / x, [1, 0])
+
+
+def _scheduler(port: int) -> subprocess.Popen:
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "distributed.cli.dask_scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--no-dashboard",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+
+
+def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
+    from fastapi.testclient import TestClient
+
+    from plotgate.service.app import create_app
+
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler = _scheduler(port)
+    worker = subprocess.Popen(
+        [sys.executable, "-m", "plotgate.clients.cli", "worker", address],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        with Client(address, timeout="60s") as monitor:
+            monitor.wait_for_workers(1, timeout=120)
+            update = {"dask_scheduler": address, "dask_timeout_s": 120.0}
+            app = create_app(settings.model_copy(update=update))
+            outcome = {}
+            with TestClient(app, raise_server_exceptions=False) as c:
+                heavy = {**BODY, "runs": 1000, "scenario": {"clutter": 500}}
+                thread = threading.Thread(
+                    target=lambda: outcome.update(r=c.post("/v1/initiation/evaluate", json=heavy)),
+                    daemon=True,
+                )
+                thread.start()
+                deadline = time.monotonic() + 120
+                while not any(monitor.processing().values()):  # the work has reached a worker
+                    assert time.monotonic() < deadline and thread.is_alive()
+                    time.sleep(0.1)
+                monitor.close()
+                killed = time.monotonic()
+                scheduler.kill()
+                thread.join(timeout=CONNECT_S + MARGIN_S + 30)
+                assert not thread.is_alive()
+                answered = time.monotonic()
+            closed = time.monotonic()
+    finally:
+        for process in (scheduler, worker):
+            process.kill()
+            process.wait(timeout=30)
+    r = outcome["r"]
+    assert r.status_code == 503, r.text
+    assert r.headers["retry-after"] == "1"
+    assert r.json()["type"] == "urn:plotgate:problem:cluster-unavailable"
+    assert answered - killed < CONNECT_S + MARGIN_S
+    assert closed - answered < MARGIN_S
+    [exchange] = _exchanges(settings)
+    assert exchange.response["status"] == 503
+
+
+def test_sigterm_answers_a_stuck_cluster_call_503_within_the_graceful_timeout(tmp_path):
+    """The issue's shutdown, on a real server: a request whose work waits on a scheduler
+    with no workers (PLOTGATE_DASK_TIMEOUT_S 600), then SIGTERM. The server stops within
+    its graceful-shutdown timeout, and the request is answered 503 and recorded before,
+    not cut by uvicorn (an unrecorded bare 500) nor waited on for 600 s."""
+    import httpx
+
+    from plotgate.clients.recordings import read_recording
+
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler = _scheduler(port)
+    env = {
+        "PLOTGATE_DASK_SCHEDULER": address,
+        "PLOTGATE_DASK_TIMEOUT_S": "600",
+        "PLOTGATE_GRACEFUL_SHUTDOWN_S": "3",
+    }
+    log, recordings, outcome = tmp_path / "serve.log", tmp_path / "recordings", {}
+    try:
+        with (
+            Client(address, timeout="60s") as monitor,
+            serve(recordings, env=env, log=log) as (proc, url),
+        ):
+            body = {"scenario": {"scans": 4, "clutter": 5}, "runs": 30, "seed": 1}
+
+            def post() -> None:
+                outcome["r"] = httpx.post(url + "/v1/initiation/evaluate", json=body, timeout=60)
+
+            thread = threading.Thread(target=post, daemon=True)
+            thread.start()
+            deadline = time.monotonic() + 60
+            while not _scheduler_tasks(monitor):  # the chunks wait there for a worker
+                assert time.monotonic() < deadline and thread.is_alive()
+                time.sleep(0.1)
+            stopping = time.monotonic()
+            proc.terminate()
+            proc.wait(timeout=60)
+            stopped = time.monotonic()
+            thread.join(timeout=MARGIN_S)
+    finally:
+        scheduler.kill()
+        scheduler.wait(timeout=30)
+    # uvicorn shuts down gracefully, then re-raises the signal: exit by SIGTERM
+    assert proc.returncode in (0, -signal.SIGTERM)
+    assert stopped - stopping < 3 + MARGIN_S
+    r = outcome["r"]
+    assert r.status_code == 503 and r.headers["retry-after"] == "1", r.text
+    assert r.json()["type"] == "urn:plotgate:problem:cluster-unavailable"
+    assert "timeout graceful shutdown exceeded" not in log.read_text()
+    [path] = recordings.glob("*.mcap")
+    [exchange] = read_recording(path).exchanges
+    assert exchange.response["status"] == 503
+
+
+def _scheduler_tasks(monitor: Client) -> int:
+    """How many tasks the scheduler holds (the function goes to it by value: the
+    scheduler cannot import this test module)."""
+    import cloudpickle
+
+    def tasks(dask_scheduler) -> int:
+        return len(dask_scheduler.tasks)
+
+    module = sys.modules[__name__]
+    cloudpickle.register_pickle_by_value(module)
+    try:
+        return monitor.run_on_scheduler(tasks)
+    finally:
+        cloudpickle.unregister_pickle_by_value(module)
