@@ -1,0 +1,115 @@
+"""Large bodies are parsed, run and answered off the event loop, on a real served process:
+``/healthz`` keeps answering (a generous hang-detecting bound, not a speed figure) while
+the heaviest accepted ``gates.pairs`` body and bodies one item over the bound are
+processed, and every answer, accepted or refused, is the one an in-process
+:func:`~plotgate.service.registry.execute` gives for the same bytes."""
+
+import json
+import random
+
+import httpx
+import pytest
+
+from plotgate.service.registry import OPERATIONS, execute
+from plotgate.service.schemas.common import MAX_PLOTS
+from tests.servers import health_watch, serve
+
+HANG_S = 1.0
+"""A /healthz answer slower than this is a stalled loop (it takes milliseconds)."""
+
+
+def _plot(rng: random.Random, sensor: bool) -> dict:
+    """A Cartesian plot; with its ``sensor``, it holds the most values a plot can hold."""
+    plot = {
+        "frame": "cartesian",
+        "x": rng.uniform(-5e4, 5e4),
+        "y": rng.uniform(-5e4, 5e4),
+        "covariance": [[40000.0, 0.0], [0.0, 40000.0]],
+    }
+    if sensor:
+        plot["sensor"] = [rng.uniform(-1e3, 1e3), rng.uniform(-1e3, 1e3)]
+    return plot
+
+
+def _pairs(n: int, seed: int = 1) -> bytes:
+    """``n`` pairs: up to the bound, each plot with its sensor (the heaviest body);
+    beyond it, without, so the body holds fewer values than the heaviest valid one and
+    only validation can refuse it."""
+    rng = random.Random(seed)
+    sensor = n <= MAX_PLOTS
+    pairs = [{"first": _plot(rng, sensor), "second": _plot(rng, sensor)} for _ in range(n)]
+    return json.dumps({"gate": {"kind": "ellipse", "P_G": 0.99}, "pairs": pairs}).encode()
+
+
+def _candidates(n: int, seed: int = 2) -> bytes:
+    """``n`` candidates, without their sensors (as :func:`_pairs` beyond the bound)."""
+    rng = random.Random(seed)
+    body = {
+        "gate": {"kind": "combined", "tau": 5, "v_min": 100, "v_max": 500, "P_G": 0.9},
+        "first": _plot(rng, False),
+        "candidates": [_plot(rng, False) for _ in range(n)],
+    }
+    return json.dumps(body).encode()
+
+
+def _broken_covariance(n: int) -> bytes:
+    """``n`` pairs, pairs[3].second's covariance one row short."""
+    body = json.loads(_pairs(n, seed=3))
+    body["pairs"][3]["second"]["covariance"] = [[1.0, 0.0]]
+    return json.dumps(body).encode()
+
+
+BODIES = {  # name: (operation, body, status)
+    "heaviest-pairs": ("gates.pairs", _pairs(MAX_PLOTS), 200),
+    "pairs-over-the-bound": ("gates.pairs", _pairs(MAX_PLOTS + 1), 422),
+    "candidates-over-the-bound": ("gates.test", _candidates(MAX_PLOTS + 1), 422),
+    "large-broken-covariance": ("gates.pairs", _broken_covariance(2_000), 422),
+}
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """The answers of a served process to :data:`BODIES`, each with /healthz's latencies,
+    seconds, timed while it was processed."""
+    folder = tmp_path_factory.mktemp("large")
+    answers = {}
+    with (
+        serve(folder / "recordings") as (_, url),
+        httpx.Client(base_url=url, timeout=300) as http,
+    ):
+        for name, (operation, body, _) in BODIES.items():
+            path = OPERATIONS[operation].path
+            headers = {"content-type": "application/json", "x-request-id": name}
+            with health_watch(url, folder) as latencies:
+                r = http.post(path, content=body, headers=headers)
+            latencies.sort()
+            p99 = latencies[int(0.99 * (len(latencies) - 1))]
+            print(f"{name}: /healthz max {latencies[-1] * 1e3:.0f} ms, p99 {p99 * 1e3:.0f} ms")
+            answers[name] = r, latencies
+    return answers
+
+
+@pytest.mark.parametrize("name", BODIES)
+def test_health_answers_while_a_large_body_is_processed(served, name):
+    response, latencies = served[name]
+    assert response.status_code == BODIES[name][2], response.text[:300]
+    assert max(latencies) < HANG_S, f"/healthz took {max(latencies):.3f} s"
+
+
+@pytest.mark.parametrize("name", BODIES)
+def test_a_large_body_is_answered_as_in_process(served, name):
+    response, _ = served[name]
+    operation, body, status = BODIES[name]
+    expected = execute(OPERATIONS[operation], body, request_id=name)
+    assert response.status_code == expected.status == status
+    assert response.content == expected.content
+
+
+def test_refusals_name_the_request_own_field(served):
+    fields = {
+        name: [e["field"] for e in r.json().get("errors", [])] for name, (r, _) in served.items()
+    }
+    assert fields["pairs-over-the-bound"] == ["pairs"]
+    assert fields["candidates-over-the-bound"] == ["candidates"]
+    assert fields["large-broken-covariance"] == ["pairs[3].second.cartesian.covariance[1]"]
+    assert len(served["heaviest-pairs"][0].json()["inside"]) == MAX_PLOTS
