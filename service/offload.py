@@ -24,9 +24,9 @@ Decisions where the issue is silent:
 - A large body's request record is added when its answer comes back from the worker,
   then its response record, and the answer waits for both to be flushed, as always: a
   server killed meanwhile leaves no record of an exchange that nobody saw answered.
-- A worker that dies (killed, out of memory) answers its requests 500 ``internal`` (a
-  fault of the server, not of the input), recorded; the next large body starts a new
-  worker.
+- A worker that dies (killed, out of memory) with requests in it answers them 500
+  ``internal`` (a fault of the server, not of the input), recorded; one that died idle
+  costs no answer. The next large body starts a new worker.
 """
 
 import asyncio
@@ -36,7 +36,7 @@ import multiprocessing
 import os
 import signal
 from collections.abc import Mapping
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 from plotgate.service.cluster import configure
@@ -122,8 +122,7 @@ class LargeBodies:
         request record keeps it) and the outcome."""
         self.busy += 1
         try:
-            pool = await self._pool()
-            future = pool.submit(_answer, op.name, body, request_id, dict(limits or {}))
+            future = await self._submit(op.name, body, request_id, dict(limits or {}))
             strict, status, content = await asyncio.wrap_future(future)
         except BrokenProcessPool:
             log.error("the worker answering large bodies died on request %s", request_id)
@@ -132,6 +131,19 @@ class LargeBodies:
         finally:
             self.busy -= 1
         return strict, Outcome(status, content)
+
+    async def _submit(
+        self, name: str, body: bytes, request_id: str, limits: dict[str, int]
+    ) -> Future[Answer]:
+        """Hand the work to the worker; a worker found dead before it took the work (it died
+        idle) is replaced once, so its death costs no answer."""
+        for _ in range(2):
+            pool = await self._pool()
+            try:
+                return pool.submit(_answer, name, body, request_id, limits)
+            except BrokenProcessPool:
+                self.pool = None
+        raise BrokenProcessPool("the worker died as it started")
 
     async def _pool(self) -> ProcessPoolExecutor:
         if self.pool is None:

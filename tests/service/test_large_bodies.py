@@ -1,15 +1,22 @@
 """Large bodies are parsed, run and answered off the event loop, on a real served process:
 ``/healthz`` keeps answering (a generous hang-detecting bound, not a speed figure) while
 the heaviest accepted ``gates.pairs`` body and bodies one item over the bound are
-processed, and every answer, accepted or refused, is the one an in-process
-:func:`~plotgate.service.registry.execute` gives for the same bytes."""
+processed, every answer, accepted or refused, is the one an in-process
+:func:`~plotgate.service.registry.execute` gives for the same bytes, and a worker process
+killed with a body in it costs that one answer (500, recorded), not the next."""
 
 import json
+import os
 import random
+import signal
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import httpx
 import pytest
 
+from plotgate.clients.recordings import read_recording
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas.common import MAX_PLOTS
 from tests.servers import health_watch, serve
@@ -113,3 +120,52 @@ def test_refusals_name_the_request_own_field(served):
     assert fields["candidates-over-the-bound"] == ["candidates"]
     assert fields["large-broken-covariance"] == ["pairs[3].second.cartesian.covariance[1]"]
     assert len(served["heaviest-pairs"][0].json()["inside"]) == MAX_PLOTS
+
+
+def _worker(server: int) -> int:
+    """The pid of the server's worker process (multiprocessing's resource tracker, also a
+    child, is not it)."""
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            parent = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+            command = (stat.parent / "cmdline").read_bytes()
+        except (OSError, IndexError, ValueError):
+            continue  # gone meanwhile
+        if parent == server and b"spawn_main" in command:
+            return int(stat.parent.name)
+    raise AssertionError(f"the server {server} has no worker process")
+
+
+def _cpu_s(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def test_a_worker_killed_mid_body_costs_that_answer_only(tmp_path):
+    path = OPERATIONS["gates.pairs"].path
+    small = _pairs(2_000)  # over INLINE_BODY_BYTES: the worker's
+    heaviest = BODIES["heaviest-pairs"][1]
+    with (
+        serve(tmp_path / "recordings") as (proc, url),
+        httpx.Client(base_url=url, timeout=300) as http,
+        ThreadPoolExecutor(1) as sender,
+    ):
+        assert http.post(path, content=small).status_code == 200  # the worker starts
+        worker = _worker(proc.pid)
+        idle = _cpu_s(worker)
+        pending = sender.submit(http.post, path, content=heaviest, headers={"x-request-id": "k"})
+        deadline = time.monotonic() + 120
+        while _cpu_s(worker) < idle + 0.5:  # it is parsing the heaviest body
+            assert time.monotonic() < deadline and not pending.done()
+            time.sleep(0.05)
+        os.kill(worker, signal.SIGKILL)
+        killed = pending.result(timeout=300)
+        assert http.post(path, content=small).status_code == 200  # a new worker
+    assert killed.status_code == 500
+    assert killed.json()["type"] == "urn:plotgate:problem:internal"
+    recorded = {
+        ex.request_id: ex
+        for f in (tmp_path / "recordings").glob("*.mcap")
+        for ex in read_recording(f).exchanges
+    }
+    assert recorded["k"].response is not None and recorded["k"].response["status"] == 500
