@@ -169,3 +169,36 @@ def test_a_worker_killed_mid_body_costs_that_answer_only(tmp_path):
         for ex in read_recording(f).exchanges
     }
     assert recorded["k"].response is not None and recorded["k"].response["status"] == 500
+
+
+def test_the_worker_dies_with_a_killed_server(tmp_path):
+    path = OPERATIONS["gates.pairs"].path
+    with (
+        serve(tmp_path / "recordings") as (proc, url),
+        httpx.Client(base_url=url, timeout=300) as http,
+        ThreadPoolExecutor(1) as sender,
+    ):
+        assert http.post(path, content=_pairs(2_000)).status_code == 200  # the worker starts
+        worker = _worker(proc.pid)
+        idle = _cpu_s(worker)
+        pending = sender.submit(http.post, path, content=BODIES["heaviest-pairs"][1])
+        deadline = time.monotonic() + 120
+        while _cpu_s(worker) < idle + 0.5:  # it is parsing the heaviest body
+            assert time.monotonic() < deadline and not pending.done()
+            time.sleep(0.05)
+        proc.kill()
+        proc.wait(timeout=30)
+        with pytest.raises(httpx.TransportError):
+            pending.result(timeout=60)
+        deadline = time.monotonic() + 30
+        while Path(f"/proc/{worker}").exists() and _state(worker) != "Z":
+            assert time.monotonic() < deadline, "the worker outlived its server by 30 s"
+            time.sleep(0.05)
+
+
+def _state(pid: int) -> str:
+    """A process's state letter (Z: a zombie, dead but not yet reaped)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return "gone"
