@@ -17,6 +17,8 @@ import httpx
 import pytest
 
 from plotgate.clients.recordings import read_recording
+from plotgate.service.bodies import SLICE_BYTES
+from plotgate.service.recorder import request_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas.common import MAX_PLOTS
 from tests.servers import health_watch, serve
@@ -66,11 +68,19 @@ def _broken_covariance(n: int) -> bytes:
     return json.dumps(body).encode()
 
 
+def _malformed_text(size: int) -> bytes:
+    """About ``size`` bytes of short non-ASCII strings, never closed: not JSON (a 400),
+    so its request record keeps it as text, escaped character by character."""
+    item = '"' + "é" * 50 + '"'
+    return ('{"candidates": [' + ", ".join([item] * (size // (2 * len(item)))) + ",").encode()
+
+
 BODIES = {  # name: (operation, body, status)
     "heaviest-pairs": ("gates.pairs", _pairs(MAX_PLOTS), 200),
     "pairs-over-the-bound": ("gates.pairs", _pairs(MAX_PLOTS + 1), 422),
     "candidates-over-the-bound": ("gates.test", _candidates(MAX_PLOTS + 1), 422),
     "large-broken-covariance": ("gates.pairs", _broken_covariance(2_000), 422),
+    "large-malformed-text": ("gates.test", _malformed_text(40 * 2**20), 400),
 }
 
 
@@ -202,3 +212,12 @@ def _state(pid: int) -> str:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
     except OSError:
         return "gone"
+
+
+@pytest.mark.parametrize("cut", [0, 1, 2, 3])
+def test_a_large_text_record_keeps_every_character_cut_by_a_slice(cut):
+    # a 4-byte character and an invalid byte straddle each slice boundary, offset by cut
+    head = b"x" * (SLICE_BYTES - cut)
+    body = head + '\U0001f4e1 caf\u00e9 "q" \\'.encode() + b"\xff\xc3" + head + b"\x01\xe9"
+    record = json.loads(request_record("r", "gates.test", body, strict_json=False))
+    assert record["raw"] == body.decode("utf-8", "backslashreplace")
