@@ -118,9 +118,9 @@ def _start(server: int, scheduler: str | None, timeout_s: float | None) -> None:
 
 def _die_with(server: int) -> None:
     """Have the kernel kill this worker when the server's event loop thread, which started
-    it, ends, even by SIGKILL: without it, an orphaned worker would run its body to the end
-    (measured: still alive 10 s after the server was killed). Linux only; elsewhere an
-    orphan ends when its work does and it finds the server gone."""
+    it, ends, even by SIGKILL. Without it, a worker orphaned with a body in it ran the body
+    to the end and then blocked for ever writing its answer to the pipe (seen: still
+    blocked 16 minutes after its server was killed). Linux only, as the image is."""
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
