@@ -8,7 +8,8 @@ Starlette raise themselves (404, 405, ...), the guards in front
 (:mod:`plotgate.service.guards`, outermost first: request ids on every response,
 authentication when a key or token is set, so an unauthenticated caller cannot make the
 service read a body, then the body-size limit), and a lifespan that opens the MCAP
-recorder on start and closes it (summary and index written) on shutdown.
+recorder on start and closes it (summary and index written) on shutdown, after stopping
+the worker process that answers large bodies (:mod:`plotgate.service.offload`).
 Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 """
 
@@ -32,6 +33,7 @@ from plotgate.service.config import Settings, get_settings
 from plotgate.service.guards import Auth, BodyLimit, RequestId
 from plotgate.service.logs import REDACT_QUERY
 from plotgate.service.metrics import Metrics
+from plotgate.service.offload import LargeBodies
 from plotgate.service.openapi import ASSETS_PATH, assets_folder, docs_router, openapi
 from plotgate.service.problems import ProblemError, field_errors, problem_json
 from plotgate.service.provenance import VERSION, provenance
@@ -86,6 +88,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             restore_signals()
             if watch is not None:
                 watch.cancel()
+            app.state.large_bodies.close()
             if recorder is not None:
                 recorder.close()
             configure(None)
@@ -101,6 +104,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.recorder = None
     app.state.metrics = Metrics(lambda: app.state.recorder)
+    app.state.large_bodies = LargeBodies(settings.dask_scheduler, settings.dask_timeout_s)
     app.include_router(health_router())
     app.include_router(docs_router(app.title))
     app.mount(ASSETS_PATH, StaticFiles(directory=assets_folder()), name="docs-assets")

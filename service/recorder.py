@@ -29,6 +29,7 @@ Design:
 """
 
 import asyncio
+import codecs
 import contextlib
 import json
 import logging
@@ -109,13 +110,17 @@ _CONTROL = re.compile(rb"[\x00-\x1f]")
 
 
 def _json_string(body: bytes) -> bytes:
-    """``body`` as a JSON string (bytes that are not UTF-8 escaped as ``\\xNN``). Printable
-    ASCII, as large bodies mostly are, is escaped slice by slice with byte replacements,
-    without a round trip through Python text and without holding the interpreter long."""
+    """``body`` as a JSON string (bytes that are not UTF-8 escaped as ``\\xNN``), built slice
+    by slice so that no call holds the interpreter long. Printable ASCII, as large bodies
+    mostly are, is escaped with byte replacements, without a round trip through Python
+    text; anything else is decoded incrementally (a character cut by a slice's end is
+    finished by the next) and escaped a character at a time, as a whole body would be."""
     if all(piece.isascii() and _CONTROL.search(piece) is None for piece in slices(body)):
         escaped = (p.replace(b"\\", b"\\\\").replace(b'"', b'\\"') for p in slices(body))
         return b"".join([b'"', *escaped, b'"'])
-    return json.dumps(body.decode("utf-8", "backslashreplace")).encode()
+    decoder = codecs.getincrementaldecoder("utf-8")("backslashreplace")
+    texts = [*(decoder.decode(piece) for piece in slices(body)), decoder.decode(b"", final=True)]
+    return b"".join([b'"', *(json.dumps(text)[1:-1].encode() for text in texts), b'"'])
 
 
 def response_record(

@@ -4,18 +4,17 @@ Every operation (:class:`Operations`) does the same steps, in this order:
 
 1. take the request id (``X-Request-ID`` if the caller sent a sane one, else a new one);
 2. receive the body within ``PLOTGATE_BODY_TIMEOUT_S`` (408 after it, recorded);
-3. parse it once (:func:`plotgate.service.registry.parse`: sized up against the operation's value
-   ceiling, then validated), on the event loop for a small body, in a worker thread for a
-   body over ``INLINE_BODY_BYTES`` so a large body never stalls the loop;
+3. parse it once (:func:`plotgate.service.registry.parse`: sized up against the operation's
+   value ceiling as it arrives, then validated) and run the operation
+   (:func:`plotgate.service.offload.outcome`): a small body on the event loop (an
+   operation whose endpoint is marked ``slow`` runs in a worker thread), a body over
+   ``INLINE_BODY_BYTES`` in the worker process of :mod:`plotgate.service.offload`, parse,
+   run and answer's encoding alike, so a large body never stalls the loop;
 4. add the request record (the body as it came: embedded when it is strict JSON, as text
-   otherwise);
-5. run the operation (:func:`plotgate.service.registry.run`): on the event loop for a small body (a
-   thread hand-off costs more than a gate test of a few hundred plots), in a worker thread
-   for a large body or an operation whose endpoint is marked ``slow`` (quadratures that take
-   tenths of a second or more);
-6. add the response record and wait for the flush that hands both records to the operating
+   otherwise), before running a small body's operation, with the answer for a large one;
+5. add the response record and wait for the flush that hands both records to the operating
    system;
-7. answer (:class:`plotgate.service.guards.RequestId` puts ``X-Request-ID`` on every response).
+6. answer (:class:`plotgate.service.guards.RequestId` puts ``X-Request-ID`` on every response).
 
 If the records cannot be written the answer is a 503 problem with ``Retry-After``: nothing
 is acknowledged unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is answered
@@ -49,6 +48,7 @@ from plotgate.service.guards import (
     route_path,
 )
 from plotgate.service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
+from plotgate.service.offload import INLINE_BODY_BYTES, LargeBodies, outcome
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.recorder import (
     Exchange,
@@ -62,11 +62,8 @@ from plotgate.service.registry import (
     Operation,
     Outcome,
     Parsed,
-    failed,
-    internal_error,
     misshapen,
     parse,
-    run,
 )
 from plotgate.service.schemas import FieldError
 
@@ -74,9 +71,6 @@ __all__ = ["PROBLEM_JSON", "Operations", "health_router", "request_id_of", "retr
 
 log = logging.getLogger("plotgate")
 PROBLEM_JSON = "application/problem+json"
-INLINE_BODY_BYTES = 64 * 1024
-"""Bodies up to this size are parsed and executed on the event loop, larger ones in a
-worker thread."""
 
 Header = tuple[bytes, bytes]
 
@@ -91,35 +85,6 @@ def retry_after(settings: Settings) -> str:
     """``Retry-After`` of a 503, whole seconds: the recorder's probe interval, after which a
     folder that came back is writable again."""
     return str(math.ceil(settings.probe_interval_s))
-
-
-def _run(op: Operation, parsed: Parsed, request_id: str, limits: dict[str, int] | None) -> Outcome:
-    if parsed.request is None:
-        assert parsed.problem is not None
-        return failed(op, parsed.problem, request_id)
-    try:
-        return run(op, parsed.request, request_id, limits)
-    except Exception:
-        log.exception("operation %s failed on request %s", op.name, request_id)
-        return internal_error(op, request_id)
-
-
-def _intake(
-    op: Operation,
-    body: bytes,
-    parsed: Parsed | None,
-    request_id: str,
-    recording: bool,
-    replay: str | None,
-) -> tuple[Parsed, bytes]:
-    """Parse a body once, unless it was refused as it arrived (``parsed``), and, when
-    recording, build its request record (``replay``: the id it replays, for a replay): the
-    passes over every byte."""
-    if parsed is None:
-        parsed = parse(op, body, sized_up=True)
-    if not recording:
-        return parsed, b""
-    return parsed, request_record(request_id, op.name, body, parsed.json, replay)
 
 
 def _timed_out(exc: BodyTimeout) -> Parsed:
@@ -149,6 +114,7 @@ class Operations:
         self.app = app
         self.state = state
         self.operations = {op.path: op for op in OPERATIONS.values()}
+        self.large_bodies: LargeBodies = state.large_bodies
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -193,13 +159,22 @@ class Operations:
             body, refused, close = exc.received, _timed_out(exc), True
         except BodyRefused as exc:
             body, refused, close = exc.received, misshapen(exc.reason), not exc.drained
+        limits = settings.limits.get(op.name)
         large = len(body) > INLINE_BODY_BYTES
-        if large:
-            parsed, record = await run_in_threadpool(
-                _intake, op, body, refused, rid, recorder is not None, replay
-            )
+        answer: Outcome | None = None  # the answer, once known
+        if refused is None and large:
+            strict, answer = await self.large_bodies.answer(op, body, rid, limits)
+            parsed = None
         else:
-            parsed, record = _intake(op, body, refused, rid, recorder is not None, replay)
+            # a small body, or a refused one (nothing to parse)
+            parsed = refused or parse(op, body, sized_up=True)
+            strict = parsed.json
+        if recorder is None:
+            record = b""
+        elif large:  # a copy of every byte: tens of milliseconds for the largest
+            record = await run_in_threadpool(request_record, rid, op.name, body, strict, replay)
+        else:
+            record = request_record(rid, op.name, body, strict, replay)
         del body  # the record holds it from here on
         try:
             if recorder is not None:
@@ -210,18 +185,16 @@ class Operations:
                         raise
                     recorder = None  # best effort: answer this exchange unrecorded
                     metrics.unrecorded(op.name)
-            limits = settings.limits.get(op.name)
-            if parsed.request is not None and (large or op.endpoint.slow):
-                outcome = await run_in_threadpool(_run, op, parsed, rid, limits)
-            else:
-                outcome = _run(op, parsed, rid, limits)
+            if answer is None:
+                assert parsed is not None
+                answer = await self._answer_small(op, parsed, rid, limits)
             if recorder is not None and exchange is not None:
                 record = response_record(
                     rid,
                     op.name,
-                    outcome.status,
+                    answer.status,
                     time.perf_counter() - started,
-                    outcome.content,
+                    answer.content,
                 )
                 try:
                     await recorder.aresponse(exchange, record)
@@ -238,11 +211,23 @@ class Operations:
         finally:
             if recorder is not None and exchange is not None:
                 recorder.forget(exchange)
-        metrics.observe(op.name, outcome.status, time.perf_counter() - started)
+        metrics.observe(op.name, answer.status, time.perf_counter() - started)
         headers = [(b"connection", b"close")] if close else []
-        if outcome.status == 503:  # the cluster: try again after the recorder's probe
+        if answer.status == 503:  # the cluster: try again after the recorder's probe
             headers.append(self._retry_after())
-        return outcome.status, outcome.content, headers
+        return answer.status, answer.content, headers
+
+    @staticmethod
+    async def _answer_small(
+        op: Operation, parsed: Parsed, rid: str, limits: dict[str, int] | None
+    ) -> Outcome:
+        """A small body's answer: on the event loop (a thread hand-off costs more than a
+        gate test of a few hundred plots), in a worker thread for an operation whose
+        endpoint is marked ``slow`` (quadratures that take tenths of a second or more, and
+        release the interpreter in compiled kernels)."""
+        if parsed.request is not None and op.endpoint.slow:
+            return await run_in_threadpool(outcome, op, parsed, rid, limits)
+        return outcome(op, parsed, rid, limits)
 
     def _retry_after(self) -> Header:
         return b"retry-after", retry_after(self.state.settings).encode()

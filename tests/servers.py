@@ -2,6 +2,7 @@
 subprocess, or any ASGI app under uvicorn in a thread."""
 
 import contextlib
+import json
 import os
 import socket
 import subprocess
@@ -15,7 +16,7 @@ from typing import Any
 import httpx
 import uvicorn
 
-__all__ = ["free_port", "serve", "serving"]
+__all__ = ["free_port", "health_watch", "serve", "serving"]
 
 
 def free_port() -> int:
@@ -107,3 +108,47 @@ def serving(app: Any) -> Iterator[str]:
     finally:
         server.should_exit = True
         thread.join(timeout=30)
+
+
+_WATCH = """
+import json, sys, time, httpx
+url, stop_file = sys.argv[1], sys.argv[2]
+latencies = []
+with httpx.Client(base_url=url, timeout=60) as http:
+    while len(latencies) < 100_000:
+        started = time.perf_counter()
+        assert http.get("/healthz").status_code == 200
+        latencies.append(time.perf_counter() - started)
+        if len(latencies) == 1:
+            print("watching", flush=True)
+        try:
+            open(stop_file).close()
+            break
+        except FileNotFoundError:
+            time.sleep(0.01)
+print(json.dumps(latencies))
+"""
+
+
+@contextlib.contextmanager
+def health_watch(url: str, folder: Path) -> Iterator[list[float]]:
+    """Time ``/healthz`` of the server at ``url`` every 10 ms while the block runs.
+
+    The requests come from another process, so the test's own sending does not delay
+    them; the block starts once the first has been answered. The list yielded is filled,
+    on leaving the block, with every latency in seconds. ``folder`` holds the stop file.
+    """
+    stop = folder / "health-watch.stop"
+    stop.unlink(missing_ok=True)  # left by an earlier watch
+    watcher = subprocess.Popen(
+        [sys.executable, "-c", _WATCH, url, str(stop)], stdout=subprocess.PIPE, text=True
+    )
+    latencies: list[float] = []
+    assert watcher.stdout is not None
+    try:
+        assert watcher.stdout.readline() == "watching\n", "the /healthz watcher did not start"
+        yield latencies
+    finally:
+        stop.touch()
+        out, _ = watcher.communicate(timeout=120)
+        latencies += json.loads(out)

@@ -4,15 +4,13 @@ the body size (VmHWM from /proc, not a timing) and ``/healthz`` answering within
 while each is processed; what was received up to the refusal is recorded, and refused
 alike when replayed."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import httpx
 
 from plotgate.clients.recordings import read_recording
 from plotgate.service.registry import OPERATIONS, execute
-from tests.servers import serve
+from tests.servers import health_watch, serve
 
 SIZE = 60 * 2**20  # just under the 64 MiB default limit
 HEALTH_WITHIN_S = 0.1
@@ -41,35 +39,12 @@ def _status(pid: int, key: str) -> int:
     raise KeyError(key)
 
 
-_WATCH = """
-import sys, time, httpx
-url, stop_file = sys.argv[1], sys.argv[2]
-worst = 0.0
-with httpx.Client(base_url=url, timeout=10) as http:
-    while True:
-        started = time.perf_counter()
-        assert http.get("/healthz").status_code == 200
-        worst = max(worst, time.perf_counter() - started)
-        try:
-            open(stop_file).close()
-            break
-        except FileNotFoundError:
-            time.sleep(0.01)
-print(worst)
-"""
-
-
 def test_absurd_bodies_are_refused_with_bounded_memory_and_a_live_health_check(tmp_path):
-    stop = tmp_path / "stop"
     with (
         serve(tmp_path / "recordings") as (proc, url),
         httpx.Client(base_url=url, timeout=120) as http,
     ):
-        # /healthz is timed from another process, so this one's sending does not delay it
-        watcher = subprocess.Popen(
-            [sys.executable, "-c", _WATCH, url, str(stop)], stdout=subprocess.PIPE, text=True
-        )
-        try:
+        with health_watch(url, tmp_path) as latencies:
             for name, (body, field) in SHAPES.items():
                 r = http.post(
                     "/v1/gates/test",
@@ -81,9 +56,7 @@ def test_absurd_bodies_are_refused_with_bounded_memory_and_a_live_health_check(t
                 )
                 assert r.status_code == 422, (name, r.status_code, r.text[:300])
                 assert r.json()["errors"][0]["field"] == field, (name, r.text[:300])
-        finally:
-            stop.touch()
-            worst = float(watcher.communicate(timeout=30)[0])
+        worst = max(latencies)
         peak = _status(proc.pid, "VmHWM")
     print(f"peak RSS {peak / 2**20:.0f} MiB, /healthz at most {worst * 1e3:.0f} ms")
     assert peak < 10 * SIZE, f"peak RSS {peak / 2**20:.0f} MiB for {SIZE / 2**20:.0f} MiB bodies"
