@@ -76,6 +76,9 @@ NEVER_ANSWERED = "never answered (the server stopped first)"
 REQUEST_LOST = "answer whose request record was lost to damage"
 BODY_TIMEOUT = "body timed out (408): it never arrived whole, so it cannot be sent again"
 REPLAYED_ORIGINAL = "replay of an exchange read before it"
+REFUSED_FOR_THE_SERVER = (
+    "refused for the server's state (503: recording, cluster or shutdown), not for its input"
+)
 OVER_CAPS = "over this replay's work caps (the defaults and PLOTGATE_LIMITS; --no-limits runs it)"
 
 
@@ -462,6 +465,8 @@ def _not_comparable(exchange: Exchange) -> str | None:
         return NEVER_ANSWERED
     if exchange.response.get("status") == 408:
         return BODY_TIMEOUT
+    if exchange.response.get("status") == 503:  # says nothing of what the operation answers
+        return REFUSED_FOR_THE_SERVER
     if exchange.original_read:
         return REPLAYED_ORIGINAL
     return None

@@ -48,8 +48,9 @@ log = logging.getLogger("plotgate")
 _KINDS = {404: "not-found", 405: "method-not-allowed"}
 
 _ANSWER_S = 1.0
-"""Time left, at the end of the graceful shutdown, for requests whose cluster calls were
-cancelled to answer and be recorded, s."""
+"""Time left, at the end of the graceful shutdown, for the requests still computing to be
+answered 503 and recorded, s: the cluster calls are cancelled then, the rest given up half
+of it later."""
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -81,7 +82,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         watch = None
         if recorder is not None:
             watch = asyncio.create_task(_watch(recorder, settings.probe_interval_s))
-        restore_signals = _stop_cluster_calls_within(settings.graceful_shutdown_s)
+        app.state.stopping = asyncio.Event()
+        restore_signals = _stop_within(settings.graceful_shutdown_s, app.state.stopping)
         try:
             yield
         finally:
@@ -103,6 +105,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.recorder = None
+    app.state.stopping = asyncio.Event()  # the lifespan makes its own, on its loop
     app.state.metrics = Metrics(lambda: app.state.recorder)
     app.state.large_bodies = LargeBodies(settings.dask_scheduler, settings.dask_timeout_s)
     app.include_router(health_router())
@@ -125,14 +128,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     return app
 
 
-def _stop_cluster_calls_within(grace_s: float) -> Callable[[], None]:
-    """On SIGTERM or SIGINT, cancel the cluster calls still in flight
-    :data:`_ANSWER_S` before uvicorn's graceful shutdown (``grace_s``) runs out, so each
-    of their requests is answered 503 ``cluster-unavailable`` and recorded, instead of
-    being cancelled by uvicorn unrecorded (which answers a bare 500). uvicorn's own
-    handler still runs first, and is put back on shutdown; the function returned does
-    that. Outside the main thread (a test's client), or when no server handles the
-    signals (their default: the process just ends), they are not ours to take.
+def _stop_within(grace_s: float, stopping: asyncio.Event) -> Callable[[], None]:
+    """On SIGTERM or SIGINT, :data:`_ANSWER_S` before uvicorn's graceful shutdown
+    (``grace_s``) runs out, cancel the cluster calls still in flight and set ``stopping``,
+    so every request still computing (on the cluster, in a worker thread or in the
+    large-body worker) is answered 503 and recorded, instead of being cancelled by uvicorn
+    unrecorded (which answers a bare 500). uvicorn's own handler still runs first, and is
+    put back on shutdown; the function returned does that. Outside the main thread (a
+    test's client), or when no server handles the signals (their default: the process
+    just ends), they are not ours to take.
     """
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
@@ -143,12 +147,17 @@ def _stop_cluster_calls_within(grace_s: float) -> Callable[[], None]:
     loop = asyncio.get_running_loop()
     delay = max(grace_s - _ANSWER_S, 0.0)
 
-    def stopping(sig: int, frame: FrameType | None) -> None:
+    def stop() -> None:
+        cancel_calls()
+        # the cluster's callers answer cluster-unavailable first; what is left, shutting-down
+        loop.call_later(_ANSWER_S / 2, stopping.set)
+
+    def signalled(sig: int, frame: FrameType | None) -> None:
         handlers[signal.Signals(sig)](sig, frame)
-        loop.call_soon_threadsafe(loop.call_later, delay, cancel_calls)
+        loop.call_soon_threadsafe(loop.call_later, delay, stop)
 
     for sig in previous:
-        signal.signal(sig, stopping)
+        signal.signal(sig, signalled)
 
     def restore() -> None:
         for sig, handler in previous.items():

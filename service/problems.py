@@ -11,6 +11,9 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``recording-unavailable`` (503): the exchange could not be recorded, so it is refused;
 - ``cluster-unavailable`` (503): the Dask scheduler (``PLOTGATE_DASK_SCHEDULER``) cannot
   be reached;
+- ``shutting-down`` (503): the server reached the end of its graceful shutdown
+  (``PLOTGATE_GRACEFUL_SHUTDOWN_S``) before the operation finished; another replica, or
+  this one restarted, will answer it;
 - ``cluster-timeout`` (504): the work on the cluster did not finish within
   ``PLOTGATE_DASK_TIMEOUT_S`` (its tasks are cancelled; not worth retrying as it is);
 - ``internal`` (500): a bug; never bad input.
@@ -40,6 +43,7 @@ TITLES = {
     "method-not-allowed": "Method not allowed",
     "recording-unavailable": "Recording unavailable",
     "cluster-unavailable": "Cluster unavailable",
+    "shutting-down": "Shutting down",
     "cluster-timeout": "Cluster timeout",
     "internal": "Internal error",
 }

@@ -21,9 +21,12 @@ is acknowledged unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is
 anyway and counted in ``plotgate_unrecorded_total``.
 """
 
+import asyncio
 import logging
 import math
 import time
+from collections.abc import Awaitable
+from typing import Any, TypeVar
 
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
@@ -66,6 +69,8 @@ from plotgate.service.registry import (
     parse,
 )
 from plotgate.service.schemas import FieldError
+
+_T = TypeVar("_T")
 
 __all__ = ["PROBLEM_JSON", "Operations", "health_router", "request_id_of", "retry_after"]
 
@@ -163,7 +168,9 @@ class Operations:
         large = len(body) > INLINE_BODY_BYTES
         answer: Outcome | None = None  # the answer, once known
         if refused is None and large:
-            strict, answer = await self.large_bodies.answer(op, body, rid, limits)
+            answered = await self._before_stopping(self.large_bodies.answer(op, body, rid, limits))
+            # cut off by the shutdown: recorded as text, as its parse never came back
+            strict, answer = answered or (False, _stopping(op, rid))
             parsed = None
         else:
             # a small body, or a refused one (nothing to parse)
@@ -217,20 +224,49 @@ class Operations:
             headers.append(self._retry_after())
         return answer.status, answer.content, headers
 
-    @staticmethod
     async def _answer_small(
-        op: Operation, parsed: Parsed, rid: str, limits: dict[str, int] | None
+        self, op: Operation, parsed: Parsed, rid: str, limits: dict[str, int] | None
     ) -> Outcome:
         """A small body's answer: on the event loop (a thread hand-off costs more than a
         gate test of a few hundred plots), in a worker thread for an operation whose
         endpoint is marked ``slow`` (quadratures that take tenths of a second or more, and
         release the interpreter in compiled kernels)."""
         if parsed.request is not None and op.endpoint.slow:
-            return await run_in_threadpool(outcome, op, parsed, rid, limits)
+            work = run_in_threadpool(outcome, op, parsed, rid, limits)
+            return await self._before_stopping(work) or _stopping(op, rid)
         return outcome(op, parsed, rid, limits)
+
+    async def _before_stopping(self, work: Awaitable[_T]) -> _T | None:
+        """``work``'s result, or None when the server reaches the end of its graceful
+        shutdown first (:func:`plotgate.service.app.create_app` sets ``stopping`` a second
+        before uvicorn would cancel this request and answer a bare 500, unrecorded). The
+        work is not cancelled: a thread cannot be stopped, and cancelling the wait for one
+        would wait for it; its result is dropped with the process."""
+        stopping: asyncio.Event = self.state.stopping
+        task = asyncio.ensure_future(work)
+        if not stopping.is_set():
+            waiter = asyncio.ensure_future(stopping.wait())
+            await asyncio.wait({task, waiter}, return_when=asyncio.FIRST_COMPLETED)
+            waiter.cancel()
+        if task.done():
+            return task.result()
+        task.add_done_callback(_drop)
+        return None
 
     def _retry_after(self) -> Header:
         return b"retry-after", retry_after(self.state.settings).encode()
+
+
+def _stopping(op: Operation, rid: str) -> Outcome:
+    """The answer to a request the graceful shutdown cut off: 503, retried elsewhere."""
+    err = ProblemError("shutting-down", 503, "the server is shutting down: send the request again")
+    return Outcome(503, problem_json(err, op.path, rid), err)
+
+
+def _drop(task: "asyncio.Future[Any]") -> None:
+    """Take the outcome of work whose answer was given up, so asyncio logs nothing."""
+    if not task.cancelled():
+        task.exception()
 
 
 async def _redirect(send: Send, scope: Scope, path: str) -> None:

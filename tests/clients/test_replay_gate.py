@@ -15,10 +15,17 @@ from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
-from plotgate.clients.replay import BODY_TIMEOUT, NEVER_ANSWERED, OVER_CAPS, replay
+from plotgate.clients.replay import (
+    BODY_TIMEOUT,
+    NEVER_ANSWERED,
+    OVER_CAPS,
+    REFUSED_FOR_THE_SERVER,
+    replay,
+)
 from plotgate.service import registry
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
+from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.recorder import request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import request_schema, response_schema
@@ -433,3 +440,22 @@ def test_a_recorded_cap_refusal_is_refused_again_and_compared(settings, monkeypa
     higher = settings.model_copy(update={"log_dir": settings.log_dir.parent / "higher"})
     report = replay(_session(higher, [GOOD_BODY]), progress=False, limits=Settings().limits)
     assert (report.compared, report.not_compared) == (0, {OVER_CAPS: 1})
+
+
+def test_a_recorded_503_is_set_aside_not_compared(tmp_path):
+    """A 503 (recording, cluster or shutdown) says what the server could not do then, not
+    what the operation answers: replayed in process it would answer 200 and read as a
+    change. It is counted apart, with its reason."""
+    body, _, content = _answers()["ok"]
+    err = ProblemError("shutting-down", 503, "the server is shutting down")
+    problem = problem_json(err, OPERATIONS[OP].path, "r0")
+    events = [
+        (T0, "request", request_record("r0", OP, body)),
+        (T0 + MS, "response", response_record("r0", OP, 503, 0.001, problem)),
+        (T0 + 2 * MS, "request", request_record("r1", OP, body)),
+        (T0 + 3 * MS, "response", response_record("r1", OP, 200, 0.001, content)),
+    ]
+    write_files(tmp_path / "rec", events, set())
+    report = replay(tmp_path / "rec", progress=False)
+    assert (report.compared, report.unchanged) == (1, 1)
+    assert report.not_compared == {REFUSED_FOR_THE_SERVER: 1}

@@ -167,3 +167,43 @@ def test_sigterm_finishes_in_flight_requests_and_finalizes_the_file(tmp_path):
     assert rec.complete  # summary, index and footer written on the way out
     [exchange] = rec.exchanges
     assert exchange.request_id == "in-flight" and exchange.response["status"] == 200
+
+
+def test_work_past_the_graceful_timeout_is_answered_503_and_recorded(tmp_path):
+    """SIGTERM while an operation computes for longer than PLOTGATE_GRACEFUL_SHUTDOWN_S:
+    uvicorn would cancel the request at the end and answer a bare 500, unrecorded. A
+    second before, the request is answered 503 ``shutting-down`` (a client retries it
+    elsewhere), both records are on disk, and the server stops within its grace."""
+    import signal
+
+    # a long in-process Monte Carlo (a worker thread: initiation.evaluate is slow)
+    body = {"scenario": {"clutter": 250}, "runs": 4_000, "seed": 1}
+    outcome: dict[str, httpx.Response] = {}
+    env = {"PLOTGATE_GRACEFUL_SHUTDOWN_S": "3"}
+    log = tmp_path / "serve.log"
+
+    def post(url: str) -> None:
+        outcome["r"] = httpx.post(
+            url + "/v1/initiation/evaluate",
+            json=body,
+            headers={"x-request-id": "cut-off"},
+            timeout=120,
+        )
+
+    with serve(tmp_path / "recordings", env=env, log=log) as (proc, url):
+        thread = threading.Thread(target=post, args=(url,), daemon=True)
+        thread.start()
+        time.sleep(2.0)  # received and computing
+        stopping = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=60) in (0, -signal.SIGTERM)
+        stopped = time.monotonic()
+        thread.join(timeout=30)
+    assert stopped - stopping < 3 + 10  # the grace, and a loaded machine's margin
+    r = outcome["r"]
+    assert r.status_code == 503 and r.headers["retry-after"] == "1", r.text
+    assert r.json()["type"] == "urn:plotgate:problem:shutting-down"
+    assert "timeout graceful shutdown exceeded" not in log.read_text()
+    [path] = sorted((tmp_path / "recordings").glob("*.mcap"))
+    [exchange] = read_recording(path).exchanges
+    assert exchange.request_id == "cut-off" and exchange.response["status"] == 503
