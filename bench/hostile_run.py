@@ -228,7 +228,7 @@ def _state(url: str) -> dict:
                 },
                 {
                     "frame": "cartesian",
-                    "x": 1000.0 * k,
+                    "x": 1000.0 * k + 300.0,
                     "y": 400.0 * k,
                     "covariance": [[25.0, 0.0], [0.0, 25.0]],
                 },

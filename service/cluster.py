@@ -414,7 +414,9 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
                 n_workers=local_workers,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=None,
+                # a free port: None means Dask's 8787, and a second cluster on the machine
+                # warned "Port 8787 is already in use" (an error under the tests)
+                dashboard_address=":0",
             )
             address = local.scheduler_address
         client = _open(address, CONNECT_S)

@@ -114,7 +114,7 @@ def test_a_worker_killed_mid_evaluation_changes_nothing():
     expected = evaluate(scenario, SCORE, runs, 11)
     with (
         LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
         ) as local,
         Client(local) as client,
     ):
@@ -139,7 +139,7 @@ def test_plotgate_worker_joins_a_scheduler_and_leaves_on_sigterm():
     scenario = mu_scenario(50.0)
     expected = evaluate(scenario, SCORE, 50, 4)
     with (
-        LocalCluster(n_workers=0, processes=True, dashboard_address=None) as local,
+        LocalCluster(n_workers=0, processes=True, dashboard_address=":0") as local,
         Client(local) as client,
     ):
         worker = subprocess.Popen(
@@ -180,7 +180,7 @@ def _post(settings, body=BODY):
 def test_the_service_sends_its_runs_to_plotgate_dask_scheduler(settings):
     alone = _post(settings)
     with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as local:
         spread = _post(settings.model_copy(update={"dask_scheduler": local.scheduler_address}))
     assert spread.status_code == alone.status_code == 200
@@ -206,7 +206,7 @@ def test_an_unreachable_scheduler_answers_503_with_retry_after_and_is_recorded(s
 
 def test_work_past_the_timeout_answers_504_not_retried(settings):
     with LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as local:
         # connecting counts against the timeout too: 1 s leaves the connection to a local
         # scheduler room, and not 300 runs in dense clutter on one worker
@@ -442,6 +442,8 @@ def _scheduler(port: int) -> subprocess.Popen:
             "--port",
             str(port),
             "--no-dashboard",
+            "--dashboard-address",
+            ":0",
         ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
