@@ -209,7 +209,11 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
         else:
             raise FileNotFoundError(f"no such file or folder: {path}")
         for f in files:
-            check_regular(f, os.stat(f).st_mode)
+            try:
+                mode = os.stat(f).st_mode
+            except FileNotFoundError:  # gone since the folder was listed (a live server's)
+                continue
+            check_regular(f, mode)
             found.setdefault(f.resolve(), f)
     return sorted(found.values(), key=lambda f: (f.name, str(f)))
 

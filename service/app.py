@@ -90,10 +90,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             restore_signals()
             if watch is not None:
                 watch.cancel()
-            app.state.large_bodies.close()
-            if recorder is not None:
-                recorder.close()
-            configure(None)
+            try:
+                app.state.large_bodies.close()
+            finally:  # the file's summary and index, whatever stopping the worker raised
+                if recorder is not None:
+                    recorder.close()
+                configure(None)
 
     app = FastAPI(
         title="plotgate",

@@ -82,11 +82,14 @@ class Settings(BaseSettings):
     )
     graceful_shutdown_s: int = Field(
         default=20,
-        ge=1,
+        ge=2,
         le=3600,
-        description="On SIGTERM, how long requests in flight may finish, s; then they are "
-        "cancelled and the recordings closed (plotgate serve only). 20 s leaves a 30 s "
-        "termination grace period (Kubernetes' default) room to close the recordings.",
+        description="On SIGTERM, how long requests in flight may finish, s; a second before "
+        "the end, those still computing are answered 503 and recorded, then the recordings "
+        "are closed. plotgate serve gives it to uvicorn; under the bare uvicorn command pass "
+        "--timeout-graceful-shutdown the same. At least 2 s, so that last second exists; "
+        "20 s leaves a 30 s termination grace period (Kubernetes' default) room to close the "
+        "recordings.",
     )
     api_key: SecretStr | None = Field(
         default=None, description="When set, requests need this X-API-Key header."

@@ -20,7 +20,9 @@ Decisions where the issue is silent:
 
 - One worker process per server process, started on the first large body (about 4 s and
   240 MB to import the service, which a server that never sees one does not pay). Large
-  bodies queue for it; they were never parallel anyway, each held the interpreter.
+  bodies queue for it: their parse and encoding held the interpreter one at a time
+  before, but a slow operation's compiled kernels, which release it, no longer overlap
+  with another large body's (the price of a second worker's 240 MB, not paid here).
 - The worker is spawned, not forked: a fork of the running server would copy its
   threads' locks and its listening socket.
 - A large body's request record is added when its answer comes back from the worker,
@@ -32,6 +34,7 @@ Decisions where the issue is silent:
 """
 
 import asyncio
+import contextlib
 import ctypes
 import gc
 import logging
@@ -134,7 +137,7 @@ class LargeBodies:
     """The worker process that answers large bodies, started on first use."""
 
     def __init__(self, scheduler: str | None, timeout_s: float | None) -> None:
-        self.initargs = (os.getpid(), scheduler, timeout_s)
+        self.cluster = (scheduler, timeout_s)
         self.pool: ProcessPoolExecutor | None = None
         self.pid: int | None = None
         self.busy = 0
@@ -145,12 +148,16 @@ class LargeBodies:
         """Parse ``body`` and answer it in the worker: whether it is strict JSON (how its
         request record keeps it) and the outcome."""
         self.busy += 1
+        pool = None
         try:
-            future = await self._submit(op.name, body, request_id, dict(limits or {}))
+            pool, future = await self._submit(op.name, body, request_id, dict(limits or {}))
             strict, status, content = await asyncio.wrap_future(future)
         except BrokenProcessPool:
             log.error("the worker answering large bodies died on request %s", request_id)
-            self.pool = None  # the next large body starts a new one
+            self._drop(pool)  # the next large body starts a new one
+            return False, internal_error(op, request_id)
+        except Exception:  # the pool shut down under it: a fault of ours, answered and recorded
+            log.exception("the worker could not answer request %s", request_id)
             return False, internal_error(op, request_id)
         finally:
             self.busy -= 1
@@ -158,23 +165,38 @@ class LargeBodies:
 
     async def _submit(
         self, name: str, body: bytes, request_id: str, limits: dict[str, int]
-    ) -> Future[Answer]:
+    ) -> tuple[ProcessPoolExecutor, Future[Answer]]:
         """Hand the work to the worker; a worker found dead before it took the work (it died
-        idle) is replaced once, so its death costs no answer."""
+        idle) is replaced once, so its death costs no answer. Returns the pool it went to,
+        which only that pool's failure may drop (another request may have started the next
+        one meanwhile)."""
         for _ in range(2):
             pool = await self._pool()
             try:
-                return pool.submit(_answer, name, body, request_id, limits)
+                return pool, pool.submit(_answer, name, body, request_id, limits)
             except BrokenProcessPool:
-                self.pool = None
+                self._drop(pool)
         raise BrokenProcessPool("the worker died as it started")
 
     async def _pool(self) -> ProcessPoolExecutor:
-        if self.pool is None:
+        """The worker's pool, started when there is none: the pool of this call, even if
+        another request drops it while this one waits for the worker to start."""
+        pool = self.pool
+        if pool is None:
             context = multiprocessing.get_context("spawn")
-            self.pool = ProcessPoolExecutor(1, context, _start, self.initargs)
-            self.pid = await asyncio.wrap_future(self.pool.submit(os.getpid))
-        return self.pool
+            # the server's pid now, not when the app was built: a server forked after it
+            # (gunicorn --preload) would have its worker kill itself at start
+            pool = ProcessPoolExecutor(1, context, _start, (os.getpid(), *self.cluster))
+            self.pool, self.pid = pool, None
+            pid = await asyncio.wrap_future(pool.submit(os.getpid))
+            if self.pool is pool:
+                self.pid = pid
+        return pool
+
+    def _drop(self, pool: ProcessPoolExecutor | None) -> None:
+        """Forget ``pool`` (its worker died) unless it was already replaced."""
+        if pool is not None and self.pool is pool:
+            self.pool, self.pid = None, None
 
     def close(self) -> None:
         """Stop the worker: after its work when idle, at once when a request is still in
@@ -183,5 +205,6 @@ class LargeBodies:
             return
         self.pool.shutdown(wait=self.busy == 0, cancel_futures=True)
         if self.busy and self.pid is not None:
-            os.kill(self.pid, signal.SIGKILL)
-        self.pool = None
+            with contextlib.suppress(ProcessLookupError):  # it died meanwhile
+                os.kill(self.pid, signal.SIGKILL)
+        self.pool, self.pid = None, None

@@ -243,11 +243,14 @@ class Operations:
         work is not cancelled: a thread cannot be stopped, and cancelling the wait for one
         would wait for it; its result is dropped with the process."""
         stopping: asyncio.Event = self.state.stopping
+        if stopping.is_set():  # too late to start it
+            if asyncio.iscoroutine(work):
+                work.close()
+            return None
         task = asyncio.ensure_future(work)
-        if not stopping.is_set():
-            waiter = asyncio.ensure_future(stopping.wait())
-            await asyncio.wait({task, waiter}, return_when=asyncio.FIRST_COMPLETED)
-            waiter.cancel()
+        waiter = asyncio.ensure_future(stopping.wait())
+        await asyncio.wait({task, waiter}, return_when=asyncio.FIRST_COMPLETED)
+        waiter.cancel()
         if task.done():
             return task.result()
         task.add_done_callback(_drop)

@@ -4,7 +4,7 @@ import pytest
 from fastapi.testclient import TestClient
 from mcap.reader import make_reader
 
-from plotgate.clients.recordings import Reader, read_recording
+from plotgate.clients.recordings import Reader, read_recording, recording_files
 from plotgate.service.app import create_app
 from tests.conftest import cartesian
 
@@ -126,3 +126,11 @@ def test_the_same_id_and_time_with_other_bytes_is_a_conflict_not_a_record_writte
     [conflict] = reader.conflicts
     assert conflict.startswith("gates.test a at 1970-01-01T00:00:00.000001Z: the request record")
     assert f"{second} at offset " in conflict and f"the one at {first} at offset " in conflict
+
+
+def test_a_file_gone_since_the_folder_was_listed_is_not_an_error(tmp_path):
+    """A live server removes a file none of whose flushes succeeded (a full disk); one gone
+    between the listing and the look at it (here a link to nothing) is simply not read."""
+    (tmp_path / "a.mcap").write_bytes(b"")
+    (tmp_path / "gone.mcap").symlink_to(tmp_path / "nowhere")
+    assert recording_files(tmp_path) == [tmp_path / "a.mcap"]
