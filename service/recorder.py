@@ -69,9 +69,6 @@ PROBE_BYTES = 2**16
 35 KB for the operations of this build), so that a disk a probe passes has room to open a
 file, and one with less refuses at once without creating and removing a file per
 request."""
-PROBE_RETRY_S = 0.1
-"""A failed probe is not tried again for this long by a request: while the disk stays
-full, each refused request would otherwise write and sync a probe on the event loop."""
 
 
 class RecordingError(RuntimeError):
@@ -224,7 +221,6 @@ class Recorder:
         self._bytes_closed = 0  # bytes of the files already closed
         self._closed = False
         self._error: Exception | None = None
-        self._probe_failed: tuple[float, OSError] | None = None  # when, and why
         self._stream: IO[bytes] | None = None
         self._writer: Writer | None = None
         self._channels: dict[str, int] = {}
@@ -308,17 +304,10 @@ class Recorder:
         """The folder is a folder (not a file put in its place) and may be written."""
         return self.directory.is_dir() and os.access(self.directory, os.W_OK)
 
-    def _write_probe(self, *, again: bool = True) -> OSError | None:
+    def _write_probe(self) -> OSError | None:
         """Write a small file into the folder (creating it if missing), sync and remove it;
         the error when that fails. The probe is removed either way, so trying leaves
-        nothing behind, however often it is tried on a full disk. Unless ``again``, a
-        failure is taken as the answer for :data:`PROBE_RETRY_S`: a stream of refused
-        requests costs one probe every tenth of a second, not one each, while readiness
-        (:meth:`probe`) always looks again."""
-        now = time.monotonic()
-        failed = self._probe_failed
-        if not again and failed is not None and now - failed[0] < PROBE_RETRY_S:
-            return failed[1]
+        nothing behind, however often it is tried on a full disk."""
         probe = self.directory / f".plotgate-probe-{os.getpid()}"
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
@@ -330,9 +319,7 @@ class Recorder:
         except OSError as exc:
             with contextlib.suppress(OSError):
                 probe.unlink()
-            self._probe_failed = (now, exc)
             return exc
-        self._probe_failed = None
         return None
 
     def request(self, operation: str, data: bytes, log_time: int | None = None) -> Exchange:
@@ -573,7 +560,7 @@ class Recorder:
         self._finish()
         self._find_gone()
         if self._error is not None:
-            failure = self._write_probe(again=False)
+            failure = self._write_probe()
             if failure is not None:
                 raise RecordingError(f"cannot write to {self.directory}: {failure}")
         self.directory.mkdir(parents=True, exist_ok=True)

@@ -103,36 +103,3 @@ def test_a_full_disk_leaves_no_empty_files_and_recovers_when_space_returns(tmp_p
     [recording] = tmp_path.glob("*.mcap")
     [exchange] = read_recording(recording).exchanges
     assert exchange.response is not None and exchange.response["status"] == 200
-
-
-def test_a_failed_probe_is_not_tried_again_by_each_request(tmp_path, monkeypatch):
-    """While the folder stays unwritable, each refused request probes it on the event
-    loop: a failure is the answer for PROBE_RETRY_S, so a stream of them costs one write
-    and sync each tenth of a second, not one each; readiness (probe) always looks again."""
-    from pathlib import Path
-
-    import pytest
-
-    from plotgate.service.recorder import PROBE_RETRY_S, Recorder, RecordingError
-
-    (tmp_path / "a-file").write_text("")
-    recorder = Recorder(tmp_path / "a-file" / "recordings", ())  # its folder cannot be made
-    tries: list[Path] = []
-    mkdir = Path.mkdir
-
-    def counted(self: Path, *args, **kwargs) -> None:
-        tries.append(self)
-        mkdir(self, *args, **kwargs)
-
-    monkeypatch.setattr(Path, "mkdir", counted)
-    for _ in range(50):
-        with pytest.raises(RecordingError):
-            recorder.request("gates.test", b"{}")
-            recorder.flush()
-    assert len(tries) == 2  # the write that failed, and one probe
-    assert not recorder.probe() and len(tries) == 3
-    time.sleep(PROBE_RETRY_S * 1.5)
-    with pytest.raises(RecordingError):
-        recorder.request("gates.test", b"{}")
-        recorder.flush()
-    assert len(tries) == 4
