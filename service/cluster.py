@@ -220,10 +220,7 @@ def _close(client: Any) -> None:
     """Close ``client`` on the cluster loop, waiting :data:`_CLOSE_S` at most: a client
     that will not close is left to the daemon loop, so shutdown goes on."""
 
-    async def close() -> None:
-        await _quietly_closed(client)
-
-    closing = asyncio.run_coroutine_threadsafe(close(), _cluster_loop())
+    closing = asyncio.run_coroutine_threadsafe(_quietly_closed(client), _cluster_loop())
     try:
         closing.result(_CLOSE_S + 1.0)
     except TimeoutError:

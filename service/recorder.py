@@ -611,14 +611,18 @@ class Recorder:
         opened = os.fstat(self._stream.fileno())
         if opened.st_nlink == 0:
             raise _FileLost(f"{self.files[-1]} was deleted (its folder removed?)")
-        if moved:
-            try:
-                named = os.stat(self.files[-1])
-            except OSError:  # gone, or its folder now a file (ENOTDIR) or unreadable
-                raise _FileMoved from None
-            if (named.st_dev, named.st_ino) != (opened.st_dev, opened.st_ino):
-                raise _FileMoved
+        if moved and not self._named(opened):
+            raise _FileMoved
         return opened.st_size
+
+    def _named(self, opened: os.stat_result) -> bool:
+        """The current file's path still leads to the open file (``opened``, its fstat):
+        not gone, not replaced, its folder not turned into a file (ENOTDIR) or unreadable."""
+        try:
+            named = os.stat(self.files[-1])
+        except OSError:
+            return False
+        return (named.st_dev, named.st_ino) == (opened.st_dev, opened.st_ino)
 
     def _finish(self) -> None:
         """Write the summary and index and close the file."""
@@ -665,9 +669,7 @@ class Recorder:
         must skip. Only while its name still leads to it: never someone else's file."""
         assert self._stream is not None
         with contextlib.suppress(OSError):
-            opened = os.fstat(self._stream.fileno())
-            named = os.stat(self.files[-1])
-            if (named.st_dev, named.st_ino) == (opened.st_dev, opened.st_ino):
+            if self._named(os.fstat(self._stream.fileno())):
                 self.files[-1].unlink()
 
     def _find_gone(self, but: int = 0) -> None:
