@@ -113,15 +113,15 @@ DEFAULT_MAX_RESPONSE_BYTES = 2**27
 """The largest answer body a client reads, decoded (128 MiB); past it the call raises
 ``ResponseTooLarge``.
 
-The service sets no cap on its answers, and the largest one its schemas allow is
-``identification.picture`` at 10,000 x 10,000 tracks: about 45 bytes of JSON per pair
-(measured at 200 x 200), some 4.5 GB, which would bound nothing (the endless body this cap
-answers reached 7.4 GB).
-128 MiB is instead the largest record plotgate's own MCAP readers hold
+The service sets no cap on the size of its answers; its default work caps bound them. The
+largest is ``identification.picture`` at its cap of 2,500,000 track pairs
+(``passive_deg x active_deg``): about 45 bytes of JSON a pair (measured at 200 x 200), some
+112 MB, under this cap. 128 MiB is also the largest record plotgate's own MCAP readers hold
 (``plotgate.clients.scan.MAX_RECORD_BYTES``): an answer over it could not be replayed
-either. Every other operation's largest answer is far below it (measured: a gate test of
-100,000 candidates is 2.0 MB, a simulation of 100,000 plots 12 MB); a picture past about
-1,700 x 1,700 tracks needs a larger ``max_response_bytes``."""
+either. Other operations' largest answers are far below it (measured: a gate test of
+100,000 candidates is 2.0 MB, a simulation of 100,000 plots 12 MB). A server whose
+``PLOTGATE_LIMITS`` raise the picture's cap needs clients with a larger
+``max_response_bytes``."""
 RETRIED_ERRORS: tuple[type[httpx.TransportError], ...] = (
     httpx.NetworkError,  # ConnectError, ReadError, WriteError, CloseError
     httpx.ConnectTimeout,
