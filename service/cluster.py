@@ -355,8 +355,20 @@ async def _cancelled(client: Any, futures: list[Any]) -> None:
 
 
 def _bar(total: int) -> tqdm[Any]:
-    """A bar of chunks done on stderr, drawn only inside ``cluster(progress=True)``."""
-    return tqdm(total=total, unit="chunk", desc="chunks", disable=not _progress, leave=False)
+    """A bar of chunks done on stderr, drawn only inside ``cluster(progress=True)``.
+
+    Every chunk done is drawn (``miniters=1, mininterval=0``): chunks are seconds of work
+    each, so drawing costs nothing, and tqdm's default of one draw per 0.1 s would skip the
+    last count when chunks end close together, leaving a bar that never reads done."""
+    return tqdm(
+        total=total,
+        unit="chunk",
+        desc="chunks",
+        disable=not _progress,
+        leave=False,
+        miniters=1,
+        mininterval=0,
+    )
 
 
 def _in_process(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
