@@ -30,6 +30,10 @@ from plotgate import __version__
 
 __all__ = ["main"]
 
+IN_PROCESS = frozenset({"serve", "call", "replay", "plot", "study", "scenario"})
+"""The commands that run operations in this process (unless given ``--server``), and so
+load the compiled kernels first."""
+
 REPLAY_EXIT_CODES = """exit status:
   0  every exchange compared and unchanged
   1  something changed: an answer, a recorded failure that now succeeds or fails
@@ -737,6 +741,8 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else 2
     try:
+        if args.command in IN_PROCESS and getattr(args, "server", None) is None:
+            _load_kernels(args.command)
         code = args.func(args)
         sys.stdout.flush()
         return code
@@ -749,6 +755,30 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - the last word: one line, never a traceback
         print(f"plotgate {args.command}: {_one_line(exc)}", file=sys.stderr)
         return 2
+
+
+def _load_kernels(command: str) -> None:
+    """Load the numerical kernels before a command runs operations in-process, saying on
+    stderr when they compile (a first start: about a minute of silence otherwise) and how
+    long that took."""
+    from plotgate.service.kernels import load_kernels
+
+    def announce() -> None:
+        print(
+            f"plotgate {command}: compiling numerical kernels "
+            "(first start only, about a minute)...",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    seconds = load_kernels(announce)
+    if seconds is not None:
+        print(
+            f"plotgate {command}: kernels ready in {seconds:.0f} s "
+            "(cached: later starts take a few seconds)",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def _one_line(exc: Exception) -> str:
