@@ -26,7 +26,7 @@ ABSOLUTE = 1e-14
 
 @dataclass
 class Block:
-    """A fenced code block of ``page`` starting at ``line`` (1-based)."""
+    """A fenced code block of ``page`` whose opening fence is at ``line`` (1-based)."""
 
     page: Path
     line: int

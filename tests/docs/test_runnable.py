@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+import plotgate.service.registry  # noqa: F401 - compiles the kernels here, before the server and blocks load them
 from tests.docs.markdown import Block, blocks, documents, json_matches, links, text_matches
 from tests.servers import serve
 
@@ -33,6 +34,7 @@ LOCAL_OR_CITATION = ("http://127.0.0.1", "http://localhost", "https://doi.org/")
 
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory) -> Path:
+    assert shutil.which("curl") and shutil.which("bash"), "the pages' commands need bash and curl"
     folder = tmp_path_factory.mktemp("newcomer")
     (folder / ".venv").symlink_to(sys.prefix)
     shutil.copytree(ROOT / "docs/examples", folder / "docs/examples")
