@@ -78,7 +78,7 @@ def _gate_request(tmp_path: Path) -> str:
 
 
 def test_a_compilation_is_announced_then_timed(tmp_path, monkeypatch, capsys):
-    def compiling(announce, module="plotgate.service.registry"):
+    def compiling(announce, **options):
         announce()
         return 71.4
 
@@ -103,3 +103,16 @@ def test_a_call_to_a_server_loads_no_kernels(tmp_path, monkeypatch, capsys):
     code = main(["call", "gates.test", _gate_request(tmp_path), "--server", url, "--retries", "0"])
     assert code == 2
     assert "kernels" not in capsys.readouterr().err
+
+
+def test_kernels_that_cannot_be_cached_end_the_command_with_a_message(
+    tmp_path, monkeypatch, capsys
+):
+    def full_disk(*args, **kwargs):
+        raise kernels.CacheRepairFailed("OSError: [Errno 28] No space left on device")
+
+    monkeypatch.setattr(kernels, "load_kernels", full_disk)
+    assert main(["call", "gates.test", _gate_request(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("plotgate call: cannot compile and cache the numerical kernels")
+    assert "No space left on device" in err and "Traceback" not in err
