@@ -776,7 +776,7 @@ def _load_kernels(command: str) -> bool:
 
     try:
         seconds = load_kernels(
-            lambda: say("compiling numerical kernels (first start only, about a minute)..."),
+            lambda: say("compiling numerical kernels (first start only, a minute or two)..."),
             repaired=repaired,
         )
     except CacheRepairFailed as exc:

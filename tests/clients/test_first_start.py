@@ -16,7 +16,7 @@ from plotgate.service import kernels
 from tests.servers import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
-ANNOUNCEMENT = "compiling numerical kernels (first start only, about a minute)..."
+ANNOUNCEMENT = "compiling numerical kernels (first start only, a minute or two)..."
 
 
 def _lines_until(proc: subprocess.Popen, wanted: str, seconds: float) -> list[str]:
