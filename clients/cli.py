@@ -30,6 +30,10 @@ from plotgate import __version__
 
 __all__ = ["main"]
 
+IN_PROCESS = frozenset({"serve", "call", "replay", "plot", "study", "scenario"})
+"""The commands that run operations in this process (unless given ``--server``), and so
+load the compiled kernels first."""
+
 REPLAY_EXIT_CODES = """exit status:
   0  every exchange compared and unchanged
   1  something changed: an answer, a recorded failure that now succeeds or fails
@@ -737,6 +741,9 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else 2
     try:
+        in_process = args.command in IN_PROCESS and getattr(args, "server", None) is None
+        if in_process and not _load_kernels(args.command):
+            return 2
         code = args.func(args)
         sys.stdout.flush()
         return code
@@ -749,6 +756,38 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - the last word: one line, never a traceback
         print(f"plotgate {args.command}: {_one_line(exc)}", file=sys.stderr)
         return 2
+
+
+def _load_kernels(command: str) -> bool:
+    """Load the numerical kernels before a command runs operations in-process, saying on
+    stderr when they compile (a first start: about a minute of silence otherwise), how
+    long that took, and when a damaged cache was removed; False (after a message) when
+    they can be neither loaded nor compiled and cached."""
+    from plotgate.service.kernels import CacheRepairFailed, load_kernels
+
+    def say(text: str) -> None:
+        print(f"plotgate {command}: {text}", file=sys.stderr, flush=True)
+
+    def repaired(exc: Exception, removed: int) -> None:
+        say(
+            f"numba's cache of the kernels was unreadable ({type(exc).__name__}: {exc}); "
+            f"removed its {removed} files"
+        )
+
+    try:
+        seconds = load_kernels(
+            lambda: say("compiling numerical kernels (first start only, a minute or two)..."),
+            repaired=repaired,
+        )
+    except CacheRepairFailed as exc:
+        say(
+            f"cannot compile and cache the numerical kernels ({exc}): is numba's cache "
+            "folder (NUMBA_CACHE_DIR, else __pycache__ beside the sources) full or read-only?"
+        )
+        return False
+    if seconds is not None:
+        say(f"kernels ready in {seconds:.0f} s (cached: later starts take a few seconds)")
+    return True
 
 
 def _one_line(exc: Exception) -> str:

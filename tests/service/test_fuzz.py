@@ -22,7 +22,7 @@ Cost is bounded by work caps, as an operator sets them (``PLOTGATE_LIMITS``, her
 :data:`CAPS`): a few Monte Carlo runs, samples and curve points, and an error ellipse of
 axis ratio at most 3 for the unconditional gating probabilities; larger requests answer
 422 naming the size. Fixed seed (derandomized Hypothesis); ``PLOTGATE_FUZZ_EXAMPLES``
-Hypothesis examples per operation in the fuzzing phase (default 12; the README's longer
+Hypothesis examples per operation in the fuzzing phase (default 12; docs/reliability.md's longer
 run uses 100); ``PLOTGATE_FUZZ_REPORT=file.json`` writes the answers per operation and
 status there.
 """
@@ -107,7 +107,7 @@ def test_every_operation_answered_a_valid_request():
     # runs after the fuzzing above (pytest keeps a module's order): every operation was
     # fuzzed, and valid requests reached every operation's handler
     report = os.environ.get("PLOTGATE_FUZZ_REPORT")
-    if report:  # answers per operation and status, for the README's figures
+    if report:  # answers per operation and status, for docs/reliability.md's table
         tally: dict[str, dict[int, int]] = {}
         for (name, status), n in sorted(ANSWERED.items()):
             tally.setdefault(name, {})[status] = n

@@ -26,7 +26,7 @@ eccentricity of the marks' error ellipse that sets the cost of the unconditional
 quadrature (0.1 s at the paper's ratio of 2, seconds at 20, minutes at the 10^5 the
 sigmas' bounds allow; ``bench/README.md``). The mark's fields still reach their bounds
 in every operation's conditional or area-only variant, which costs milliseconds at any
-ratio; a run without the caps is in the README.
+ratio; a run without the caps is in docs/reliability.md.
 
 A last check holds the bases to the schema: every numeric property of every model a
 request can contain is mutated at least once, so a new field cannot escape the test.
