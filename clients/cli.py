@@ -427,21 +427,15 @@ def _json_object(path: str) -> dict[str, Any] | None:
 def _scenario(args: argparse.Namespace) -> int:
     from plotgate.clients.errors import PlotgateClientError
     from plotgate.clients.plots import MissingMatplotlib
-    from plotgate.clients.scenario_plot import scenario_figure
+    from plotgate.clients.scenario_plot import default_settings, scenario_figure, simulate_request
 
-    config = {
-        "mode": args.mode,
-        "v_max": args.v_max,
-        "capture_gate": "combined",
-        "a_max": 10.0,
-        "K_A": 3.0,
-    }
+    config = default_settings(args.mode, args.v_max)
     if args.config is not None:
         given = _json_object(args.config)
         if given is None:
             return 2
         config = given
-    request = {"scenario": {"clutter": args.clutter, "scans": args.scans}, "seed": args.seed}
+    request = simulate_request(args.clutter, args.scans, args.seed)
     try:
         out = scenario_figure(request, config, args.out, server=args.server)
     except (MissingMatplotlib, PlotgateClientError) as exc:

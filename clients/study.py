@@ -273,7 +273,8 @@ def table(answer: dict[str, Any], every: int = 1) -> str:
         "Total RMSE sqrt(sum of per-axis RMSE^2), m; curves of Fadeev et al., Fig. 3: "
         "1 single-shot CRLB, 2 accumulated CRLB, 3 ML track, 4 ML single shot, 5 sum range, "
         "6 difference range; lin: the linearised efficient estimator on the same noise; "
-        f"dist: largest Mahalanobis error of curve 4; note: on {CROSSING_NOTE}.",
+        f'dist: largest Mahalanobis error of curve 4; note "on bk": '
+        f"{CROSSING_NOTE.removeprefix('bk: ')}.",
         "",
         "| i | t s | note | 1 CRLB | 2 CRLB acc. | 3 ML track | 4 ML single | 5 sum-range | "
         "6 diff-range | diff CRLB | 4/1 | 4/lin | 3/2 | 3/lin | 6/diff | dist 4 | "

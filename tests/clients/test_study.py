@@ -157,4 +157,4 @@ def test_checks_judge_the_limits_and_the_table_shows_them():
         }
     )
     assert "| 1 | 0 |  | 1 | 1 | — | 1.2 | 1.5 | 2 | 2 | 1.200 | 1.200 | — | — | 1.000 |" in text
-    assert "| **NOT MET** |" in text and "bk: the target crosses baseline k" in text
+    assert "| **NOT MET** |" in text and 'note "on bk": the target crosses baseline k' in text
