@@ -25,7 +25,7 @@ import sys
 from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from plotgate import __version__
 
@@ -190,8 +190,24 @@ def _call(args: argparse.Namespace) -> int:
     except ClusterUnavailable as exc:
         print(f"plotgate call: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        if args.dask is None and args.local_workers is None:
+            raise
+        _leave_the_cluster()
     sys.stdout.write(json.dumps(json.loads(outcome.content), indent=2) + "\n")
     return 0 if outcome.status < 400 else 1
+
+
+def _leave_the_cluster() -> NoReturn:
+    """Exit 130 at once after a Ctrl-C with a cluster, which :func:`cluster` has abandoned:
+    the interpreter's own exit would wait for Dask's threads and worker processes to wind
+    down (seconds, with warnings), where ending this process ends the workers with it
+    (they watch their parent). Nothing of this command is left to write: stdout and stderr
+    are flushed first."""
+    print("plotgate: interrupted", file=sys.stderr)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(130)
 
 
 def _call_server(args: argparse.Namespace, body: bytes) -> int:

@@ -29,7 +29,9 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import logging
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable, Iterator
@@ -408,6 +410,9 @@ def cluster(
 
 @contextmanager
 def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
+    """The cluster inside, closed cleanly after it, or abandoned on an interrupt
+    (:func:`_abandoned`): a Ctrl-C ends the command at once, not after the workers finish
+    their chunks."""
     global _client
     if address is None and local_workers is None:
         yield
@@ -416,28 +421,78 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
         from distributed import LocalCluster
     except ImportError as exc:
         raise ClusterUnavailable('a cluster needs Dask: pip install "plotgate[cluster]"') from exc
-    local = None
+    local = client = None
     try:
         if address is None:
-            local = LocalCluster(
-                n_workers=local_workers,
-                threads_per_worker=1,
-                processes=True,
-                # a free port: None means Dask's 8787, and a second cluster on the machine
-                # warned "Port 8787 is already in use" (an error under the tests)
-                dashboard_address=":0",
-            )
+            with _sigint_ignored():  # and so do the worker processes (see there)
+                local = LocalCluster(
+                    n_workers=local_workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    # a free port: None means Dask's 8787, and a second cluster on the
+                    # machine warned "Port 8787 is already in use" (an error under the tests)
+                    dashboard_address=":0",
+                )
             address = local.scheduler_address
         client = _open(address, CONNECT_S)
         _client = client
-        try:
-            yield
-        finally:
-            _client = None
-            _close(client)
+        yield
+    except KeyboardInterrupt:
+        _abandoned(local)
+        local = client = None  # left to end with the process, not closed
+        raise
     finally:
+        _client = None
+        if client is not None:
+            _close(client)
         if local is not None:
             local.close()
+
+
+_QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"
+
+
+@contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while the local workers start, so that their processes ignore it.
+
+    A Ctrl-C at a terminal goes to every process of the foreground group, the workers
+    included, and each one printed its own KeyboardInterrupt traceback. A process started
+    meanwhile inherits the ignored SIGINT, Python keeps it ignored, and Dask sets no handler
+    of its own: so this process alone answers a Ctrl-C, and the workers end with it (Dask's
+    worker processes exit at once when their parent goes). Blocking the signal instead
+    would keep a Ctrl-C pending rather than lose it, but the threads Dask spawns the workers
+    from do not inherit this thread's mask, so the workers would get it: a Ctrl-C in the
+    second or two the workers take to start is lost, and the next one works. The resource
+    tracker's warning about semaphores left to it (what an abandoned cluster leaves) is
+    switched off in the processes started meanwhile, the tracker included: it cleans them
+    up, as is its job. Only the main thread may set a handler: elsewhere nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.warnoptions.append(_QUIET_TRACKER)
+    try:
+        yield
+    finally:
+        sys.warnoptions.remove(_QUIET_TRACKER)
+        signal.signal(signal.SIGINT, previous)
+
+
+def _abandoned(local: Any) -> None:
+    """After an interrupt: stop the talks in flight and leave the cluster (its client and
+    the local one, if any) to die with this process, which the caller ends at once (the
+    command line exits 130), rather than close it. A clean close waits for every worker to
+    finish its chunk, and Dask warned "Worker process still alive after 4.0 seconds,
+    killing" after 5 s; the worker processes instead exit as soon as this one does (they
+    watch their parent). Dask's own log lines about the lost connections are silenced, as
+    its atexit close of the local cluster is: after a Ctrl-C they are noise."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C: already ending
+    logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
+    cancel_calls()
+    if local is not None:
+        local.shutdown_on_close = False  # no atexit close (10 s at most, with warnings)
 
 
 def run_worker(address: str, nthreads: int = 1, wait: float = 10.0) -> None:
