@@ -213,13 +213,16 @@ def stamp_of(path: Path) -> str | None:
 
 
 def stale(folder: Path = FOLDER) -> list[str]:
-    """Names of the figures in ``folder`` that are missing or older than what draws them."""
-    out = []
-    for name, recipe in FIGURES.items():
-        png = folder / recipe.file
-        if not png.exists() or stamp_of(png) != source_hash(recipe):
-            out.append(name)
-    return out
+    """Names of the figures in ``folder`` that are missing, damaged or older than what
+    draws them."""
+    return [name for name, recipe in FIGURES.items() if not _current(folder / recipe.file, recipe)]
+
+
+def _current(png: Path, recipe: Recipe) -> bool:
+    try:
+        return stamp_of(png) == source_hash(recipe)
+    except (OSError, ValueError):  # missing, unreadable or not a PNG: draw it again
+        return False
 
 
 def draw(name: str, folder: Path) -> Path:

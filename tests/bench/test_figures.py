@@ -65,6 +65,8 @@ def test_stale_names_a_missing_or_unstamped_figure(tmp_path):
     assert "fig2_ring" in stale(tmp_path)
     stamp(png, source_hash(FIGURES["fig2_ring"]))
     assert "fig2_ring" not in stale(tmp_path)
+    png.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\xff\xffIHDR")  # cut short
+    assert "fig2_ring" in stale(tmp_path)
 
 
 def test_a_damaged_png_is_refused(tmp_path):

@@ -1,11 +1,13 @@
-"""Ctrl-C during a clustered ``plotgate call``: as a terminal sends it, SIGINT to the whole
-process group (the Dask worker processes included), once the workers run. Every time:
-exit 130, one line on stderr, no traceback, no warning, and no worker left behind."""
+"""A clustered ``plotgate call`` is quiet. Ctrl-C, as a terminal sends it (SIGINT to the
+whole process group, the Dask worker processes included): every time exit 130, one line on
+stderr, no traceback, no warning, no worker left behind. And a call that runs to its end
+says nothing on stderr, with Dask's default dashboard port 8787 taken."""
 
 import contextlib
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -97,3 +99,22 @@ def test_ctrl_c_in_five_clustered_calls_is_quiet_and_exits_130(tmp_path):
         assert left == []
     stderr = "".join(err for _, err, _, _ in runs)
     assert stderr.count("Traceback") == 0 and stderr.lower().count("warn") == 0
+
+
+@pytest.mark.slow
+def test_a_clustered_call_says_nothing_on_stderr_with_port_8787_taken(tmp_path):
+    body = tmp_path / "evaluate.json"
+    body.write_text(json.dumps({**BODY, "runs": 8, "scenario": {"clutter": 20}}))
+    with contextlib.ExitStack() as stack:
+        taken = stack.enter_context(socket.socket())
+        with contextlib.suppress(OSError):  # already taken by someone else: as good
+            taken.bind(("127.0.0.1", 8787))
+            taken.listen()
+        done = subprocess.run(
+            [sys.executable, "-m", "plotgate", "call", "initiation.evaluate", str(body)]
+            + ["--local-workers", str(WORKERS)],
+            capture_output=True,
+            timeout=HANG_S * 2,
+        )
+    assert done.returncode == 0 and done.stderr.decode() == ""
+    assert json.loads(done.stdout)["runs"] == 8
