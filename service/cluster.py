@@ -30,6 +30,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import logging
+import multiprocessing
 import signal
 import sys
 import threading
@@ -424,15 +425,16 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
     local = client = None
     try:
         if address is None:
-            with _sigint_ignored():  # and so do the worker processes (see there)
-                local = LocalCluster(
-                    n_workers=local_workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    # a free port: None means Dask's 8787, and a second cluster on the
-                    # machine warned "Port 8787 is already in use" (an error under the tests)
-                    dashboard_address=":0",
-                )
+            assert local_workers is not None  # one of the two, or the early return
+            local = LocalCluster(
+                n_workers=0,
+                threads_per_worker=1,
+                processes=True,
+                # a free port: None means Dask's 8787, and a second cluster on the
+                # machine warned "Port 8787 is already in use" (an error under the tests)
+                dashboard_address=":0",
+            )
+            _start_workers(local, local_workers)
             address = local.scheduler_address
         client = _open(address, CONNECT_S)
         _client = client
@@ -446,7 +448,49 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
         if client is not None:
             _close(client)
         if local is not None:
-            local.close()
+            with _dask_quiet():
+                local.close()
+
+
+WORKERS_START_S = 120.0
+"""Longest wait for the local worker processes to start and join, s (seconds each on a
+loaded machine: each imports numpy, scipy, numba and Dask)."""
+
+
+def _start_workers(local: Any, n: int) -> None:
+    """Start ``n`` worker processes in ``local`` with SIGINT ignored (:func:`_sigint_ignored`)
+    only while they are spawned, then wait for them to join with SIGINT live: a Ctrl-C
+    while they load their modules (many seconds under load) ends the command."""
+    with _sigint_ignored():
+        local.scale(n)
+        deadline = time.monotonic() + WORKERS_START_S
+        while len(_worker_processes()) < n and time.monotonic() < deadline:
+            time.sleep(0.02)
+    try:
+        local.wait_for_workers(n, timeout=WORKERS_START_S)
+    except TimeoutError as exc:
+        raise ClusterUnavailable(
+            f"the {n} local Dask workers did not start within {WORKERS_START_S:g} s"
+        ) from exc
+
+
+def _worker_processes() -> list[multiprocessing.process.BaseProcess]:
+    """The Dask worker processes this process has spawned and that still run."""
+    return [p for p in multiprocessing.active_children() if p.name.startswith("Dask Worker")]
+
+
+@contextmanager
+def _dask_quiet() -> Iterator[None]:
+    """Dask's warnings off while a local cluster closes: on a loaded machine a worker
+    slow to stop drew "Worker process still alive after 4.0 seconds, killing" at the end
+    of a call that had answered; Dask kills it, as it says, and nothing is left to do."""
+    logger = logging.getLogger("distributed")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 _QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"
@@ -454,7 +498,7 @@ _QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"
 
 @contextmanager
 def _sigint_ignored() -> Iterator[None]:
-    """SIGINT ignored while the local workers start, so that their processes ignore it.
+    """SIGINT ignored while the local worker processes are spawned, so that they ignore it.
 
     A Ctrl-C at a terminal goes to every process of the foreground group, the workers
     included, and each one printed its own KeyboardInterrupt traceback. A process started
@@ -463,7 +507,7 @@ def _sigint_ignored() -> Iterator[None]:
     worker processes exit at once when their parent goes). Blocking the signal instead
     would keep a Ctrl-C pending rather than lose it, but the threads Dask spawns the workers
     from do not inherit this thread's mask, so the workers would get it: a Ctrl-C in the
-    second or two the workers take to start is lost, and the next one works. The resource
+    moment the processes are spawned (not the seconds they take to load) is lost. The resource
     tracker's warning about semaphores left to it (what an abandoned cluster leaves) is
     switched off in the processes started meanwhile, the tracker included: it cleans them
     up, as is its job. Only the main thread may set a handler: elsewhere nothing changes."""
