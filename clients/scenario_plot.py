@@ -188,7 +188,7 @@ def _draw_plots(
                 marker=SCAN_MARKERS[i % 10],
                 alpha=alpha,
                 color="grey",
-                label=f"clutter, scan {i + 1}" if legend else None,
+                label=_clutter_label(i, len(points)) if legend else None,
             )
         if found:
             ax.scatter(
@@ -209,6 +209,18 @@ def _draw_plots(
         zorder=3,
         label="true positions" if legend else None,
     )
+
+
+LEGEND_SCANS = 6
+"""Scans whose clutter the legend names one by one; more share one entry."""
+
+
+def _clutter_label(scan: int, scans: int) -> str | None:
+    """The legend entry of a scan's clutter: one per scan for a few scans, else one for
+    all (forty scans made a legend taller than the figure)."""
+    if scans <= LEGEND_SCANS:
+        return f"clutter, scan {scan + 1}"
+    return "clutter (a marker per scan)" if scan == 0 else None
 
 
 def _zoom(
