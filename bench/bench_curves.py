@@ -164,6 +164,20 @@ def _points(ax: Any, points: list[dict[str, Any]], **style: Any) -> None:
     )
 
 
+def _values(ax: Any, points: list[dict[str, Any]]) -> None:
+    """Each point's swept value beside it, small, in the curve's colour."""
+    color = ax.lines[-1].get_color()
+    for p in points:
+        ax.annotate(
+            f"{p['value']:g}" if isinstance(p["value"], float) else str(p["value"]),
+            (p["mean_false"], p["mean_true"]),
+            xytext=(3, -7),
+            textcoords="offset points",
+            fontsize=5.5,
+            color=color,
+        )
+
+
 def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -177,12 +191,13 @@ def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -
     for ax in axes[len(levels) :]:
         ax.set_visible(False)
     for ax, level in zip(axes, levels, strict=False):
-        for name, *_ in CURVES:
+        for name, _, parameter, _ in CURVES:
             pts = sorted(
                 (r for r in rows if r["clutter"] == level and r["curve"] == name),
                 key=lambda r: r["mean_false"],
             )
-            _points(ax, pts, marker="o", ms=3, label=name)
+            _points(ax, pts, marker="o", ms=3, label=f"{name}: {parameter}")
+            _values(ax, pts)
         ss = [s for s in stone if s["clutter"] == level]
         if ss:
             _points(ax, ss, fmt="k*", ms=9, label="Stone Soup (min_points 2-4, P_G 0.95-0.999)")
@@ -197,7 +212,12 @@ def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -
         ax.set_ylabel("targets initiated per run (of 5)")
         ax.set_title(f"clutter {level:g} plots per scan, {rows[0]['runs']} runs")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(loc="lower right", fontsize=8)
+    axes[0].legend(loc="lower right", fontsize=8, title="curve: setting swept", title_fontsize=8)
+    fig.suptitle(
+        f"Operating curves of track initiation on Mu et al.'s scenario ({rows[0]['runs']} "
+        "runs, the same scans for every value)\neach point is one value of the setting "
+        "swept, written beside it; bars: one standard error"
+    )
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
 

@@ -22,6 +22,7 @@ error acts; both marks have the same sigmas; the speed axis spans the gate's own
 no pyplot state.
 """
 
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -287,6 +288,8 @@ def matplotlib_classes() -> tuple[Any, Any]:
     return Figure, FigureCanvasAgg
 
 
+_TITLE_CHARS_PER_INCH = 10.5
+"""Characters of a title's text per inch of figure (DejaVu Sans at matplotlib's "large")."""
 _TITLES = {
     "fig2": "Ring gate: conditional probability of gating the second mark (Konovalov, Fig. 2)",
     "fig5": "Combined gate, P_G = {P_G:g}: conditional probability (Konovalov, Fig. 5)",
@@ -306,6 +309,7 @@ def draw(figure: str, panels: list[Panel], setup: Setup, out: Path) -> Path:
         if single
         else [fig.add_subplot(2, 2, i + 1) for i in range(len(panels))]
     )
+    ax_width = fig.get_figwidth() / (1 if single else 2)
     for ax, panel in zip(axes, panels, strict=True):
         for (label, _), answer in zip(panel.curves, panel.answers, strict=True):
             x = [v / 1e3 if panel.against == "range" else v for v in answer["values"]]
@@ -330,14 +334,17 @@ def draw(figure: str, panels: list[Panel], setup: Setup, out: Path) -> Path:
                 linewidth=1,
                 label=f"P_G = {panel.reference:g}",
             )
-        ax.set_title(panel.title)
+        ax.set_title(textwrap.fill(panel.title, int(_TITLE_CHARS_PER_INCH * 0.9 * ax_width)))
         ax.set_xlabel(panel.xlabel)
         ax.set_ylabel("probability P")
         ax.set_ylim(top=1.005)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small", loc="center right" if single else "best")
     title = _TITLES[figure].format(P_G=setup.P_G)
-    fig.suptitle(f"{title}\n{setup.describe(conditional=figure != 'compare')}")
+    # wrapped to the figure's width: a long suptitle is clipped at both edges, not shrunk
+    lines = (title, setup.describe(conditional=figure != "compare"))
+    width = int(fig.get_figwidth() * _TITLE_CHARS_PER_INCH)
+    fig.suptitle("\n".join(textwrap.fill(line, width) for line in lines))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)

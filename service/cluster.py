@@ -29,7 +29,10 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import logging
+import multiprocessing
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable, Iterator
@@ -408,6 +411,9 @@ def cluster(
 
 @contextmanager
 def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
+    """The cluster inside, closed cleanly after it, or abandoned on an interrupt
+    (:func:`_abandoned`): a Ctrl-C ends the command at once, not after the workers finish
+    their chunks."""
     global _client
     if address is None and local_workers is None:
         yield
@@ -416,28 +422,121 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
         from distributed import LocalCluster
     except ImportError as exc:
         raise ClusterUnavailable('a cluster needs Dask: pip install "plotgate[cluster]"') from exc
-    local = None
+    local = client = None
     try:
         if address is None:
+            assert local_workers is not None  # one of the two, or the early return
             local = LocalCluster(
-                n_workers=local_workers,
+                n_workers=0,
                 threads_per_worker=1,
                 processes=True,
-                # a free port: None means Dask's 8787, and a second cluster on the machine
-                # warned "Port 8787 is already in use" (an error under the tests)
+                # a free port: None means Dask's 8787, and a second cluster on the
+                # machine warned "Port 8787 is already in use" (an error under the tests)
                 dashboard_address=":0",
             )
+            _start_workers(local, local_workers)
             address = local.scheduler_address
         client = _open(address, CONNECT_S)
         _client = client
-        try:
-            yield
-        finally:
-            _client = None
-            _close(client)
+        yield
+    except KeyboardInterrupt:
+        _abandoned(local)
+        local = client = None  # left to end with the process, not closed
+        raise
     finally:
+        _client = None
+        if client is not None:
+            _close(client)
         if local is not None:
-            local.close()
+            with _dask_quiet():
+                local.close()
+
+
+WORKERS_START_S = 120.0
+"""Longest wait for the local worker processes to start and join, s (seconds each on a
+loaded machine: each imports numpy, scipy, numba and Dask)."""
+
+
+def _start_workers(local: Any, n: int) -> None:
+    """Start ``n`` worker processes in ``local`` with SIGINT ignored (:func:`_sigint_ignored`)
+    only while they are spawned, then wait for them to join with SIGINT live: a Ctrl-C
+    while they load their modules (many seconds under load) ends the command."""
+    with _sigint_ignored():
+        local.scale(n)
+        deadline = time.monotonic() + WORKERS_START_S
+        while len(_worker_processes()) < n and time.monotonic() < deadline:
+            time.sleep(0.02)
+    try:
+        local.wait_for_workers(n, timeout=WORKERS_START_S)
+    except TimeoutError as exc:
+        raise ClusterUnavailable(
+            f"the {n} local Dask workers did not start within {WORKERS_START_S:g} s"
+        ) from exc
+
+
+def _worker_processes() -> list[multiprocessing.process.BaseProcess]:
+    """The Dask worker processes this process has spawned and that still run."""
+    return [p for p in multiprocessing.active_children() if p.name.startswith("Dask Worker")]
+
+
+@contextmanager
+def _dask_quiet() -> Iterator[None]:
+    """Dask's warnings off while a local cluster closes: on a loaded machine a worker
+    slow to stop drew "Worker process still alive after 4.0 seconds, killing" at the end
+    of a call that had answered; Dask kills it, as it says, and nothing is left to do."""
+    logger = logging.getLogger("distributed")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+_QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"
+
+
+@contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while the local worker processes are spawned, so that they ignore it.
+
+    A Ctrl-C at a terminal goes to every process of the foreground group, the workers
+    included, and each one printed its own KeyboardInterrupt traceback. A process started
+    meanwhile inherits the ignored SIGINT, Python keeps it ignored, and Dask sets no handler
+    of its own: so this process alone answers a Ctrl-C, and the workers end with it (Dask's
+    worker processes exit at once when their parent goes). Blocking the signal instead
+    would keep a Ctrl-C pending rather than lose it, but the threads Dask spawns the workers
+    from do not inherit this thread's mask, so the workers would get it: a Ctrl-C in the
+    moment the processes are spawned (not the seconds they take to load) is lost. The resource
+    tracker's warning about semaphores left to it (what an abandoned cluster leaves) is
+    switched off in the processes started meanwhile, the tracker included: it cleans them
+    up, as is its job. Only the main thread may set a handler: elsewhere nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.warnoptions.append(_QUIET_TRACKER)
+    try:
+        yield
+    finally:
+        sys.warnoptions.remove(_QUIET_TRACKER)
+        signal.signal(signal.SIGINT, previous)
+
+
+def _abandoned(local: Any) -> None:
+    """After an interrupt: stop the talks in flight and leave the cluster (its client and
+    the local one, if any) to die with this process, which the caller ends at once (the
+    command line exits 130), rather than close it. A clean close waits for every worker to
+    finish its chunk, and Dask warned "Worker process still alive after 4.0 seconds,
+    killing" after 5 s; the worker processes instead exit as soon as this one does (they
+    watch their parent). Dask's own log lines about the lost connections are silenced, as
+    its atexit close of the local cluster is: after a Ctrl-C they are noise."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C: already ending
+    logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
+    cancel_calls()
+    if local is not None:
+        local.shutdown_on_close = False  # no atexit close (10 s at most, with warnings)
 
 
 def run_worker(address: str, nthreads: int = 1, wait: float = 10.0) -> None:

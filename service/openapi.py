@@ -17,6 +17,7 @@
   the docs work on a machine with no internet, as radar sites often are.
 """
 
+import json
 from importlib.resources import files
 from pathlib import Path
 from typing import Any, Literal
@@ -38,7 +39,7 @@ from plotgate.service.config import Settings
 from plotgate.service.guards import OPEN_PATHS
 from plotgate.service.registry import OPERATIONS
 from plotgate.service.routes import PROBLEM_JSON
-from plotgate.service.schemas import Problem
+from plotgate.service.schemas import Endpoint, Problem
 
 __all__ = ["ASSETS_PATH", "assets_folder", "docs_router", "openapi"]
 
@@ -113,6 +114,7 @@ def _operations(settings: Settings) -> tuple[dict[str, Any], dict[str, Any]]:
         post: dict[str, Any] = {
             "tags": [op.endpoint.tag],
             "summary": op.endpoint.summary,
+            "description": _description(op.endpoint),
             "operationId": op.name,
             "requestBody": {
                 "required": True,
@@ -138,6 +140,13 @@ def _operations(settings: Settings) -> tuple[dict[str, Any], dict[str, Any]]:
             post["x-plotgate-limits"] = {size: caps.get(size) for size in op.endpoint.work}
         paths[op.path] = {"post": post}
     return paths, top.get("$defs", {})
+
+
+def _description(endpoint: Endpoint) -> str:
+    """The operation's description, then its example request as compact JSON: every
+    operation shows one, also where a viewer hides the request body's example."""
+    example = json.dumps(endpoint.example, separators=(",", ":"))
+    return f"{endpoint.description}\n\nExample request:\n\n```json\n{example}\n```"
 
 
 def _problem(description: str) -> dict[str, Any]:

@@ -299,11 +299,24 @@ def health_router() -> APIRouter:
     """``/healthz`` (the process answers), ``/readyz`` (and it can record), ``/metrics``."""
     router = APIRouter(tags=["ops"])
 
-    @router.get("/healthz", summary="Liveness: the process answers")
+    @router.get(
+        "/healthz",
+        summary="Liveness: the process answers",
+        description='Answers `{"status": "ok"}` whenever the process runs its event '
+        "loop, even while the heaviest legal request computes; for a liveness probe. Says "
+        "nothing about recording: see `/readyz`.",
+    )
     async def healthz() -> dict[str, str]:
         return {"status": "ok"}
 
-    @router.get("/readyz", summary="Readiness: requests can be answered and recorded")
+    @router.get(
+        "/readyz",
+        summary="Readiness: requests can be answered and recorded",
+        description='200 `{"status": "ready"}` when an exchange can be recorded now '
+        "(the recordings folder is writable and has room; always, with recording off); "
+        "else 503 problem+json with `Retry-After`, and the server recovers by itself. "
+        "For a readiness probe: every operation answers 503 while this does.",
+    )
     async def readyz(request: Request) -> Response:
         recorder: Recorder | None = request.app.state.recorder
         if recorder is None or recorder.probe():
@@ -319,6 +332,9 @@ def health_router() -> APIRouter:
     @router.get(
         "/metrics",
         summary="Prometheus metrics: requests, latencies, recorder",
+        description="Counters and histograms in the Prometheus text format: requests by "
+        "operation and status, latencies in seconds, exchanges recorded, refused or "
+        "answered unrecorded, and the recorder's state.",
         response_class=Response,
         responses={
             200: {

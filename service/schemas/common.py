@@ -113,7 +113,7 @@ class FieldError(Schema):
     """One offending input: where it is and what is wrong with it."""
 
     field: str = Field(description="Dotted path into the request body, e.g. candidates[3].r.")
-    reason: str
+    reason: str = Field(description="What is wrong with it, in words.")
 
 
 class Problem(BaseModel):
@@ -122,9 +122,16 @@ class Problem(BaseModel):
     model_config = ConfigDict(extra="allow")
 
     type: str = Field(description="URI naming the kind of problem.")
-    title: str
-    status: int
-    detail: str
+    title: str = Field(description="A short summary of the kind of problem.")
+    status: int = Field(description="The HTTP status code of the answer.")
+    detail: str = Field(description="What went wrong with this request, in words.")
     instance: str | None = Field(default=None, description="The request path.")
-    request_id: str | None = None
-    errors: list[FieldError] = Field(default_factory=list)
+    request_id: str | None = Field(
+        default=None,
+        description="The exchange's id (the X-Request-ID header), under which it is recorded.",
+    )
+    errors: list[FieldError] = Field(
+        default_factory=list,
+        description="Each offending field of the request and why (empty when the problem is "
+        "not one field's).",
+    )

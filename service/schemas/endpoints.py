@@ -13,6 +13,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from plotgate.service.schemas.crlb import CrlbRequest, CrlbResult
+from plotgate.service.schemas.descriptions import DESCRIPTIONS
 from plotgate.service.schemas.examples import EXAMPLES
 from plotgate.service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
 from plotgate.service.schemas.identification import (
@@ -94,6 +95,12 @@ class Endpoint:
     @property
     def tag(self) -> str:
         return self.name.split(".")[0]
+
+    @property
+    def description(self) -> str:
+        """What the operation computes, its paper and equation, its units (markdown,
+        :data:`plotgate.service.schemas.descriptions.DESCRIPTIONS`)."""
+        return DESCRIPTIONS[self.name]
 
     @property
     def example(self) -> dict[str, Any]:

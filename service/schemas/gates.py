@@ -228,23 +228,39 @@ model extends it): what the service converts to core's gate."""
 class GateTestRequest(Schema):
     """One first plot tested against many candidates."""
 
-    gate: Gate
-    first: Plot
-    candidates: list[Plot] = Field(min_length=1, max_length=MAX_PLOTS)
+    gate: Gate = Field(
+        description="The gate and its parameters; `kind` names it (ring, expanded, combined, "
+        "ellipse, rectangular, sector, first_association)."
+    )
+    first: Plot = Field(
+        description="The first plot (mark) z1, or the predicted position for the "
+        "prediction gates (ellipse, rectangular, sector): the gate is centred on it."
+    )
+    candidates: list[Plot] = Field(
+        min_length=1,
+        max_length=MAX_PLOTS,
+        description="The second plots z2 tested against the gate, each answered at its index.",
+    )
 
 
 class GatePair(Schema):
     """One independent (first, second) pair."""
 
-    first: Plot
-    second: Plot
+    first: Plot = Field(description="The pair's first plot z1 (or predicted position).")
+    second: Plot = Field(description="The pair's second plot z2, tested against the gate.")
 
 
 class GatePairsRequest(Schema):
     """Many independent pairs, each with its own first plot."""
 
-    gate: Gate
-    pairs: list[GatePair] = Field(min_length=1, max_length=MAX_PLOTS)
+    gate: Gate = Field(
+        description="The gate and its parameters, the same for every pair; `kind` names it."
+    )
+    pairs: list[GatePair] = Field(
+        min_length=1,
+        max_length=MAX_PLOTS,
+        description="Independent (first, second) pairs, each answered at its index.",
+    )
 
 
 class GateResults(Schema):
@@ -255,9 +271,12 @@ class GateResults(Schema):
     threshold: float = Field(
         description="Upper bound on statistic; the ring gate also needs statistic >= v_min tau."
     )
-    inside: list[bool]
-    statistic: list[float]
+    inside: list[bool] = Field(description="Whether candidate (or pair) i is in the gate.")
+    statistic: list[float] = Field(
+        description="The gate's statistic for candidate (or pair) i, in the unit "
+        "`statistic_name` gives; inside when it is at most `threshold`."
+    )
     stage: list[Stage] | None = Field(
         default=None, description="Combined gate only: the stage that accepted each mark."
     )
-    count_inside: int
+    count_inside: int = Field(description="How many candidates (or pairs) are inside.")

@@ -130,7 +130,10 @@ class GateProbabilityRequest(Schema):
     """One gating probability: conditional on ``velocity`` or unconditional over ``prior``."""
 
     gate: GateRegion
-    mark: Mark
+    mark: Mark = Field(
+        description="The first mark (range and azimuth from the radar) and both marks' "
+        "errors, which set B = P1 + P2."
+    )
     tau: Seconds
     velocity: Velocity | None = Field(
         default=None, description="Known velocity: the conditional probability (eq. 2)."
@@ -169,7 +172,10 @@ class GateProbabilityCurveRequest(Schema):
     """
 
     gate: GateRegion
-    mark: Mark
+    mark: Mark = Field(
+        description="The first mark (range and azimuth from the radar) and both marks' "
+        "errors, which set B = P1 + P2."
+    )
     tau: Seconds
     against: Literal["speed", "range"] = Field(description="What the values are.")
     values: list[CurveValue] = Field(
@@ -255,16 +261,23 @@ class AreaApproximation(Schema):
 
     area: float = Field(description="Approximate gate area, m^2.")
     cells: float = Field(description="Resolution cells S' it covers.")
-    false_marks: FalseMarks
+    false_marks: FalseMarks = Field(
+        description="Poisson false marks in the gate: mean F S' and P(exactly m), m = 0..m_max."
+    )
 
 
 class GateAnalysisRequest(Schema):
     """Area, resolution cells, false marks and (with a prior) capture probability of a gate."""
 
     gate: GateRegion
-    mark: Mark
+    mark: Mark = Field(
+        description="The first mark (range and azimuth from the radar) and both marks' "
+        "errors, which set B = P1 + P2."
+    )
     tau: Seconds
-    resolution: Resolution
+    resolution: Resolution = Field(
+        description="The radar's range and azimuth resolution, which size a resolution cell."
+    )
     false_alarm: Probability = Field(
         default=1e-4, description="False-alarm probability F per resolution cell."
     )
@@ -289,7 +302,9 @@ class GateAnalysisResult(Schema):
 
     area: float = Field(description="Gate area S, m^2 (exact quadrature).")
     cells: float = Field(description="Resolution cells S' = S / (dR R dAz).")
-    false_marks: FalseMarks
+    false_marks: FalseMarks = Field(
+        description="Poisson false marks in the gate: mean F S' and P(exactly m), m = 0..m_max."
+    )
     approximation: AreaApproximation | None = Field(
         default=None, description="Combined gate only: the paper's approximate area."
     )
@@ -308,17 +323,24 @@ class GateDesignRequest(Schema):
     """Size a combined or expanded gate for a wanted unconditional capture probability."""
 
     gate: DesignGate
-    mark: Mark
+    mark: Mark = Field(
+        description="The first mark (range and azimuth from the radar) and both marks' "
+        "errors, which set B = P1 + P2."
+    )
     tau: Seconds
     capture: Probability = Field(description="Wanted capture probability P_gate P_D1 P_D2.")
-    prior: SpeedPrior
+    prior: SpeedPrior = Field(
+        description="Speed prior of the unconditional gating probability (Konovalov, eq. 3-6)."
+    )
     P_D1: DetectionProbability = Field(
         default=1.0, description="Detection probability of the first mark."
     )
     P_D2: DetectionProbability = Field(
         default=1.0, description="Detection probability of the second mark."
     )
-    resolution: Resolution
+    resolution: Resolution = Field(
+        description="The radar's range and azimuth resolution, which size a resolution cell."
+    )
     false_alarm: Probability = Field(
         default=1e-4, description="False-alarm probability F per resolution cell."
     )

@@ -1,5 +1,7 @@
 """``plotgate scenario``: simulate, initiate and draw a PNG, in-process or on a server."""
 
+import json
+
 from plotgate.clients.cli import main
 from plotgate.clients.scenario_plot import classify_tracks, confirmed_tracks, draw_scenario
 from tests.servers import serve
@@ -117,3 +119,22 @@ def test_hand_made_scenario_png(tmp_path):
     scenario = {"sensor": (0.0, 0.0), "interval": 1.0, "P_D": 0.8, "clutter": 1.0}
     out = draw_scenario(SIM, (confirmed, confirmed), scenario, tmp_path / "s.png", "hand-made")
     assert out.read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_the_title_names_the_method_the_settings_give():
+    from pathlib import Path
+
+    from plotgate.clients.scenario_plot import default_settings, describe
+    from plotgate.service.schemas import InitiationSettings
+
+    def title(config):
+        return describe(InitiationSettings.model_validate(config).model_dump())
+
+    score = (Path(__file__).parents[2] / "docs/examples/score_initiation.json").read_text()
+    assert title(json.loads(score)) == (
+        "Cartesian initiation, 2/3 capture in the combined gate, score confirmation "
+        "(false_confirmation 0.2, at least 3 plots)"
+    )
+    assert title(default_settings()) == (
+        "polar (Mu et al.) initiation, 2/2 capture in the combined gate, 3/4 confirmation"
+    )

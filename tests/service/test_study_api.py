@@ -13,7 +13,7 @@ from pydantic import ValidationError
 from plotgate.clients import AsyncClient
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
-from plotgate.clients.study import DEFAULT_REQUEST, checks, table
+from plotgate.clients.study import DEFAULT_REQUEST
 from plotgate.core.multistatic import accuracy_study, platform_positions
 from plotgate.service.app import create_app
 from plotgate.service.schemas import MAX_STUDY_RUNS, StudyRequest
@@ -145,39 +145,3 @@ def test_plotgate_study_writes_table_and_png(tmp_path, capsys):
     text = md.read_text()
     assert "40 runs, seed 3" in text and text.count("\n| 5 | ") == 1
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
-
-
-def test_checks_judge_the_limits():
-    sample = {
-        "t": 0.0,
-        "position": [0.0, 0.0],
-        "crlb": [1.0, 0.0],
-        "ml_single": [1.2, 0.0],
-        "linearised": [1.0, 0.0],
-        "crlb_accumulated": [1.0, 0.0],
-        "ml_track": None,
-        "linearised_track": None,
-        "sum_range": [1.5, 0.0],
-        "max_distance": 3.0,
-        "difference_range": [2.0, 0.0],
-        "crlb_difference": [2.0, 0.0],
-        "ml_single_se": 0.02,
-        "full_track": None,
-        "false_minima": 2,
-        "false_unflagged": 0,
-        "gradient": [1.0],
-        "inconsistent": 2,
-    }
-    verdicts = [c.passed for c in checks({"samples": [sample, sample]})]
-    assert verdicts == [False, False, True, True, True]  # 1.2 is 20 % off; no track checks
-    text = table(
-        {
-            "samples": [sample, sample],
-            "runs": 2,
-            "seed": 0,
-            "sigma": 0.5,
-            "noise_sigma": 0.5,
-            "noise_sigma_spread": 0.0,
-        }
-    )
-    assert "| 1 | 0 |  | 1 | 1 | — | 1.2 | 1.5 | 2 | 2 | 1.200 | 1.200 | — | — | 1.000 |" in text
