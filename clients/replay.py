@@ -174,8 +174,7 @@ class ReplayReport:
         }
 
     def text(self) -> str:
-        lines = [_file_line(f) for f in self.files]
-        lines += [f"unreadable: {u}" for u in self.unreadable]
+        lines = [_file_line(f) for f in self.files]  # unreadable and skipped ones included
         lines += [f"CONFLICT {c}" for c in self.conflicts]
         if self.conflict_count > len(self.conflicts):
             lines.append(f"... and {self.conflict_count - len(self.conflicts)} more conflicts")
