@@ -132,27 +132,25 @@ def _at_least(minimum: int) -> Callable[[str], int]:
     return integer
 
 
-def _seconds(text: str) -> float:
-    """An argparse type: a finite number of seconds >= 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not 0 <= value < math.inf:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text!r}")
-    return value
+def _finite(what: str) -> Callable[[str], float]:
+    """An argparse type: a finite number >= 0, ``what`` naming it in the refusal."""
+
+    def number(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = -1.0
+        if not 0 <= value < math.inf:
+            raise argparse.ArgumentTypeError(f"must be {what} >= 0, got {text!r}")
+        return value
+
+    return number
 
 
-def _tolerance(text: str) -> float:
-    """An argparse type: a finite tolerance >= 0 (numpy.isclose warns on others, and a NaN
-    one would call every number changed)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not 0 <= value < math.inf:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
-    return value
+_seconds = _finite("a number of seconds")
+_tolerance = _finite("a finite number")
+"""Tolerances of replay's comparison: numpy.isclose warns on non-finite ones, and a NaN
+tolerance would call every number changed."""
 
 
 def _worker(args: argparse.Namespace) -> int:
