@@ -240,6 +240,12 @@ class _Overtime(BaseException):
     BaseException, so no ``except Exception`` in an operation swallows it)."""
 
 
+LONGEST_DEADLINE_S = 1e8
+"""In-process deadlines are cut to about three years: the alarm's timer refuses what the
+platform's time_t cannot hold (1e12 s here), and an exchange would then be reported as a
+500 of the operation."""
+
+
 def _ring(signum: int, frame: object) -> None:
     raise _Overtime
 
@@ -268,7 +274,7 @@ class InProcess:
         from plotgate.service import registry
 
         self._registry = registry
-        self._timeout = timeout or 0.0
+        self._timeout = min(timeout or 0.0, LONGEST_DEADLINE_S)
         """Seconds an exchange may take; 0: no deadline."""
         self._limits = limits or {}
         self._previous: Any = None

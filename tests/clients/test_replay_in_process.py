@@ -123,3 +123,11 @@ def test_outside_the_main_thread_there_is_no_deadline_and_no_alarm():
         answer = pool.submit(InProcess(timeout=60), ex, "a").result(timeout=60)
     assert answer.status == 200
     assert signal.getsignal(signal.SIGALRM) is before
+
+
+def test_a_deadline_longer_than_the_timer_holds_is_no_deadline():
+    """setitimer refuses 1e12 s (time_t): the runner must not answer it as a 500."""
+    ex = _exchange({"request_id": "r1", "operation": OP, "body": GOOD})
+    with InProcess(timeout=1e12) as run:
+        answer = run(ex, "a")
+    assert (answer.status, answer.note) == (200, None)
