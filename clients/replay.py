@@ -3,9 +3,9 @@
 Every recorded exchange is read once (:class:`plotgate.clients.recordings.Reader`: requests and
 responses paired across all the files given, damage reported and skipped) and its request
 run again: in-process through the operation registry by default, or over HTTP against a
-live server. Answers are compared field by field, floats with ``numpy.isclose(rtol,
-atol)``; a recorded failure must fail the same way again (same status, problem type and
-offending fields).
+live server. Answers are compared field by field (:mod:`plotgate.clients.compare`: in one
+pass, lists of numbers as arrays), floats with ``numpy.isclose(rtol, atol)``; a recorded
+failure must fail the same way again (same status, problem type and offending fields).
 
 The exit code is a contract (docs/architecture.md, :meth:`ReplayReport.exit_code`):
 
@@ -61,6 +61,8 @@ from plotgate.service.schemas import ENDPOINTS
 
 if TYPE_CHECKING:
     import httpx
+
+    from plotgate.service.registry import Operation, Outcome
 
 __all__ = [
     "Answer",
@@ -321,7 +323,7 @@ class InProcess:
             return Answer(None, skip=OVER_CAPS)
         return Answer(outcome.status, outcome.json())
 
-    def _outcome(self, op: Any, exchange: Exchange, rid: str) -> Any:
+    def _outcome(self, op: "Operation", exchange: Exchange, rid: str) -> "Outcome | None":
         """The registry's outcome, or None for a request over the caps whose recorded
         answer is not that cap's refusal."""
         registry = self._registry
