@@ -131,3 +131,12 @@ def test_a_deadline_longer_than_the_timer_holds_is_no_deadline():
     with InProcess(timeout=1e12) as run:
         answer = run(ex, "a")
     assert (answer.status, answer.note) == (200, None)
+
+
+def test_a_body_deeper_than_pydantic_core_serializes_falls_back_to_json():
+    """pydantic-core stops at depth 255; the reader takes records up to 256 deep."""
+    body: object = 1
+    for i in range(254):
+        body = [body] if i % 2 else {"a": body}
+    ex = _exchange({"request_id": "r1", "operation": OP, "body": body})
+    assert json.loads(sent_body(ex)) == body
