@@ -22,7 +22,7 @@ import json
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, NoReturn
@@ -136,15 +136,25 @@ def _at_least(minimum: int) -> Callable[[str], int]:
     return integer
 
 
-def _seconds(text: str) -> float:
-    """An argparse type: a finite number of seconds >= 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not 0 <= value < math.inf:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text!r}")
-    return value
+def _finite(what: str) -> Callable[[str], float]:
+    """An argparse type: a finite number >= 0, ``what`` naming it in the refusal."""
+
+    def number(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = -1.0
+        if not 0 <= value < math.inf:
+            raise argparse.ArgumentTypeError(f"must be {what} >= 0, got {text!r}")
+        return value
+
+    return number
+
+
+_seconds = _finite("a number of seconds")
+_tolerance = _finite("a finite number")
+"""Tolerances of replay's comparison: numpy.isclose warns on non-finite ones, and a NaN
+tolerance would call every number changed."""
 
 
 def _worker(args: argparse.Namespace) -> int:
@@ -292,11 +302,12 @@ def _replay(args: argparse.Namespace) -> int:
         limits=limits,
     )
     code = report.exit_code(args.allow_empty)
-    _notes("replay", report.unreadable + report.skipped)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
     text = report.text()
-    if code == 2 and not report.unreadable:
+    if code == 2 and report.skipped and not (report.unreadable or report.recordings):
+        text += "\nno MCAP recording among the paths given (exit 2)"
+    elif code == 2 and not report.unreadable:
         text += (
             "\nnothing was compared (exit 2): wrong path or filters? --allow-empty "
             "passes a run with nothing to compare"
@@ -489,8 +500,80 @@ def _at_least_two(text: str) -> int:
     return value
 
 
+DESCRIPTION = (
+    "Radar track initiation and target localization as a service, every exchange recorded "
+    "to MCAP and replayable as a regression gate."
+)
+EPILOG = "Each command's options and exit status: plotgate COMMAND --help."
+
+
+class _OperationNames:
+    """The operation names ``call`` takes, read from the wire schemas only when argparse
+    asks (to check or show ``call``'s argument): importing the schemas' pydantic models
+    costs more than the rest of ``plotgate --help``."""
+
+    def _names(self) -> list[str]:
+        from plotgate.service.schemas import ENDPOINTS
+
+        return sorted(ENDPOINTS)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._names()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names())
+
+
+def _add_replay(sub: Any, filters: argparse.ArgumentParser) -> None:
+    rep = sub.add_parser(
+        "replay",
+        parents=[filters],
+        help="re-run recorded requests and compare the answers",
+        description="Re-runs every recorded exchange (in-process through this build, or on "
+        "a live server with --server, each request under a new id marked as a replay of its "
+        "original) and compares the answers field by field, numbers within --rtol and "
+        "--atol as numpy.isclose does: |recorded - replayed| <= atol + rtol |replayed|.",
+        epilog=REPLAY_EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    rep.add_argument("--server", help="replay against this live server URL (default in-process)")
+    rep.add_argument(
+        "--rtol",
+        type=_tolerance,
+        default=1e-9,
+        help="relative float tolerance (default %(default)g)",
+    )
+    rep.add_argument(
+        "--atol",
+        type=_tolerance,
+        default=1e-12,
+        help="absolute float tolerance (default %(default)g)",
+    )
+    rep.add_argument(
+        "--timeout",
+        type=_seconds,
+        default=60.0,
+        metavar="S",
+        help="seconds each exchange may take (default %(default)g; 0: no limit)",
+    )
+    rep.add_argument(
+        "--no-limits",
+        action="store_true",
+        help="in-process: run requests over the service's work caps (its defaults and "
+        "PLOTGATE_LIMITS) too",
+    )
+    rep.add_argument(
+        "--allow-empty",
+        action="store_true",
+        help="exit 0, not 2, when there is nothing to compare",
+    )
+    rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
+    rep.add_argument("--report", type=Path, help="write the report as JSON here")
+    rep.set_defaults(func=_replay)
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="plotgate", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="plotgate", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=f"plotgate {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
@@ -533,40 +616,7 @@ def _parser() -> argparse.ArgumentParser:
         "--until", type=_time, metavar="TIME", help="only requests before this time (as --since)"
     )
 
-    rep = sub.add_parser(
-        "replay",
-        parents=[filters],
-        help="re-run recorded requests and compare the answers",
-        description="Re-runs every recorded exchange (in-process through this build, or on "
-        "a live server with --server, each request under a new id marked as a replay of its "
-        "original) and compares the answers field by field.",
-        epilog=REPLAY_EXIT_CODES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    rep.add_argument("--server", help="replay against this live server URL (default in-process)")
-    rep.add_argument("--rtol", type=float, default=1e-9, help="relative float tolerance")
-    rep.add_argument("--atol", type=float, default=1e-12, help="absolute float tolerance")
-    rep.add_argument(
-        "--timeout",
-        type=float,
-        default=60.0,
-        metavar="S",
-        help="seconds each exchange may take (default 60; 0: no limit)",
-    )
-    rep.add_argument(
-        "--no-limits",
-        action="store_true",
-        help="in-process: run requests over the service's work caps (its defaults and "
-        "PLOTGATE_LIMITS) too",
-    )
-    rep.add_argument(
-        "--allow-empty",
-        action="store_true",
-        help="exit 0, not 2, when there is nothing to compare",
-    )
-    rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
-    rep.add_argument("--report", type=Path, help="write the report as JSON here")
-    rep.set_defaults(func=_replay)
+    _add_replay(sub, filters)
 
     rec = sub.add_parser(
         "recover",
@@ -584,8 +634,6 @@ def _parser() -> argparse.ArgumentParser:
     rec.add_argument("--keep", action="store_true", help="do not rename the original")
     rec.set_defaults(func=_recover)
 
-    from plotgate.service.schemas import ENDPOINTS
-
     call = sub.add_parser(
         "call",
         help="run one operation on a JSON request and print the answer",
@@ -597,7 +645,12 @@ def _parser() -> argparse.ArgumentParser:
         "1 on a problem, 2 when the cluster cannot be had or no usable answer came from the "
         "server (unreachable, not the operation's answer, over 128 MiB).",
     )
-    call.add_argument("operation", choices=sorted(ENDPOINTS), help="operation name")
+    call.add_argument(
+        "operation",
+        choices=_OperationNames(),
+        metavar="OPERATION",
+        help="operation name: %(choices)s",
+    )
     call.add_argument("request", nargs="?", help="JSON request file (default: stdin)")
     where = call.add_mutually_exclusive_group()
     where.add_argument("--server", help="a live server URL (default in-process)")

@@ -167,7 +167,8 @@ def test_nothing_comparable_is_exit_2_unless_allowed(tmp_path, capsys):
     json_file.write_text('{"request_id": "x"}')
     assert main(["replay", str(json_file)]) == 2
     assert main(["replay", str(json_file), "--allow-empty"]) == 2  # not a recording at all
-    assert "not an MCAP file" in capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert "not an MCAP file" in out and "no MCAP recording among the paths given" in out
     assert main(["replay", str(tmp_path / "nowhere")]) == 2
     err = capsys.readouterr().err
     assert "no such file or folder" in err and len(err.strip().splitlines()) == 1
@@ -192,7 +193,7 @@ def test_unchanged_changed_and_unreadable(settings, tmp_path, capsys):
     assert "CHANGED gates.test r0 inside[1]" in out and "1 changed" in out
     (altered / "junk.mcap").write_bytes(b"not a recording")
     assert main(["replay", str(altered)]) == 1  # a file that is not a recording is a note
-    assert "junk.mcap is not an MCAP file (it does not start" in capsys.readouterr().err
+    assert "junk.mcap is not an MCAP file (it does not start" in capsys.readouterr().out
     (altered / "junk.mcap").unlink()
     os.mkfifo(altered / "junk.mcap")
     assert main(["replay", str(altered)]) == 2  # 2 wins over 1: the input is not all usable
@@ -359,9 +360,9 @@ def test_empty_and_foreign_files_are_skipped_and_decide_nothing(settings, tmp_pa
     (folder / "notes.mcap").write_text("not a recording\n")
     report = tmp_path / "report.json"
     assert main(["replay", str(folder), "--report", str(report)]) == 0
-    err = capsys.readouterr().err
-    assert err.count("is empty (0 bytes), not an MCAP file: skipped") == 5
-    assert "notes.mcap is not an MCAP file" in err
+    out = capsys.readouterr().out
+    assert out.count("is empty (0 bytes), not an MCAP file: skipped") == 5
+    assert "notes.mcap is not an MCAP file" in out
     tally = json.loads(report.read_text())
     assert (tally["compared"], tally["unchanged"], tally["recordings"]) == (2, 2, 1)
     assert len(tally["skipped"]) == 6 and not tally["unreadable"]
@@ -459,3 +460,17 @@ def test_a_recorded_503_is_set_aside_not_compared(tmp_path):
     report = replay(tmp_path / "rec", progress=False)
     assert (report.compared, report.unchanged) == (1, 1)
     assert report.not_compared == {REFUSED_FOR_THE_SERVER: 1}
+
+
+def test_a_file_that_is_not_a_recording_is_named_once(tmp_path, capsys):
+    """A PNG given to replay: one line says it is not MCAP (the report's line for the
+    file), not one per stream and list."""
+    png = tmp_path / "figure.png"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(100))
+    assert main(["replay", str(png)]) == 2
+    captured = capsys.readouterr()
+    assert (captured.out + captured.err).count("is not an MCAP file") == 1
+    os.mkfifo(tmp_path / "fifo.mcap")
+    assert main(["replay", str(tmp_path)]) == 2
+    captured = capsys.readouterr()
+    assert (captured.out + captured.err).count("not a regular file") == 1
