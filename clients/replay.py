@@ -60,7 +60,14 @@ import numpy as np
 from tqdm import tqdm
 
 from plotgate.clients.errors import TransportError
-from plotgate.clients.recordings import MAX_LISTED, Exchange, Filters, Reader, iso_time
+from plotgate.clients.recordings import (
+    MAX_LISTED,
+    Exchange,
+    Filters,
+    Reader,
+    file_state,
+    iso_time,
+)
 from plotgate.service.schemas import ENDPOINTS
 
 __all__ = ["Answer", "Change", "ReplayReport", "diff", "in_process", "over_http", "replay"]
@@ -205,7 +212,7 @@ def _file_line(f: dict[str, Any]) -> str:
     if f["error"] or f["skipped"]:
         return str(f["error"] or f["skipped"])
     span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
-    state = "complete" if f["complete"] else f"truncated, recovered {f['messages']} messages"
+    state = file_state(f)
     text = f"{f['path']}: {state}, {span}"
     if f["damage_count"]:
         text += f"; {f['damage_count']} damaged records skipped, the first at " + f["damage"][0]
