@@ -150,47 +150,43 @@ def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
 
 def check_messages(messages: Sequence[tuple[str, str, bytes]]) -> list[Envelope | str]:
     """For each ``(kind, operation, data)``, its envelope, or why it is not a message the
-    recorder writes: exactly :func:`parse_record`'s verdict, and its reason."""
+    recorder writes: exactly :func:`parse_record`'s verdict, and its reason.
+
+    A message goes to the reference when msgspec refuses it (the reference says why, or
+    takes it), when it is not ASCII, may hold an integer past the interpreter's limit, or
+    nests too deep. The nesting of all messages without escapes is screened at once (each
+    is valid JSON, so the nesting of one ends before the next starts); only a screen that
+    fires looks at them one by one."""
+    limit = sys.get_int_max_str_digits()
     fields: list[_Fields | None] = []
-    for _, _, data in messages:
+    suspects: set[int] = set()
+    structures = []
+    for i, (_, _, data) in enumerate(messages):
         try:
             fields.append(_FIELDS.decode(data))
         except Exception:  # noqa: BLE001 - any refusal: the reference says why, or accepts
             fields.append(None)
-    parsed = [data for (_, _, data), f in zip(messages, fields, strict=True) if f is not None]
-    suspects = _suspects(parsed)
+            continue
+        if not data.isascii() or limit and len(data) > limit and _long_digits(data, limit):
+            suspects.add(i)
+        elif b"\\" in data:  # escapes: the reference finds its strings
+            if _too_deep(data):
+                suspects.add(i)
+        else:
+            structure = data.translate(_PARENTHESES, _NOT_STRUCTURE)
+            if len(structure) > MAX_DEPTH:  # else too few brackets to nest that deep
+                structures.append(structure)
+    deep = _structure_deeper(b"".join(structures))
     verdicts: list[Envelope | str] = []
-    for (kind, operation, data), f in zip(messages, fields, strict=True):
+    for i, ((kind, operation, data), f) in enumerate(zip(messages, fields, strict=True)):
         try:
-            if f is None or data in suspects:
+            if f is None or i in suspects or deep and _too_deep(data):
                 verdicts.append(_reference(kind, operation, data)[1])
             else:
                 verdicts.append(_shape(kind, operation, f))
         except ValueError as exc:
             verdicts.append(str(exc))
     return verdicts
-
-
-def _suspects(texts: list[bytes]) -> set[bytes]:
-    """Of JSON texts msgspec took, those the checks msgspec does not make may refuse: not
-    ASCII, a run of digits past the integer limit, or nesting past :data:`MAX_DEPTH`. The
-    nesting of all texts without escapes is screened at once (each text is valid JSON, so
-    the nesting of one ends before the next starts); only a screen that fires looks at
-    them one by one."""
-    limit = sys.get_int_max_str_digits()
-    found: set[bytes] = set()
-    structures = []
-    for text in texts:
-        if not text.isascii() or limit and len(text) > limit and _long_digits(text, limit):
-            found.add(text)
-        elif b"\\" in text:  # escapes: the reference finds its strings
-            if _too_deep(text):
-                found.add(text)
-        else:
-            structures.append(text.translate(_PARENTHESES, _NOT_STRUCTURE))
-    if _structure_deeper(b"".join(structures)):
-        found.update(t for t in texts if b"\\" not in t and _too_deep(t))
-    return found
 
 
 def loads(data: bytes) -> Any:
