@@ -422,7 +422,9 @@ class Reader:
             if isinstance(channel, tuple):
                 verdict = next(checked)
                 if isinstance(verdict, Envelope):
-                    yield from self._pair(file, run, i, channel, verdict)
+                    exchange = self._pair(file, run, i, channel, verdict)
+                    if exchange is not None:
+                        yield exchange
                     continue
             else:
                 verdict = channel
@@ -436,7 +438,9 @@ class Reader:
         index: int,
         channel: tuple[str, str],
         envelope: Envelope,
-    ) -> Iterator[Exchange]:
+    ) -> Exchange | None:
+        """Pair one checked message: the exchange it completes, if it completes one the
+        filters take."""
         _, _, _, t, _, data = run.records[index]
         operation, kind = channel
         rid = envelope.request_id
@@ -446,7 +450,7 @@ class Reader:
         first = self._seen.get(mark) or self._recent.get(mark)
         if first is not None:
             self._again(mark, first, source)
-            return
+            return None
         keep = kind == "response" or self.filters.admit(operation, t)
         current = _Waiting(operation, rid, t, file, source, data if keep else None, envelope)
         if kind == "request":
@@ -459,7 +463,7 @@ class Reader:
         if not counterparts:
             mine.setdefault(key, deque()).append(current)
             self._seen[mark] = source
-            return
+            return None
         waiting = counterparts.popleft()
         if not counterparts:
             del other[key]
@@ -471,12 +475,13 @@ class Reader:
         self._recent[("response", *key, response.log_time)] = response.source
         while len(self._recent) > _RECENT:
             self._recent.popitem(last=False)
-        if request.data is not None:
-            exchange = self._exchange(request)
-            exchange.response_bytes = response.data
-            exchange.status = response.envelope.status
-            exchange.duration_s = response.envelope.duration_s
-            yield exchange
+        if request.data is None:
+            return None
+        exchange = self._exchange(request)
+        exchange.response_bytes = response.data
+        exchange.status = response.envelope.status
+        exchange.duration_s = response.envelope.duration_s
+        return exchange
 
     def _again(self, mark: tuple[str, str, str, int], first: _Source, again: _Source) -> None:
         """A record with the key and time of one read before: written twice by the
