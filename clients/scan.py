@@ -536,8 +536,10 @@ class Scan:
 
     def _cut_short(self, pos: int, opcode: int, length: int) -> bool:
         """Whether the record at ``pos``, which declares more bytes than the file has, is an
-        unfinished tail (nothing readable after it) rather than damage; noted if so."""
-        if self._next_record(pos + 1) is not None:
+        unfinished tail (a length a writer could write, nothing readable after it) rather
+        than damage; noted if so."""
+        most = self.max_record_bytes if opcode in HELD else self.max_chunk_bytes
+        if length > most or self._next_record(pos + 1) is not None:
             return False
         self.skipped_bytes += self.size - pos
         self.unfinished = (

@@ -171,3 +171,13 @@ def _first_chunk(data: bytes) -> int:
     while struct.unpack_from("<B", data, pos)[0] != 6:
         pos += 9 + struct.unpack_from("<Q", data, pos + 1)[0]
     return pos
+
+
+def test_a_tail_declaring_more_than_a_writer_writes_is_damage(tmp_path):
+    """A last record declaring a terabyte is not a write in progress: it is damage."""
+    path = tmp_path / "r.mcap"
+    path.write_bytes(scan.MAGIC + struct.pack("<BQ", 5, 2**40) + b"x" * 100)
+    reading = Scan(path)
+    [damage] = list(reading)
+    assert isinstance(damage, Damage) and "declares 1099511627776 bytes" in damage.reason
+    assert reading.unfinished == "its last 109 bytes, from offset 8, are damaged"
