@@ -9,11 +9,12 @@ service could have given, ``raw`` as text for a request (without ``body`` or ``r
 body was empty), a status and a result or problem for a response.
 
 :func:`parse_record` is the reference: ``json.loads``, then the checks. :func:`check_messages`
-gives the same verdicts for many messages at once, about ten times faster, without building
-the messages' values: msgspec validates each message's every byte of JSON syntax while
-decoding only the envelope (request id, operation, status, duration, replay_of, raw, error),
-and the rest is checked over all the messages together (UTF-8, long integers, depth) with
-C-level byte operations. Where the two parsers differ, the message goes to the reference:
+gives the same verdicts for many messages at once, five times faster (9.4 against 46.7 us
+a message of the bench's recording), without building the messages' values: msgspec
+validates every byte of each message's JSON while decoding only the envelope (request id,
+operation, status, duration, replay_of, raw, error), and the rest is checked over all the
+messages together (UTF-8, long integers, depth) with C-level byte operations. Where the two
+parsers differ, the message goes to the reference:
 
 - msgspec refuses a lone UTF-16 surrogate escape (``"\\ud800"``), which ``json`` takes; such
   a message is checked by the reference, and accepted;
