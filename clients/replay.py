@@ -212,7 +212,7 @@ def _file_line(f: dict[str, Any]) -> str:
     if f["error"] or f["skipped"]:
         return str(f["error"] or f["skipped"])
     span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
-    state = file_state(f)
+    state = file_state(f) if f["complete"] else f"{file_state(f)}, {f['messages']} messages read"
     text = f"{f['path']}: {state}, {span}"
     if f["damage_count"]:
         text += f"; {f['damage_count']} damaged records skipped, the first at " + f["damage"][0]
