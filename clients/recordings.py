@@ -475,13 +475,7 @@ class Reader:
         self._recent[("response", *key, response.log_time)] = response.source
         while len(self._recent) > _RECENT:
             self._recent.popitem(last=False)
-        if request.data is None:
-            return None
-        exchange = self._exchange(request)
-        exchange.response_bytes = response.data
-        exchange.status = response.envelope.status
-        exchange.duration_s = response.envelope.duration_s
-        return exchange
+        return None if request.data is None else self._exchange(request, response)
 
     def _again(self, mark: tuple[str, str, str, int], first: _Source, again: _Source) -> None:
         """A record with the key and time of one read before: written twice by the
@@ -497,18 +491,20 @@ class Reader:
                 f"the one at {first} (that one kept)"
             )
 
-    def _exchange(self, request: _Waiting) -> Exchange:
+    def _exchange(self, request: _Waiting, response: _Waiting | None = None) -> Exchange:
         replay_of = request.envelope.replay_of
-        return Exchange(
+        answer = None if response is None else response.envelope
+        return Exchange(  # positional: one is made per exchange
             request.operation,
             request.request_id,
             request.data,
-            log_time=request.log_time,
-            file=request.file,
-            original_read=(
-                replay_of is not None and (request.operation, replay_of) in self._originals
-            ),
-            replay_of=replay_of,
+            None if response is None else response.data,
+            request.log_time,
+            request.file,
+            replay_of is not None and (request.operation, replay_of) in self._originals,
+            replay_of,
+            None if answer is None else answer.status,
+            None if answer is None else answer.duration_s,
         )
 
     def _leftovers(self) -> Iterator[Exchange]:
