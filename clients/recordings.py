@@ -38,7 +38,6 @@ from collections import OrderedDict, deque
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from functools import cached_property
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -78,42 +77,69 @@ _RECENT = 200_000
 """Records of answered exchanges remembered to recognise one written twice."""
 
 
-@dataclass
 class Exchange:
     """One request and its response, either of which may be missing: ``response`` is None
     for a request never answered, ``request`` None for an answer whose request record was
     lost to damage.
 
-    The records are kept as they are in the file (checked, valid JSON); their values are
-    built on first use of :attr:`request` and :attr:`response`.
+    A :class:`Reader` keeps the records as they are in the file (``request_bytes``,
+    ``response_bytes``: checked, valid JSON) and their values are built on first use of
+    :attr:`request` and :attr:`response`; ``replay_of``, ``status`` and ``duration_s`` come
+    from the records' envelopes without building them. Made from values instead (the first
+    arguments, as a test or a replay builds one), those come from the values.
     """
 
-    operation: str
-    request_id: str
-    request_bytes: bytes | None = field(repr=False)
-    response_bytes: bytes | None = field(default=None, repr=False)
-    log_time: int = 0
-    """When the request arrived (ns since the epoch); the response's time without one."""
-    file: str = ""
-    """The file holding the request record (the response's, without one)."""
-    original_read: bool = False
-    """For a replay (``replay_of`` set): its original was read before it."""
-    replay_of: str | None = None
-    """The request id of the exchange this one replays, if it is a replay."""
-    status: int | None = None
-    """The response's HTTP status (None without a response)."""
-    duration_s: float | None = None
-    """How long the server took to answer (None without a response)."""
+    def __init__(
+        self,
+        operation: str,
+        request_id: str,
+        request: dict[str, Any] | None = None,
+        response: dict[str, Any] | None = None,
+        log_time: int = 0,
+        file: str = "",
+        original_read: bool = False,
+        request_bytes: bytes | None = None,
+        response_bytes: bytes | None = None,
+        *,
+        replay_of: str | None = None,
+        status: int | None = None,
+        duration_s: float | None = None,
+    ) -> None:
+        self.operation, self.request_id = operation, request_id
+        self.log_time = log_time
+        """When the request arrived (ns since the epoch); the response's time without one."""
+        self.file = file
+        """The file holding the request record (the response's, without one)."""
+        self.original_read = original_read
+        """For a replay (``replay_of`` set): its original was read before it."""
+        self.request_bytes, self.response_bytes = request_bytes, response_bytes
+        self._request, self._response = request, response
+        self.replay_of = replay_of if request is None else request.get("replay_of")
+        """The request id of the exchange this one replays, if it is a replay."""
+        self.status = status if response is None else response.get("status")
+        """The response's HTTP status (None without a response)."""
+        self.duration_s = duration_s if response is None else response.get("duration_s")
+        """How long the server took to answer (None without a response)."""
 
-    @cached_property
+    def __repr__(self) -> str:
+        return (
+            f"Exchange({self.operation!r}, {self.request_id!r}, status={self.status!r}, "
+            f"file={self.file!r})"
+        )
+
+    @property
     def request(self) -> dict[str, Any] | None:
         """The request record's values."""
-        return None if self.request_bytes is None else loads(self.request_bytes)
+        if self._request is None and self.request_bytes is not None:
+            self._request = loads(self.request_bytes)
+        return self._request
 
-    @cached_property
+    @property
     def response(self) -> dict[str, Any] | None:
         """The response record's values."""
-        return None if self.response_bytes is None else loads(self.response_bytes)
+        if self._response is None and self.response_bytes is not None:
+            self._response = loads(self.response_bytes)
+        return self._response
 
     @property
     def body(self) -> bytes:
@@ -494,17 +520,19 @@ class Reader:
     def _exchange(self, request: _Waiting, response: _Waiting | None = None) -> Exchange:
         replay_of = request.envelope.replay_of
         answer = None if response is None else response.envelope
-        return Exchange(  # positional: one is made per exchange
+        return Exchange(
             request.operation,
             request.request_id,
-            request.data,
-            None if response is None else response.data,
+            None,
+            None,
             request.log_time,
             request.file,
             replay_of is not None and (request.operation, replay_of) in self._originals,
-            replay_of,
-            None if answer is None else answer.status,
-            None if answer is None else answer.duration_s,
+            request.data,
+            None if response is None else response.data,
+            replay_of=replay_of,
+            status=None if answer is None else answer.status,
+            duration_s=None if answer is None else answer.duration_s,
         )
 
     def _leftovers(self) -> Iterator[Exchange]:
@@ -518,10 +546,9 @@ class Reader:
                     yield Exchange(
                         response.operation,
                         response.request_id,
-                        None,
-                        response.data,
-                        response.log_time,
-                        response.file,
+                        log_time=response.log_time,
+                        file=response.file,
+                        response_bytes=response.data,
                         status=response.envelope.status,
                         duration_s=response.envelope.duration_s,
                     )
