@@ -1,15 +1,31 @@
-"""How fast recordings are read: mcap's stream reader against plotgate's bounded reader.
+"""How fast recordings are read: plotgate's reader against the C-level limit, in both forms.
 
-Writes one recording with the service's recorder (gates.test exchanges of 100 candidates,
-a flush per exchange as under load), then reads it, best of ``--repeat``:
+Writes one recording with the service's recorder (gates.test exchanges of 100 candidates, a
+flush per exchange as under load; as many files as rotation makes), and copies its records
+into the two forms a recording takes:
 
-- mcap's ``StreamReader`` with CRCs checked, records only, and with every message parsed
-  by ``json.loads`` (how recordings were read before: the baseline);
-- :class:`plotgate.clients.scan.Scan` (records only: bounded memory, CRC and size checks, resync);
-- :class:`plotgate.clients.recordings.Reader` (every message parsed, checked and paired: what
-  inspect, cat and replay read).
+- **compacted**: chunked, LZ4-compressed, indexed (mcap's writer, 1 MiB chunks), the form of
+  a closed file;
+- **unchunked**: message records at top level (``use_chunking=False``), the form of a live
+  file being written.
 
-    python bench/bench_reading.py --exchanges 20000
+Then reads each form, best of ``--repeat``:
+
+- the **C-level limit**: every chunk decompressed by the C codec, plus every message parsed
+  by msgspec (values built), no checks, no pairing; and the same with msgspec validating each
+  message's JSON without building its values (what the reader's check costs at least);
+- mcap's ``StreamReader`` with CRCs checked, records only (the baseline of an ordinary
+  reader);
+- :class:`plotgate.clients.recordings.Reader`: every message checked (every byte of JSON,
+  its envelope, UTF-8, depth, long integers), requests and responses paired: what inspect,
+  cat and replay read; then the same with every exchange's values built (``request`` and
+  ``response``), as replay needs them.
+
+    python bench/bench_reading.py --exchanges 15000
+
+Figures are exchanges per second, from wall-clock and from CPU time; the ratios are to the
+C-level limits of the same form measured in the same run (CPU time: other work on the
+machine moves the wall-clock).
 """
 
 import argparse
@@ -19,16 +35,22 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from mcap.records import Message
+import lz4.frame
+import msgspec
+from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.recordings import Reader
-from plotgate.clients.scan import Scan
+from plotgate.clients.scan import Located, Scan
 from plotgate.service.recorder import Recorder, request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 
+CHUNK_BYTES = 2**20
 
-def record(folder: Path, exchanges: int) -> Path:
+
+def record(folder: Path, exchanges: int) -> list[Path]:
+    """The service's recording of ``exchanges`` gates.test exchanges: every file it wrote."""
     plots = [
         {"frame": "cartesian", "x": 100.0 * i, "y": 5e4, "covariance": [[1e4, 0], [0, 1e4]]}
         for i in range(100)
@@ -45,47 +67,148 @@ def record(folder: Path, exchanges: int) -> Path:
         recorder.flush()
         recorder.forget(ex)
     recorder.close()
-    [path] = folder.glob("*.mcap")
-    return path
+    return sorted(folder.glob("*.mcap"))
 
 
-def best(read: Callable[[], int], repeat: int) -> tuple[float, int]:
-    times, count = [], 0
+def copy(files: list[Path], out: Path, chunked: bool) -> Path:
+    """Every record of ``files`` in one file: chunked and compressed, or unchunked."""
+    with open(out, "wb") as stream:
+        writer = Writer(
+            stream,
+            chunk_size=CHUNK_BYTES,
+            compression=CompressionType.LZ4 if chunked else CompressionType.NONE,
+            use_chunking=chunked,
+        )
+        writer.start(library="bench_reading")
+        schemas: dict[tuple[str, int], int] = {}
+        channels: dict[tuple[str, int], int] = {}
+        for path in files:
+            for item in Scan(path):
+                assert isinstance(item, Located), item
+                record, key = item.record, str(path)
+                if isinstance(record, Schema):
+                    schemas[key, record.id] = writer.register_schema(
+                        record.name, record.encoding, record.data
+                    )
+                elif isinstance(record, Channel):
+                    channels[key, record.id] = writer.register_channel(
+                        record.topic,
+                        record.message_encoding,
+                        schemas.get((key, record.schema_id), 0),
+                        record.metadata,
+                    )
+                elif isinstance(record, Message):
+                    writer.add_message(
+                        channels[key, record.channel_id],
+                        record.log_time,
+                        record.data,
+                        record.publish_time,
+                        record.sequence,
+                    )
+        writer.finish()
+    return out
+
+
+def c_level(path: Path) -> tuple[Callable[[], int], Callable[[], int]]:
+    """The C-level limit for ``path``: its chunks' compressed bytes (or its messages, when
+    unchunked) taken out first, then timed: decompression plus a parse of every message,
+    values built; and the same with msgspec validating each message without building it."""
+    chunks, loose = [], []
+    for record in StreamReader(str(path), skip_magic=False, emit_chunks=True).records:
+        if isinstance(record, Chunk):
+            chunks.append(record.data)
+        elif isinstance(record, Message):
+            loose.append(record.data)
+    values = msgspec.json.Decoder()
+    validate = msgspec.json.Decoder(msgspec.Struct)
+
+    def messages(data: bytes) -> list[bytes]:
+        """The message data of a decompressed chunk (MCAP Message records: opcode 5)."""
+        out, at = [], 0
+        while at < len(data):
+            opcode, length = data[at], int.from_bytes(data[at + 1 : at + 9], "little")
+            if opcode == 5:
+                out.append(data[at + 9 + 22 : at + 9 + length])
+            at += 9 + length
+        return out
+
+    inside = [m for chunk in chunks for m in messages(lz4.frame.decompress(chunk))]
+
+    def run(decode: Callable[[bytes], object]) -> Callable[[], int]:
+        def timed() -> int:
+            for chunk in chunks:
+                lz4.frame.decompress(chunk)
+            for data in inside or loose:
+                decode(data)
+            return len(inside or loose) // 2
+
+        return timed
+
+    return run(values.decode), run(validate.decode)
+
+
+def best(read: Callable[[], object], repeat: int) -> tuple[float, float]:
+    """The shortest of ``repeat`` runs, in seconds: wall-clock, and this process's CPU time
+    (on a machine shared with other work, the CPU time is the steadier figure)."""
+    walls, cpus = [], []
     for _ in range(repeat):
-        started = time.perf_counter()
-        count = read()
-        times.append(time.perf_counter() - started)
-    return min(times), count
+        wall, cpu = time.perf_counter(), time.process_time()
+        read()
+        walls.append(time.perf_counter() - wall)
+        cpus.append(time.process_time() - cpu)
+    return min(walls), min(cpus)
+
+
+def readers(path: Path) -> dict[str, Callable[[], object]]:
+    full, validated = c_level(path)
+
+    def built() -> int:
+        count = 0
+        for exchange in Reader(path):
+            count += exchange.request is not None and exchange.response is not None
+        return count
+
+    return {
+        "C-level limit: decompress + parse (values built)": full,
+        "C-level limit: decompress + validate (msgspec)": validated,
+        "mcap StreamReader (CRCs checked, records only)": lambda: sum(
+            1 for _ in StreamReader(str(path), validate_crcs=True).records
+        ),
+        "Reader (checked, paired)": lambda: sum(1 for _ in Reader(path)),
+        "Reader + values built": built,
+    }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--exchanges", type=int, default=20_000)
+    parser.add_argument("--exchanges", type=int, default=15_000)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        path = record(Path(tmp), args.exchanges)
-        size = path.stat().st_size
-        readers = {
-            "mcap StreamReader (CRCs checked)": lambda: sum(
-                1 for _ in StreamReader(str(path), validate_crcs=True).records
-            ),
-            "mcap StreamReader + json.loads of each message (before)": lambda: sum(
-                1
-                for r in StreamReader(str(path), validate_crcs=True).records
-                if isinstance(r, Message) and json.loads(r.data)
-            ),
-            "plotgate.clients.scan.Scan": lambda: sum(1 for _ in Scan(path)),
-            "plotgate.clients.recordings.Reader (parsed, paired)": lambda: sum(
-                1 for _ in Reader(path)
-            ),
-        }
-        print(f"{path.name}: {size / 2**20:.1f} MiB, {args.exchanges} exchanges")
-        print("| reader | best s | MiB/s | items |")
-        print("|---|---:|---:|---:|")
-        for name, read in readers.items():
-            seconds, count = best(read, args.repeat)
-            print(f"| {name} | {seconds:.2f} | {size / 2**20 / seconds:.0f} | {count} |")
+        files = record(Path(tmp) / "recorded", args.exchanges)
+        size = sum(p.stat().st_size for p in files) / 2**20
+        wall, cpu = best(lambda: sum(1 for _ in Reader(files)), args.repeat)
+        print(f"{args.exchanges} exchanges; best of {args.repeat}; rates in exchanges/s")
+        print(
+            f"as recorded ({len(files)} files, {size:.1f} MiB): Reader (checked, paired) "
+            f"{args.exchanges / wall:,.0f}/s wall, {args.exchanges / cpu:,.0f}/s CPU"
+        )
+        print(
+            "| form | reader | wall s | CPU s | /s (wall) | /s (CPU) | x limit, built "
+            "(CPU) | x limit, validated (CPU) |"
+        )
+        print("|---|---|---:|---:|---:|---:|---:|---:|")
+        for form, chunked in (("compacted", True), ("unchunked", False)):
+            path = copy(files, Path(tmp) / f"{form}.mcap", chunked)
+            name = f"{form} ({path.stat().st_size / 2**20:.1f} MiB)"
+            times = {reader: best(read, args.repeat) for reader, read in readers(path).items()}
+            built, validated = (cpu for _, cpu in list(times.values())[:2])
+            for reader, (wall, cpu) in times.items():
+                print(
+                    f"| {name} | {reader} | {wall:.3f} | {cpu:.3f} "
+                    f"| {args.exchanges / wall:,.0f} | {args.exchanges / cpu:,.0f} "
+                    f"| {built / cpu:.2f} | {validated / cpu:.2f} |"
+                )
 
 
 if __name__ == "__main__":

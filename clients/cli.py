@@ -339,12 +339,16 @@ def _notes(command: str, notes: list[str]) -> None:
         print(f"plotgate {command}: ... and {len(notes) - MAX_LISTED} more", file=sys.stderr)
 
 
-def _unreadable(command: str, unreadable: list[str], skipped: list[str], recordings: int) -> int:
-    """2, after saying why, when a file could not be read at all or none was a recording;
-    files skipped (empty, not MCAP) are noted and decide nothing when others are read."""
+def _unreadable(
+    command: str, paths: list[Path], unreadable: list[str], skipped: list[str], recordings: int
+) -> int:
+    """2, after saying why, when a file could not be read at all or none was a recording
+    (naming the paths given); files skipped (empty, not MCAP) are noted and decide nothing
+    when others are read."""
     _notes(command, unreadable + skipped)
     if not recordings:
-        print(f"plotgate {command}: no MCAP recordings there", file=sys.stderr)
+        named = ", ".join(map(str, paths))
+        print(f"plotgate {command}: no MCAP recordings in {named}", file=sys.stderr)
     return 2 if unreadable or not recordings else 0
 
 
@@ -354,7 +358,11 @@ def _inspect(args: argparse.Namespace) -> int:
     summary = inspect(args.paths, _filters(args))
     if _write(json.dumps(summary, indent=2) if args.json else format_inspection(summary)):
         return _unreadable(
-            "inspect", summary["unreadable"], summary["skipped"], summary["recordings"]
+            "inspect",
+            args.paths,
+            summary["unreadable"],
+            summary["skipped"],
+            summary["recordings"],
         )
     return 0
 
@@ -381,7 +389,7 @@ def _cat(args: argparse.Namespace) -> int:
     if reader.conflict_count > len(reader.conflicts):
         more = reader.conflict_count - len(reader.conflicts)
         print(f"plotgate cat: ... and {more} more conflicts", file=sys.stderr)
-    return _unreadable("cat", reader.unreadable, reader.skipped, reader.recordings)
+    return _unreadable("cat", args.paths, reader.unreadable, reader.skipped, reader.recordings)
 
 
 def _plot(args: argparse.Namespace) -> int:

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from plotgate.clients.recordings import Filters, Reader
+from plotgate.clients.recordings import Filters, Reader, file_state
 
 __all__ = ["OperationStats", "format_inspection", "inspect"]
 
@@ -34,27 +34,27 @@ class OperationStats:
 def inspect(
     paths: Path | str | Iterable[Path | str], filters: Filters | None = None
 ) -> dict[str, Any]:
-    """Per file: state, time range, metadata and damage (or why it is skipped: empty, not
-    MCAP); records written twice and conflicting records; per operation (the exchanges the
-    filters take): counts, error counts by status, latency p50/p90/p99/max."""
+    """Per file: state (complete, open: still being written, or unfinished), time range,
+    metadata and damage (or why it is skipped: empty, not MCAP); records written twice and
+    conflicting records; per operation (the exchanges the filters take): counts, error
+    counts by status, latency p50/p90/p99/max."""
     reader = Reader(paths, filters)
     durations: dict[str, array] = defaultdict(lambda: array("d"))
     stats: dict[str, OperationStats] = defaultdict(OperationStats)
     for ex in reader:
         s = stats[ex.operation]
-        if ex.request is None:
+        if ex.request_bytes is None:
             s.answers_without_request += 1
         else:
             s.requests += 1
             s.replays += ex.replay_of is not None
-        if ex.response is None:
+        if ex.status is None or ex.duration_s is None:
             s.unanswered += 1
             continue
         s.responses += 1
-        status = ex.response["status"]
-        if status >= 400:
-            s.errors[status] = s.errors.get(status, 0) + 1
-        durations[ex.operation].append(ex.response["duration_s"] * 1e3)
+        if ex.status >= 400:
+            s.errors[ex.status] = s.errors.get(ex.status, 0) + 1
+        durations[ex.operation].append(ex.duration_s * 1e3)
     for op, values in durations.items():
         q = np.percentile(values, [50, 90, 99, 100])
         stats[op].latency_ms = dict(zip(("p50", "p90", "p99", "max"), map(float, q), strict=True))
@@ -77,7 +77,7 @@ def format_inspection(summary: dict[str, Any]) -> str:
         if f["error"] or f["skipped"]:
             lines.append(f["error"] or f["skipped"])
             continue
-        state = "complete" if f["complete"] else "no footer (its writer did not finish)"
+        state = file_state(f)
         span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
         version = f["metadata"].get("plotgate", {}).get("plotgate_version")
         lines.append(

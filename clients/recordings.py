@@ -3,11 +3,14 @@
 Files are read with :class:`plotgate.clients.scan.Scan`, which reports damage (with its file
 offset)
 and goes on after it, so a truncated or corrupt file gives every intact record it holds.
-Each message is then checked for the shape the recorder writes (:func:`parse_record`): a
-JSON object of at most :data:`MAX_DEPTH` levels, a request id the service could have
-given, ``raw`` as text for a request (without ``body`` or ``raw``, its body was
-empty), a status and a result or problem for a response.
-A message that is not is damage too, reported with its offset and skipped.
+Each message is then checked for the shape the recorder writes
+(:mod:`plotgate.clients.messages`: a JSON object of at most :data:`MAX_DEPTH` levels, a
+request id the service could have given, ``raw`` as text for a request, a status and a
+result or problem for a response), all the messages of a chunk at once, by msgspec's
+compiled parser, with the verdicts of ``json``. A message that is not is damage too,
+reported with its offset and skipped. A message's values are built only when asked for
+(:attr:`Exchange.request`, :attr:`Exchange.response`): ``cat`` and ``inspect`` never need
+them.
 
 Requests and responses are paired across every file read (:class:`Reader`), by operation,
 request id and time, so an exchange whose response went to the next file after a rotation
@@ -15,7 +18,12 @@ is one exchange. Records the recorder wrote twice (a request written again into 
 after its file was lost: the same id, the same time, the same bytes) count once. Two
 records with the same id and time but different bytes are a conflict, which the recorder
 never writes: the first read is kept, and the conflict is reported naming both by file and
-offset.
+offset. Records are told apart by a keyed 64-bit hash of their bytes (Python's ``hash``,
+SipHash with a key drawn at each start), which a hostile file cannot aim at without the key.
+
+A file without its footer is *open* while a process on this host still has it open (its
+name carries its writer's ``pid``; :mod:`plotgate.clients.live`), *unfinished* otherwise:
+its cut-short tail is not damage (:class:`~plotgate.clients.scan.Scan`).
 
 Only regular files are opened (a FIFO named ``*.mcap`` would block a reader forever): a
 FIFO, socket, device or folder among the paths is refused before anything is read
@@ -24,10 +32,8 @@ the MCAP magic is not a recording: it is skipped with a note, and decides no exi
 when other files are recordings.
 """
 
-import hashlib
 import json
 import os
-import re
 from collections import OrderedDict, deque
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
@@ -35,19 +41,19 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, NamedTuple
 
-import numpy as np
-from mcap.records import Channel, Message, Metadata, Schema
+from mcap.records import Channel, Metadata, Schema
 
+from plotgate.clients.live import writer_alive
+from plotgate.clients.messages import MAX_DEPTH, Envelope, check_messages, loads, parse_record
 from plotgate.clients.scan import (
     MAX_RECORD_BYTES,
     Damage,
-    Located,
+    Messages,
     NotMcap,
     Scan,
     check_regular,
     location,
 )
-from plotgate.service.schemas import REQUEST_ID_PATTERN, Problem
 
 __all__ = [
     "MAX_DEPTH",
@@ -55,6 +61,7 @@ __all__ = [
     "Filters",
     "Reader",
     "Recording",
+    "file_state",
     "iso_time",
     "parse_record",
     "plotgate_channel",
@@ -62,40 +69,77 @@ __all__ = [
     "recording_files",
 ]
 
-MAX_DEPTH = 256
-"""Deepest JSON a record may hold. The service records a body as ``body`` only when its
-JSON parser (nesting limit 200) takes it, inside a one-level envelope."""
-REQUEST_ID = re.compile(REQUEST_ID_PATTERN)
 MAX_LISTED = 100
 """Damage listed per file; the rest is counted."""
+_CHECKED_TOGETHER = 2**20
+"""Bytes of messages checked in one call of :func:`~plotgate.clients.messages.check_messages`."""
 _RECENT = 200_000
 """Records of answered exchanges remembered to recognise one written twice."""
 
 
-@dataclass
 class Exchange:
     """One request and its response, either of which may be missing: ``response`` is None
     for a request never answered, ``request`` None for an answer whose request record was
-    lost to damage."""
+    lost to damage.
 
-    operation: str
-    request_id: str
-    request: dict[str, Any] | None
-    response: dict[str, Any] | None = None
-    log_time: int = 0
-    """When the request arrived (ns since the epoch); the response's time without one."""
-    file: str = ""
-    """The file holding the request record (the response's, without one)."""
-    original_read: bool = False
-    """For a replay (``replay_of`` set): its original was read before it."""
-    request_bytes: bytes | None = field(default=None, repr=False)
-    response_bytes: bytes | None = field(default=None, repr=False)
-    """The two records as they are in the file (valid JSON)."""
+    A :class:`Reader` keeps the records as they are in the file (``request_bytes``,
+    ``response_bytes``: checked, valid JSON) and their values are built on first use of
+    :attr:`request` and :attr:`response`; ``replay_of``, ``status`` and ``duration_s`` come
+    from the records' envelopes without building them. Made from values instead (the first
+    arguments, as a test or a replay builds one), those come from the values.
+    """
+
+    def __init__(
+        self,
+        operation: str,
+        request_id: str,
+        request: dict[str, Any] | None = None,
+        response: dict[str, Any] | None = None,
+        log_time: int = 0,
+        file: str = "",
+        original_read: bool = False,
+        request_bytes: bytes | None = None,
+        response_bytes: bytes | None = None,
+        *,
+        replay_of: str | None = None,
+        status: int | None = None,
+        duration_s: float | None = None,
+    ) -> None:
+        self.operation, self.request_id = operation, request_id
+        self.log_time = log_time
+        """When the request arrived (ns since the epoch); the response's time without one."""
+        self.file = file
+        """The file holding the request record (the response's, without one)."""
+        self.original_read = original_read
+        """For a replay (``replay_of`` set): its original was read before it."""
+        self.request_bytes, self.response_bytes = request_bytes, response_bytes
+        self._request, self._response = request, response
+        self.replay_of = replay_of if request is None else request.get("replay_of")
+        """The request id of the exchange this one replays, if it is a replay."""
+        self.status = status if response is None else response.get("status")
+        """The response's HTTP status (None without a response)."""
+        self.duration_s = duration_s if response is None else response.get("duration_s")
+        """How long the server took to answer (None without a response)."""
+
+    def __repr__(self) -> str:
+        return (
+            f"Exchange({self.operation!r}, {self.request_id!r}, status={self.status!r}, "
+            f"file={self.file!r})"
+        )
 
     @property
-    def replay_of(self) -> str | None:
-        """The request id of the exchange this one replays, if it is a replay."""
-        return (self.request or {}).get("replay_of")
+    def request(self) -> dict[str, Any] | None:
+        """The request record's values."""
+        if self._request is None and self.request_bytes is not None:
+            self._request = loads(self.request_bytes)
+        return self._request
+
+    @property
+    def response(self) -> dict[str, Any] | None:
+        """The response record's values."""
+        if self._response is None and self.response_bytes is not None:
+            self._response = loads(self.response_bytes)
+        return self._response
 
     @property
     def body(self) -> bytes:
@@ -117,6 +161,11 @@ class Recording:
     messages: int = 0
     complete: bool = False
     """The file ends with its footer and magic (its writer finished it)."""
+    state: str = "unread"
+    """``complete``; ``open`` (no footer, and a process on this host still has the file
+    open: its writer); ``unfinished`` (no footer, no writer: killed, or gone elsewhere)."""
+    tail: str | None = None
+    """For an open or unfinished file, what its last bytes are."""
     first_time: int | None = None
     last_time: int | None = None
     size: int = 0
@@ -136,7 +185,7 @@ class Recording:
         nothing did."""
         if self.damage:
             return self.damage[0]
-        return None if self.complete else "no footer (the writer did not finish the file)"
+        return None if self.complete else f"no footer (the file is {self.state})"
 
     def add_damage(self, damage: Damage) -> None:
         self.damage_count += 1
@@ -149,6 +198,8 @@ class Recording:
             "path": str(self.path),
             "size": self.size,
             "complete": self.complete,
+            "state": self.state,
+            "tail": self.tail,
             "error": self.error,
             "skipped": self.skipped,
             "messages": self.messages,
@@ -160,6 +211,16 @@ class Recording:
             "damage": self.damage,
             "metadata": self.metadata,
         }
+
+
+def file_state(summary: dict[str, Any]) -> str:
+    """A file's state in words, from its :meth:`Recording.summary`: a live file is open,
+    not damaged."""
+    if summary["state"] == "open":
+        return "open (still being written)"
+    if summary["state"] == "unfinished":
+        return f"unfinished (no footer: {summary['tail']}; its writer stopped before closing it)"
+    return str(summary["state"])
 
 
 def iso_time(ns: int | None) -> str | None:
@@ -218,86 +279,6 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
     return sorted(found.values(), key=lambda f: (f.name, str(f)))
 
 
-_STRINGS = re.compile(rb'"(?:[^"\\]|\\.)*"', re.S)
-_BARE_STRINGS = re.compile(rb'"[^"]*"')
-_NOT_STRUCTURE = bytes(set(range(256)) - set(b'[]{}"'))
-_STEP = np.zeros(256, np.int8)
-_STEP[list(b"[{")] = 1
-_STEP[list(b"]}")] = -1
-
-
-def _too_deep(text: bytes) -> bool:
-    """True when JSON ``text`` nests deeper than :data:`MAX_DEPTH`, from its bytes: the
-    strings taken out (with the brackets in them), the brackets left counted, vectorized (a
-    walk over the parsed values in Python cost more than the parse itself)."""
-    if text.count(b"[") + text.count(b"{") <= MAX_DEPTH:
-        return False
-    if b"\\" in text:  # escapes: strings found in the whole text
-        brackets = _STRINGS.sub(b"", text).translate(None, _NOT_STRUCTURE)
-    else:  # every quote delimits a string: find them among the structure alone
-        brackets = _BARE_STRINGS.sub(b"", text.translate(None, _NOT_STRUCTURE))
-    level = 0
-    for start in range(0, len(brackets), 2**20):
-        steps = _STEP[np.frombuffer(brackets, np.uint8, min(2**20, len(brackets) - start), start)]
-        run = np.cumsum(steps, dtype=np.int64) + level
-        if run.max() > MAX_DEPTH:
-            return True
-        level = int(run[-1])
-    return False
-
-
-def _no_constant(token: str) -> Any:
-    raise ValueError(f"{token} is not JSON")
-
-
-def parse_record(kind: str, operation: str, data: bytes) -> dict[str, Any]:
-    """A message of channel ``<operation>/<kind>`` as the recorder writes it, or ValueError
-    saying why it is not one."""
-    try:
-        record = json.loads(data.decode("utf-8"), parse_constant=_no_constant)
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"not UTF-8 ({exc.reason} at byte {exc.start})") from None
-    except RecursionError:
-        raise ValueError(f"JSON nested deeper than {MAX_DEPTH} levels") from None
-    except ValueError as exc:  # json.JSONDecodeError, an integer over 4300 digits
-        raise ValueError(f"not JSON: {str(exc)[:200]}") from None
-    if not isinstance(record, dict):
-        raise ValueError(f"a JSON {type(record).__name__}, not an object")
-    if _too_deep(data):
-        raise ValueError(f"JSON nested deeper than {MAX_DEPTH} levels")
-    rid = record.get("request_id")
-    if not isinstance(rid, str) or not REQUEST_ID.match(rid):
-        raise ValueError("no request_id the service could have given")
-    if record.get("operation") != operation:
-        raise ValueError(
-            f"operation {str(record.get('operation'))[:100]!r} on the channel of {operation}"
-        )
-    if kind == "request":
-        replay_of = record.get("replay_of")
-        if replay_of is not None and not (
-            isinstance(replay_of, str) and REQUEST_ID.match(replay_of)
-        ):
-            raise ValueError("replay_of is not a request id")
-        if "raw" in record and not isinstance(record["raw"], str):
-            raise ValueError("a request record whose raw body is not text")
-        return record
-    status, duration = record.get("status"), record.get("duration_s")
-    if not (type(status) is int and 100 <= status <= 599):
-        raise ValueError("a response record without an HTTP status")
-    if not (isinstance(duration, int | float) and type(duration) is not bool):
-        raise ValueError("a response record without a duration")
-    if not 0 <= duration < float("inf"):
-        raise ValueError("a response record without a duration")
-    if status < 400 and "result" not in record:
-        raise ValueError(f"a {status} response record without a result")
-    if status >= 400:
-        try:
-            Problem.model_validate(record.get("error"))
-        except ValueError:
-            raise ValueError(f"a {status} response record without a problem") from None
-    return record
-
-
 def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | str:
     """(operation, kind) of a plotgate channel (``schemas``: the schema ids declared so
     far), or why the channel is not one."""
@@ -313,10 +294,10 @@ def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | s
 
 
 class _Source(NamedTuple):
-    """Where a record was read, and a digest of its bytes: enough to tell a record the
+    """Where a record was read, and a keyed hash of its bytes: enough to tell a record the
     recorder wrote twice (the same bytes) from a conflicting one, and to name both."""
 
-    digest: bytes
+    digest: int
     file: str
     offset: int
     inner: int | None
@@ -325,21 +306,17 @@ class _Source(NamedTuple):
         return f"{self.file} at {location(self.offset, self.inner)}"
 
 
-def _source(file: str, item: Located, data: bytes) -> _Source:
-    return _Source(hashlib.blake2b(data, digest_size=16).digest(), file, item.offset, item.inner)
+class _Waiting(NamedTuple):
+    """A record waiting for its counterpart."""
 
-
-@dataclass
-class _Waiting:
     operation: str
     request_id: str
     log_time: int
     file: str
     source: _Source
     data: bytes | None
-    """The raw record; None for a request the filters leave out."""
-    record: dict[str, Any] | None = None
-    """The parsed record (None with ``data``)."""
+    """The record's bytes; None for a request the filters leave out."""
+    envelope: Envelope
 
 
 class Reader:
@@ -358,10 +335,10 @@ class Reader:
     (empty, or without the MCAP magic); ``written_twice`` the records seen a second time,
     byte for byte; ``conflicts`` (the first :data:`MAX_LISTED`; ``conflict_count`` all)
     the records with the key and time of one read before but other bytes, each naming both
-    records by file and offset. Memory holds the requests waiting for an answer (raw and
-    parsed), the keys, digests and places of the last 100,000 answered exchanges and the
+    records by file and offset. Memory holds the requests waiting for an answer (their
+    bytes), the keys, hashes and places of the last 100,000 answered exchanges, the
     (operation, id) of every original request read (to know a replay whose original was
-    read).
+    read), and one block or chunk of the file being read.
     """
 
     def __init__(
@@ -402,8 +379,23 @@ class Reader:
         scan = Scan(rec.path, max_record_bytes=self.max_record_bytes)
         channels: dict[int, tuple[str, str] | str] = {}
         schemas: set[int] = set()
+        runs: list[Messages] = []
+        size = 0
         try:
-            for item in scan:
+            for item in scan.runs():
+                if isinstance(item, Messages):
+                    # checked together up to a few MiB (a chunk per exchange is common), but
+                    # always before the next other record: a Channel record changes what
+                    # the messages after it are
+                    runs.append(item)
+                    size += item.size
+                    if size >= _CHECKED_TOGETHER:
+                        yield from self._messages(rec, channels, runs)
+                        runs, size = [], 0
+                    continue
+                if runs:
+                    yield from self._messages(rec, channels, runs)
+                    runs, size = [], 0
                 if isinstance(item, Damage):
                     rec.add_damage(item)
                 elif isinstance(item.record, Schema):
@@ -412,8 +404,7 @@ class Reader:
                     channels[item.record.id] = plotgate_channel(item.record, schemas)
                 elif isinstance(item.record, Metadata):
                     rec.metadata[item.record.name] = dict(item.record.metadata)
-                elif isinstance(item.record, Message):
-                    yield from self._message(rec, channels, item)
+            yield from self._messages(rec, channels, runs)
         except NotMcap as exc:
             rec.skipped = f"{exc}: skipped"
             self.skipped.append(rec.skipped)
@@ -421,49 +412,75 @@ class Reader:
             rec.error = f"{rec.path}: cannot be read ({exc.strerror or exc})"
         if rec.error is not None:
             self.unreadable.append(rec.error)
-        rec.size, rec.complete = scan.size, scan.complete
+        rec.size, rec.complete, rec.tail = scan.size, scan.complete, scan.unfinished
         rec.chunks, rec.chunks_damaged = scan.chunks, scan.chunks_damaged
+        if rec.complete or rec.skipped is not None or rec.error is not None:
+            rec.state = "complete" if rec.complete else "unread"
+        else:
+            rec.state = "open" if writer_alive(rec.path) else "unfinished"
 
-    def _message(
-        self, rec: Recording, channels: dict[int, tuple[str, str] | str], item: Located
+    def _messages(
+        self, rec: Recording, channels: dict[int, tuple[str, str] | str], runs: list[Messages]
     ) -> Iterator[Exchange]:
-        message = item.record
-        assert isinstance(message, Message)
-        rec.messages += 1
-        t = message.log_time
-        rec.first_time = t if rec.first_time is None else min(rec.first_time, t)
-        rec.last_time = t if rec.last_time is None else max(rec.last_time, t)
-        channel = channels.get(message.channel_id)
-        if channel is None:
-            channel = f"channel {message.channel_id}, which no Channel record declared"
-        try:
-            if isinstance(channel, str):
-                raise ValueError(f"a message on {channel}")
-            operation, kind = channel
-            record = parse_record(kind, operation, message.data)
-        except ValueError as exc:
-            rec.add_damage(Damage(item.offset, str(exc), item.inner))
+        """Check runs of messages together, then pair each in file order."""
+        places = [(run, i) for run in runs for i in range(len(run.records))]
+        if not places:
             return
-        rid = record["request_id"]
+        records = [run.records[i] for run, i in places]
+        rec.messages += len(records)
+        first, last = min(r[3] for r in records), max(r[3] for r in records)
+        rec.first_time = first if rec.first_time is None else min(rec.first_time, first)
+        rec.last_time = last if rec.last_time is None else max(rec.last_time, last)
+        on: list[tuple[str, str] | str] = []
+        """Each message's (operation, kind), or why its channel is not a plotgate one."""
+        for _, channel_id, _, _, _, _ in records:
+            channel = channels.get(channel_id)
+            if channel is None:
+                channel = f"channel {channel_id}, which no Channel record declared"
+            on.append(f"a message on {channel}" if isinstance(channel, str) else channel)
+        checked = iter(
+            check_messages(
+                [(c[1], c[0], r[5]) for c, r in zip(on, records, strict=True) if type(c) is tuple]
+            )
+        )
+        file = str(rec.path)
+        for (run, i), channel in zip(places, on, strict=True):
+            if isinstance(channel, tuple):
+                verdict = next(checked)
+                if isinstance(verdict, Envelope):
+                    exchange = self._pair(file, run, i, channel, verdict)
+                    if exchange is not None:
+                        yield exchange
+                    continue
+            else:
+                verdict = channel
+            offset, inner = run.located(i)
+            rec.add_damage(Damage(offset, verdict, inner))
+
+    def _pair(
+        self,
+        file: str,
+        run: Messages,
+        index: int,
+        channel: tuple[str, str],
+        envelope: Envelope,
+    ) -> Exchange | None:
+        """Pair one checked message: the exchange it completes, if it completes one the
+        filters take."""
+        _, _, _, t, _, data = run.records[index]
+        operation, kind = channel
+        rid = envelope.request_id
         key = (operation, rid)
         mark = (kind, operation, rid, t)
-        source = _source(str(rec.path), item, message.data)
+        source = _Source(hash(data), file, *run.located(index))
         first = self._seen.get(mark) or self._recent.get(mark)
         if first is not None:
             self._again(mark, first, source)
-            return
+            return None
         keep = kind == "response" or self.filters.admit(operation, t)
-        current = _Waiting(
-            operation,
-            rid,
-            t,
-            str(rec.path),
-            source,
-            message.data if keep else None,
-            record if keep else None,
-        )
+        current = _Waiting(operation, rid, t, file, source, data if keep else None, envelope)
         if kind == "request":
-            if record.get("replay_of") is None:
+            if envelope.replay_of is None:
                 self._originals.add(key)
             mine, other = self._requests, self._responses
         else:
@@ -472,7 +489,7 @@ class Reader:
         if not counterparts:
             mine.setdefault(key, deque()).append(current)
             self._seen[mark] = source
-            return
+            return None
         waiting = counterparts.popleft()
         if not counterparts:
             del other[key]
@@ -480,14 +497,11 @@ class Reader:
             (("response" if kind == "request" else "request"), *key, waiting.log_time), None
         )
         request, response = (current, waiting) if kind == "request" else (waiting, current)
-        for done, kind_of in ((request, "request"), (response, "response")):
-            self._recent[(kind_of, *key, done.log_time)] = done.source
+        self._recent[("request", *key, request.log_time)] = request.source
+        self._recent[("response", *key, response.log_time)] = response.source
         while len(self._recent) > _RECENT:
             self._recent.popitem(last=False)
-        if request.data is not None:
-            exchange = self._exchange(request)
-            exchange.response, exchange.response_bytes = response.record, response.data
-            yield exchange
+        return None if request.data is None else self._exchange(request, response)
 
     def _again(self, mark: tuple[str, str, str, int], first: _Source, again: _Source) -> None:
         """A record with the key and time of one read before: written twice by the
@@ -503,18 +517,22 @@ class Reader:
                 f"the one at {first} (that one kept)"
             )
 
-    def _exchange(self, request: _Waiting) -> Exchange:
-        record = request.record or {}
-        replay_of = record.get("replay_of")
+    def _exchange(self, request: _Waiting, response: _Waiting | None = None) -> Exchange:
+        replay_of = request.envelope.replay_of
+        answer = None if response is None else response.envelope
         return Exchange(
             request.operation,
             request.request_id,
-            record,
+            None,
             None,
             request.log_time,
             request.file,
             replay_of is not None and (request.operation, replay_of) in self._originals,
             request.data,
+            None if response is None else response.data,
+            replay_of=replay_of,
+            status=None if answer is None else answer.status,
+            duration_s=None if answer is None else answer.duration_s,
         )
 
     def _leftovers(self) -> Iterator[Exchange]:
@@ -528,11 +546,11 @@ class Reader:
                     yield Exchange(
                         response.operation,
                         response.request_id,
-                        None,
-                        response.record,
-                        response.log_time,
-                        response.file,
+                        log_time=response.log_time,
+                        file=response.file,
                         response_bytes=response.data,
+                        status=response.envelope.status,
+                        duration_s=response.envelope.duration_s,
                     )
         self._requests.clear()
         self._responses.clear()
@@ -543,7 +561,7 @@ def read_recording(path: Path | str) -> Recording:
     """Every exchange of one file, in the order the requests arrived (answers whose request
     is lost left out), with what was wrong with the file."""
     reader = Reader([path])
-    exchanges = [ex for ex in reader if ex.request is not None]
+    exchanges = [ex for ex in reader if ex.request_bytes is not None]
     [rec] = reader.files
     rec.exchanges = sorted(exchanges, key=lambda ex: ex.log_time)
     return rec

@@ -56,7 +56,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from plotgate.clients.compare import FIELDS_PER_EXCHANGE, diff
-from plotgate.clients.recordings import MAX_LISTED, Exchange, Filters, Reader, iso_time
+from plotgate.clients.recordings import (
+    MAX_LISTED,
+    Exchange,
+    Filters,
+    Reader,
+    file_state,
+    iso_time,
+)
 from plotgate.service.schemas import ENDPOINTS
 
 if TYPE_CHECKING:
@@ -212,7 +219,7 @@ def _file_line(f: dict[str, Any]) -> str:
     if f["error"] or f["skipped"]:
         return str(f["error"] or f["skipped"])
     span = f"{f['first_time']} to {f['last_time']}" if f["first_time"] else "no messages"
-    state = "complete" if f["complete"] else f"truncated, recovered {f['messages']} messages"
+    state = file_state(f) if f["complete"] else f"{file_state(f)}, {f['messages']} messages read"
     text = f"{f['path']}: {state}, {span}"
     if f["damage_count"]:
         text += f"; {f['damage_count']} damaged records skipped, the first at " + f["damage"][0]

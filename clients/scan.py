@@ -5,11 +5,14 @@ and decompresses a chunk whole, so one flipped byte hides the rest of a file and
 declaring a terabyte (or a small one that inflates to gigabytes) takes the memory with
 it. :class:`Scan` reads a file the way a recovery tool must:
 
-- **Bounded memory.** A record is held whole only when it is a Schema, Channel, Message,
-  Metadata or Header record of at most ``max_record_bytes`` (a declared size above it is
-  damage); a chunk is never held whole: its compressed bytes are streamed from the file
-  and decompressed in pieces of :data:`PIECE_BYTES`, and a chunk that inflates past its
-  declared size, or declares more than ``max_chunk_bytes``, is damage.
+- **Bounded memory, C-speed bytes.** A record is held whole only when it is a Schema,
+  Channel, Message, Metadata or Header record of at most ``max_record_bytes`` (a declared
+  size above it is damage). Records outside chunks (the unchunked form a live recorder
+  writes) are read a block of :data:`BLOCK_BYTES` at a time. A chunk of at most
+  :data:`INLINE_CHUNK_BYTES` is decompressed by one call of the C codec, told to stop one
+  byte past the declared size; a larger one is never held whole: its compressed bytes are
+  streamed from the file and decompressed in pieces of :data:`PIECE_BYTES`. A chunk that
+  inflates past its declared size, or declares more than ``max_chunk_bytes``, is damage.
 - **Every record checked before it is believed.** A chunk's records are read only after
   the whole chunk has decompressed to its declared size and matched its CRC (two passes
   over a large chunk, so nothing from a damaged chunk is ever yielded); records whose
@@ -18,6 +21,8 @@ it. :class:`Scan` reads a file the way a recovery tool must:
   next record whose every length adds up (a Chunk, Schema, Channel, Metadata, DataEnd or
   Footer record followed by a plausible opcode), and reading goes on there: every intact
   chunk after a damaged one is kept.
+- **An unfinished tail is not damage** (see :class:`Scan`): a live file, or one whose
+  writer was killed, ends with a record cut short or without its footer.
 - **Channels of a damaged first chunk.** mcap's writer puts every Schema and Channel
   record in the first chunk; when the file has a summary section whose CRC checks, its
   copies of them are read first, so the messages of intact chunks stay readable when the
@@ -34,7 +39,7 @@ import re
 import stat
 import struct
 import zlib
-from collections.abc import Generator, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
@@ -49,6 +54,7 @@ __all__ = [
     "MAX_RECORD_BYTES",
     "Damage",
     "Located",
+    "Messages",
     "NotMcap",
     "NotRegular",
     "Scan",
@@ -68,8 +74,11 @@ memory)."""
 PIECE_BYTES = 2**20
 """Decompression and CRC work in pieces of this size."""
 INLINE_CHUNK_BYTES = 2**22
-"""A chunk up to this size (uncompressed) is decompressed once and kept for its second pass;
-a larger one is decompressed twice, so memory never holds it whole."""
+"""A chunk up to this size (compressed and uncompressed) is decompressed in one call of the C
+codec and kept for its records; a larger one is decompressed twice, a piece at a time, so
+memory never holds it whole."""
+BLOCK_BYTES = 2**22
+"""Records outside chunks are read from the file in blocks of this size."""
 
 HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, MESSAGE_INDEX = 1, 2, 3, 4, 5, 6, 7
 METADATA, DATA_END = 0x0C, 0x0F
@@ -310,15 +319,76 @@ def _read(stream: BinaryIO, n: int) -> bytes:
     return b"".join(pieces)
 
 
+class _Blocks:
+    """A file's first ``size`` bytes, read a block of :data:`BLOCK_BYTES` at a time: the
+    records of an unchunked file cost one ``pread`` per block, not two per record."""
+
+    def __init__(self, fd: int, size: int) -> None:
+        self.fd, self.size = fd, size
+        self.start, self.data = 0, b""
+
+    def read(self, n: int, at: int) -> bytes:
+        n = max(0, min(n, self.size - at))
+        offset = at - self.start
+        if 0 <= offset and offset + n <= len(self.data):
+            return self.data[offset : offset + n]
+        if n > BLOCK_BYTES:
+            return os.pread(self.fd, n, at)
+        self.start, self.data = at, os.pread(self.fd, min(BLOCK_BYTES, self.size - at), at)
+        return self.data[:n]
+
+
+@dataclass
+class Messages:
+    """Intact Message records that follow one another: a chunk's, or top-level ones.
+
+    Each of ``records`` is ``(where, channel_id, sequence, log_time, publish_time, data)``:
+    ``where`` is the record's file offset for a top-level record (``chunk`` None), its byte
+    offset among the chunk's uncompressed records otherwise (``chunk`` the chunk's offset).
+    Plain tuples, not :class:`~mcap.records.Message` objects: a recording holds millions.
+    """
+
+    chunk: int | None
+    records: list[tuple[int, int, int, int, int, bytes]]
+    size: int
+    """Bytes of message data."""
+
+    def located(self, index: int) -> tuple[int, int | None]:
+        """``(offset, inner)`` of record ``index``, as :class:`Located` and :class:`Damage`
+        give them."""
+        where = self.records[index][0]
+        return (where, None) if self.chunk is None else (self.chunk, where)
+
+
+_OneMessage = tuple[int | None, int, int, int, int, int, bytes]
+"""A Message record as :meth:`Scan._records` yields it: its chunk (None at top level), then
+the fields of a :class:`Messages` record."""
+
+
+def _message(chunk: int | None, where: int, data: bytes) -> _OneMessage:
+    """A Message record's fields from its bytes (:class:`_Malformed` when too short)."""
+    if len(data) < 22:
+        raise _Malformed(f"a field runs {22 - len(data)} bytes past the record's end")
+    return (chunk, where, *struct.unpack_from("<HIQQ", data), data[22:])
+
+
 class Scan:
     """Read one MCAP file: iterate to get each intact record (:class:`Located`) and each
-    piece of damage (:class:`Damage`), in file order.
+    piece of damage (:class:`Damage`), in file order; :meth:`runs` gives the same with the
+    Message records in batches (:class:`Messages`), as the fast readers want them.
 
     Raises :class:`NotMcap` (before yielding anything) when the file does not start with
     the MCAP magic (an empty file included), :class:`NotRegular` when it is not a regular
-    file, and ``OSError`` when it cannot be read. After the iteration,
-    ``complete`` says whether the file ended with its footer and magic, and the counters
-    say what was kept and dropped.
+    file, and ``OSError`` when it cannot be read. After the iteration, ``complete`` says
+    whether the file ended with its footer and magic, ``unfinished`` (for a file without
+    them) what its tail is, and the counters say what was kept and dropped.
+
+    **An unfinished tail is not damage.** A file without its footer whose last bytes are a
+    record cut short (a header of fewer than 9 bytes, a record of a known opcode declaring
+    more bytes than the file has, a footer without all of its closing magic) after which
+    nothing readable follows is what a writer leaves while it writes, or when it was killed:
+    that is ``unfinished``, not :class:`Damage`. Whether its writer still writes it is the
+    readers' question (:mod:`plotgate.clients.live`).
     """
 
     def __init__(
@@ -333,6 +403,9 @@ class Scan:
         self.max_chunk_bytes = max_chunk_bytes
         self.size = 0
         self.complete = False
+        self.unfinished: str | None = None
+        """For a file without its footer: what its tail is (a record cut short, or the end
+        of its last whole record)."""
         self.chunks = 0
         """Chunks whose records were read (intact)."""
         self.chunks_damaged = 0
@@ -341,38 +414,74 @@ class Scan:
         self.skipped_bytes = 0
         """Bytes passed over while looking for the next record after damage."""
         self._fd = -1
+        self._blocks = _Blocks(-1, 0)
         self._after_damaged_chunk = False
 
     def __iter__(self) -> Iterator[Located | Damage]:
+        for item in self.runs():
+            if isinstance(item, Messages):
+                for i, (_, channel, sequence, log_time, publish_time, data) in enumerate(
+                    item.records
+                ):
+                    offset, inner = item.located(i)
+                    message = Message(
+                        channel_id=channel,
+                        sequence=sequence,
+                        log_time=log_time,
+                        publish_time=publish_time,
+                        data=data,
+                    )
+                    yield Located(offset, inner, message)
+            else:
+                yield item
+
+    def runs(self) -> Iterator[Located | Damage | Messages]:
+        """The file's records as :meth:`__iter__` gives them, Message records in batches
+        of consecutive ones (at most about :data:`BLOCK_BYTES` of data each)."""
+        batch: list[tuple[int, int, int, int, int, bytes]] = []
+        chunk: int | None = None
+        size = 0
+        for item in self._read():
+            if type(item) is tuple:
+                if batch and (item[0] != chunk or size > BLOCK_BYTES):
+                    yield Messages(chunk, batch, size)
+                    batch, size = [], 0
+                chunk = item[0]
+                batch.append(item[1:])
+                size += len(item[6])
+                continue
+            if batch:
+                yield Messages(chunk, batch, size)
+                batch, size = [], 0
+            yield item  # type: ignore[misc]
+        if batch:
+            yield Messages(chunk, batch, size)
+
+    def _read(self) -> Iterator[Located | Damage | Messages | _OneMessage]:
         self._fd = open_regular(self.path)
         try:
             self.size = os.fstat(self._fd).st_size
-            if os.pread(self._fd, len(MAGIC), 0) != MAGIC:
+            self._blocks = _Blocks(self._fd, self.size)
+            if self._pread(len(MAGIC), 0) != MAGIC:
                 raise NotMcap(not_mcap(self.path, self.size))
             yield from self._summary_channels()
             yield from self._records(len(MAGIC))
-            if not self.complete:
-                yield Damage(
-                    self.size,
-                    "the file ends without its footer (its writer did not "
-                    "finish it: killed, or still writing)",
-                )
+            if not self.complete and self.unfinished is None:
+                self.unfinished = "it ends after a whole record, without its footer"
         finally:
             os.close(self._fd)
 
     def _pread(self, n: int, at: int) -> bytes:
-        return os.pread(self._fd, n, at)
+        return self._blocks.read(n, at)
 
-    def _records(self, pos: int) -> Iterator[Located | Damage]:
+    def _records(self, pos: int) -> Iterator[Located | Damage | Messages | _OneMessage]:
         in_summary = False
         while pos < self.size:
             head = self._pread(9, pos)
             if len(head) < 9:
                 self.skipped_bytes += len(head)
-                yield Damage(
-                    pos,
-                    f"{len(head)} bytes of an incomplete record at the end "
-                    "(the writer stopped mid-record)",
+                self.unfinished = (
+                    f"its last {len(head)} bytes, at offset {pos}, are the start of a record"
                 )
                 return
             opcode, length = struct.unpack("<BQ", head)
@@ -391,6 +500,8 @@ class Scan:
                     f"{self.max_record_bytes} this reader holds"
                 )
             if problem is not None:
+                if opcode in NAMES and length > rest and self._cut_short(pos, opcode, length):
+                    return
                 pos = yield from self._resync(pos, problem)
                 continue
             end = pos + 9 + length
@@ -409,7 +520,11 @@ class Scan:
                     continue
             elif opcode in HELD:
                 try:
-                    yield Located(pos, None, _parse(opcode, self._pread(length, pos + 9)))
+                    data = self._pread(length, pos + 9)
+                    if opcode == MESSAGE:
+                        yield _message(None, pos, data)
+                    else:
+                        yield Located(pos, None, _parse(opcode, data))
                 except _Malformed as exc:
                     pos = yield from self._resync(pos, f"malformed {NAMES[opcode]} record: {exc}")
                     continue
@@ -419,13 +534,30 @@ class Scan:
                 in_summary = True
             pos = end
 
-    def _footer(self, pos: int, length: int) -> bool:
-        """True when the footer at ``pos`` ends the file with the closing magic."""
-        self.complete = (
-            length == 20
-            and pos + FOOTER_BYTES + len(MAGIC) == self.size
-            and self._pread(len(MAGIC), pos + FOOTER_BYTES) == MAGIC
+    def _cut_short(self, pos: int, opcode: int, length: int) -> bool:
+        """Whether the record at ``pos``, which declares more bytes than the file has, is an
+        unfinished tail (a length a writer could write, nothing readable after it) rather
+        than damage; noted if so."""
+        most = self.max_record_bytes if opcode in HELD else self.max_chunk_bytes
+        if length > most or self._next_record(pos + 1) is not None:
+            return False
+        self.skipped_bytes += self.size - pos
+        self.unfinished = (
+            f"its last {self.size - pos} bytes, at offset {pos}, are a {NAMES[opcode]} "
+            f"record cut short (it declares {length} bytes)"
         )
+        return True
+
+    def _footer(self, pos: int, length: int) -> bool:
+        """True when the footer at ``pos`` ends the file with the closing magic, or with the
+        start of it (then the file is unfinished, not damaged)."""
+        after = self._pread(len(MAGIC), pos + FOOTER_BYTES)
+        ends_here = length == 20 and pos + FOOTER_BYTES + len(after) == self.size
+        self.complete = ends_here and after == MAGIC
+        if ends_here and not self.complete and MAGIC.startswith(after):
+            self.skipped_bytes += len(after)
+            self.unfinished = f"its footer, at offset {pos}, lacks its closing magic"
+            return True
         return self.complete
 
     def _resync(self, pos: int, reason: str | None) -> Generator[Damage, None, int]:
@@ -434,6 +566,8 @@ class Scan:
         found = self._next_record(pos + 1)
         stop = self.size if found is None else found
         self.skipped_bytes += stop - pos
+        if found is None:
+            self.unfinished = f"its last {stop - pos} bytes, from offset {pos}, are damaged"
         if reason is not None:
             after = (
                 "nothing readable after it"
@@ -497,7 +631,9 @@ class Scan:
             raise _Malformed("its lengths do not add up to the record's")
         return size, crc, compression, pos + 9 + 32 + name_length + 8, records
 
-    def _chunk(self, pos: int, length: int) -> Generator[Located | Damage, None, bool]:
+    def _chunk(
+        self, pos: int, length: int
+    ) -> Generator[Located | Damage | Messages | _OneMessage, None, bool]:
         """Yield a chunk's records once the whole chunk has checked out; damage otherwise.
         Returns False when the chunk's own fields do not add up (its length is not to be
         believed), True otherwise."""
@@ -508,6 +644,7 @@ class Scan:
             yield Damage(pos, f"malformed Chunk record: {exc}")
             return False
         problem = None
+        kept = None
         if compression not in COMPRESSIONS:
             problem = f"unknown compression {compression!r}"
         elif size > self.max_chunk_bytes:
@@ -516,23 +653,52 @@ class Scan:
                 f"{self.max_chunk_bytes} this reader decompresses"
             )
         else:
-            kept, problem = self._check_chunk(compression, data_at, records, size, crc)
+            kept = self._whole_chunk(compression, data_at, records, size, crc)
+            if kept is None:
+                kept, problem = self._check_chunk(compression, data_at, records, size, crc)
         if problem is not None:
             self.chunks_damaged += 1
             self._after_damaged_chunk = True
             yield Damage(pos, f"damaged chunk ({problem}); its {length + 9} bytes skipped")
             return True
-        stream = (
-            io.BytesIO(kept)
-            if kept is not None
-            else _decompressed(compression, _Region(self._fd, data_at, records))
-        )
         self.chunks += 1
+        if kept is not None:
+            yield from self._held_chunk(pos, kept)
+            return True
+        stream = _decompressed(compression, _Region(self._fd, data_at, records))
         try:
-            yield from self._chunk_records(pos, stream, size)
+            yield from self._chunk_records(pos, lambda n: _read(stream, n), size)
         except Exception as exc:  # noqa: BLE001 - the file changed between the two passes
             yield Damage(pos, f"the chunk stopped decompressing on its second reading: {exc}")
         return True
+
+    def _whole_chunk(
+        self, compression: str, at: int, length: int, size: int, crc: int
+    ) -> bytes | None:
+        """A small chunk's records, decompressed in one call of the C codec, when it checks
+        out at once (its size, its end, its CRC); None for a large chunk, and for anything
+        else, which :meth:`_check_chunk` then reads piece by piece to say what is wrong."""
+        if size > INLINE_CHUNK_BYTES or length > INLINE_CHUNK_BYTES:
+            return None
+        data = self._pread(length, at)
+        try:
+            if compression == "lz4":
+                lz4_frame = lz4.frame.LZ4FrameDecompressor()
+                out = lz4_frame.decompress(data, max_length=size + 1)
+                if not lz4_frame.eof or lz4_frame.unused_data:
+                    return None
+            elif compression == "zstd":
+                reader = zstandard.ZstdDecompressor(max_window_size=2**27).stream_reader(data)
+                out = reader.read(size + 1)
+                if reader.read(1):
+                    return None
+            else:
+                out = data
+        except Exception:  # noqa: BLE001 - damage: the piecewise check says which
+            return None
+        if len(out) != size or crc != 0 and zlib.crc32(out) != crc:
+            return None
+        return out
 
     def _check_chunk(
         self, compression: str, at: int, length: int, size: int, crc: int
@@ -559,33 +725,88 @@ class Scan:
             return None, f"CRC mismatch: stored {crc}, computed {computed}"
         return (b"".join(pieces) if keep else None), None
 
-    def _chunk_records(self, pos: int, stream: BinaryIO, size: int) -> Iterator[Located | Damage]:
+    def _chunk_records(
+        self, pos: int, read: Callable[[int], bytes], size: int
+    ) -> Iterator[Located | Damage | _OneMessage]:
+        """The records of a chunk read from a stream."""
         inner = 0
         while inner < size:
-            head = _read(stream, 9)
+            head = read(9)
             if len(head) < 9:
                 yield Damage(pos, "a record is cut off by the chunk's end", inner)
                 return
             opcode, length = struct.unpack("<BQ", head)
-            rest = size - inner - 9
-            problem = None
-            if opcode not in (SCHEMA, CHANNEL, MESSAGE):
-                problem = f"no {NAMES.get(opcode, hex(opcode))} record belongs in a chunk"
-            elif length > rest:
-                problem = f"{NAMES[opcode]} record declares {length} bytes, {rest} remain"
-            elif length > self.max_record_bytes:
-                problem = (
-                    f"{NAMES[opcode]} record declares {length} bytes, more than the "
-                    f"{self.max_record_bytes} this reader holds"
-                )
-            if problem is not None:
-                yield Damage(pos, f"{problem}; the rest of the chunk skipped", inner)
+            whole = yield from self._chunk_record(pos, inner, opcode, length, size, read)
+            if not whole:
                 return
-            try:
-                yield Located(pos, inner, _parse(opcode, _read(stream, length)))
-            except _Malformed as exc:
-                yield Damage(pos, f"malformed {NAMES[opcode]} record: {exc}", inner)
             inner += 9 + length
+
+    def _held_chunk(
+        self, pos: int, data: bytes
+    ) -> Iterator[Located | Damage | Messages | _OneMessage]:
+        """The records of a chunk held whole; its messages in batches, with no object per
+        record (most of a recording's records are messages)."""
+        batch: list[tuple[int, int, int, int, int, bytes]] = []
+        batched = 0
+        inner, size, most = 0, len(data), self.max_record_bytes
+        while inner < size:
+            if size - inner < 9:
+                break
+            opcode, length = struct.unpack_from("<BQ", data, inner)
+            end = inner + 9 + length
+            if opcode == MESSAGE and 22 <= length <= most and end <= size:
+                batch.append(
+                    (inner, *struct.unpack_from("<HIQQ", data, inner + 9), data[inner + 31 : end])
+                )
+                batched += length - 22
+                inner = end
+                continue
+            if batch:
+                yield Messages(pos, batch, batched)
+                batch, batched = [], 0
+            read = io.BytesIO(data[inner + 9 : end]).read
+            whole = yield from self._chunk_record(pos, inner, opcode, length, size, read)
+            if not whole:
+                return
+            inner = end
+        if batch:
+            yield Messages(pos, batch, batched)
+        if inner < size:
+            yield Damage(pos, "a record is cut off by the chunk's end", inner)
+
+    def _chunk_record(
+        self,
+        pos: int,
+        inner: int,
+        opcode: int,
+        length: int,
+        size: int,
+        read: Callable[[int], bytes],
+    ) -> Generator[Located | Damage | _OneMessage, None, bool]:
+        """One record of a chunk of ``size`` bytes, at ``inner`` (its body from ``read``).
+        Returns False when the rest of the chunk cannot be believed."""
+        rest = size - inner - 9
+        problem = None
+        if opcode not in (SCHEMA, CHANNEL, MESSAGE):
+            problem = f"no {NAMES.get(opcode, hex(opcode))} record belongs in a chunk"
+        elif length > rest:
+            problem = f"{NAMES[opcode]} record declares {length} bytes, {rest} remain"
+        elif length > self.max_record_bytes:
+            problem = (
+                f"{NAMES[opcode]} record declares {length} bytes, more than the "
+                f"{self.max_record_bytes} this reader holds"
+            )
+        if problem is not None:
+            yield Damage(pos, f"{problem}; the rest of the chunk skipped", inner)
+            return False
+        try:
+            if opcode == MESSAGE:
+                yield _message(pos, inner, read(length))
+            else:
+                yield Located(pos, inner, _parse(opcode, read(length)))
+        except _Malformed as exc:
+            yield Damage(pos, f"malformed {NAMES[opcode]} record: {exc}", inner)
+        return True
 
     def _summary_channels(self) -> Iterator[Located | Damage]:
         """The Schema and Channel records of the summary section, when the footer points

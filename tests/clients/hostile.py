@@ -2,8 +2,9 @@
 
 :func:`corpus` writes, from one sound recording, the files ``plotgate inspect``,
 ``replay``, ``recover`` and ``cat`` must survive: the recording cut at every record
-boundary; records with wrong lengths and CRCs; compression bombs (one that lies about its
-size, one that declares a terabyte, one honest 1 GiB of zeros); unknown channels, schemas
+boundary and inside chunks (unfinished, as a killed writer leaves it: not damage); records
+with wrong lengths and CRCs; compression bombs (one that lies about its size, one that
+declares a terabyte, one honest 1 GiB of zeros); unknown channels, schemas
 and opcodes; every wrong shape of message JSON among sound exchanges; and files that are
 not MCAP at all. Each file comes with what a correct reader must find in it
 (:class:`Expect`).
@@ -49,6 +50,9 @@ class Expect:
     """Exchanges with both records intact (replay compares exactly these), when known."""
     damaged: bool = True
     """Something in it must be reported as damage (with an offset)."""
+    unfinished: bool | None = False
+    """It ends without its footer (a record cut short, or the end of a whole one): its
+    state is unfinished, which is not damage; None when it may or may not be."""
 
 
 def records(data: bytes) -> list[tuple[int, int, int]]:
@@ -178,15 +182,15 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
     layout = records(sound)
 
     # the sound recording cut at every record boundary (and inside a few records)
+    def cut(n: int) -> Expect:
+        return Expect(exchanges=answered(sound[:n]), damaged=False, unfinished=True)
+
     for pos, opcode, length in layout:
-        files[f"cut-at-{pos:07d}"] = (sound[:pos], Expect(exchanges=answered(sound[:pos])))
+        files[f"cut-at-{pos:07d}"] = (sound[:pos], cut(pos))
         if opcode == CHUNK:
             middle = pos + 9 + length // 2
-            files[f"cut-inside-chunk-{pos:07d}"] = (
-                sound[:middle],
-                Expect(exchanges=answered(sound[:middle])),
-            )
-    files["cut-before-the-closing-magic"] = (sound[:-4], Expect(exchanges=total))
+            files[f"cut-inside-chunk-{pos:07d}"] = (sound[:middle], cut(middle))
+    files["cut-before-the-closing-magic"] = (sound[:-4], cut(len(sound) - 4))
 
     chunks = [(pos, length) for pos, opcode, length in layout if opcode == CHUNK]
     first, second = chunks[0], chunks[len(chunks) // 2]
@@ -243,7 +247,7 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
     )
     files["flipped-bytes-everywhere"] = (
         bytes(b ^ 0x5A if i % 997 == 500 else b for i, b in enumerate(sound)),
-        Expect(),
+        Expect(unfinished=None),
     )
 
     # compression bombs: a GiB of zeros in 4 MiB of LZ4
@@ -403,8 +407,11 @@ def corpus(sound: bytes, good: tuple[bytes, int, bytes], out: Path) -> dict[str,
         ("zeros", b"\0" * 4096),
     ):
         files[f"not-mcap-{name}"] = (data, Expect(mcap=False))
-    files["magic-only"] = (MAGIC, Expect(exchanges=0))
-    files["magic-then-garbage"] = (MAGIC + bytes(range(256)) * 16, Expect(exchanges=0))
+    files["magic-only"] = (MAGIC, Expect(exchanges=0, damaged=False, unfinished=True))
+    files["magic-then-garbage"] = (  # damaged to its end, so without a footer too
+        MAGIC + bytes(range(256)) * 16,
+        Expect(exchanges=0, unfinished=True),
+    )
 
     out.mkdir(parents=True, exist_ok=True)
     for name, (data, _) in files.items():

@@ -120,4 +120,4 @@ def test_empty_and_foreign_files_are_noted_not_fatal(settings, capsys):
         if recording.stat().st_size:
             recording.unlink()
     assert main(["cat", str(folder)]) == 2
-    assert "no MCAP recordings there" in capsys.readouterr().err
+    assert f"plotgate cat: no MCAP recordings in {folder}" in capsys.readouterr().err

@@ -99,7 +99,7 @@ def test_replay_reads_a_truncated_file(tmp_path, capsys):
     capsys.readouterr()
     assert main(["replay", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "truncated" in out and "recovered 40 messages" in out and "20 unchanged" in out
+    assert "unfinished (no footer" in out and "40 messages read" in out and "20 unchanged" in out
 
 
 def test_workers_write_their_own_files(tmp_path):
