@@ -24,7 +24,7 @@ from mcap.stream_reader import StreamReader
 
 from plotgate.clients.recordings import Reader
 from plotgate.clients.scan import Scan
-from plotgate.service.recorder import Recorder, request_record, response_record
+from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 
 
