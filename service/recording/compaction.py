@@ -29,18 +29,20 @@ message index and one index entry per chunk.
 """
 
 import contextlib
+import io
 import logging
 import os
 import struct
 import subprocess
 import sys
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO
 
+from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
-from mcap.records import Channel, DataEnd, Header, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 __all__ = [
@@ -102,7 +104,7 @@ def compact(path: Path) -> bool:
     copy = temporary(path, os.getpid())
     try:
         with open(path, "rb") as source, open(copy, "wb") as out:
-            _copy(source, out)
+            _copy(source, out, os.fstat(source.fileno()).st_size)
             out.flush()
             os.fsync(out.fileno())
         os.replace(copy, path)
@@ -114,10 +116,10 @@ def compact(path: Path) -> bool:
     return True
 
 
-def _copy(source: IO[bytes], out: IO[bytes]) -> None:
+def _copy(source: IO[bytes], out: IO[bytes], size: int) -> None:
     """Copy every record of an unchunked recording into a chunked writer, in order."""
     writer = Writer(out, chunk_size=CHUNK_BYTES, compression=COMPRESSION)
-    for record in StreamReader(source).records:
+    for record in _records(source, size):
         match record:
             case Header():
                 writer.start(record.profile, record.library)
@@ -137,9 +139,47 @@ def _copy(source: IO[bytes], out: IO[bytes]) -> None:
                 )
             case Metadata():
                 writer.add_metadata(record.name, record.metadata)
-            case DataEnd():
-                break
     writer.finish()
+
+
+_READERS: dict[int, Callable[[ReadDataStream, int], McapRecord]] = {
+    0x01: lambda stream, _: Header.read(stream),
+    0x03: lambda stream, _: Schema.read(stream),
+    0x04: lambda stream, _: Channel.read(stream),
+    0x05: Message.read,
+    0x0C: lambda stream, _: Metadata.read(stream),
+}
+_DATA_END_TO_END = 13 + 29 + len(MCAP0_MAGIC)
+"""Bytes from a closed file's ``DataEnd`` to its end: ``DataEnd``, footer, magic."""
+
+
+def _records(source: IO[bytes], size: int) -> Iterator[McapRecord]:
+    """The records of an unchunked recording of ``size`` bytes, up to its ``DataEnd``, each
+    checked before it is believed: a kind the recorder writes, inside the file, its fields
+    filling it exactly, the ``DataEnd`` right before the footer. A damaged file raises
+    ``ValueError`` (or mcap's ``EndOfFile``) at its first bad record, so the original is
+    kept whole instead of a copy missing what followed the damage (mcap's stream reader
+    skips a record of unknown kind without a word)."""
+    if source.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
+        raise ValueError("no MCAP magic")
+    pos = len(MCAP0_MAGIC)
+    while True:
+        head = source.read(9)
+        if len(head) < 9:
+            raise ValueError(f"offset {pos}: cut short before the DataEnd")
+        opcode, length = struct.unpack("<BQ", head)
+        if opcode == 0x0F:
+            if pos + _DATA_END_TO_END != size:
+                raise ValueError(f"offset {pos}: a DataEnd that is not before the footer")
+            return
+        if opcode not in _READERS or pos + 9 + length > size - _DATA_END_TO_END:
+            raise ValueError(f"offset {pos}: opcode {opcode:#04x} of {length} bytes")
+        stream = ReadDataStream(io.BytesIO(source.read(length)))
+        record = _READERS[opcode](stream, length)
+        if stream.count != length:
+            raise ValueError(f"offset {pos}: the record's fields do not fill its length")
+        yield record
+        pos += 9 + length
 
 
 def _sync_folder(folder: Path) -> None:

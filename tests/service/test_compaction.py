@@ -187,7 +187,7 @@ def test_rotation_while_compactions_run_keeps_every_exchange(tmp_path, mcap_chec
     assert code == 0 and all(r["summary_present"] for r in reports)
 
 
-def test_a_shutdown_out_of_time_stops_the_compaction_and_keeps_the_original(tmp_path):
+def test_a_shutdown_out_of_time_stops_the_compaction_and_keeps_the_original(tmp_path, mcap_check):
     """With no time left, close stops the running compaction: the file stays whole in
     its unchunked, closed form, and no temporary is left."""
 
@@ -205,6 +205,8 @@ def test_a_shutdown_out_of_time_stops_the_compaction_and_keeps_the_original(tmp_
     assert compaction_module.closed(path)  # not compacted, closed with its footer
     recording = read_recording(path)
     assert len(recording.exchanges) == 20 and recording.complete
+    code, report = mcap_check(path, schemas=True)  # the independent reader: a sound file
+    assert code == 0 and not report["truncated"] and report["total_messages"] == 40, report
 
 
 def test_records_are_packed_as_mcap_says(tmp_path):
