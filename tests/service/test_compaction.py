@@ -221,3 +221,25 @@ def test_records_are_packed_as_mcap_says(tmp_path):
     assert (request.log_time, request.publish_time, response.log_time) == (123, 123, 456)
     assert request.data == request_record("big", OP.name, big, True)
     recorder.close()
+
+
+def test_a_damaged_file_is_not_compacted_and_stays_whole(tmp_path, monkeypatch):
+    """A length byte flipped in a message record: the copy would lose what follows, so
+    the compaction fails, the original is kept byte for byte and no temporary is left."""
+    path = _uncompacted(monkeypatch, tmp_path, 20)
+    data = bytearray(path.read_bytes())
+    first = next(r for r in _offsets(bytes(data)) if data[r] == 0x05)
+    data[first + 8] ^= 0x40  # the high byte of its length: past the file's end
+    path.write_bytes(bytes(data))
+    with pytest.raises(compaction_module.FAILURES):
+        compact(path)
+    assert path.read_bytes() == bytes(data)
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+def _offsets(data: bytes):
+    """The offsets of the records of an unchunked file, walked by their lengths."""
+    pos = 8
+    while pos < len(data) - 8:
+        yield pos
+        pos += 9 + int.from_bytes(data[pos + 1 : pos + 9], "little")
