@@ -43,7 +43,7 @@ from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.recordings import Reader
 from plotgate.clients.scan import Located, Scan
-from plotgate.service.recorder import Recorder, request_record, response_record
+from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 
 CHUNK_BYTES = 2**20

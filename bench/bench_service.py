@@ -19,13 +19,15 @@ and the best round of each is kept. Then:
   a few percent); its p99;
 * **two workers**: ``plotgate serve --workers 2`` (recording), closed loop at 10 and 50
   clients, against one worker: the scaling on this machine, where wrk shares the cores;
-* **profile** (``--profile``): py-spy samples the recording server under 10 clients and
-  the top entries, inclusive and self, are printed.
+* **profile** (``--profile``): py-spy samples the recording server under
+  ``--profile-clients`` clients (10 by default) and the top entries, inclusive and self,
+  are printed.
 
 Besides requests per second and latency it reports the server's CPU time per request
 (from /proc), the load-independent cost.
 
     python bench/bench_service.py [--seconds 10 --connections 1,10,50 --rounds 3 --profile]
+        [--profile-clients 1]
 """
 
 import argparse
@@ -138,13 +140,13 @@ def _server(kind: str, folder: Path, *flags: str):
     return serve(folder / kind, *(["--no-record"] if kind == "off" else []), *flags)
 
 
-def _profile(pid: int, seconds: int, url: str, script: Path) -> str:
-    """py-spy's samples of ``pid`` under 10 clients, folded into the top entries."""
+def _profile(pid: int, seconds: int, url: str, script: Path, clients: int) -> str:
+    """py-spy's samples of ``pid`` under ``clients`` clients, folded into the top entries."""
     if not shutil.which("py-spy"):
         return "py-spy not found: pip install py-spy"
     with tempfile.NamedTemporaryFile(suffix=".txt") as raw:
         load = subprocess.Popen(
-            ["wrk", "-t1", "-c10", f"-d{seconds + 2}s", "-s", str(script), url],
+            ["wrk", "-t1", f"-c{clients}", f"-d{seconds + 2}s", "-s", str(script), url],
             stdout=subprocess.DEVNULL,
         )
         time.sleep(1)
@@ -179,6 +181,7 @@ def main() -> None:
     parser.add_argument("--connections", default="1,10,50", help="concurrent clients")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--profile", action="store_true", help="py-spy the recording server")
+    parser.add_argument("--profile-clients", type=int, default=10)
     args = parser.parse_args()
     if not shutil.which("wrk"):
         sys.exit("wrk not found: apt-get install wrk")
@@ -221,7 +224,9 @@ def main() -> None:
         if args.profile:
             with _server("on", folder) as (proc, url):
                 _wrk(url + "/v1/gates/test", script, 2, 10)
-                profile = _profile(proc.pid, args.seconds, url + "/v1/gates/test", script)
+                profile = _profile(
+                    proc.pid, args.seconds, url + "/v1/gates/test", script, args.profile_clients
+                )
     print(
         f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, the README's combined-gate "
         f"test ({len(BODY)} bytes); one uvicorn worker each, uvloop and httptools"
@@ -259,7 +264,7 @@ def main() -> None:
         scaling = r["rate"] / workers[1, c]["rate"]
         print(f"| {count} | {c} | {r['rate']:,.0f} | {scaling:.2f}x | {r['p99']:.2f} |")
     if profile:
-        print("\npy-spy, recording server under 10 clients:\n" + profile)
+        print(f"\npy-spy, recording server under {args.profile_clients} clients:\n" + profile)
 
 
 if __name__ == "__main__":

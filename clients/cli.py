@@ -99,7 +99,7 @@ def _serve(args: argparse.Namespace) -> int:
         print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
         return 2
     if settings.record:
-        from plotgate.service.recorder import Recorder, RecordingError
+        from plotgate.service.recording import Recorder, RecordingError
 
         try:  # here, since a failure in the app's start-up is a traceback and exit 3
             Recorder(settings.log_dir, ()).start()

@@ -557,7 +557,7 @@ class _SessionWriter:
 
     def __init__(self, out: Path, sources: list[Path]) -> None:
         from plotgate.service.provenance import VERSION
-        from plotgate.service.recorder import Recorder
+        from plotgate.service.recording import Recorder
         from plotgate.service.registry import OPERATIONS
 
         out = self._out = Path(out)
@@ -573,7 +573,7 @@ class _SessionWriter:
         """Write one replayed exchange; ``OSError`` naming ``--out`` when it cannot be
         written (a full disk), so the run ends with that message and exit 2, not as a bug,
         and never with records silently missing."""
-        from plotgate.service.recorder import RecordingError, request_record, response_record
+        from plotgate.service.recording import RecordingError, request_record, response_record
 
         op = exchange.operation
         try:

@@ -37,7 +37,7 @@ from plotgate.service.offload import LargeBodies
 from plotgate.service.openapi import ASSETS_PATH, assets_folder, docs_router, openapi
 from plotgate.service.problems import ProblemError, field_errors, problem_json
 from plotgate.service.provenance import VERSION, provenance
-from plotgate.service.recorder import Recorder
+from plotgate.service.recording import Recorder
 from plotgate.service.registry import OPERATIONS, check_limits
 from plotgate.service.routes import PROBLEM_JSON, Operations, health_router, request_id_of
 
@@ -70,6 +70,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 max_age_s=settings.rotate_age_s,
                 metadata=provenance(settings),
                 on_flush=app.state.metrics.flush.observe,
+                compaction_wait_s=settings.graceful_shutdown_s,
             ).start()
         app.state.recorder = recorder
         configure(settings.dask_scheduler, settings.dask_timeout_s)
@@ -92,7 +93,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 watch.cancel()
             try:
                 app.state.large_bodies.close()
-            finally:  # the file's summary and index, whatever stopping the worker raised
+            finally:  # the last file closed and compacted, whatever stopping the worker raised
                 if recorder is not None:
                     recorder.close()
                 configure(None)

@@ -28,7 +28,7 @@ from prometheus_client import (
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
 from prometheus_client.registry import Collector
 
-from plotgate.service.recorder import Recorder
+from plotgate.service.recording import Recorder
 
 __all__ = ["CONTENT_TYPE", "Metrics"]
 

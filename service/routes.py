@@ -53,7 +53,7 @@ from plotgate.service.guards import (
 from plotgate.service.metrics import CONTENT_TYPE as METRICS_CONTENT_TYPE
 from plotgate.service.offload import INLINE_BODY_BYTES, LargeBodies, outcome
 from plotgate.service.problems import ProblemError, problem_json
-from plotgate.service.recorder import (
+from plotgate.service.recording import (
     Exchange,
     Recorder,
     RecordingError,

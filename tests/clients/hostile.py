@@ -32,7 +32,7 @@ from mcap.records import Message
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from plotgate.service.recorder import request_record, response_record
+from plotgate.service.recording import request_record, response_record
 from plotgate.service.registry import OPERATIONS
 from plotgate.service.schemas import request_schema, response_schema
 

@@ -6,7 +6,7 @@ from mcap.reader import make_reader
 
 from plotgate.clients.recordings import Reader, read_recording, recording_files
 from plotgate.service.app import create_app
-from tests.conftest import cartesian
+from tests.conftest import cartesian, chunk_per_exchange
 
 BODY = {
     "gate": {"kind": "ring", "tau": 1.0, "v_max": 10.0},
@@ -21,6 +21,7 @@ def _recorded(settings, n: int):
             r = c.post("/v1/gates/test", json=BODY, headers={"x-request-id": f"r{i}"})
             assert r.status_code == 200
     [path] = settings.log_dir.glob("*.mcap")
+    chunk_per_exchange(path)
     return path
 
 
@@ -69,7 +70,7 @@ def test_cut_anywhere_keeps_a_prefix(settings):
 def test_a_response_in_the_next_file_pairs_with_its_request(settings, tmp_path):
     """Rotation: the request record in one file, its response in the next, read as one
     exchange; a request record written again after its file was lost counts once."""
-    from plotgate.service.recorder import Recorder, request_record, response_record
+    from plotgate.service.recording import Recorder, request_record, response_record
     from plotgate.service.registry import OPERATIONS
 
     recorder = Recorder(tmp_path / "rec", OPERATIONS.values(), max_bytes=1).start()
@@ -108,7 +109,7 @@ def test_the_same_id_and_time_with_other_bytes_is_a_conflict_not_a_record_writte
 ):
     """The recorder writes a record again only byte for byte: two records of one key and
     time that differ are a conflict, reported with both places, the first read kept."""
-    from plotgate.service.recorder import Recorder, request_record, response_record
+    from plotgate.service.recording import Recorder, request_record, response_record
     from plotgate.service.registry import OPERATIONS
 
     recorder = Recorder(tmp_path, OPERATIONS.values(), max_bytes=1).start()

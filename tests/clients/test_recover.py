@@ -13,6 +13,7 @@ from plotgate.clients.cli import main
 from plotgate.clients.recordings import Reader
 from plotgate.clients.recover import recover
 from plotgate.service.app import create_app
+from tests.conftest import chunk_per_exchange
 from tests.service.test_recording import GOOD
 
 
@@ -38,6 +39,7 @@ def test_flipped_bytes_drop_their_chunks_and_keep_every_intact_chunk(
                 == 200
             )
     [path] = settings.log_dir.glob("*.mcap")
+    chunk_per_exchange(path)
     data = bytearray(path.read_bytes())
     with open(path, "rb") as f:
         chunks = sorted(

@@ -26,7 +26,8 @@ from plotgate.service import registry
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.problems import ProblemError, problem_json
-from plotgate.service.recorder import request_record, response_record
+from plotgate.service.recording import request_record, response_record
+from plotgate.service.recording.files import RecordingFile
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import request_schema, response_schema
 from tests.service.test_recording import BAD_COV, GOOD
@@ -409,15 +410,15 @@ def test_a_full_disk_under_replay_out_is_a_message_and_exit_2(
     """--out on a disk that fills after the first exchange: the flush that fails is not
     silent, and the run ends with the file and the reason, exit 2, not as a bug."""
     folder = _session(settings, [GOOD_BODY, GOOD_BODY, GOOD_BODY])
-    real, calls = Writer.flush, []
+    real, calls = RecordingFile.write, []
 
-    def flush(writer):
+    def write(file, buffers):
         calls.append(1)
         if len(calls) > 2:  # the new file's schemas, then the first exchange
             raise OSError(28, "No space left on device")
-        return real(writer)
+        return real(file, buffers)
 
-    monkeypatch.setattr(Writer, "flush", flush)
+    monkeypatch.setattr(RecordingFile, "write", write)
     out = tmp_path / "out" / "session.mcap"
     out.parent.mkdir()
     assert main(["replay", str(folder), "--out", str(out)]) == 2

@@ -15,7 +15,7 @@ from mcap.writer import CompressionType, Writer
 from plotgate.clients import scan
 from plotgate.clients.recordings import Reader
 from plotgate.clients.scan import Damage, Located, Scan
-from plotgate.service.recorder import request_record, response_record
+from plotgate.service.recording import request_record, response_record
 
 RNG_SEED = 25
 

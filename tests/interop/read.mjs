@@ -18,8 +18,10 @@
 //    json refuses those), a request_id the service could have given and the channel's
 //    operation; a request's raw body is text and replay_of an id; a response has an HTTP
 //    status, a duration, and a result (status < 400) or an RFC 9457 problem;
-//  - when it has a summary: the indexed reader (summary CRC checked) reads back as many
-//    messages as the stream, and Statistics counts them too.
+//  - when it has a summary (its footer's summary start is not 0: a file the recorder closed
+//    but did not compact has none, and is sound as its stream reads): the indexed reader
+//    (summary CRC checked) reads back as many messages as the stream, and Statistics counts
+//    them too.
 // With --schemas the report also carries each topic's schema (parsed JSON).
 
 import { createReadStream } from "node:fs";
@@ -156,7 +158,7 @@ async function read(file, withSchemas) {
   const reader = new McapStreamReader({ validateCrcs: true, decompressHandlers, includeChunks: true });
   const schemas = new Map();
   const channels = new Map();
-  let footer = false;
+  let summarized = false; // a footer pointing at a summary
   let first;
   let last;
   const onRecord = (rec) => {
@@ -204,7 +206,7 @@ async function read(file, withSchemas) {
         report.chunks++;
         break;
       case "Footer":
-        footer = true;
+        summarized = rec.summaryStart !== 0n;
         break;
       case "Unknown":
         throw new Error(`a record of opcode ${rec.opcode}, which MCAP does not define`);
@@ -230,7 +232,7 @@ async function read(file, withSchemas) {
     report.truncated = true;
     errors.push(`truncated: no footer; ${report.total_messages} complete messages before the end`);
   }
-  if (footer && !stopped) {
+  if (summarized && !stopped) {
     const handle = await open(file, "r");
     try {
       const indexed = await McapIndexedReader.Initialize({

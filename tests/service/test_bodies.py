@@ -16,7 +16,7 @@ from plotgate.service.bodies import (
     value_ceiling,
     value_count,
 )
-from plotgate.service.recorder import request_record
+from plotgate.service.recording import request_record
 from plotgate.service.registry import OPERATIONS, execute, parse
 from tests.service.test_recording import GOOD
 

@@ -4,32 +4,33 @@ where they can be."""
 import json
 
 from fastapi.testclient import TestClient
-from mcap.writer import Writer
 
 from plotgate.clients.recordings import read_recording
 from plotgate.service import registry
 from plotgate.service.app import create_app
+from plotgate.service.recording.files import RecordingFile
 from tests.service.test_recording import GOOD
 
 
 class _Disk:
-    """A simulated disk that can fill up: MCAP flushes and the readiness probe fail."""
+    """A simulated disk that can fill up: the recording's writes and the readiness probe
+    fail."""
 
     def __init__(self, monkeypatch) -> None:
         self.full = False
-        real_flush, real_open = Writer.flush, open
+        real_write, real_open = RecordingFile.write, open
 
-        def flush(writer):
+        def write(file, buffers):
             if self.full:
                 raise OSError(28, "No space left on device")
-            return real_flush(writer)
+            return real_write(file, buffers)
 
         def probe_open(path, *args, **kwargs):
             if self.full and ".plotgate-probe-" in str(path):
                 raise OSError(28, "No space left on device")
             return real_open(path, *args, **kwargs)
 
-        monkeypatch.setattr(Writer, "flush", flush)
+        monkeypatch.setattr(RecordingFile, "write", write)
         monkeypatch.setattr("builtins.open", probe_open)
 
 

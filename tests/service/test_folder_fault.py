@@ -16,11 +16,11 @@ from pathlib import Path
 import httpx
 import pytest
 from fastapi.testclient import TestClient
-from mcap.writer import Writer
 
 from plotgate.clients.recordings import read_recording
 from plotgate.service.app import create_app
-from plotgate.service.recorder import Recorder, RecordingError, request_record, response_record
+from plotgate.service.recording import Recorder, RecordingError, request_record, response_record
+from plotgate.service.recording.files import RecordingFile
 from plotgate.service.registry import OPERATIONS
 from tests.servers import serve
 from tests.service.test_recording import GOOD
@@ -151,19 +151,19 @@ def test_unwritable_folder_answers_503_with_retry_after_then_recovers(settings):
 
 
 class _FailingFlushes:
-    """mcap's Writer.flush failing the next ``n`` times (a disk that refuses a write)."""
+    """The recording file's writes failing the next ``n`` times (a disk that refuses one)."""
 
     def __init__(self, monkeypatch, n: int) -> None:
         self.n = n
-        real = Writer.flush
+        real = RecordingFile.write
 
-        def flush(writer):
+        def write(file, buffers):
             if self.n > 0:
                 self.n -= 1
                 raise OSError(5, "Input/output error")
-            return real(writer)
+            return real(file, buffers)
 
-        monkeypatch.setattr(Writer, "flush", flush)
+        monkeypatch.setattr(RecordingFile, "write", write)
 
 
 def _exchange(recorder: Recorder, rid: str):
@@ -231,14 +231,13 @@ def test_a_request_written_before_a_rotation_is_written_again_when_the_folder_go
     assert "SLOW" in _answered(folder)
 
 
-def test_bytes_written_never_goes_down_across_a_rotation(tmp_path, monkeypatch):
-    """The rotated file's bytes are counted when it is handed to the summary thread, not
-    when the thread is done (a Prometheus counter must not go down)."""
-    monkeypatch.setattr("plotgate.service.recorder.MAX_CHUNKS", 2)
+def test_bytes_written_never_goes_down_across_a_rotation(tmp_path):
+    """A rotated file's bytes stay counted while it is compacted (a Prometheus counter
+    must not go down): bytes_written counts what was written, before compaction."""
     op = OPERATIONS["gates.test"]
 
-    async def session() -> list[int]:
-        rec = Recorder(tmp_path / "rec", OPERATIONS.values()).start()
+    async def session() -> tuple[Recorder, list[int]]:
+        rec = Recorder(tmp_path / "rec", OPERATIONS.values(), max_bytes=1).start()
         seen = []
         for i in range(12):
             ex = await rec.arequest(op.name, request_record(f"r{i}", op.name, b"{}", True))
@@ -246,11 +245,12 @@ def test_bytes_written_never_goes_down_across_a_rotation(tmp_path, monkeypatch):
             seen.append(rec.bytes_written)
         rec.close()
         seen.append(rec.bytes_written)
-        return seen
+        return rec, seen
 
-    seen = asyncio.run(session())
+    rec, seen = asyncio.run(session())
     assert seen == sorted(seen), seen
-    assert seen[-1] == sum(f.stat().st_size for f in (tmp_path / "rec").glob("*.mcap"))
+    assert rec.rotations > 0 and rec.compacting == []
+    assert len(list((tmp_path / "rec").glob("*.mcap"))) == len(rec.files)
 
 
 def test_a_file_in_place_of_the_moved_folder_makes_readyz_503_not_500(settings, tmp_path):

@@ -18,7 +18,7 @@ import pytest
 
 from plotgate.clients.recordings import read_recording
 from plotgate.service.bodies import SLICE_BYTES
-from plotgate.service.recorder import request_record
+from plotgate.service.recording import request_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas.common import MAX_PLOTS
 from tests.servers import health_watch, serve

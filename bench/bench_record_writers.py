@@ -1,0 +1,258 @@
+"""Recording's write path, in process: the MCAP writers side by side, and compaction.
+
+**Writers.** ``--exchanges`` exchanges of two messages (a request and a response of
+``--bytes`` bytes each), handed to the OS every ``--per-commit`` exchanges (1: an exchange
+alone, as at 1 client; 6: a turn of the loop at 10 clients), into a file on ``--folder``:
+
+- ``mcap chunked``: mcap's ``Writer`` with LZ4 chunks, ``flush()`` per commit (closes a
+  chunk: the recorder before issue 25);
+- ``mcap unchunked``: ``Writer(use_chunking=False)``, the stream flushed per commit;
+- ``foxglove-sdk chunked`` / ``unchunked``: ``foxglove.open_mcap`` with a channel per
+  topic (``jsonschema`` schema, ``json`` messages: the SDK logs raw bytes,
+  ``BaseChannel.log(msg: bytes, log_time=...)``), ``MCAPWriter.flush()`` per commit; only
+  when ``foxglove-sdk`` is installed (``pip install foxglove-sdk``);
+- ``struct + writev``: :func:`plotgate.service.recording.records.message_header` and one
+  ``writev`` per commit (:class:`plotgate.service.recording.files.RecordingFile`);
+- ``Recorder``: the recorder itself in plain code (``request``, ``response``, ``flush``:
+  the records, the write, the file check, the bookkeeping of exchanges in flight).
+
+Each is timed per exchange, best of ``--repeat``.
+
+**Compaction.** The ``Recorder`` file compacted with LZ4 and with zstd chunks: time to
+compact, size, and time for :class:`plotgate.clients.scan.Scan` and mcap's reader to read
+every message back.
+
+    python bench/bench_record_writers.py [--exchanges 10000 --bytes 1400 --per-commit 1,6]
+"""
+
+import argparse
+import contextlib
+import json
+import random
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from unittest import mock
+
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+
+from plotgate.clients.scan import Scan
+from plotgate.service.recording import Recorder, compaction, request_record, response_record
+from plotgate.service.recording.files import RecordingFile
+from plotgate.service.recording.records import file_head, message_header
+from plotgate.service.registry import OPERATIONS, execute
+from plotgate.service.schemas import request_schema, response_schema
+
+OP = "gates.test"
+TOPICS = (f"{OP}/request", f"{OP}/response")
+
+
+def _channels() -> list[tuple[str, str, bytes]]:
+    op = OPERATIONS[OP]
+    schemas = (request_schema(op.request), response_schema(op.response))
+    return [
+        (topic, f"plotgate.{topic.replace('/', '.')}", json.dumps(schema).encode())
+        for topic, schema in zip(TOPICS, schemas, strict=True)
+    ]
+
+
+Write = Callable[[Path, int, int, bytes], None]
+
+
+def mcap_writer(chunked: bool) -> Write:
+    def run(path: Path, exchanges: int, per_commit: int, message: bytes) -> None:
+        with open(path, "wb") as stream:
+            writer = Writer(stream, compression=CompressionType.LZ4, use_chunking=chunked)
+            writer.start(profile="", library="plotgate")
+            ids = [
+                writer.register_channel(t, "json", writer.register_schema(n, "jsonschema", s))
+                for t, n, s in _channels()
+            ]
+            for i in range(exchanges):
+                now = time.time_ns()
+                writer.add_message(ids[0], now, message, now)
+                writer.add_message(ids[1], now, message, now)
+                if (i + 1) % per_commit == 0:
+                    writer.flush()
+                    stream.flush()
+            writer.finish()
+
+    return run
+
+
+def foxglove_writer(chunked: bool) -> Write:
+    import foxglove
+
+    def run(path: Path, exchanges: int, per_commit: int, message: bytes) -> None:
+        context = foxglove.Context()
+        options = foxglove.mcap.MCAPWriteOptions(
+            compression=foxglove.mcap.MCAPCompression.Lz4, use_chunks=chunked
+        )
+        with foxglove.open_mcap(
+            path, allow_overwrite=True, context=context, writer_options=options
+        ) as writer:
+            channels = [
+                foxglove.Channel(
+                    t,
+                    message_encoding="json",
+                    context=context,
+                    schema=foxglove.Schema(name=n, encoding="jsonschema", data=s),
+                )
+                for t, n, s in _channels()
+            ]
+            for i in range(exchanges):
+                now = time.time_ns()
+                channels[0].log(message, log_time=now)
+                channels[1].log(message, log_time=now)
+                if (i + 1) % per_commit == 0:
+                    writer.flush()
+
+    return run
+
+
+def struct_writev(path: Path, exchanges: int, per_commit: int, message: bytes) -> None:
+    head, ids = file_head(_channels(), {})
+    file = RecordingFile(path, 1, head)
+    buffers: list[bytes] = []
+    for i in range(exchanges):
+        now = time.time_ns()
+        buffers += (message_header(ids[TOPICS[0]], 2 * i, now, len(message)), message)
+        buffers += (message_header(ids[TOPICS[1]], 2 * i + 1, now, len(message)), message)
+        if (i + 1) % per_commit == 0:
+            file.write(buffers)
+            buffers = []
+    file.close()
+
+
+def recorder(path: Path, exchanges: int, per_commit: int, message: bytes) -> None:
+    rec = Recorder(path.parent, [OPERATIONS[OP]], file_name=path.name).start()
+    for i in range(exchanges):
+        exchange = rec.request(OP, message)
+        rec.response(exchange, message)
+        if (i + 1) % per_commit == 0:
+            rec.flush()
+    with mock.patch("plotgate.service.recording.recorder.compact"):  # timed apart, below
+        rec.close()
+
+
+def writers() -> dict[str, Write]:
+    found: dict[str, Write] = {
+        "mcap chunked (before)": mcap_writer(True),
+        "mcap unchunked": mcap_writer(False),
+    }
+    try:
+        found["foxglove-sdk chunked"] = foxglove_writer(True)
+        found["foxglove-sdk unchunked"] = foxglove_writer(False)
+    except ImportError:
+        print("foxglove-sdk not installed: pip install foxglove-sdk to measure it")
+    found["struct + writev"] = struct_writev
+    found["Recorder (plain code)"] = recorder
+    return found
+
+
+def time_writers(folder: Path, args: argparse.Namespace) -> None:
+    message = b'{"request_id": "r", "body": "%s"}' % (b"x" * (args.bytes - 35))
+    print(
+        f"{args.exchanges} exchanges of two {len(message)}-byte messages; "
+        f"us per exchange, best of {args.repeat}"
+    )
+    print("\n| writer | " + " | ".join(f"{n} per commit" for n in args.per_commit) + " |")
+    print("|---|" + "---:|" * len(args.per_commit))
+    for name, write in writers().items():
+        cells = []
+        for per_commit in args.per_commit:
+            best = float("inf")
+            for _ in range(args.repeat):
+                path = folder / "w.mcap"
+                with contextlib.suppress(FileNotFoundError):
+                    path.unlink()
+                started = time.perf_counter()
+                write(path, args.exchanges, per_commit, message)
+                best = min(best, time.perf_counter() - started)
+            cells.append(f"{best / args.exchanges * 1e6:.1f}")
+        print(f"| {name} | " + " | ".join(cells) + " |")
+
+
+def _read_scan(path: Path) -> int:
+    return sum(1 for _ in Scan(path))
+
+
+def _read_mcap(path: Path) -> int:
+    with open(path, "rb") as f:
+        return sum(1 for _ in make_reader(f).iter_messages(log_time_order=False))
+
+
+def time_compaction(folder: Path, args: argparse.Namespace, source: Path) -> None:
+    size = source.stat().st_size / 2**20
+    print(f"\ncompaction of {size:.1f} MiB ({args.exchanges} gates.test exchanges), best of")
+    print(f"{args.repeat} reads (Scan: records only; mcap: make_reader().iter_messages())")
+    print("| chunks | compact s | MiB | Scan records s | mcap messages s |")
+    print("|---|---:|---:|---:|---:|")
+    for codec in (CompressionType.LZ4, CompressionType.ZSTD):
+        path = folder / f"{codec.name}.mcap"
+        path.write_bytes(source.read_bytes())
+        compaction.COMPRESSION = codec
+        started = time.perf_counter()
+        assert compaction.compact(path)
+        took = time.perf_counter() - started
+        reads = []
+        for read in (_read_scan, _read_mcap):
+            best = float("inf")
+            for _ in range(args.repeat):
+                started = time.perf_counter()
+                read(path)
+                best = min(best, time.perf_counter() - started)
+            reads.append(best)
+        print(
+            f"| {codec.name.lower()} | {took:.2f} | {path.stat().st_size / 2**20:.1f} | "
+            f"{reads[0]:.2f} | {reads[1]:.2f} |"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--exchanges", type=int, default=10_000)
+    parser.add_argument("--bytes", type=int, default=1400)
+    parser.add_argument("--per-commit", default="1,6")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--folder", type=Path, default=None, help="default: a temporary one")
+    args = parser.parse_args()
+    args.per_commit = [int(n) for n in args.per_commit.split(",")]
+    with tempfile.TemporaryDirectory(dir=args.folder) as tmp:
+        folder = Path(tmp)
+        time_writers(folder, args)
+        source = folder / "recorded.mcap"
+        recorded(source, args.exchanges)
+        time_compaction(folder, args, source)
+
+
+def recorded(path: Path, exchanges: int) -> None:
+    """gates.test exchanges as recorded: 100 candidates at seeded random places (9 KB),
+    the answer's own JSON, one commit each."""
+    rng = random.Random(25)
+    rec = Recorder(path.parent, [OPERATIONS[OP]], file_name=path.name).start()
+    for i in range(exchanges):
+        plots = [
+            {
+                "frame": "cartesian",
+                "x": rng.uniform(-5e4, 5e4),
+                "y": rng.uniform(0, 1e5),
+                "covariance": [[1e4, 0], [0, 1e4]],
+            }
+            for _ in range(100)
+        ]
+        body = json.dumps(
+            {"gate": {"kind": "ellipse", "P_G": 0.9}, "first": plots[0], "candidates": plots}
+        ).encode()
+        answer = execute(OPERATIONS[OP], body)
+        exchange = rec.request(OP, request_record(f"r{i}", OP, body, True))
+        rec.response(exchange, response_record(f"r{i}", OP, 200, 0.001, answer.content))
+        rec.flush()
+    with mock.patch("plotgate.service.recording.recorder.compact"):
+        rec.close()
+
+
+if __name__ == "__main__":
+    main()

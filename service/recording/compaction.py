@@ -1,0 +1,294 @@
+"""Compaction: a closed unchunked recording made an indexed, compressed, chunked MCAP.
+
+The event loop writes plain message records (:mod:`plotgate.service.recording.records`);
+a file it has closed is rewritten here, off the loop, into the form readers seek in: zstd
+chunks of :data:`CHUNK_BYTES`, message indexes, and a summary with the chunk index and
+statistics (mcap's ``Writer``). The schemas, channels, metadata and messages are copied in
+order, with their ids, times and sequence numbers.
+
+Safety, step by step: the copy is written to a temporary name in the same folder
+(``.<name>.<pid>.compacting``: hidden, and not ``*.mcap``, so no reader takes it for a
+recording), synced, then swapped in with ``os.replace`` and the folder synced. Until the
+swap the original is untouched; after it the copy holds the same messages. A kill at any
+moment therefore leaves one readable file with every acknowledged exchange, plus at worst
+a temporary, which the next start removes (:func:`remove_leftovers`) once its process is
+gone.
+
+Only files that were closed are compacted (they end with the closing footer). A file left
+without it by a killed process stays readable as it is: the next start does not compact
+it, because with several workers the files of the others are open and growing, and a
+start cannot tell them from a dead one's; ``plotgate recover`` writes its indexed copy.
+
+A server compacts in a child process (:class:`Compactions`), started with ``nice``, so
+the compaction never holds the loop's GIL. The child runs this file as a script, so it
+imports mcap and the standard library only, not the service (which takes seconds on a
+loaded machine); that is why this module imports nothing of plotgate. Plain code
+(``plotgate replay --out``, the benches) compacts in its own thread on ``close``.
+Memory is bounded: records are read one at a time and the writer holds one chunk, its
+message index and one index entry per chunk.
+"""
+
+import contextlib
+import io
+import logging
+import os
+import struct
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import IO
+
+from mcap.data_stream import ReadDataStream
+from mcap.exceptions import McapError
+from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
+from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
+
+__all__ = [
+    "CHUNK_BYTES",
+    "COMPRESSION",
+    "FAILURES",
+    "Compactions",
+    "compact",
+    "remove_leftovers",
+    "temporary",
+]
+
+log = logging.getLogger("plotgate")
+
+CHUNK_BYTES = 2**20
+"""Uncompressed bytes per chunk (mcap's default): a reader decompresses about this much to
+reach any message, and the summary holds one index entry per chunk."""
+
+COMPRESSION = CompressionType.ZSTD
+"""zstd, chosen by measurement (bench/README.md, "Compaction"): smaller files than LZ4 on
+recordings, read about as fast."""
+
+SUFFIX = ".compacting"
+
+FAILURES = (OSError, ValueError, McapError)
+"""What a compaction can meet: the disk, or a file that does not read as its recorder
+wrote it. The original is intact after each."""
+
+
+def temporary(path: Path, pid: int) -> Path:
+    """Where process ``pid`` writes the compacted copy of ``path``."""
+    return path.with_name(f".{path.name}.{pid}{SUFFIX}")
+
+
+_UNSUMMARIZED_END = struct.pack("<BQQ", 0x02, 20, 0)
+"""How the footer of a file without summary starts: opcode, length, summary start 0."""
+
+
+def closed(path: Path) -> bool:
+    """``path`` ends with the footer its recorder writes on closing it, without a summary
+    (a compacted file has one: compacting it again does nothing)."""
+    with open(path, "rb") as f:
+        size = f.seek(0, os.SEEK_END)
+        if size < 29 + len(MCAP0_MAGIC):
+            return False
+        f.seek(size - 29 - len(MCAP0_MAGIC))
+        end = f.read()
+    return end.startswith(_UNSUMMARIZED_END) and end.endswith(MCAP0_MAGIC)
+
+
+def compact(path: Path) -> bool:
+    """Rewrite a closed unchunked recording as an indexed, chunked, compressed MCAP, in
+    place and atomically. False (and nothing changed) when it is not a closed unchunked
+    file; ``OSError`` when the copy cannot be written or swapped (the temporary removed,
+    the original intact)."""
+    path = Path(path)
+    if not closed(path):
+        return False
+    copy = temporary(path, os.getpid())
+    try:
+        with open(path, "rb") as source, open(copy, "wb") as out:
+            _copy(source, out, os.fstat(source.fileno()).st_size)
+            out.flush()
+            os.fsync(out.fileno())
+        os.replace(copy, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            copy.unlink()
+        raise
+    _sync_folder(path.parent)
+    return True
+
+
+def _copy(source: IO[bytes], out: IO[bytes], size: int) -> None:
+    """Copy every record of an unchunked recording into a chunked writer, in order."""
+    writer = Writer(out, chunk_size=CHUNK_BYTES, compression=COMPRESSION)
+    for record in _records(source, size):
+        match record:
+            case Header():
+                writer.start(record.profile, record.library)
+            case Schema():
+                writer.register_schema(record.name, record.encoding, record.data)
+            case Channel():
+                writer.register_channel(
+                    record.topic, record.message_encoding, record.schema_id, record.metadata
+                )
+            case Message():
+                writer.add_message(
+                    record.channel_id,
+                    record.log_time,
+                    record.data,
+                    record.publish_time,
+                    record.sequence,
+                )
+            case Metadata():
+                writer.add_metadata(record.name, record.metadata)
+    writer.finish()
+
+
+_READERS: dict[int, Callable[[ReadDataStream, int], McapRecord]] = {
+    0x01: lambda stream, _: Header.read(stream),
+    0x03: lambda stream, _: Schema.read(stream),
+    0x04: lambda stream, _: Channel.read(stream),
+    0x05: Message.read,
+    0x0C: lambda stream, _: Metadata.read(stream),
+}
+_DATA_END_TO_END = 13 + 29 + len(MCAP0_MAGIC)
+"""Bytes from a closed file's ``DataEnd`` to its end: ``DataEnd``, footer, magic."""
+
+
+def _records(source: IO[bytes], size: int) -> Iterator[McapRecord]:
+    """The records of an unchunked recording of ``size`` bytes, up to its ``DataEnd``, each
+    checked before it is believed: a kind the recorder writes, inside the file, its fields
+    filling it exactly, the ``DataEnd`` right before the footer. A damaged file raises
+    ``ValueError`` (or mcap's ``EndOfFile``) at its first bad record, so the original is
+    kept whole instead of a copy missing what followed the damage (mcap's stream reader
+    skips a record of unknown kind without a word)."""
+    if source.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
+        raise ValueError("no MCAP magic")
+    pos = len(MCAP0_MAGIC)
+    while True:
+        head = source.read(9)
+        if len(head) < 9:
+            raise ValueError(f"offset {pos}: cut short before the DataEnd")
+        opcode, length = struct.unpack("<BQ", head)
+        if opcode == 0x0F:
+            if pos + _DATA_END_TO_END != size:
+                raise ValueError(f"offset {pos}: a DataEnd that is not before the footer")
+            return
+        if opcode not in _READERS or pos + 9 + length > size - _DATA_END_TO_END:
+            raise ValueError(f"offset {pos}: opcode {opcode:#04x} of {length} bytes")
+        stream = ReadDataStream(io.BytesIO(source.read(length)))
+        record = _READERS[opcode](stream, length)
+        if stream.count != length:
+            raise ValueError(f"offset {pos}: the record's fields do not fill its length")
+        yield record
+        pos += 9 + length
+
+
+def _sync_folder(folder: Path) -> None:
+    """Make a rename in ``folder`` durable (its entry written), where the OS allows it."""
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def remove_leftovers(folder: Path) -> list[Path]:
+    """Remove the temporaries of compactions that died (their process is gone, or its pid
+    is ours: a container restarted with the same pid). Those of a running compaction, a
+    sibling worker's, are left alone. Returns what was removed."""
+    removed = []
+    for leftover in folder.glob(f".*{SUFFIX}"):
+        pid = leftover.name.removesuffix(SUFFIX).rsplit(".", 1)[-1]
+        if not pid.isdigit() or int(pid) != os.getpid() and _running(int(pid)):
+            continue
+        with contextlib.suppress(OSError):
+            leftover.unlink()
+            removed.append(leftover)
+    return removed
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # someone else's process
+    return True
+
+
+class Compactions:
+    """Compactions of closed files, each in a child process (``python -m`` this module).
+
+    A child process, not a thread: the copy parses and compresses every record, which in
+    a thread would take the GIL from the event loop in slices of milliseconds. The child
+    runs in its own session, so a terminal's Ctrl-C goes to the server, whose shutdown
+    decides (:meth:`wait`).
+    """
+
+    def __init__(self) -> None:
+        self._running: dict[Path, subprocess.Popen[bytes]] = {}
+
+    def start(self, path: Path) -> None:
+        """Compact ``path`` in a child process (a second request for it waits for the first)."""
+        self.reap()
+        earlier = self._running.pop(path, None)
+        if earlier is not None:
+            earlier.wait()
+        self._running[path] = subprocess.Popen(
+            [sys.executable, "-P", __file__, str(path)],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+
+    @property
+    def running(self) -> list[Path]:
+        """The files being compacted."""
+        self.reap()
+        return list(self._running)
+
+    def reap(self) -> None:
+        """Forget the compactions that ended (their exit status collected)."""
+        for path, child in list(self._running.items()):
+            if child.poll() is not None:
+                del self._running[path]
+                if child.returncode != 0:
+                    log.warning("compaction of %s failed (exit %s)", path, child.returncode)
+
+    def wait(self, timeout_s: float) -> list[Path]:
+        """Wait up to ``timeout_s`` for the running compactions; kill those still running
+        then (their originals stay, unchunked and readable; their temporaries removed).
+        Returns the files left uncompacted that way."""
+        deadline = time.monotonic() + timeout_s
+        left = []
+        for path, child in self._running.items():
+            try:
+                child.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
+                with contextlib.suppress(OSError):
+                    temporary(path, child.pid).unlink()
+                log.warning("%s left uncompacted: the shutdown's time ran out", path)
+                left.append(path)
+        self._running.clear()
+        return left
+
+
+def main(argv: list[str]) -> int:
+    """``python -P compaction.py FILE``: compact one closed file,
+    at a low priority. Exit 0 when compacted or nothing to do, 1 when it failed (the
+    original intact)."""
+    with contextlib.suppress(OSError):
+        os.nice(10)
+    [path] = argv
+    try:
+        compact(Path(path))
+    except FAILURES as exc:
+        print(f"plotgate: compaction of {path} failed: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
