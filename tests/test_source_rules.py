@@ -78,3 +78,10 @@ def test_no_private_name_is_imported_from_another_module(path):
 @pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_the_layers_are_imported_by_their_installed_names(path):
     assert _folder_imports(ast.parse(path.read_text())) == []
+
+
+def test_test_modules_have_unique_names():
+    """pytest imports test modules by their base name (the test folders are not packages),
+    so two ``test_x.py`` in different folders stop the whole run at collection."""
+    names = [p.name for p in (ROOT / "tests").rglob("test_*.py") if "node_modules" not in p.parts]
+    assert sorted(n for n in set(names) if names.count(n) > 1) == []
