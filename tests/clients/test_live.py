@@ -12,6 +12,7 @@ import httpx
 from plotgate.clients.cli import main
 from plotgate.clients.live import writer_alive, writer_pid
 from plotgate.clients.recordings import Reader
+from tests.conftest import chunk_per_exchange
 from tests.servers import serve
 from tests.service.test_recording import GOOD
 
@@ -19,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _recorded(settings, n: int) -> bytes:
-    """The bytes of a finished recording of ``n`` exchanges."""
+    """The bytes of a finished recording of ``n`` exchanges, one chunk per exchange."""
     from fastapi.testclient import TestClient
 
     from plotgate.service.app import create_app
@@ -28,9 +29,11 @@ def _recorded(settings, n: int) -> bytes:
         for i in range(n):
             c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": f"r{i}"})
     [path] = settings.log_dir.glob("*.mcap")
-    data = path.read_bytes()
+    copy = settings.log_dir / "copy"
+    copy.write_bytes(path.read_bytes())
+    chunk_per_exchange(copy)  # the tests cut and damage chunks: one per exchange
     path.unlink()
-    return data
+    return copy.read_bytes()
 
 
 def _dead_pid() -> int:
