@@ -300,6 +300,7 @@ def _replay(args: argparse.Namespace) -> int:
         filters=_filters(args),
         timeout=args.timeout or None,
         limits=limits,
+        load=_kernels_as_met("replay"),
     )
     code = report.exit_code(args.allow_empty)
     if args.report:
@@ -833,11 +834,13 @@ def main(argv: list[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     try:
         in_process = args.command in IN_PROCESS and getattr(args, "server", None) is None
-        if in_process and not _load_kernels(args.command):
+        if in_process and args.command != "replay" and not _load_kernels(args.command):
             return 2
         code = args.func(args)
         sys.stdout.flush()
         return code
+    except _KernelsUnavailable:  # said by _load_kernels
+        return 2
     except BrokenPipeError:
         _silence_stdout()
         return 0
@@ -849,8 +852,27 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
-def _load_kernels(command: str) -> bool:
-    """Load the numerical kernels before a command runs operations in-process, saying on
+class _KernelsUnavailable(Exception):
+    """An operation's kernels could be neither loaded nor compiled (already said)."""
+
+
+def _kernels_as_met(command: str) -> Callable[[str], None]:
+    """What an in-process replay calls the first time it meets an operation: load that
+    operation's kernels (:func:`_load_kernels`), so a replay of gate tests starts without
+    waiting for every operation's; raises :class:`_KernelsUnavailable` when they fail."""
+
+    def load(operation: str) -> None:
+        from plotgate.service.registry import OPERATIONS
+
+        if not _load_kernels(command, OPERATIONS[operation].module):
+            raise _KernelsUnavailable
+
+    return load
+
+
+def _load_kernels(command: str, module: str | None = None) -> bool:
+    """Load the numerical kernels before a command runs operations in-process (those of
+    ``module``, an operation's handler module; None: every operation's), saying on
     stderr when they compile (a first start: about a minute of silence otherwise), how
     long that took, and when a damaged cache was removed; False (after a message) when
     they can be neither loaded nor compiled and cached."""
@@ -868,6 +890,7 @@ def _load_kernels(command: str) -> bool:
     try:
         seconds = load_kernels(
             lambda: say("compiling numerical kernels (first start only, a minute or two)..."),
+            module=module,
             repaired=repaired,
         )
     except CacheRepairFailed as exc:

@@ -272,6 +272,7 @@ class InProcess:
         self,
         timeout: float | None = DEFAULT_TIMEOUT_S,
         limits: Mapping[str, Mapping[str, int]] | None = None,
+        load: Callable[[str], object] | None = None,
     ) -> None:
         from plotgate.service import registry
 
@@ -279,6 +280,10 @@ class InProcess:
         self._timeout = min(timeout or 0.0, LONGEST_DEADLINE_S)
         """Seconds an exchange may take; 0: no deadline."""
         self._limits = limits or {}
+        self._load = load
+        """Called with an operation's name before its first exchange runs (the CLI loads
+        its kernels there, saying when they compile; its failure ends the replay)."""
+        self._met: set[str] = set()
         self._previous: Any = None
         self._installed = False
 
@@ -303,6 +308,10 @@ class InProcess:
             with self:
                 return self(exchange, rid)
         op = self._registry.OPERATIONS[exchange.operation]
+        if op.name not in self._met:
+            if self._load is not None:
+                self._load(op.name)
+            self._met.add(op.name)
         try:
             # The timer is disarmed in the inner finally, so an alarm that rings late
             # still lands in the except clauses below, never in the caller.
@@ -404,6 +413,7 @@ def replay(
     filters: Filters | None = None,
     timeout: float | None = DEFAULT_TIMEOUT_S,
     limits: Mapping[str, Mapping[str, int]] | None = None,
+    load: Callable[[str], object] | None = None,
 ) -> ReplayReport:
     """Replay every exchange in the files at ``paths`` (files or folders) and compare.
 
@@ -419,6 +429,9 @@ def replay(
     limits : in-process work caps, ``{operation: {size: cap}}`` (the server's are
         ``Settings().limits``: the defaults with ``PLOTGATE_LIMITS`` over them); exchanges
         over them are not run. None runs every exchange.
+    load : in-process, called with an operation's name before its first exchange runs
+        (the registry imports each operation when it first runs; the CLI loads its kernels
+        here, saying when they compile).
 
     Raises :class:`plotgate.clients.TransportError` when the server cannot be reached, and
     ``FileNotFoundError`` for a path that does not exist.
@@ -435,7 +448,7 @@ def replay(
             )
             run: Runner = over_http(http)
         else:
-            run = resources.enter_context(InProcess(timeout, limits))
+            run = resources.enter_context(InProcess(timeout, limits, load))
         writer = resources.enter_context(_SessionWriter(out, reader.paths)) if out else None
         from tqdm import tqdm
 

@@ -1,5 +1,6 @@
 """Shared fixtures: service settings on a temporary folder, the app, plots, the MCAP reader."""
 
+import dataclasses
 import json
 import shutil
 import subprocess
@@ -8,6 +9,7 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
+from plotgate.service import registry
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 
@@ -24,6 +26,20 @@ def settings(tmp_path: Path) -> Settings:
 def client(settings: Settings):
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         yield c
+
+
+@pytest.fixture
+def swap_handler(monkeypatch):
+    """Swap an operation's handler in the registry for one test (a bug, a slow handler):
+    ``swap_handler(name, handler)``. The copy holds ``handler`` where the registry keeps
+    the handler it imports on first use."""
+
+    def swap(name: str, handler) -> None:
+        op = dataclasses.replace(registry.OPERATIONS[name])
+        vars(op)["handler"] = handler
+        monkeypatch.setitem(registry.OPERATIONS, name, op)
+
+    return swap
 
 
 class McapReader:

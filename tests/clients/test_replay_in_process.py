@@ -13,7 +13,6 @@ from hypothesis import strategies as st
 
 from plotgate.clients.recordings import Exchange
 from plotgate.clients.replay import InProcess, in_process, sent_body
-from plotgate.service import registry
 from plotgate.service.registry import OPERATIONS, execute
 
 OP = "gates.test"
@@ -97,13 +96,11 @@ def test_the_alarm_is_installed_once_per_run_and_removed_after():
     assert signal.getsignal(signal.SIGALRM) is before
 
 
-def test_an_exchange_over_its_deadline_is_stopped_in_and_out_of_with(monkeypatch):
-    op = OPERATIONS[OP]
-
+def test_an_exchange_over_its_deadline_is_stopped_in_and_out_of_with(swap_handler):
     def slow(request):
         time.sleep(30)
 
-    monkeypatch.setitem(OPERATIONS, OP, registry.Operation(op.endpoint, slow, op.fields))
+    swap_handler(OP, slow)
     ex = _exchange({"request_id": "r1", "operation": OP, "body": GOOD})
     started = time.monotonic()
     with InProcess(timeout=0.1) as run:
