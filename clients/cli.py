@@ -834,7 +834,7 @@ def main(argv: list[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     try:
         in_process = args.command in IN_PROCESS and getattr(args, "server", None) is None
-        if in_process and args.command != "replay" and not _load_kernels(args.command):
+        if in_process and not _load_kernels_first(args):
             return 2
         code = args.func(args)
         sys.stdout.flush()
@@ -852,6 +852,20 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
+def _load_kernels_first(args: argparse.Namespace) -> bool:
+    """Load the kernels an in-process command needs before it runs (:func:`_load_kernels`):
+    ``call``'s operation's, every operation's for the commands that run several; none yet
+    for ``replay``, which loads each operation's as it first meets it
+    (:func:`_kernels_as_met`)."""
+    if args.command == "replay":
+        return True
+    if args.command == "call":
+        from plotgate.service.registry import OPERATIONS
+
+        return _load_kernels("call", OPERATIONS[args.operation].module)
+    return _load_kernels(args.command)
+
+
 class _KernelsUnavailable(Exception):
     """An operation's kernels could be neither loaded nor compiled (already said)."""
 
@@ -864,18 +878,19 @@ def _kernels_as_met(command: str) -> Callable[[str], None]:
     def load(operation: str) -> None:
         from plotgate.service.registry import OPERATIONS
 
-        if not _load_kernels(command, OPERATIONS[operation].module):
+        if not _load_kernels(command, OPERATIONS[operation].module, f" of {operation}"):
             raise _KernelsUnavailable
 
     return load
 
 
-def _load_kernels(command: str, module: str | None = None) -> bool:
+def _load_kernels(command: str, module: str | None = None, of: str = "") -> bool:
     """Load the numerical kernels before a command runs operations in-process (those of
-    ``module``, an operation's handler module; None: every operation's), saying on
-    stderr when they compile (a first start: about a minute of silence otherwise), how
-    long that took, and when a damaged cache was removed; False (after a message) when
-    they can be neither loaded nor compiled and cached."""
+    ``module``, an operation's handler module, named by ``of`` in the messages; None:
+    every operation's), saying on stderr when they compile (a first start: about a
+    minute of silence otherwise), how long that took, and when a damaged cache was
+    removed; False (after a message) when they can be neither loaded nor compiled and
+    cached."""
     from plotgate.service.kernels import CacheRepairFailed, load_kernels
 
     def say(text: str) -> None:
@@ -889,7 +904,7 @@ def _load_kernels(command: str, module: str | None = None) -> bool:
 
     try:
         seconds = load_kernels(
-            lambda: say("compiling numerical kernels (first start only, a minute or two)..."),
+            lambda: say(f"compiling numerical kernels{of} (first start only, a minute or two)..."),
             module=module,
             repaired=repaired,
         )
@@ -900,7 +915,7 @@ def _load_kernels(command: str, module: str | None = None) -> bool:
         )
         return False
     if seconds is not None:
-        say(f"kernels ready in {seconds:.0f} s (cached: later starts take a few seconds)")
+        say(f"kernels{of} ready in {seconds:.0f} s (cached: later starts take a few seconds)")
     return True
 
 

@@ -143,9 +143,11 @@ def test_a_replay_loads_the_kernels_of_the_operations_it_meets(settings, monkeyp
     assert main(["replay", str(folder)]) == 0
     assert loaded == ["plotgate.service.operations.gates"]  # once, and that operation's only
     err = capsys.readouterr().err.splitlines()
-    assert err == [
-        f"plotgate replay: {ANNOUNCEMENT}",
-        "plotgate replay: kernels ready in 3 s (cached: later starts take a few seconds)",
+    assert err == [  # each operation's kernels load as the replay first meets it, named
+        "plotgate replay: compiling numerical kernels of gates.test (first start only, a "
+        "minute or two)...",
+        "plotgate replay: kernels of gates.test ready in 3 s (cached: later starts take a "
+        "few seconds)",
     ]
 
 
@@ -162,3 +164,14 @@ def test_a_replay_whose_kernels_cannot_be_cached_ends_with_a_message(
     err = capsys.readouterr().err
     assert err.startswith("plotgate replay: cannot compile and cache the numerical kernels")
     assert "No space left on device" in err and "Traceback" not in err
+
+
+def test_a_call_loads_its_operation_s_kernels_only(tmp_path, monkeypatch, capsys):
+    loaded = []
+
+    def load(announce, module=None, **options):
+        loaded.append(module)
+
+    monkeypatch.setattr(kernels, "load_kernels", load)
+    assert main(["call", "gates.test", _gate_request(tmp_path)]) == 0
+    assert loaded == ["plotgate.service.operations.gates"]
