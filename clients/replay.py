@@ -44,6 +44,7 @@ it as a replay of its original, never under the original's id.
 
 import contextlib
 import errno
+import importlib
 import json
 import signal
 import threading
@@ -309,8 +310,11 @@ class InProcess:
                 return self(exchange, rid)
         op = self._registry.OPERATIONS[exchange.operation]
         if op.name not in self._met:
+            # the operation's module is imported here, not in the answer's try below: an
+            # import that fails (a damaged kernel cache) ends the replay, it is no 500
             if self._load is not None:
                 self._load(op.name)
+            importlib.import_module(op.module)
             self._met.add(op.name)
         try:
             # The timer is disarmed in the inner finally, so an alarm that rings late

@@ -28,16 +28,21 @@ def client(settings: Settings):
         yield c
 
 
+def with_handler(name: str, handler) -> registry.Operation:
+    """A copy of the registry's operation ``name`` answering with ``handler`` (held where
+    the registry keeps the handler it imports on first use)."""
+    op = dataclasses.replace(registry.OPERATIONS[name])
+    vars(op)["handler"] = handler
+    return op
+
+
 @pytest.fixture
 def swap_handler(monkeypatch):
     """Swap an operation's handler in the registry for one test (a bug, a slow handler):
-    ``swap_handler(name, handler)``. The copy holds ``handler`` where the registry keeps
-    the handler it imports on first use."""
+    ``swap_handler(name, handler)``."""
 
     def swap(name: str, handler) -> None:
-        op = dataclasses.replace(registry.OPERATIONS[name])
-        vars(op)["handler"] = handler
-        monkeypatch.setitem(registry.OPERATIONS, name, op)
+        monkeypatch.setitem(registry.OPERATIONS, name, with_handler(name, handler))
 
     return swap
 
