@@ -309,13 +309,9 @@ class InProcess:
             with self:
                 return self(exchange, rid)
         op = self._registry.OPERATIONS[exchange.operation]
-        if op.name not in self._met:
-            # the operation's module is imported here, not in the answer's try below: an
-            # import that fails (a damaged kernel cache) ends the replay, it is no 500
-            if self._load is not None:
-                self._load(op.name)
-            importlib.import_module(op.module)
-            self._met.add(op.name)
+        # imported here, not in the answer's try below: an import that fails (a damaged
+        # kernel cache) ends the replay, it is no 500
+        self.meet(op.name)
         try:
             # The timer is disarmed in the inner finally, so an alarm that rings late
             # still lands in the except clauses below, never in the caller.
@@ -336,6 +332,16 @@ class InProcess:
             return Answer(None, skip=OVER_CAPS)
         return Answer(outcome.status, outcome.json())
 
+    def meet(self, operation: str) -> None:
+        """Load ``operation`` if this runner has not met it yet (``load``, then its handler's
+        module); :func:`replay` calls it before it starts an exchange's clock, so a
+        replayed duration holds no import or compilation."""
+        if operation not in self._met:
+            if self._load is not None:
+                self._load(operation)
+            importlib.import_module(self._registry.OPERATIONS[operation].module)
+            self._met.add(operation)
+
     def _outcome(self, op: "Operation", exchange: Exchange, rid: str) -> "Outcome | None":
         """The registry's outcome, or None for a request over the caps whose recorded
         answer is not that cap's refusal."""
@@ -349,6 +355,10 @@ class InProcess:
         if _refused_alike(exchange, over.status, [e.field for e in over.errors]):
             return registry.failed(op, over, rid)  # the recorded cap refusal, again
         return None
+
+
+def _loaded_by_the_server(operation: str) -> None:
+    """Over HTTP, nothing to load before an exchange: the server has every operation."""
 
 
 def in_process(
@@ -451,8 +461,10 @@ def replay(
                 httpx.Client(base_url=server, timeout=httpx.Timeout(timeout, connect=10.0))
             )
             run: Runner = over_http(http)
+            meet: Callable[[str], None] = _loaded_by_the_server
         else:
-            run = resources.enter_context(InProcess(timeout, limits, load))
+            runner = resources.enter_context(InProcess(timeout, limits, load))
+            run, meet = runner, runner.meet
         writer = resources.enter_context(_SessionWriter(out, reader.paths)) if out else None
         from tqdm import tqdm
 
@@ -469,6 +481,7 @@ def replay(
                 continue
             if reason is None:
                 rid = uuid.uuid4().hex
+                meet(exchange.operation)
                 started = time.perf_counter()
                 answer = run(exchange, rid)
                 reason = answer.skip
