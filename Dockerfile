@@ -33,8 +33,9 @@ VOLUME ["/data"]
 WORKDIR /data
 USER plotgate
 # compile the numba kernels now, as the user that serves, into a cache it can write:
-# a container starts warm (plotgate.core.compiled)
-RUN python -c "import plotgate.service.app"
+# a container starts warm (plotgate.core.compiled; the registry imports operations lazily,
+# load_all imports every one)
+RUN python -c "from plotgate.service.registry import load_all; load_all()"
 EXPOSE 8000
 HEALTHCHECK --interval=10s --timeout=3s \
     CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/healthz', timeout=2)"]

@@ -20,11 +20,12 @@ def create_app() -> FastAPI:
     """The bare app: one gate-test route."""
     app = FastAPI()
     op = OPERATIONS["gates.test"]
+    handler = op.handler  # imported (and its kernels loaded) now, as the service does
 
     @app.post("/v1/gates/test")
     async def test(request: Request) -> Response:
         parsed = op.request.model_validate_json(await request.body(), strict=True)
-        answer = op.handler(parsed).model_dump_json().encode()
+        answer = handler(parsed).model_dump_json().encode()
         return Response(answer, media_type="application/json")
 
     return app

@@ -300,6 +300,7 @@ def _replay(args: argparse.Namespace) -> int:
         filters=_filters(args),
         timeout=args.timeout or None,
         limits=limits,
+        load=_kernels_as_met("replay"),
     )
     code = report.exit_code(args.allow_empty)
     if args.report:
@@ -841,11 +842,13 @@ def main(argv: list[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     try:
         in_process = args.command in IN_PROCESS and getattr(args, "server", None) is None
-        if in_process and not _load_kernels(args.command):
+        if in_process and not _load_kernels_first(args):
             return 2
         code = args.func(args)
         sys.stdout.flush()
         return code
+    except _KernelsUnavailable:  # said by _load_kernels
+        return 2
     except BrokenPipeError:
         _silence_stdout()
         return 0
@@ -857,11 +860,45 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
-def _load_kernels(command: str) -> bool:
-    """Load the numerical kernels before a command runs operations in-process, saying on
-    stderr when they compile (a first start: about a minute of silence otherwise), how
-    long that took, and when a damaged cache was removed; False (after a message) when
-    they can be neither loaded nor compiled and cached."""
+def _load_kernels_first(args: argparse.Namespace) -> bool:
+    """Load the kernels an in-process command needs before it runs (:func:`_load_kernels`):
+    ``call``'s operation's, every operation's for the commands that run several; none yet
+    for ``replay``, which loads each operation's as it first meets it
+    (:func:`_kernels_as_met`)."""
+    if args.command == "replay":
+        return True
+    if args.command == "call":
+        from plotgate.service.registry import OPERATIONS
+
+        return _load_kernels("call", OPERATIONS[args.operation].module)
+    return _load_kernels(args.command)
+
+
+class _KernelsUnavailable(Exception):
+    """An operation's kernels could be neither loaded nor compiled (already said)."""
+
+
+def _kernels_as_met(command: str) -> Callable[[str], None]:
+    """What an in-process replay calls the first time it meets an operation: load that
+    operation's kernels (:func:`_load_kernels`), so a replay of gate tests starts without
+    waiting for every operation's; raises :class:`_KernelsUnavailable` when they fail."""
+
+    def load(operation: str) -> None:
+        from plotgate.service.registry import OPERATIONS
+
+        if not _load_kernels(command, OPERATIONS[operation].module, f" of {operation}"):
+            raise _KernelsUnavailable
+
+    return load
+
+
+def _load_kernels(command: str, module: str | None = None, of: str = "") -> bool:
+    """Load the numerical kernels before a command runs operations in-process (those of
+    ``module``, an operation's handler module, named by ``of`` in the messages; None:
+    every operation's), saying on stderr when they compile (a first start: about a
+    minute of silence otherwise), how long that took, and when a damaged cache was
+    removed; False (after a message) when they can be neither loaded nor compiled and
+    cached."""
     from plotgate.service.kernels import CacheRepairFailed, load_kernels
 
     def say(text: str) -> None:
@@ -875,7 +912,8 @@ def _load_kernels(command: str) -> bool:
 
     try:
         seconds = load_kernels(
-            lambda: say("compiling numerical kernels (first start only, a minute or two)..."),
+            lambda: say(f"compiling numerical kernels{of} (first start only, a minute or two)..."),
+            module=module,
             repaired=repaired,
         )
     except CacheRepairFailed as exc:
@@ -885,7 +923,7 @@ def _load_kernels(command: str) -> bool:
         )
         return False
     if seconds is not None:
-        say(f"kernels ready in {seconds:.0f} s (cached: later starts take a few seconds)")
+        say(f"kernels{of} ready in {seconds:.0f} s (cached: later starts take a few seconds)")
     return True
 
 

@@ -44,6 +44,7 @@ it as a replay of its original, never under the original's id.
 
 import contextlib
 import errno
+import importlib
 import json
 import signal
 import threading
@@ -279,6 +280,7 @@ class InProcess:
         self,
         timeout: float | None = DEFAULT_TIMEOUT_S,
         limits: Mapping[str, Mapping[str, int]] | None = None,
+        load: Callable[[str], object] | None = None,
     ) -> None:
         from plotgate.service import registry
 
@@ -286,6 +288,10 @@ class InProcess:
         self._timeout = min(timeout or 0.0, LONGEST_DEADLINE_S)
         """Seconds an exchange may take; 0: no deadline."""
         self._limits = limits or {}
+        self._load = load
+        """Called with an operation's name before its first exchange runs (the CLI loads
+        its kernels there, saying when they compile; its failure ends the replay)."""
+        self._met: set[str] = set()
         self._previous: Any = None
         self._installed = False
 
@@ -310,6 +316,9 @@ class InProcess:
             with self:
                 return self(exchange, rid)
         op = self._registry.OPERATIONS[exchange.operation]
+        # imported here, not in the answer's try below: an import that fails (a damaged
+        # kernel cache) ends the replay, it is no 500
+        self.meet(op.name)
         try:
             # The timer is disarmed in the inner finally, so an alarm that rings late
             # still lands in the except clauses below, never in the caller.
@@ -330,6 +339,16 @@ class InProcess:
             return Answer(None, skip=OVER_CAPS)
         return Answer(outcome.status, outcome.json())
 
+    def meet(self, operation: str) -> None:
+        """Load ``operation`` if this runner has not met it yet (``load``, then its handler's
+        module); :func:`replay` calls it before it starts an exchange's clock, so a
+        replayed duration holds no import or compilation."""
+        if operation not in self._met:
+            if self._load is not None:
+                self._load(operation)
+            importlib.import_module(self._registry.OPERATIONS[operation].module)
+            self._met.add(operation)
+
     def _outcome(self, op: "Operation", exchange: Exchange, rid: str) -> "Outcome | None":
         """The registry's outcome, or None for a request over the caps whose recorded
         answer is not that cap's refusal."""
@@ -343,6 +362,10 @@ class InProcess:
         if _refused_alike(exchange, over.status, [e.field for e in over.errors]):
             return registry.failed(op, over, rid)  # the recorded cap refusal, again
         return None
+
+
+def _loaded_by_the_server(operation: str) -> None:
+    """Over HTTP, nothing to load before an exchange: the server has every operation."""
 
 
 def in_process(
@@ -411,6 +434,7 @@ def replay(
     filters: Filters | None = None,
     timeout: float | None = DEFAULT_TIMEOUT_S,
     limits: Mapping[str, Mapping[str, int]] | None = None,
+    load: Callable[[str], object] | None = None,
 ) -> ReplayReport:
     """Replay every exchange in the files at ``paths`` (files or folders) and compare.
 
@@ -426,6 +450,9 @@ def replay(
     limits : in-process work caps, ``{operation: {size: cap}}`` (the server's are
         ``Settings().limits``: the defaults with ``PLOTGATE_LIMITS`` over them); exchanges
         over them are not run. None runs every exchange.
+    load : in-process, called with an operation's name before its first exchange runs
+        (the registry imports each operation when it first runs; the CLI loads its kernels
+        here, saying when they compile).
 
     Raises :class:`plotgate.clients.TransportError` when the server cannot be reached, and
     ``FileNotFoundError`` for a path that does not exist.
@@ -441,8 +468,10 @@ def replay(
                 httpx.Client(base_url=server, timeout=httpx.Timeout(timeout, connect=10.0))
             )
             run: Runner = over_http(http)
+            meet: Callable[[str], None] = _loaded_by_the_server
         else:
-            run = resources.enter_context(InProcess(timeout, limits))
+            runner = resources.enter_context(InProcess(timeout, limits, load))
+            run, meet = runner, runner.meet
         writer = resources.enter_context(_SessionWriter(out, reader.paths)) if out else None
         from tqdm import tqdm
 
@@ -459,6 +488,7 @@ def replay(
                 continue
             if reason is None:
                 rid = uuid.uuid4().hex
+                meet(exchange.operation)
                 started = time.perf_counter()
                 answer = run(exchange, rid)
                 reason = answer.skip

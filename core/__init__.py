@@ -19,7 +19,8 @@ r, az : range (m) and azimuth, clockwise from north: x = r sin az, y = r cos az.
 K_R, K_az : window coefficients of the polar sector gates.
 """
 
-from plotgate.core.covariance import MAX_CONDITION, check_covariance
+from typing import TYPE_CHECKING
+
 from plotgate.core.errors import (
     CovarianceError,
     GeometryError,
@@ -27,44 +28,48 @@ from plotgate.core.errors import (
     ParameterError,
     PlotgateError,
 )
-from plotgate.core.frames import (
-    cartesian_covariance_to_polar,
-    cartesian_to_polar,
-    polar_covariance_to_cartesian,
-    polar_to_cartesian,
-    wrap_angle,
-)
-from plotgate.core.gates import (
-    CombinedGate,
-    EllipseGate,
-    ExpandedGate,
-    FalseMarks,
-    FirstAssociationGate,
-    Gate,
-    GateDesign,
-    GateProbability,
-    GateResult,
-    GateStage,
-    MarkGeometry,
-    RectangularGate,
-    RingGate,
-    SectorGate,
-    StarRegion,
-    capture_probability,
-    combined_area_approximation,
-    conditional_probability,
-    design_gate,
-    expansion_coefficient,
-    false_marks,
-    gate_area,
-    gate_threshold,
-    innovation_covariance,
-    mark_geometry,
-    monte_carlo_probability,
-    rectangular_coefficient,
-    resolution_cells,
-    unconditional_probability,
-)
+from plotgate.core.exports import lazy_exports
+
+if TYPE_CHECKING:
+    from plotgate.core.covariance import MAX_CONDITION, check_covariance
+    from plotgate.core.frames import (
+        cartesian_covariance_to_polar,
+        cartesian_to_polar,
+        polar_covariance_to_cartesian,
+        polar_to_cartesian,
+        wrap_angle,
+    )
+    from plotgate.core.gates import (
+        CombinedGate,
+        EllipseGate,
+        ExpandedGate,
+        FalseMarks,
+        FirstAssociationGate,
+        Gate,
+        GateDesign,
+        GateProbability,
+        GateResult,
+        GateStage,
+        MarkGeometry,
+        RectangularGate,
+        RingGate,
+        SectorGate,
+        StarRegion,
+        capture_probability,
+        combined_area_approximation,
+        conditional_probability,
+        design_gate,
+        expansion_coefficient,
+        false_marks,
+        gate_area,
+        gate_threshold,
+        innovation_covariance,
+        mark_geometry,
+        monte_carlo_probability,
+        rectangular_coefficient,
+        resolution_cells,
+        unconditional_probability,
+    )
 
 __all__ = [
     "MAX_CONDITION",
@@ -109,3 +114,51 @@ __all__ = [
     "rectangular_coefficient",
     "wrap_angle",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "plotgate.core.covariance": (
+            "MAX_CONDITION",
+            "check_covariance",
+        ),
+        "plotgate.core.frames": (
+            "cartesian_covariance_to_polar",
+            "cartesian_to_polar",
+            "polar_covariance_to_cartesian",
+            "polar_to_cartesian",
+            "wrap_angle",
+        ),
+        "plotgate.core.gates": (
+            "CombinedGate",
+            "EllipseGate",
+            "ExpandedGate",
+            "FalseMarks",
+            "FirstAssociationGate",
+            "Gate",
+            "GateDesign",
+            "GateProbability",
+            "GateResult",
+            "GateStage",
+            "MarkGeometry",
+            "RectangularGate",
+            "RingGate",
+            "SectorGate",
+            "StarRegion",
+            "capture_probability",
+            "combined_area_approximation",
+            "conditional_probability",
+            "design_gate",
+            "expansion_coefficient",
+            "false_marks",
+            "gate_area",
+            "gate_threshold",
+            "innovation_covariance",
+            "mark_geometry",
+            "monte_carlo_probability",
+            "rectangular_coefficient",
+            "resolution_cells",
+            "unconditional_probability",
+        ),
+    },
+)

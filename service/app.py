@@ -38,7 +38,7 @@ from plotgate.service.openapi import ASSETS_PATH, assets_folder, docs_router, op
 from plotgate.service.problems import ProblemError, field_errors, problem_json
 from plotgate.service.provenance import VERSION, provenance
 from plotgate.service.recording import Recorder
-from plotgate.service.registry import OPERATIONS, check_limits
+from plotgate.service.registry import OPERATIONS, check_limits, load_all
 from plotgate.service.routes import PROBLEM_JSON, Operations, health_router, request_id_of
 
 __all__ = ["create_app"]
@@ -57,6 +57,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the plotgate app; ``settings`` default to the ``PLOTGATE_*`` environment."""
     settings = settings or get_settings()
     check_limits(settings.limits)
+    # every handler and kernel now, not on a first request (the registry imports lazily)
+    load_all()
     logging.getLogger("uvicorn.access").addFilter(REDACT_QUERY)
 
     @asynccontextmanager

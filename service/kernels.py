@@ -75,30 +75,40 @@ def cache_files(package: str = "plotgate.core") -> list[Path]:
     return sorted(found)
 
 
-def _forget_modules() -> None:
+def _forget_modules(loaded: set[str]) -> None:
     """Drop the modules a failed import left loaded, so the next import compiles their
-    kernels too and caches them again (their files were removed with the damaged ones)."""
+    kernels too and caches them again (their files were removed with the damaged ones).
+
+    Modules ``loaded`` before the import began stay: an in-process replay loads each
+    operation as it meets it, and the modules it already runs (the registry, core's errors)
+    must stay the ones its running code refers to. Their kernels stay compiled in memory
+    and are cached again by the next process."""
     for name in [m for m in sys.modules if m.startswith(("plotgate.core", "plotgate.service."))]:
-        if name != __name__:
+        if name != __name__ and name not in loaded:
             del sys.modules[name]
 
 
-def _watched_import(announce: Callable[[], None], module: str) -> bool:
-    """Import ``module``; whether a kernel compiled meanwhile."""
+def _watched_import(announce: Callable[[], None], module: str | None) -> bool:
+    """Import ``module`` (None: every operation's handler); whether a kernel compiled
+    meanwhile."""
     listener = _FirstCompile(announce)
     with numba_event.install_listener("numba:compile", listener):
-        importlib.import_module(module)
+        if module is None:
+            importlib.import_module("plotgate.service.registry").load_all()
+        else:
+            importlib.import_module(module)
     return listener.compiled
 
 
 def load_kernels(
     announce: Callable[[], None],
-    module: str = "plotgate.service.registry",
+    module: str | None = None,
     repaired: Callable[[Exception, int], None] = lambda exc, removed: None,
     package: str = "plotgate.core",
 ) -> float | None:
-    """Import ``module`` (by default the registry: every operation, and so every kernel)
-    and call ``announce()`` once if a kernel compiles meanwhile.
+    """Import ``module`` (by default every operation's handler, and so every kernel: see
+    :func:`plotgate.service.registry.load_all`; one operation's handler module loads just
+    its kernels) and call ``announce()`` once if a kernel compiles meanwhile.
 
     When the import fails with cache files of ``package`` (where the kernels are)
     present, they are removed, ``repaired(exc,
@@ -107,6 +117,7 @@ def load_kernels(
     compiled, None when every kernel came from numba's cache or was already loaded.
     """
     started = time.monotonic()
+    loaded = set(sys.modules)
     try:
         compiled = _watched_import(announce, module)
     except Exception as exc:  # noqa: BLE001 - numba raises what unpickling a damaged file raises
@@ -115,7 +126,7 @@ def load_kernels(
             raise
         for path in damaged:
             path.unlink(missing_ok=True)
-        _forget_modules()
+        _forget_modules(loaded)
         repaired(exc, len(damaged))
         try:
             compiled = _watched_import(announce, module)

@@ -53,6 +53,7 @@ from plotgate.service.registry import (
     Parsed,
     failed,
     internal_error,
+    load_all,
     parse,
     run,
 )
@@ -110,11 +111,12 @@ PR_SET_PDEATHSIG = 1
 
 def _start(server: int, scheduler: str | None, timeout_s: float | None) -> None:
     """In the worker, once: dying with the server, no Ctrl-C of its own (the server stops
-    it), the server's cluster, and what the imports built kept out of every collection, as
-    in the server."""
+    it), the server's cluster, every operation imported (as the server does) and what the
+    imports built kept out of every collection, as in the server."""
     _die_with(server)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     configure(scheduler, timeout_s)
+    load_all()
     gc.collect()
     gc.freeze()
 

@@ -4,12 +4,16 @@ Each :class:`Operation` binds a wire contract (:class:`~plotgate.service.schemas
 such
 as ``gates.test``, HTTP path, request and response models) to a pure handler
 ``(request) -> response`` that calls core. Adding a capability means declaring its endpoint
-in :mod:`plotgate.service.schemas.endpoints` and adding one line to ``_HANDLERS``.
+in :mod:`plotgate.service.schemas.endpoints` and adding one line to :data:`HANDLERS`.
+Handlers are imported when first used (:class:`Operation`); the service imports them all
+before it answers (:func:`load_all`).
 
 :func:`execute` runs an operation on a raw request body exactly as the HTTP route does,
 so an in-process replay answers byte for byte what the server would.
 """
 
+import functools
+import importlib
 import json
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -21,19 +25,13 @@ from plotgate.core import PlotgateError
 from plotgate.service.bodies import is_strict_json, shape_problem, value_ceiling
 from plotgate.service.cluster import ClusterTimeout, ClusterUnavailable
 from plotgate.service.fields import FieldMap, resolve
-from plotgate.service.operations import (
-    gates,
-    identification,
-    initiation,
-    probability,
-    solves,
-    study,
-)
 from plotgate.service.problems import ProblemError, from_core, from_validation, problem_json
 from plotgate.service.schemas import ENDPOINTS, MEMORY_BUDGET_MIB, Endpoint, FieldError
 
 __all__ = [
+    "HANDLERS",
     "OPERATIONS",
+    "OPERATIONS_PACKAGE",
     "Operation",
     "Outcome",
     "Parsed",
@@ -41,11 +39,14 @@ __all__ = [
     "execute",
     "failed",
     "internal_error",
+    "load_all",
     "misshapen",
     "over_caps",
     "parse",
     "run",
 ]
+
+OPERATIONS_PACKAGE = "plotgate.service.operations"
 
 Handler = Callable[[Any], BaseModel]
 """A pure function from a validated request model to a response model."""
@@ -53,12 +54,30 @@ Handler = Callable[[Any], BaseModel]
 
 @dataclass(frozen=True)
 class Operation:
-    """One capability: its wire contract, handler and error-field mapping."""
+    """One capability: its wire contract, handler and error-field mapping.
+
+    The handler's module, and with it the part of core it calls (its kernels, scipy), is
+    imported when the handler or its field map is first asked for, so a process that runs
+    one operation (a replay of gate tests, a ``call``) does not wait for all of them.
+    """
 
     endpoint: Endpoint
-    handler: Handler
-    fields: FieldMap
-    """Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+    module: str
+    """The module of :mod:`plotgate.service.operations` holding the handler."""
+    handler_name: str
+    fields_name: str
+
+    @functools.cached_property
+    def handler(self) -> Handler:
+        """The pure function answering the operation (importing its module)."""
+        handler: Handler = getattr(importlib.import_module(self.module), self.handler_name)
+        return handler
+
+    @functools.cached_property
+    def fields(self) -> FieldMap:
+        """Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
+        fields: FieldMap = getattr(importlib.import_module(self.module), self.fields_name)
+        return fields
 
     @property
     def name(self) -> str:
@@ -77,30 +96,40 @@ class Operation:
         return self.endpoint.response
 
 
-_HANDLERS: dict[str, tuple[Handler, FieldMap]] = {
-    "gates.test": (gates.test, gates.TEST_FIELDS),
-    "gates.pairs": (gates.pairs, gates.PAIRS_FIELDS),
-    "gates.probability": (probability.probability, probability.PROBABILITY_FIELDS),
-    "gates.probability_curve": (probability.curve, probability.CURVE_FIELDS),
-    "gates.analysis": (probability.analysis, probability.ANALYSIS_FIELDS),
-    "gates.design": (probability.design, probability.DESIGN_FIELDS),
-    "solves.position": (solves.position, solves.POSITION_FIELDS),
-    "solves.trajectory": (solves.trajectory, solves.TRAJECTORY_FIELDS),
-    "solves.crlb": (solves.crlb, solves.CRLB_FIELDS),
-    "solves.noise": (solves.noise, solves.NOISE_FIELDS),
-    "solves.study": (study.study, study.STUDY_FIELDS),
-    "initiation.initiate": (initiation.initiate, initiation.INITIATE_FIELDS),
-    "initiation.simulate": (initiation.simulate, initiation.SIMULATE_FIELDS),
-    "initiation.evaluate": (initiation.evaluate, initiation.EVALUATE_FIELDS),
-    "identification.pair": (identification.pair, identification.PAIR_FIELDS),
-    "identification.picture": (identification.picture, identification.PICTURE_FIELDS),
-    "identification.simulate": (identification.simulate, identification.SIMULATE_FIELDS),
+HANDLERS: dict[str, tuple[str, str, str]] = {
+    "gates.test": ("gates", "test", "TEST_FIELDS"),
+    "gates.pairs": ("gates", "pairs", "PAIRS_FIELDS"),
+    "gates.probability": ("probability", "probability", "PROBABILITY_FIELDS"),
+    "gates.probability_curve": ("probability", "curve", "CURVE_FIELDS"),
+    "gates.analysis": ("probability", "analysis", "ANALYSIS_FIELDS"),
+    "gates.design": ("probability", "design", "DESIGN_FIELDS"),
+    "solves.position": ("solves", "position", "POSITION_FIELDS"),
+    "solves.trajectory": ("solves", "trajectory", "TRAJECTORY_FIELDS"),
+    "solves.crlb": ("solves", "crlb", "CRLB_FIELDS"),
+    "solves.noise": ("solves", "noise", "NOISE_FIELDS"),
+    "solves.study": ("study", "study", "STUDY_FIELDS"),
+    "initiation.initiate": ("initiation", "initiate", "INITIATE_FIELDS"),
+    "initiation.simulate": ("initiation", "simulate", "SIMULATE_FIELDS"),
+    "initiation.evaluate": ("initiation", "evaluate", "EVALUATE_FIELDS"),
+    "identification.pair": ("identification", "pair", "PAIR_FIELDS"),
+    "identification.picture": ("identification", "picture", "PICTURE_FIELDS"),
+    "identification.simulate": ("identification", "simulate", "SIMULATE_FIELDS"),
 }
+"""Where each operation's handler lives: its module in :mod:`plotgate.service.operations`,
+the handler's name and the name of its :data:`~plotgate.service.fields.FieldMap`."""
 
 OPERATIONS: dict[str, Operation] = {
-    name: Operation(ENDPOINTS[name], handler, fields)
-    for name, (handler, fields) in _HANDLERS.items()
+    name: Operation(ENDPOINTS[name], f"{OPERATIONS_PACKAGE}.{module}", handler, fields)
+    for name, (module, handler, fields) in HANDLERS.items()
 }
+
+
+def load_all() -> None:
+    """Import every operation's handler, and so every compiled kernel of core: what the
+    service does before it answers, so that no request pays for an import or a
+    compilation."""
+    for op in OPERATIONS.values():
+        importlib.import_module(op.module)
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
 """Shared fixtures: service settings on a temporary folder, the app, plots, the MCAP reader."""
 
+import dataclasses
 import io
 import json
 import shutil
@@ -9,6 +10,7 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
+from plotgate.service import registry
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 
@@ -25,6 +27,25 @@ def settings(tmp_path: Path) -> Settings:
 def client(settings: Settings):
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         yield c
+
+
+def with_handler(name: str, handler) -> registry.Operation:
+    """A copy of the registry's operation ``name`` answering with ``handler`` (held where
+    the registry keeps the handler it imports on first use)."""
+    op = dataclasses.replace(registry.OPERATIONS[name])
+    vars(op)["handler"] = handler
+    return op
+
+
+@pytest.fixture
+def swap_handler(monkeypatch):
+    """Swap an operation's handler in the registry for one test (a bug, a slow handler):
+    ``swap_handler(name, handler)``."""
+
+    def swap(name: str, handler) -> None:
+        monkeypatch.setitem(registry.OPERATIONS, name, with_handler(name, handler))
+
+    return swap
 
 
 class McapReader:

@@ -52,33 +52,38 @@ rho : squared Mahalanobis distance nu^T S^-1 nu; gamma : its threshold for P_G.
 r, az : range (m) and azimuth (rad, clockwise from north) of a polar mark.
 """
 
-from plotgate.core.gates.analysis import (
-    FalseMarks,
-    GateDesign,
-    capture_probability,
-    combined_area_approximation,
-    design_gate,
-    false_marks,
-    gate_area,
-    resolution_cells,
-)
-from plotgate.core.gates.capture import CombinedGate, ExpandedGate, RingGate
-from plotgate.core.gates.kinds import Gate
-from plotgate.core.gates.polar import FirstAssociationGate, SectorGate
-from plotgate.core.gates.probability import (
-    GateProbability,
-    conditional_probability,
-    monte_carlo_probability,
-    unconditional_probability,
-)
-from plotgate.core.gates.regions import MarkGeometry, StarRegion, mark_geometry
-from plotgate.core.gates.results import GateResult, GateStage
-from plotgate.core.gates.thresholds import (
-    expansion_coefficient,
-    gate_threshold,
-    rectangular_coefficient,
-)
-from plotgate.core.gates.tracking import EllipseGate, RectangularGate, innovation_covariance
+from typing import TYPE_CHECKING
+
+from plotgate.core.exports import lazy_exports
+
+if TYPE_CHECKING:
+    from plotgate.core.gates.analysis import (
+        FalseMarks,
+        GateDesign,
+        capture_probability,
+        combined_area_approximation,
+        design_gate,
+        false_marks,
+        gate_area,
+        resolution_cells,
+    )
+    from plotgate.core.gates.capture import CombinedGate, ExpandedGate, RingGate
+    from plotgate.core.gates.kinds import Gate
+    from plotgate.core.gates.polar import FirstAssociationGate, SectorGate
+    from plotgate.core.gates.probability import (
+        GateProbability,
+        conditional_probability,
+        monte_carlo_probability,
+        unconditional_probability,
+    )
+    from plotgate.core.gates.regions import MarkGeometry, StarRegion, mark_geometry
+    from plotgate.core.gates.results import GateResult, GateStage
+    from plotgate.core.gates.thresholds import (
+        expansion_coefficient,
+        gate_threshold,
+        rectangular_coefficient,
+    )
+    from plotgate.core.gates.tracking import EllipseGate, RectangularGate, innovation_covariance
 
 __all__ = [
     "CombinedGate",
@@ -111,3 +116,54 @@ __all__ = [
     "resolution_cells",
     "unconditional_probability",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "plotgate.core.gates.analysis": (
+            "FalseMarks",
+            "GateDesign",
+            "capture_probability",
+            "combined_area_approximation",
+            "design_gate",
+            "false_marks",
+            "gate_area",
+            "resolution_cells",
+        ),
+        "plotgate.core.gates.capture": (
+            "CombinedGate",
+            "ExpandedGate",
+            "RingGate",
+        ),
+        "plotgate.core.gates.kinds": ("Gate",),
+        "plotgate.core.gates.polar": (
+            "FirstAssociationGate",
+            "SectorGate",
+        ),
+        "plotgate.core.gates.probability": (
+            "GateProbability",
+            "conditional_probability",
+            "monte_carlo_probability",
+            "unconditional_probability",
+        ),
+        "plotgate.core.gates.regions": (
+            "MarkGeometry",
+            "StarRegion",
+            "mark_geometry",
+        ),
+        "plotgate.core.gates.results": (
+            "GateResult",
+            "GateStage",
+        ),
+        "plotgate.core.gates.thresholds": (
+            "expansion_coefficient",
+            "gate_threshold",
+            "rectangular_coefficient",
+        ),
+        "plotgate.core.gates.tracking": (
+            "EllipseGate",
+            "RectangularGate",
+            "innovation_covariance",
+        ),
+    },
+)

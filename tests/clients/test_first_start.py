@@ -116,3 +116,62 @@ def test_kernels_that_cannot_be_cached_end_the_command_with_a_message(
     err = capsys.readouterr().err
     assert err.startswith("plotgate call: cannot compile and cache the numerical kernels")
     assert "No space left on device" in err and "Traceback" not in err
+
+
+def _gate_recording(settings) -> Path:
+    from fastapi.testclient import TestClient
+
+    from plotgate.service.app import create_app
+
+    with TestClient(create_app(settings)) as client:
+        for i in range(3):
+            body = json.loads(Path(_gate_request(settings.log_dir.parent)).read_text())
+            assert client.post("/v1/gates/test", json=body).status_code == 200, i
+    return settings.log_dir
+
+
+def test_a_replay_loads_the_kernels_of_the_operations_it_meets(settings, monkeypatch, capsys):
+    folder = _gate_recording(settings)
+    loaded = []
+
+    def compiling(announce, module=None, **options):
+        loaded.append(module)
+        announce()
+        return 3.2
+
+    monkeypatch.setattr(kernels, "load_kernels", compiling)
+    assert main(["replay", str(folder)]) == 0
+    assert loaded == ["plotgate.service.operations.gates"]  # once, and that operation's only
+    err = capsys.readouterr().err.splitlines()
+    assert err == [  # each operation's kernels load as the replay first meets it, named
+        "plotgate replay: compiling numerical kernels of gates.test (first start only, a "
+        "minute or two)...",
+        "plotgate replay: kernels of gates.test ready in 3 s (cached: later starts take a "
+        "few seconds)",
+    ]
+
+
+def test_a_replay_whose_kernels_cannot_be_cached_ends_with_a_message(
+    settings, monkeypatch, capsys
+):
+    folder = _gate_recording(settings)
+
+    def full_disk(*args, **kwargs):
+        raise kernels.CacheRepairFailed("OSError: [Errno 28] No space left on device")
+
+    monkeypatch.setattr(kernels, "load_kernels", full_disk)
+    assert main(["replay", str(folder), "--out", str(settings.log_dir.parent / "out.mcap")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("plotgate replay: cannot compile and cache the numerical kernels")
+    assert "No space left on device" in err and "Traceback" not in err
+
+
+def test_a_call_loads_its_operation_s_kernels_only(tmp_path, monkeypatch, capsys):
+    loaded = []
+
+    def load(announce, module=None, **options):
+        loaded.append(module)
+
+    monkeypatch.setattr(kernels, "load_kernels", load)
+    assert main(["call", "gates.test", _gate_request(tmp_path)]) == 0
+    assert loaded == ["plotgate.service.operations.gates"]

@@ -211,15 +211,15 @@ def _events(folder: Path) -> list[tuple[int, str, bytes]]:
     return out
 
 
-def test_a_recorded_500_replays_by_the_contract_without_a_traceback(settings, monkeypatch, capsys):
+def test_a_recorded_500_replays_by_the_contract_without_a_traceback(
+    settings, monkeypatch, capsys, swap_handler
+):
     op = registry.OPERATIONS[OP]
 
     def broken(request):
         raise RuntimeError("boom")
 
-    monkeypatch.setitem(
-        registry.OPERATIONS, OP, registry.Operation(op.endpoint, broken, op.fields)
-    )
+    swap_handler(OP, broken)
     folder = _session(settings, [GOOD_BODY, BAD_BODY])
     capsys.readouterr()
     # the bug is still there: the same 500 again, unchanged
@@ -296,14 +296,14 @@ def test_body_timeouts_are_not_compared(tmp_path):
     assert (report.compared, report.unchanged, report.exit_code()) == (1, 1, 0)
 
 
-def test_timeout_and_work_caps(settings, monkeypatch, capsys):
+def test_timeout_and_work_caps(settings, monkeypatch, capsys, swap_handler):
     folder = _session(settings, [GOOD_BODY, GOOD_BODY])
     op = registry.OPERATIONS[OP]
 
     def slow(request):
         time.sleep(30)
 
-    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, slow, op.fields))
+    swap_handler(OP, slow)
     capsys.readouterr()
     started = time.monotonic()
     assert main(["replay", str(folder), "--timeout", "0.2"]) == 1

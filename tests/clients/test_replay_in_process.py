@@ -13,7 +13,6 @@ from hypothesis import strategies as st
 
 from plotgate.clients.recordings import Exchange
 from plotgate.clients.replay import InProcess, in_process, sent_body
-from plotgate.service import registry
 from plotgate.service.registry import OPERATIONS, execute
 
 OP = "gates.test"
@@ -97,13 +96,11 @@ def test_the_alarm_is_installed_once_per_run_and_removed_after():
     assert signal.getsignal(signal.SIGALRM) is before
 
 
-def test_an_exchange_over_its_deadline_is_stopped_in_and_out_of_with(monkeypatch):
-    op = OPERATIONS[OP]
-
+def test_an_exchange_over_its_deadline_is_stopped_in_and_out_of_with(swap_handler):
     def slow(request):
         time.sleep(30)
 
-    monkeypatch.setitem(OPERATIONS, OP, registry.Operation(op.endpoint, slow, op.fields))
+    swap_handler(OP, slow)
     ex = _exchange({"request_id": "r1", "operation": OP, "body": GOOD})
     started = time.monotonic()
     with InProcess(timeout=0.1) as run:
@@ -140,3 +137,36 @@ def test_a_body_deeper_than_pydantic_core_serializes_falls_back_to_json():
         body = [body] if i % 2 else {"a": body}
     ex = _exchange({"request_id": "r1", "operation": OP, "body": body})
     assert json.loads(sent_body(ex)) == body
+
+
+def test_loading_an_operation_is_not_counted_in_its_first_replayed_duration(tmp_path, monkeypatch):
+    """The first exchange of an operation waits for its module (and, on a first start, its
+    kernels' compilation): that wait happens before the exchange's clock starts. A fake
+    clock moves only while the operation loads."""
+    from fastapi.testclient import TestClient
+
+    from plotgate.clients import replay as replay_module
+    from plotgate.clients.recordings import read_recording
+    from plotgate.service.app import create_app
+    from plotgate.service.config import Settings
+
+    folder = tmp_path / "recorded"
+    with TestClient(create_app(Settings(log_dir=folder, git_commit="test"))) as client:
+        for i in range(2):
+            assert client.post("/v1/gates/test", json=GOOD).status_code == 200, i
+    clock = [0.0]
+
+    class Clock:
+        @staticmethod
+        def perf_counter() -> float:
+            return clock[0]
+
+    def load(operation: str) -> None:
+        clock[0] += 100.0
+
+    monkeypatch.setattr(replay_module, "time", Clock)
+    out = tmp_path / "replayed.mcap"
+    report = replay_module.replay(folder, out=out, progress=False, load=load)
+    assert (report.compared, report.unchanged, clock[0]) == (2, 2, 100.0)
+    durations = [ex.response["duration_s"] for ex in read_recording(out).exchanges]
+    assert durations == [0.0, 0.0]

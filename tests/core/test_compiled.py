@@ -6,7 +6,6 @@ import pkgutil
 from numba.core.registry import CPUDispatcher
 
 import plotgate.core
-import plotgate.service.app  # noqa: F401 - the service imports every kernel before /readyz
 
 
 def _kernels() -> dict[str, CPUDispatcher]:

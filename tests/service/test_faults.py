@@ -54,15 +54,11 @@ def test_unrecordable_exchange_is_refused_then_recovers(settings, monkeypatch):
     assert "back" in answered and "lost" not in answered
 
 
-def test_a_bug_answers_500_and_is_recorded(settings, monkeypatch):
-    op = registry.OPERATIONS["gates.test"]
-
+def test_a_bug_answers_500_and_is_recorded(settings, monkeypatch, swap_handler):
     def broken(request):
         raise RuntimeError("boom")
 
-    monkeypatch.setitem(
-        registry.OPERATIONS, "gates.test", registry.Operation(op.endpoint, broken, op.fields)
-    )
+    swap_handler("gates.test", broken)
     monkeypatch.setattr("plotgate.service.routes.OPERATIONS", registry.OPERATIONS)
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": "bug"})

@@ -47,6 +47,7 @@ LOAD = """
 import os
 import subprocess
 import sys
+from plotgate.service import registry
 from plotgate.service.kernels import load_kernels
 
 said = []
@@ -56,14 +57,16 @@ seconds = load_kernels(
     repaired=lambda exc, removed: said.append(f"removed {removed}"),
     package="cached_kernels",
 )
-print(said, seconds is not None, sys.modules["cached_kernels"].twice(2.0))
+kept = sys.modules["plotgate.service.registry"] is registry
+print(said, seconds is not None, sys.modules["cached_kernels"].twice(2.0), kept)
 """
 
 
 def test_a_damaged_cache_is_removed_and_compiled_again(tmp_path):
     """numba raises on a cache file cut short; the files go, the kernels compile and are
-    cached again, and the next start loads them. In subprocesses: a failed import drops
-    modules from sys.modules."""
+    cached again, and the next start loads them. Modules loaded before stay the ones the
+    running code holds (a replay loads each operation as it meets it). In subprocesses: a
+    failed import drops modules from sys.modules."""
     (tmp_path / "cached_kernels").mkdir()
     (tmp_path / "cached_kernels/__init__.py").write_text(CACHED_MODULE)
     cache = tmp_path / "numba-cache"
@@ -76,11 +79,11 @@ def test_a_damaged_cache_is_removed_and_compiled_again(tmp_path):
         assert run.returncode == 0, run.stderr
         return run.stdout.strip()
 
-    assert start() == "['compiling'] True 4.0"
-    assert start() == "[] False 4.0"
+    assert start() == "['compiling'] True 4.0 True"
+    assert start() == "[] False 4.0 True"
     data = list(cache.rglob("*.nbc"))
     assert data
     for path in data:
         path.write_bytes(path.read_bytes()[:100])
-    assert start() == "['removed 2', 'compiling'] True 4.0"
-    assert start() == "[] False 4.0"
+    assert start() == "['removed 2', 'compiling'] True 4.0 True"
+    assert start() == "[] False 4.0 True"

@@ -5,7 +5,6 @@ The refusals are tested with the operation's handler replaced by one that fails 
 if it runs: the cap must answer before any work, and on a build without the cap the
 request would reach the handler (a 500 here, seconds and gigabytes for real)."""
 
-import dataclasses
 from collections.abc import Callable
 from typing import Any
 
@@ -27,7 +26,7 @@ from plotgate.service.schemas import (
     StudyRequest,
     work_caps,
 )
-from tests.conftest import answer, invalid_input
+from tests.conftest import answer, invalid_input, with_handler
 
 
 def _without_work(name: str) -> Any:
@@ -36,7 +35,7 @@ def _without_work(name: str) -> Any:
     def handler(request: Any) -> Any:
         raise AssertionError(f"{name} started its work")
 
-    return dataclasses.replace(OPERATIONS[name], handler=handler)
+    return with_handler(name, handler)
 
 
 @pytest.fixture
