@@ -259,17 +259,23 @@ def _replay(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
         return 2
-    report = replay(
-        args.paths,
-        server=args.server,
-        rtol=args.rtol,
-        atol=args.atol,
-        out=args.out,
-        progress=None,
-        filters=_filters(args),
-        timeout=args.timeout or None,
-        limits=limits,
-    )
+    if args.dask is not None or args.local_workers is not None:
+        fleet = _replay_on_cluster(args, limits)
+        if fleet is None:
+            return 2
+        report = fleet
+    else:
+        report = replay(
+            args.paths,
+            server=args.server,
+            rtol=args.rtol,
+            atol=args.atol,
+            out=args.out,
+            progress=None,
+            filters=_filters(args),
+            timeout=args.timeout or None,
+            limits=limits,
+        )
     code = report.exit_code(args.allow_empty)
     _notes("replay", report.unreadable + report.skipped)
     if args.report:
@@ -282,6 +288,35 @@ def _replay(args: argparse.Namespace) -> int:
         )
     _write(text)
     return code
+
+
+def _replay_on_cluster(args: argparse.Namespace, limits: dict[str, dict[str, int]] | None):
+    """``replay --dask/--local-workers``: the report, or None after saying on stderr why
+    there is none (no cluster, a worker that cannot read the folder, --out)."""
+    from plotgate.clients.fleet import Judging, WorkerCannotRead, fleet_replay
+    from plotgate.service.cluster import ClusterUnavailable
+
+    if args.out is not None:
+        print(
+            "plotgate replay: --out writes one session file, which many workers cannot; "
+            "replay without --dask/--local-workers to write it",
+            file=sys.stderr,
+        )
+        return None
+    judging = Judging(args.rtol, args.atol, args.timeout or None, limits, _filters(args))
+    try:
+        return fleet_replay(
+            args.paths,
+            judging,
+            address=args.dask,
+            local_workers=args.local_workers,
+            progress=sys.stderr.isatty(),
+        )
+    except WorkerCannotRead as exc:
+        print(f"plotgate replay: {exc.filename}: {exc.strerror}", file=sys.stderr)
+    except ClusterUnavailable as exc:
+        print(f"plotgate replay: {exc}", file=sys.stderr)
+    return None
 
 
 def _recover(args: argparse.Namespace) -> int:
@@ -505,7 +540,22 @@ def _parser() -> argparse.ArgumentParser:
         epilog=REPLAY_EXIT_CODES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    rep.add_argument("--server", help="replay against this live server URL (default in-process)")
+    where = rep.add_mutually_exclusive_group()
+    where.add_argument("--server", help="replay against this live server URL (default in-process)")
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="in-process on the workers of this Dask scheduler, files and chunk ranges "
+        "spread over them (the recording folder at the same path on every worker); the "
+        "report and exit status are the serial run's",
+    )
+    where.add_argument(
+        "--local-workers",
+        type=_at_least(1),
+        metavar="N",
+        help="as --dask, on a local Dask cluster of N worker processes (started and stopped "
+        "by the command)",
+    )
     rep.add_argument("--rtol", type=float, default=1e-9, help="relative float tolerance")
     rep.add_argument("--atol", type=float, default=1e-12, help="absolute float tolerance")
     rep.add_argument(

@@ -29,7 +29,7 @@ import json
 import os
 import re
 from collections import OrderedDict, deque
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -51,7 +51,9 @@ from plotgate.service.schemas import REQUEST_ID_PATTERN, Problem
 
 __all__ = [
     "MAX_DEPTH",
+    "RECENT",
     "Exchange",
+    "OnRecord",
     "Filters",
     "Reader",
     "Recording",
@@ -68,7 +70,7 @@ JSON parser (nesting limit 200) takes it, inside a one-level envelope."""
 REQUEST_ID = re.compile(REQUEST_ID_PATTERN)
 MAX_LISTED = 100
 """Damage listed per file; the rest is counted."""
-_RECENT = 200_000
+RECENT = 200_000
 """Records of answered exchanges remembered to recognise one written twice."""
 
 
@@ -342,6 +344,11 @@ class _Waiting:
     """The parsed record (None with ``data``)."""
 
 
+OnRecord = Callable[[str, str, dict[str, Any], int, Located, bytes], None]
+"""Called with each intact record instead of pairing it: (kind, operation, parsed record,
+log time, where it is, its bytes)."""
+
+
 class Reader:
     """Read recordings and give each exchange once (iterate), requests and responses paired
     across every file by (operation, request id) in time order.
@@ -370,8 +377,17 @@ class Reader:
         filters: Filters | None = None,
         *,
         max_record_bytes: int = MAX_RECORD_BYTES,
+        span: tuple[int, int] | None = None,
+        on_record: OnRecord | None = None,
     ) -> None:
+        """``span`` reads only that range of each file (:class:`Scan`); ``on_record`` takes
+        every intact record in file order, and then nothing is paired (the fleet replay
+        pairs the records of many parts itself)."""
         self.paths = recording_files(paths)
+        self.span = span
+        self.on_record = on_record
+        self.stopped_at = 0
+        """Where reading the last file stopped (:attr:`Scan.stopped_at`)."""
         self.filters = filters or Filters()
         self.max_record_bytes = max_record_bytes
         self.files: list[Recording] = []
@@ -399,7 +415,7 @@ class Reader:
         yield from self._leftovers()
 
     def _file(self, rec: Recording) -> Iterator[Exchange]:
-        scan = Scan(rec.path, max_record_bytes=self.max_record_bytes)
+        scan = Scan(rec.path, max_record_bytes=self.max_record_bytes, span=self.span)
         channels: dict[int, tuple[str, str] | str] = {}
         schemas: set[int] = set()
         try:
@@ -423,6 +439,7 @@ class Reader:
             self.unreadable.append(rec.error)
         rec.size, rec.complete = scan.size, scan.complete
         rec.chunks, rec.chunks_damaged = scan.chunks, scan.chunks_damaged
+        self.stopped_at = scan.stopped_at
 
     def _message(
         self, rec: Recording, channels: dict[int, tuple[str, str] | str], item: Located
@@ -443,6 +460,9 @@ class Reader:
             record = parse_record(kind, operation, message.data)
         except ValueError as exc:
             rec.add_damage(Damage(item.offset, str(exc), item.inner))
+            return
+        if self.on_record is not None:
+            self.on_record(kind, operation, record, t, item, message.data)
             return
         rid = record["request_id"]
         key = (operation, rid)
@@ -482,7 +502,7 @@ class Reader:
         request, response = (current, waiting) if kind == "request" else (waiting, current)
         for done, kind_of in ((request, "request"), (response, "response")):
             self._recent[(kind_of, *key, done.log_time)] = done.source
-        while len(self._recent) > _RECENT:
+        while len(self._recent) > RECENT:
             self._recent.popitem(last=False)
         if request.data is not None:
             exchange = self._exchange(request)

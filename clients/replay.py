@@ -43,13 +43,13 @@ it as a replay of its original, never under the original's id.
 """
 
 import contextlib
+import ctypes
 import errno
 import json
 import signal
 import threading
 import time
 import uuid
-from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,7 +63,18 @@ from plotgate.clients.errors import TransportError
 from plotgate.clients.recordings import MAX_LISTED, Exchange, Filters, Reader, iso_time
 from plotgate.service.schemas import ENDPOINTS
 
-__all__ = ["Answer", "Change", "ReplayReport", "diff", "in_process", "over_http", "replay"]
+__all__ = [
+    "Answer",
+    "Change",
+    "Outcome",
+    "ReplayReport",
+    "diff",
+    "in_process",
+    "judge",
+    "over_http",
+    "replay",
+    "tally",
+]
 
 _MISSING = "<missing>"
 MAX_CHANGES = 1000
@@ -281,12 +292,22 @@ class _Overtime(BaseException):
 
 @contextlib.contextmanager
 def _deadline(seconds: float | None) -> Iterator[None]:
-    """Raise :class:`_Overtime` after ``seconds`` (a real-time alarm; only in the main
-    thread, where signals are delivered: elsewhere there is no deadline)."""
-    if not seconds or threading.current_thread() is not threading.main_thread():
+    """Raise :class:`_Overtime` after ``seconds``: a real-time alarm in the main thread,
+    where signals are delivered; elsewhere (a Dask worker's task thread) an asynchronous
+    exception set on the thread by a timer. Either is raised between two bytecodes, so a
+    long call into compiled code ends first."""
+    if not seconds:
         yield
-        return
+    elif threading.current_thread() is threading.main_thread():
+        with _alarm(seconds):
+            yield
+    else:
+        with _thread_alarm(seconds):
+            yield
 
+
+@contextlib.contextmanager
+def _alarm(seconds: float) -> Iterator[None]:
     def ring(signum: int, frame: object) -> None:
         raise _Overtime
 
@@ -297,6 +318,37 @@ def _deadline(seconds: float | None) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+
+
+@contextlib.contextmanager
+def _thread_alarm(seconds: float) -> Iterator[None]:
+    """:class:`_Overtime` in this thread after ``seconds``. Once the block is left the
+    timer is disarmed under a lock; an exception it set that has not been raised yet is
+    cleared and raised here, so it can never surface after the block."""
+    target = threading.get_ident()
+    lock = threading.Lock()
+    state = {"armed": True, "rang": False}
+
+    def ring() -> None:
+        with lock:
+            if state["armed"]:
+                state["rang"] = True
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(
+                    ctypes.c_ulong(target), ctypes.py_object(_Overtime)
+                )
+
+    timer = threading.Timer(seconds, ring)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        with lock:
+            state["armed"] = False
+        timer.cancel()
+        if state["rang"]:
+            ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), None)
+            raise _Overtime
 
 
 def in_process(
@@ -405,7 +457,6 @@ def replay(
     """
     report = ReplayReport()
     reader = Reader(paths, filters)
-    not_compared: Counter[str] = Counter()
     with contextlib.ExitStack() as resources:
         if server:
             http = resources.enter_context(
@@ -417,29 +468,7 @@ def replay(
         writer = resources.enter_context(_SessionWriter(out, reader.paths)) if out else None
         quiet = None if progress is None else not progress
         for exchange in tqdm(reader, desc="replay", unit="exchange", disable=quiet):
-            report.exchanges += 1
-            reason = _not_comparable(exchange)
-            if reason is None and exchange.operation not in ENDPOINTS:
-                _count(
-                    report,
-                    exchange,
-                    [("operation", exchange.operation, "not an operation of this build")],
-                )
-                continue
-            if reason is None:
-                rid = uuid.uuid4().hex
-                started = time.perf_counter()
-                answer = run(exchange, rid)
-                reason = answer.skip
-            if reason is not None:
-                not_compared[reason] += 1
-                continue
-            if answer.note and len(report.notes) < MAX_LISTED:
-                report.notes.append(answer.note)
-            if writer is not None and answer.status is not None:
-                writer(exchange, rid, answer, time.perf_counter() - started)
-            _count(report, exchange, _differences(exchange, answer, rtol, atol))
-    report.not_compared = dict(not_compared)
+            tally(report, exchange, judge(exchange, run, rtol, atol, writer))
     report.files = [rec.summary() for rec in reader.files]
     report.unreadable = list(reader.unreadable)
     report.skipped = list(reader.skipped)
@@ -447,6 +476,53 @@ def replay(
     report.written_twice = reader.written_twice
     report.conflict_count, report.conflicts = reader.conflict_count, list(reader.conflicts)
     return report
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What replaying one exchange found: ``skip`` says why it was not compared; else the
+    ``differences`` (none: unchanged) and a ``note`` (an exception raised in process)."""
+
+    skip: str | None = None
+    differences: tuple[tuple[str, Any, Any], ...] = ()
+    note: str | None = None
+
+
+def judge(
+    exchange: Exchange,
+    run: Runner,
+    rtol: float,
+    atol: float,
+    writer: Callable[[Exchange, str, Answer, float], None] | None = None,
+) -> Outcome:
+    """Run one exchange again (when it can be compared) and compare its answer; ``writer``
+    writes the replayed exchange."""
+    reason = _not_comparable(exchange)
+    if reason is None and exchange.operation not in ENDPOINTS:
+        return Outcome(
+            differences=(("operation", exchange.operation, "not an operation of this build"),)
+        )
+    if reason is not None:
+        return Outcome(skip=reason)
+    rid = uuid.uuid4().hex
+    started = time.perf_counter()
+    answer = run(exchange, rid)
+    if answer.skip is not None:
+        return Outcome(skip=answer.skip)
+    if writer is not None and answer.status is not None:
+        writer(exchange, rid, answer, time.perf_counter() - started)
+    return Outcome(None, tuple(_differences(exchange, answer, rtol, atol)), answer.note)
+
+
+def tally(report: ReplayReport, exchange: Exchange, outcome: Outcome) -> None:
+    """Count one exchange's outcome into ``report``, in the order exchanges are read."""
+    report.exchanges += 1
+    if outcome.skip is not None:
+        report.not_compared[outcome.skip] = report.not_compared.get(outcome.skip, 0) + 1
+        return
+    if outcome.note and len(report.notes) < MAX_LISTED:
+        report.notes.append(outcome.note)
+    _count(report, exchange, outcome.differences)
 
 
 def _refused_alike(exchange: Exchange, status: int, fields: list[str]) -> bool:
@@ -493,7 +569,7 @@ def _differences(
 
 
 def _count(
-    report: ReplayReport, exchange: Exchange, differences: list[tuple[str, Any, Any]]
+    report: ReplayReport, exchange: Exchange, differences: tuple[tuple[str, Any, Any], ...]
 ) -> None:
     report.compared += 1
     if not differences:
