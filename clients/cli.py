@@ -294,6 +294,7 @@ def _replay_on_cluster(args: argparse.Namespace, limits: dict[str, dict[str, int
     """``replay --dask/--local-workers``: the report, or None after saying on stderr why
     there is none (no cluster, a worker that cannot read the folder, --out)."""
     from plotgate.clients.fleet import Judging, WorkerCannotRead, fleet_replay
+    from plotgate.clients.parts import PART_BYTES
     from plotgate.service.cluster import ClusterUnavailable
 
     if args.out is not None:
@@ -311,6 +312,7 @@ def _replay_on_cluster(args: argparse.Namespace, limits: dict[str, dict[str, int
             address=args.dask,
             local_workers=args.local_workers,
             progress=sys.stderr.isatty(),
+            part_bytes=args.part_bytes or PART_BYTES,
         )
     except WorkerCannotRead as exc:
         print(f"plotgate replay: {exc.filename}: {exc.strerror}", file=sys.stderr)
@@ -575,6 +577,13 @@ def _parser() -> argparse.ArgumentParser:
         "--allow-empty",
         action="store_true",
         help="exit 0, not 2, when there is nothing to compare",
+    )
+    rep.add_argument(
+        "--part-bytes",
+        type=_at_least(1),
+        metavar="N",
+        help="with --dask/--local-workers: bytes of chunks per task when a large file is "
+        "cut into chunk ranges (default 8 MiB)",
     )
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")

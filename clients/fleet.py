@@ -53,6 +53,7 @@ from plotgate.clients.recordings import (
     Filters,
     Reader,
     Recording,
+    exchange_of,
     recording_files,
 )
 from plotgate.clients.replay import (
@@ -139,7 +140,7 @@ def _read(part: Part, judging: Judging) -> PartRead:
         pair = pairing.take(len(records) - 1, part.path, seen, (record, data))
         if pair is not None:
             assert pair.request is not None and pair.response is not None
-            judged[pair.request.ref, pair.response.ref] = _both(_exchange(pair), run, judging)
+            judged[pair.request.ref, pair.response.ref] = _both(exchange_of(pair), run, judging)
 
     reader = Reader([part.path], judging.filters, span=part.span, on_record=take)
     for _ in reader:
@@ -185,26 +186,6 @@ def judge_all(exchanges: list[Exchange], judging: Judging) -> list[Outcome]:
     """Judge exchanges on a worker (the second round)."""
     run = in_process(judging.timeout, judging.limits)
     return [judge(ex, run, judging.rtol, judging.atol) for ex in exchanges]
-
-
-def _exchange(pair: Pair) -> Exchange:
-    """The exchange of a pair whose records carry their payloads."""
-    request, response = pair.request, pair.response
-    first = request or response
-    assert first is not None
-    req_record, req_bytes = request.payload if request is not None else (None, None)
-    resp_record, resp_bytes = response.payload if response is not None else (None, None)
-    return Exchange(
-        first.seen.operation,
-        first.seen.request_id,
-        req_record,
-        resp_record,
-        first.seen.log_time,
-        first.file,
-        pair.original_read,
-        req_bytes,
-        resp_bytes,
-    )
 
 
 class _Lazy:
@@ -360,7 +341,7 @@ class _Merge:
         if not pairs:
             return []
         self._fill([w for p in pairs for w in (p.request, p.response) if w is not None])
-        exchanges = [_exchange(p) for p in pairs]
+        exchanges = [exchange_of(p) for p in pairs]
         batches = [exchanges[i : i + BATCH] for i in range(0, len(exchanges), BATCH)]
         judged = self.spread(partial(judge_all, judging=self.judging), batches)
         return [outcome for batch in judged for outcome in batch]

@@ -1,14 +1,15 @@
-"""Requests and responses paired as :class:`plotgate.clients.recordings.Reader` pairs them,
-over records described, not parsed: so the records of many parts, read by many workers,
-pair exactly as one serial read of every file would.
+"""Requests and responses paired across files: the rules of
+:class:`plotgate.clients.recordings.Reader`, which pairs with this, over records described
+rather than parsed, so that the records of many parts, read by many workers, pair exactly
+as one serial read of every file does (:mod:`plotgate.clients.fleet`).
 
 A record is a :class:`Seen` (its kind, key, time, digest and place) and a reference the
 caller chooses (a record's index in its part); it may carry a payload (its parsed record
-and bytes) that comes back with its pair. The rules are the Reader's: a response pairs with
-the earliest waiting request of its key; one that comes first waits for its request; a
+and bytes) that comes back with its pair. A response pairs with the earliest waiting
+request of its key; one that comes first waits for its request; a
 record with the key and time of one read before is written twice (the same digest) or a
 conflict (another digest; the first read is kept); the records of the last
-:data:`~plotgate.clients.recordings.RECENT` answered exchanges are remembered for that; a
+:data:`RECENT` answered exchanges are remembered for that; a
 replay's original was read when its (operation, request id) came as an original request
 before the replay was paired; requests never answered and answers without a request come
 last, in the order their keys first waited.
@@ -17,13 +18,56 @@ last, in the order their keys first waited.
 import hashlib
 from collections import OrderedDict, deque
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
 from typing import Any, NamedTuple
 
-from plotgate.clients.recordings import MAX_LISTED, RECENT, Filters, iso_time
 from plotgate.clients.scan import location
 
-__all__ = ["Pair", "Pairing", "Seen", "Waiting", "digest"]
+__all__ = [
+    "MAX_LISTED",
+    "RECENT",
+    "Filters",
+    "Pair",
+    "Pairing",
+    "Seen",
+    "Waiting",
+    "digest",
+    "iso_time",
+]
+
+MAX_LISTED = 100
+"""Damage listed per file, conflicts per reading; the rest is counted."""
+RECENT = 200_000
+"""Records of answered exchanges remembered to recognise one written twice."""
+
+
+def iso_time(ns: int | None) -> str | None:
+    """Nanoseconds since the epoch as an ISO 8601 UTC time (microseconds)."""
+    if ns is None:
+        return None
+    return (
+        datetime.fromtimestamp(ns / 1e9, UTC)
+        .isoformat(timespec="microseconds")
+        .replace("+00:00", "Z")
+    )
+
+
+@dataclass(frozen=True)
+class Filters:
+    """Which exchanges to take: by operation and by request time (``since`` inclusive,
+    ``until`` exclusive, ns since the epoch); empty or None takes all."""
+
+    operations: frozenset[str] = frozenset()
+    since: int | None = None
+    until: int | None = None
+
+    def admit(self, operation: str, log_time: int) -> bool:
+        return (
+            (not self.operations or operation in self.operations)
+            and (self.since is None or log_time >= self.since)
+            and (self.until is None or log_time < self.until)
+        )
 
 
 def digest(data: bytes) -> bytes:
@@ -96,6 +140,7 @@ class Pairing:
             return None
         if seen.kind == "request":
             current.kept = self.filters.admit(seen.operation, seen.log_time)
+            current.payload = payload if current.kept else None
             if seen.replay_of is None:
                 self._originals.add(key)
             mine, other = self._requests, self._responses
@@ -114,8 +159,8 @@ class Pairing:
             ("response" if seen.kind == "request" else "request", *key, waiting.seen.log_time),
             None,
         )
-        for done in (request, response):
-            self._recent[(done.seen.kind, *key, done.seen.log_time)] = done
+        for done in (request, response):  # its place and digest, not its payload
+            self._recent[(done.seen.kind, *key, done.seen.log_time)] = replace(done, payload=None)
         while len(self._recent) > RECENT:
             self._recent.popitem(last=False)
         if not request.kept:

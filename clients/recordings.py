@@ -24,20 +24,27 @@ the MCAP magic is not a recording: it is skipped with a note, and decides no exi
 when other files are recordings.
 """
 
-import hashlib
 import json
 import os
 import re
-from collections import OrderedDict, deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from mcap.records import Channel, Message, Metadata, Schema
 
+from plotgate.clients.pairing import (
+    MAX_LISTED,
+    RECENT,
+    Filters,
+    Pair,
+    Pairing,
+    Seen,
+    digest,
+    iso_time,
+)
 from plotgate.clients.scan import (
     MAX_RECORD_BYTES,
     Damage,
@@ -45,7 +52,6 @@ from plotgate.clients.scan import (
     NotMcap,
     Scan,
     check_regular,
-    location,
 )
 from plotgate.service.schemas import REQUEST_ID_PATTERN, Problem
 
@@ -57,6 +63,7 @@ __all__ = [
     "Filters",
     "Reader",
     "Recording",
+    "exchange_of",
     "iso_time",
     "parse_record",
     "plotgate_channel",
@@ -68,10 +75,6 @@ MAX_DEPTH = 256
 """Deepest JSON a record may hold. The service records a body as ``body`` only when its
 JSON parser (nesting limit 200) takes it, inside a one-level envelope."""
 REQUEST_ID = re.compile(REQUEST_ID_PATTERN)
-MAX_LISTED = 100
-"""Damage listed per file; the rest is counted."""
-RECENT = 200_000
-"""Records of answered exchanges remembered to recognise one written twice."""
 
 
 @dataclass
@@ -162,34 +165,6 @@ class Recording:
             "damage": self.damage,
             "metadata": self.metadata,
         }
-
-
-def iso_time(ns: int | None) -> str | None:
-    """Nanoseconds since the epoch as an ISO 8601 UTC time (microseconds)."""
-    if ns is None:
-        return None
-    return (
-        datetime.fromtimestamp(ns / 1e9, UTC)
-        .isoformat(timespec="microseconds")
-        .replace("+00:00", "Z")
-    )
-
-
-@dataclass(frozen=True)
-class Filters:
-    """Which exchanges to take: by operation and by request time (``since`` inclusive,
-    ``until`` exclusive, ns since the epoch); empty or None takes all."""
-
-    operations: frozenset[str] = frozenset()
-    since: int | None = None
-    until: int | None = None
-
-    def admit(self, operation: str, log_time: int) -> bool:
-        return (
-            (not self.operations or operation in self.operations)
-            and (self.since is None or log_time >= self.since)
-            and (self.until is None or log_time < self.until)
-        )
 
 
 def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
@@ -314,36 +289,6 @@ def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | s
     return operation, kind
 
 
-class _Source(NamedTuple):
-    """Where a record was read, and a digest of its bytes: enough to tell a record the
-    recorder wrote twice (the same bytes) from a conflicting one, and to name both."""
-
-    digest: bytes
-    file: str
-    offset: int
-    inner: int | None
-
-    def __str__(self) -> str:
-        return f"{self.file} at {location(self.offset, self.inner)}"
-
-
-def _source(file: str, item: Located, data: bytes) -> _Source:
-    return _Source(hashlib.blake2b(data, digest_size=16).digest(), file, item.offset, item.inner)
-
-
-@dataclass
-class _Waiting:
-    operation: str
-    request_id: str
-    log_time: int
-    file: str
-    source: _Source
-    data: bytes | None
-    """The raw record; None for a request the filters leave out."""
-    record: dict[str, Any] | None = None
-    """The parsed record (None with ``data``)."""
-
-
 OnRecord = Callable[[str, str, dict[str, Any], int, Located, bytes], None]
 """Called with each intact record instead of pairing it: (kind, operation, parsed record,
 log time, where it is, its bytes)."""
@@ -393,14 +338,7 @@ class Reader:
         self.files: list[Recording] = []
         self.unreadable: list[str] = []
         self.skipped: list[str] = []
-        self.written_twice = 0
-        self.conflicts: list[str] = []
-        self.conflict_count = 0
-        self._requests: dict[tuple[str, str], deque[_Waiting]] = {}
-        self._responses: dict[tuple[str, str], deque[_Waiting]] = {}
-        self._seen: dict[tuple[str, str, str, int], _Source] = {}  # (kind, op, id, time) waiting
-        self._recent: OrderedDict[tuple[str, str, str, int], _Source] = OrderedDict()
-        self._originals: set[tuple[str, str]] = set()
+        self._pairing = Pairing(self.filters)
 
     @property
     def recordings(self) -> int:
@@ -412,7 +350,8 @@ class Reader:
             rec = Recording(path)
             self.files.append(rec)
             yield from self._file(rec)
-        yield from self._leftovers()
+        for pair in self._pairing.leftovers():
+            yield exchange_of(pair)
 
     def _file(self, rec: Recording) -> Iterator[Exchange]:
         scan = Scan(rec.path, max_record_bytes=self.max_record_bytes, span=self.span)
@@ -465,98 +404,45 @@ class Reader:
             self.on_record(kind, operation, record, t, item, message.data)
             return
         rid = record["request_id"]
-        key = (operation, rid)
-        mark = (kind, operation, rid, t)
-        source = _source(str(rec.path), item, message.data)
-        first = self._seen.get(mark) or self._recent.get(mark)
-        if first is not None:
-            self._again(mark, first, source)
-            return
-        keep = kind == "response" or self.filters.admit(operation, t)
-        current = _Waiting(
-            operation,
-            rid,
-            t,
-            str(rec.path),
-            source,
-            message.data if keep else None,
-            record if keep else None,
+        replay_of = record.get("replay_of") if kind == "request" else None
+        seen = Seen(
+            kind, operation, rid, t, digest(message.data), item.offset, item.inner, replay_of
         )
-        if kind == "request":
-            if record.get("replay_of") is None:
-                self._originals.add(key)
-            mine, other = self._requests, self._responses
-        else:
-            mine, other = self._responses, self._requests
-        counterparts = other.get(key)
-        if not counterparts:
-            mine.setdefault(key, deque()).append(current)
-            self._seen[mark] = source
-            return
-        waiting = counterparts.popleft()
-        if not counterparts:
-            del other[key]
-        self._seen.pop(
-            (("response" if kind == "request" else "request"), *key, waiting.log_time), None
-        )
-        request, response = (current, waiting) if kind == "request" else (waiting, current)
-        for done, kind_of in ((request, "request"), (response, "response")):
-            self._recent[(kind_of, *key, done.log_time)] = done.source
-        while len(self._recent) > RECENT:
-            self._recent.popitem(last=False)
-        if request.data is not None:
-            exchange = self._exchange(request)
-            exchange.response, exchange.response_bytes = response.record, response.data
-            yield exchange
+        pair = self._pairing.take(None, str(rec.path), seen, (record, message.data))
+        if pair is not None:
+            yield exchange_of(pair)
 
-    def _again(self, mark: tuple[str, str, str, int], first: _Source, again: _Source) -> None:
-        """A record with the key and time of one read before: written twice by the
-        recorder when the bytes are the same, else a conflict (the first one read stays)."""
-        if again.digest == first.digest:
-            self.written_twice += 1
-            return
-        self.conflict_count += 1
-        if len(self.conflicts) < MAX_LISTED:
-            kind, operation, rid, t = mark
-            self.conflicts.append(
-                f"{operation} {rid} at {iso_time(t)}: the {kind} record {again} differs from "
-                f"the one at {first} (that one kept)"
-            )
+    @property
+    def written_twice(self) -> int:
+        return self._pairing.written_twice
 
-    def _exchange(self, request: _Waiting) -> Exchange:
-        record = request.record or {}
-        replay_of = record.get("replay_of")
-        return Exchange(
-            request.operation,
-            request.request_id,
-            record,
-            None,
-            request.log_time,
-            request.file,
-            replay_of is not None and (request.operation, replay_of) in self._originals,
-            request.data,
-        )
+    @property
+    def conflict_count(self) -> int:
+        return self._pairing.conflict_count
 
-    def _leftovers(self) -> Iterator[Exchange]:
-        for queue in self._requests.values():
-            for request in queue:
-                if request.data is not None:
-                    yield self._exchange(request)
-        for queue in self._responses.values():
-            for response in queue:
-                if self.filters.admit(response.operation, response.log_time):
-                    yield Exchange(
-                        response.operation,
-                        response.request_id,
-                        None,
-                        response.record,
-                        response.log_time,
-                        response.file,
-                        response_bytes=response.data,
-                    )
-        self._requests.clear()
-        self._responses.clear()
-        self._seen.clear()
+    @property
+    def conflicts(self) -> list[str]:
+        return self._pairing.conflicts
+
+
+def exchange_of(pair: Pair) -> Exchange:
+    """The exchange of a pair whose records carry their payloads (parsed record, bytes)."""
+    request, response = pair.request, pair.response
+    first = request or response
+    assert first is not None
+    req_record, req_bytes = request.payload if request is not None else (None, None)
+    resp_record, resp_bytes = response.payload if response is not None else (None, None)
+    return Exchange(
+        first.seen.operation,
+        first.seen.request_id,
+        req_record,
+        resp_record,
+        first.seen.log_time,
+        first.file,
+        pair.original_read,
+        req_bytes,
+        resp_bytes,
+    )
 
 
 def read_recording(path: Path | str) -> Recording:
