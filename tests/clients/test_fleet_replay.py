@@ -187,6 +187,35 @@ def test_filters_and_a_changed_answer_in_parts(tmp_path):
     _same(serial, fleet_replay(folder, judging, part_bytes=1))
 
 
+def test_an_exchange_past_its_timeout_is_stopped_on_a_worker_thread_too(tmp_path, monkeypatch):
+    """A Dask task runs in a worker's thread, where no signal arrives: the deadline is an
+    exception set on the thread, and the report is the serial one's (a SIGALRM there)."""
+    from plotgate.service import registry
+
+    op = registry.OPERATIONS[OP]
+    status, content = _answer(GOOD)
+
+    def slow(request):
+        for _ in range(3000):  # 30 s, unless stopped between two sleeps
+            time.sleep(0.01)
+
+    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, slow, op.fields))
+    events = [(T0, "request", request_record("r", OP, GOOD))]
+    events.append((T0 + MS, "response", response_record("r", OP, status, 0.001, content)))
+    write_files(tmp_path / "rec", events, set())
+    serial = replay(tmp_path / "rec", progress=False, timeout=0.2)
+    assert "no answer within 0.2 s" in serial.text()
+    spread = {}
+    thread = threading.Thread(
+        target=lambda: spread.update(report=fleet_replay(tmp_path / "rec", Judging(timeout=0.2)))
+    )
+    started = time.monotonic()
+    thread.start()
+    thread.join(timeout=25)
+    assert time.monotonic() - started < 20
+    _same(serial, spread["report"])
+
+
 def test_a_worker_that_cannot_read_the_folder_says_so(tmp_path):
     with pytest.raises(WorkerCannotRead, match="the recording folder at the same path"):
         read_part(Part(str(tmp_path / "elsewhere.mcap")), Judging())
