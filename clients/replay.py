@@ -322,33 +322,64 @@ def _alarm(seconds: float) -> Iterator[None]:
 
 @contextlib.contextmanager
 def _thread_alarm(seconds: float) -> Iterator[None]:
-    """:class:`_Overtime` in this thread after ``seconds``. Once the block is left the
-    timer is disarmed under a lock; an exception it set that has not been raised yet is
-    cleared and raised here, so it can never surface after the block."""
+    """:class:`_Overtime` in this thread after ``seconds``, from the one watchdog thread
+    (a timer thread per exchange cost more than many exchanges). Once the block is left
+    the deadline is disarmed; an exception set but not raised yet is cleared and raised
+    here, so it can never surface after the block."""
     target = threading.get_ident()
-    lock = threading.Lock()
-    state = {"armed": True, "rang": False}
-
-    def ring() -> None:
-        with lock:
-            if state["armed"]:
-                state["rang"] = True
-                ctypes.pythonapi.PyThreadState_SetAsyncExc(
-                    ctypes.c_ulong(target), ctypes.py_object(_Overtime)
-                )
-
-    timer = threading.Timer(seconds, ring)
-    timer.daemon = True
-    timer.start()
+    _WATCHDOG.arm(target, seconds)
     try:
         yield
     finally:
-        with lock:
-            state["armed"] = False
-        timer.cancel()
-        if state["rang"]:
+        if _WATCHDOG.disarm(target):
             ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), None)
             raise _Overtime
+
+
+class _Watchdog:
+    """Deadlines of threads (by id), each rung once by one daemon thread: an asynchronous
+    :class:`_Overtime` set on the thread."""
+
+    def __init__(self) -> None:
+        self._changed = threading.Condition()
+        self._due: dict[int, float] = {}
+        self._rang: set[int] = set()
+        self._thread: threading.Thread | None = None
+
+    def arm(self, target: int, seconds: float) -> None:
+        with self._changed:
+            self._rang.discard(target)  # rung while its last block was being left
+            self._due[target] = time.monotonic() + seconds
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._watch, name="replay-deadlines")
+                self._thread.daemon = True
+                self._thread.start()
+            self._changed.notify()
+
+    def disarm(self, target: int) -> bool:
+        """Whether the deadline rang."""
+        with self._changed:
+            self._due.pop(target, None)
+            rang = target in self._rang
+            self._rang.discard(target)
+            return rang
+
+    def _watch(self) -> None:
+        with self._changed:
+            while True:
+                now = time.monotonic()
+                for target, due in list(self._due.items()):
+                    if due <= now:
+                        del self._due[target]
+                        self._rang.add(target)
+                        ctypes.pythonapi.PyThreadState_SetAsyncExc(
+                            ctypes.c_ulong(target), ctypes.py_object(_Overtime)
+                        )
+                wait = min(self._due.values(), default=now + 3600.0) - now
+                self._changed.wait(max(wait, 0.0))
+
+
+_WATCHDOG = _Watchdog()
 
 
 def in_process(
