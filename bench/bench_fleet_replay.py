@@ -87,6 +87,7 @@ def main() -> None:
         )
         reports = {}
         times = {}
+        texts = {}
         if not args.no_serial:
             _warm()
             started = time.perf_counter()
@@ -94,11 +95,12 @@ def main() -> None:
             times["serial"] = time.perf_counter() - started
         for workers in (1, 2):
             times[workers], reports[workers] = on_cluster(folder, workers, args.part_bytes)
-        texts = {k: json.dumps(r.to_json(), indent=2, default=str) for k, r in reports.items()}
         for key, seconds in times.items():
+            texts[key] = json.dumps(reports[key].to_json(), indent=2, default=str)
             print(
                 f"{key!s:>6}: {seconds:8.1f} s, {args.exchanges / seconds:8.0f} exchanges/s, "
-                f"report {len(texts[key])} bytes, exit {reports[key].exit_code()}"
+                f"report {len(texts[key])} bytes, exit {reports[key].exit_code()}",
+                flush=True,
             )
         print(f"2 workers against 1: {times[1] / times[2]:.2f}x")
         if "serial" in times:

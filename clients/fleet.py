@@ -39,7 +39,8 @@ section otherwise than in its sound summary is read by chunk ranges with the sum
 
 import os
 import socket
-from collections.abc import Callable, Iterable, Mapping
+from array import array
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -68,6 +69,8 @@ from plotgate.clients.scan import Located, open_regular
 
 __all__ = [
     "BATCH",
+    "UNCHANGED",
+    "Described",
     "Judging",
     "PartRead",
     "WorkerCannotRead",
@@ -78,6 +81,52 @@ __all__ = [
 
 BATCH = 64
 """Exchanges judged per task in the second round (those split across parts)."""
+
+
+UNCHANGED = Outcome()
+_UNNAMED = Exchange("", "", None)
+
+
+class Described:
+    """Records described (:class:`~plotgate.clients.pairing.Seen`), in columns: a part
+    sends about 50 bytes and its request id a record, not a Python object's 300."""
+
+    def __init__(self) -> None:
+        self.kinds = bytearray()
+        self.operations: list[str] = []
+        self.operation = array("H")
+        self.request_ids: list[str] = []
+        self.times = array("q")
+        self.digests = bytearray()
+        self.offsets = array("q")
+        self.inners = array("q")
+        self.replays_of: dict[int, str] = {}
+
+    def append(self, seen: Seen) -> None:
+        if seen.operation not in self.operations:
+            self.operations.append(seen.operation)
+        if seen.replay_of is not None:
+            self.replays_of[len(self.times)] = seen.replay_of
+        self.kinds.append(seen.kind == "response")
+        self.operation.append(self.operations.index(seen.operation))
+        self.request_ids.append(seen.request_id)
+        self.times.append(seen.log_time)
+        self.digests += seen.digest
+        self.offsets.append(seen.offset)
+        self.inners.append(-1 if seen.inner is None else seen.inner)
+
+    def __iter__(self) -> Iterator[Seen]:
+        for i, t in enumerate(self.times):
+            yield Seen(
+                "response" if self.kinds[i] else "request",
+                self.operations[self.operation[i]],
+                self.request_ids[i],
+                t,
+                bytes(self.digests[16 * i : 16 * i + 16]),
+                self.offsets[i],
+                None if self.inners[i] < 0 else self.inners[i],
+                self.replays_of.get(i),
+            )
 
 
 class WorkerCannotRead(OSError):
@@ -104,10 +153,12 @@ class PartRead:
     unreadable: list[str]
     skipped: list[str]
     stopped_at: int
-    records: list[Seen] = field(default_factory=list)
-    judged: dict[tuple[int, int], tuple[Outcome, Outcome]] = field(default_factory=dict)
-    """By (request, response) record index: the judgement, and the one it gets were its
-    original read before it."""
+    records: "Described" = field(default_factory=lambda: Described())
+    partner: "array[int]" = field(default_factory=lambda: array("q"))
+    """By record index: the response a request was paired with in the part (-1: none)."""
+    judged: dict[int, tuple[Outcome, Outcome]] = field(default_factory=dict)
+    """By request record index, when either is not :data:`UNCHANGED`: the judgement, and
+    the one it gets were its original read before it."""
     unpaired: dict[int, tuple[dict[str, Any], bytes]] = field(default_factory=dict)
     """Records left unpaired in the part, by index: the parsed record and its bytes."""
 
@@ -129,18 +180,23 @@ def read_part(part: Part, judging: Judging) -> PartRead:
 def _read(part: Part, judging: Judging) -> PartRead:
     run = _Lazy(judging)
     pairing = Pairing(judging.filters)
-    records: list[Seen] = []
-    judged: dict[tuple[int, int], tuple[Outcome, Outcome]] = {}
+    records = Described()
+    partner: array[int] = array("q")
+    judged: dict[int, tuple[Outcome, Outcome]] = {}
 
     def take(
         kind: str, operation: str, record: dict[str, Any], t: int, item: Located, data: bytes
     ) -> None:
         seen = _seen(kind, operation, record, t, item, data)
         records.append(seen)
-        pair = pairing.take(len(records) - 1, part.path, seen, (record, data))
+        partner.append(-1)
+        pair = pairing.take(len(partner) - 1, part.path, seen, (record, data))
         if pair is not None:
             assert pair.request is not None and pair.response is not None
-            judged[pair.request.ref, pair.response.ref] = _both(exchange_of(pair), run, judging)
+            partner[pair.request.ref] = pair.response.ref
+            both = _both(exchange_of(pair), run, judging)
+            if both != (UNCHANGED, UNCHANGED):
+                judged[pair.request.ref] = both
 
     reader = Reader([part.path], judging.filters, span=part.span, on_record=take)
     for _ in reader:
@@ -158,6 +214,7 @@ def _read(part: Part, judging: Judging) -> PartRead:
         list(reader.skipped),
         reader.stopped_at,
         records,
+        partner,
         judged,
         unpaired,
     )
@@ -295,7 +352,9 @@ class _Merge:
         self.spread = spread
         self.pairing = Pairing(judging.filters)
         self.parts: list[PartRead] = []
-        self.slots: list[tuple[Exchange, Outcome | Pair]] = []
+        self.slots: list[int | tuple[Exchange, Outcome | Pair]] = []
+        """In the serial order: runs of unchanged exchanges (their count), and the others
+        (with their judgement, or the pair still to be judged)."""
 
     def report(self, files: list[list[PartRead]]) -> ReplayReport:
         report = ReplayReport()
@@ -310,7 +369,12 @@ class _Merge:
         for pair in self.pairing.leftovers():
             self.slots.append((_named(pair), judge(_stub(pair), _never, 0.0, 0.0)))
         outcomes = iter(self._second_round())
-        for exchange, outcome in self.slots:
+        for slot in self.slots:
+            if isinstance(slot, int):
+                for _ in range(slot):
+                    tally(report, _UNNAMED, UNCHANGED)
+                continue
+            exchange, outcome = slot
             tally(report, exchange, outcome if isinstance(outcome, Outcome) else next(outcomes))
         report.written_twice = self.pairing.written_twice
         report.conflict_count = self.pairing.conflict_count
@@ -322,22 +386,30 @@ class _Merge:
         self.parts.append(read)
         for i, seen in enumerate(read.records):
             pair = self.pairing.take((n, i), read.part.path, seen)
-            if pair is not None:
-                self.slots.append((_named(pair), self._judged(pair) or pair))
-        read.records, read.judged = [], {}  # paired: only the unpaired records are kept
+            if pair is None:
+                continue
+            outcome = self._judged(pair)
+            if outcome == UNCHANGED and self.slots and isinstance(self.slots[-1], int):
+                self.slots[-1] += 1
+            elif outcome == UNCHANGED:
+                self.slots.append(1)
+            else:
+                self.slots.append((_named(pair), outcome or pair))
+        # paired: only the records the part left unpaired are kept
+        read.records, read.partner, read.judged = Described(), array("q"), {}
 
     def _judged(self, pair: Pair) -> Outcome | None:
         """The part's judgement, when the part paired these two records itself."""
         assert pair.request is not None and pair.response is not None
         (n, i), (m, j) = pair.request.ref, pair.response.ref
-        if n != m or (i, j) not in self.parts[n].judged:
+        if n != m or self.parts[n].partner[i] != j:
             return None
-        outcome, if_original_read = self.parts[n].judged[i, j]
+        outcome, if_original_read = self.parts[n].judged.get(i, (UNCHANGED, UNCHANGED))
         return if_original_read if pair.original_read else outcome
 
     def _second_round(self) -> list[Outcome]:
         """Judge, on the cluster, the exchanges no part could judge alone."""
-        pairs = [p for _, p in self.slots if isinstance(p, Pair)]
+        pairs = [s[1] for s in self.slots if not isinstance(s, int) and isinstance(s[1], Pair)]
         if not pairs:
             return []
         self._fill([w for p in pairs for w in (p.request, p.response) if w is not None])

@@ -216,6 +216,17 @@ def test_an_exchange_past_its_timeout_is_stopped_on_a_worker_thread_too(tmp_path
     _same(serial, spread["report"])
 
 
+def test_a_progress_bar_counts_the_parts_on_stderr(tmp_path, capsys):
+    folder = _recordings(tmp_path / "rec", 2, damage=False)
+    count = len(parts(recording_files(folder), part_bytes=2000))
+    serial = replay(folder, progress=False)
+    _same(serial, fleet_replay(folder, progress=True, part_bytes=2000))
+    err = capsys.readouterr().err
+    assert f"{count}/{count}" in err
+    assert fleet_replay(folder, part_bytes=2000) is not None
+    assert capsys.readouterr().err == ""  # progress=False: no bar
+
+
 def test_a_worker_that_cannot_read_the_folder_says_so(tmp_path):
     with pytest.raises(WorkerCannotRead, match="the recording folder at the same path"):
         read_part(Part(str(tmp_path / "elsewhere.mcap")), Judging())
