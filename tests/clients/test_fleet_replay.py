@@ -25,6 +25,7 @@ from plotgate.clients.recordings import Filters, recording_files
 from plotgate.clients.replay import replay
 from plotgate.service.recorder import request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
+from tests.clients.hostile import corpus
 from tests.clients.recorded import OP, write_files
 from tests.servers import free_port
 
@@ -177,6 +178,27 @@ def test_a_part_that_skips_damage_past_its_end_has_its_file_read_again_whole(tmp
     serial = replay(folder, progress=False)
     assert serial.files[[f["path"] for f in serial.files].index(str(path))]["damage_count"]
     _same(serial, fleet_replay(folder, part_bytes=1))
+
+
+def test_every_file_of_the_hostile_corpus_reports_as_in_the_serial_replay(tmp_path):
+    status, content = _answer(GOOD)
+    events = []
+    for i in range(6):
+        events.append((T0 + i * MS, "request", request_record(f"s{i}", OP, GOOD)))
+        events.append(
+            (T0 + i * MS + 1, "response", response_record(f"s{i}", OP, status, 0.001, content))
+        )
+    write_files(tmp_path / "sound", events, set(), chunk_size=600)
+    [sound] = (tmp_path / "sound").glob("*.mcap")
+    expect = corpus(sound.read_bytes(), (GOOD, status, content), tmp_path / "files")
+    assert len(expect) >= 50
+    for name in expect:
+        path = tmp_path / "files" / f"{name}.mcap"
+        serial = replay(path, progress=False)
+        for part_bytes in (1, 10**9):
+            _same(serial, fleet_replay(path, part_bytes=part_bytes))
+    serial = replay(tmp_path / "files", progress=False)  # all of them at once
+    _same(serial, fleet_replay(tmp_path / "files", part_bytes=1))
 
 
 def test_filters_and_a_changed_answer_in_parts(tmp_path):
