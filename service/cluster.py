@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import logging
 import signal
 import threading
 import time
@@ -426,6 +427,10 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
                 # a free port: None means Dask's 8787, and a second cluster on the machine
                 # warned "Port 8787 is already in use" (an error under the tests)
                 dashboard_address=":0",
+                # the workers' own logs are not the command's output: at shutdown on a busy
+                # machine a worker's heartbeat to the closed scheduler logged a traceback on
+                # the command's stderr; a task's error still comes back as it is raised
+                silence_logs=logging.CRITICAL,
             )
             address = local.scheduler_address
         client = _open(address, CONNECT_S)
