@@ -18,7 +18,7 @@ last, in the order their keys first waited.
 import hashlib
 from collections import OrderedDict, deque
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, NamedTuple
 
@@ -88,7 +88,7 @@ class Seen(NamedTuple):
     replay_of: str | None
 
 
-@dataclass
+@dataclass(slots=True)
 class Waiting:
     """A record read, with the caller's reference, its file and its payload."""
 
@@ -160,7 +160,9 @@ class Pairing:
             None,
         )
         for done in (request, response):  # its place and digest, not its payload
-            self._recent[(done.seen.kind, *key, done.seen.log_time)] = replace(done, payload=None)
+            self._recent[(done.seen.kind, *key, done.seen.log_time)] = Waiting(
+                done.ref, done.file, done.seen, done.kept
+            )
         while len(self._recent) > RECENT:
             self._recent.popitem(last=False)
         if not request.kept:
