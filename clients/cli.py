@@ -37,7 +37,8 @@ REPLAY_EXIT_CODES = """exit status:
      records of one exchange (same id and time) that differ: a conflict
   2  nothing comparable (--allow-empty makes that 0), a file that cannot be read,
      no recording among the files, a FIFO, socket or device among the paths, a
-     usage or connection error (2 wins over 1)
+     usage or connection error, no Dask scheduler (--dask, --local-workers) or a
+     worker that cannot read the files (2 wins over 1)
 
 skipped with a note, deciding no exit code when other files are recordings: files
 that are empty or not MCAP at all.

@@ -254,6 +254,24 @@ def test_a_worker_that_cannot_read_the_folder_says_so(tmp_path):
         read_part(Part(str(tmp_path / "elsewhere.mcap")), Judging())
 
 
+def test_the_command_says_which_file_a_worker_cannot_read_and_exits_2(
+    tmp_path, monkeypatch, capsys
+):
+    from plotgate.clients import fleet
+
+    path = tmp_path / "elsewhere.mcap"
+
+    def unshared(paths, judging, **cluster):
+        return read_part(Part(str(path)), judging)  # as a worker without the folder
+
+    monkeypatch.setattr(fleet, "fleet_replay", unshared)
+    assert main(["replay", str(tmp_path), "--local-workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"plotgate replay: {path}: the worker on ")
+    assert "the recording folder at the same path on every worker" in err
+    assert "Traceback" not in err
+
+
 def _cli(args: list[str], capsys, report: Path) -> tuple[int, str, bytes]:
     code = main(["replay", *args, "--report", str(report)])
     return code, capsys.readouterr().out, report.read_bytes()
