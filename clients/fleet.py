@@ -46,6 +46,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from plotgate.clients.live import writer_alive
 from plotgate.clients.messages import Envelope
 from plotgate.clients.pairing import Pair, Pairing, Seen, Waiting, digest
 from plotgate.clients.parts import PART_BYTES, Part, parts
@@ -346,8 +347,12 @@ def _recording(reads: list[PartRead]) -> Recording:
         rec.chunks_damaged += r.chunks_damaged
         rec.error = rec.error or r.error
         rec.skipped = rec.skipped or r.skipped
-    last = reads[-1].recording  # the file's tail, and so its state, is the last part's
+    last = reads[-1].recording  # the file's tail is the last part's
     rec.size, rec.complete, rec.tail, rec.state = last.size, last.complete, last.tail, last.state
+    if rec.state in ("open", "unfinished"):
+        # whether its writer still writes it is asked here, as the serial replay asks it:
+        # a worker on another host cannot see this host's writer
+        rec.state = "open" if writer_alive(rec.path) else "unfinished"
     return rec
 
 

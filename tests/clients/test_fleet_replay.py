@@ -201,6 +201,28 @@ def test_every_file_of_the_hostile_corpus_reports_as_in_the_serial_replay(tmp_pa
     _same(serial, fleet_replay(tmp_path / "files", part_bytes=1))
 
 
+def test_a_live_file_is_open_or_unfinished_as_this_process_sees_its_writer(tmp_path, monkeypatch):
+    """Whether a file's writer still writes it is asked here, as the serial replay asks it,
+    whatever the worker that read its last part saw (here: workers that see no writer)."""
+    from plotgate.clients import recordings
+
+    folder = tmp_path / "rec"
+    write_files(folder, _events(3, 20), set(), chunk_size=3000)
+    [written] = folder.glob("*.mcap")
+    live = folder / f"plotgate-20261203T000000.000000Z-pid{os.getpid()}-0001.mcap"
+    live.write_bytes(written.read_bytes()[:-100])  # a writer's file without its footer
+    written.unlink()
+    with open(live, "rb"):  # the writer: this process, holding the file
+        serial = replay(folder, progress=False)
+        assert serial.files[0]["state"] == "open"
+        monkeypatch.setattr(recordings, "writer_alive", lambda path: False)
+        _same(serial, fleet_replay(folder, part_bytes=1))
+    monkeypatch.undo()
+    serial = replay(folder, progress=False)
+    assert serial.files[0]["state"] == "unfinished"
+    _same(serial, fleet_replay(folder, part_bytes=1))
+
+
 def test_filters_and_a_changed_answer_in_parts(tmp_path):
     folder = _recordings(tmp_path / "rec", 7, n=50)
     filters = Filters(frozenset({OP}), T0 + 100 * MS, T0 + 400 * MS)
