@@ -103,12 +103,8 @@ class Waiting:
     """A response, or a request the filters take."""
     payload: Any = None
 
-    def __str__(self) -> str:
-        return f"{self.file} at {location(self.seen.offset, self.seen.inner)}"
 
-
-@dataclass(frozen=True)
-class Pair:
+class Pair(NamedTuple):
     """A request (None: its record was lost) and its response (None: never answered)."""
 
     request: Waiting | None
@@ -117,6 +113,14 @@ class Pair:
 
 
 _Mark = tuple[str, str, str, int]
+_Place = tuple[str, Seen]
+"""A record remembered to recognise its twin: its file and description (a plain tuple: one
+is made for every record read, where a :class:`Waiting` costs several times as much)."""
+
+
+def _named(place: _Place) -> str:
+    file, seen = place
+    return f"{file} at {location(seen.offset, seen.inner)}"
 
 
 class Pairing:
@@ -129,46 +133,53 @@ class Pairing:
         self.conflicts: list[str] = []
         self._requests: dict[tuple[str, str], deque[Waiting]] = {}
         self._responses: dict[tuple[str, str], deque[Waiting]] = {}
-        self._seen: dict[_Mark, Waiting] = {}
-        self._recent: OrderedDict[_Mark, Waiting] = OrderedDict()
+        self._seen: dict[_Mark, _Place] = {}
+        self._recent: OrderedDict[_Mark, _Place] = OrderedDict()
         self._originals: set[tuple[str, str]] = set()
 
     def take(self, ref: Any, file: str, seen: Seen, payload: Any = None) -> Pair | None:
-        """The exchange this record completes, if it completes one the filters take."""
-        key = (seen.operation, seen.request_id)
-        mark = (seen.kind, *key, seen.log_time)
+        """The exchange this record completes, if it completes one the filters take.
+
+        Called once for every record of a recording: what it makes is kept to the least
+        (a :class:`Waiting` for a record that waits, two plain tuples per exchange)."""
+        kind, operation, rid, t = seen[:4]
+        key = (operation, rid)
+        mark = (kind, operation, rid, t)
         first = self._seen.get(mark) or self._recent.get(mark)
-        current = Waiting(ref, file, seen, True, payload)
         if first is not None:
-            self._again(mark, first, current)
+            self._again(mark, first, (file, seen))
             return None
-        if seen.kind == "request":
-            current.kept = self.filters.admit(seen.operation, seen.log_time)
-            current.payload = payload if current.kept else None
+        if kind == "request":
+            kept = self.filters.admit(operation, t)
+            current = Waiting(ref, file, seen, kept, payload if kept else None)
             if seen.replay_of is None:
                 self._originals.add(key)
             mine, other = self._requests, self._responses
         else:
+            current = Waiting(ref, file, seen, True, payload)
             mine, other = self._responses, self._requests
         counterparts = other.get(key)
         if not counterparts:
             mine.setdefault(key, deque()).append(current)
-            self._seen[mark] = current
+            self._seen[mark] = (file, seen)
             return None
         waiting = counterparts.popleft()
         if not counterparts:
             del other[key]
-        request, response = (current, waiting) if seen.kind == "request" else (waiting, current)
-        self._seen.pop(
-            ("response" if seen.kind == "request" else "request", *key, waiting.seen.log_time),
-            None,
-        )
-        for done in (request, response):  # its place and digest, not its payload
-            self._recent[(done.seen.kind, *key, done.seen.log_time)] = Waiting(
-                done.ref, done.file, done.seen, done.kept
-            )
-        while len(self._recent) > RECENT:
-            self._recent.popitem(last=False)
+        other_time = waiting.seen.log_time
+        recent = self._recent
+        if kind == "request":
+            request, response = current, waiting
+            self._seen.pop(("response", operation, rid, other_time), None)
+            recent[mark] = (file, seen)  # its place and digest, not its payload
+            recent[("response", operation, rid, other_time)] = (waiting.file, waiting.seen)
+        else:
+            request, response = waiting, current
+            self._seen.pop(("request", operation, rid, other_time), None)
+            recent[("request", operation, rid, other_time)] = (waiting.file, waiting.seen)
+            recent[mark] = (file, seen)
+        while len(recent) > RECENT:
+            recent.popitem(last=False)
         if not request.kept:
             return None
         return Pair(request, response, self._original_read(request))
@@ -192,14 +203,14 @@ class Pairing:
         replay_of = request.seen.replay_of
         return replay_of is not None and (request.seen.operation, replay_of) in self._originals
 
-    def _again(self, mark: _Mark, first: Waiting, again: Waiting) -> None:
-        if again.seen.digest == first.seen.digest:
+    def _again(self, mark: _Mark, first: _Place, again: _Place) -> None:
+        if again[1].digest == first[1].digest:
             self.written_twice += 1
             return
         self.conflict_count += 1
         if len(self.conflicts) < MAX_LISTED:
             kind, operation, rid, t = mark
             self.conflicts.append(
-                f"{operation} {rid} at {iso_time(t)}: the {kind} record {again} differs from "
-                f"the one at {first} (that one kept)"
+                f"{operation} {rid} at {iso_time(t)}: the {kind} record {_named(again)} "
+                f"differs from the one at {_named(first)} (that one kept)"
             )
