@@ -20,6 +20,8 @@ records with the same id and time but different bytes are a conflict, which the 
 never writes: the first read is kept, and the conflict is reported naming both by file and
 offset. Records are told apart by a keyed 64-bit hash of their bytes (Python's ``hash``,
 SipHash with a key drawn at each start), which a hostile file cannot aim at without the key.
+The rules are :class:`plotgate.clients.pairing.Pairing`'s, which the fleet replay's merge
+(:mod:`plotgate.clients.fleet`) pairs with too, so the two cannot drift apart.
 
 A file without its footer is *open* while a process on this host still has it open (its
 name carries its writer's ``pid``; :mod:`plotgate.clients.live`), *unfinished* otherwise:
