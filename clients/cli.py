@@ -25,9 +25,12 @@ import sys
 from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from plotgate import __version__
+
+if TYPE_CHECKING:
+    from plotgate.clients.replay import ReplayReport
 
 __all__ = ["main"]
 
@@ -42,7 +45,8 @@ REPLAY_EXIT_CODES = """exit status:
      records of one exchange (same id and time) that differ: a conflict
   2  nothing comparable (--allow-empty makes that 0), a file that cannot be read,
      no recording among the files, a FIFO, socket or device among the paths, a
-     usage or connection error (2 wins over 1)
+     usage or connection error, no Dask scheduler (--dask, --local-workers) or a
+     worker that cannot read the files (2 wins over 1)
 
 skipped with a note, deciding no exit code when other files are recordings: files
 that are empty or not MCAP at all.
@@ -290,18 +294,24 @@ def _replay(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
         return 2
-    report = replay(
-        args.paths,
-        server=args.server,
-        rtol=args.rtol,
-        atol=args.atol,
-        out=args.out,
-        progress=None,
-        filters=_filters(args),
-        timeout=args.timeout or None,
-        limits=limits,
-        load=_kernels_as_met("replay"),
-    )
+    if args.dask is not None or args.local_workers is not None:
+        fleet = _replay_on_cluster(args, limits)
+        if fleet is None:
+            return 2
+        report = fleet
+    else:
+        report = replay(
+            args.paths,
+            server=args.server,
+            rtol=args.rtol,
+            atol=args.atol,
+            out=args.out,
+            progress=None,
+            filters=_filters(args),
+            timeout=args.timeout or None,
+            limits=limits,
+            load=_kernels_as_met("replay"),
+        )
     code = report.exit_code(args.allow_empty)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
@@ -315,6 +325,42 @@ def _replay(args: argparse.Namespace) -> int:
         )
     _write(text)
     return code
+
+
+def _replay_on_cluster(
+    args: argparse.Namespace, limits: dict[str, dict[str, int]] | None
+) -> "ReplayReport | None":
+    """``replay --dask/--local-workers``: the report, or None after saying on stderr why
+    there is none (no cluster, a worker that cannot read the folder, --out). A Ctrl-C ends
+    it as it ends ``call`` with a cluster (:func:`_leave_the_cluster`)."""
+    from plotgate.clients.fleet import Judging, WorkerCannotRead, fleet_replay
+    from plotgate.clients.parts import PART_BYTES
+    from plotgate.service.cluster import ClusterUnavailable
+
+    if args.out is not None:
+        print(
+            "plotgate replay: --out writes one session file, which many workers cannot; "
+            "replay without --dask/--local-workers to write it",
+            file=sys.stderr,
+        )
+        return None
+    judging = Judging(args.rtol, args.atol, args.timeout or None, limits, _filters(args))
+    try:
+        return fleet_replay(
+            args.paths,
+            judging,
+            address=args.dask,
+            local_workers=args.local_workers,
+            progress=sys.stderr.isatty(),
+            part_bytes=args.part_bytes or PART_BYTES,
+        )
+    except WorkerCannotRead as exc:
+        print(f"plotgate replay: {exc.filename}: {exc.strerror}", file=sys.stderr)
+    except ClusterUnavailable as exc:
+        print(f"plotgate replay: {exc}", file=sys.stderr)
+    except KeyboardInterrupt:
+        _leave_the_cluster()
+    return None
 
 
 def _recover(args: argparse.Namespace) -> int:
@@ -545,7 +591,22 @@ def _add_replay(sub: Any, filters: argparse.ArgumentParser) -> None:
         epilog=REPLAY_EXIT_CODES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    rep.add_argument("--server", help="replay against this live server URL (default in-process)")
+    where = rep.add_mutually_exclusive_group()
+    where.add_argument("--server", help="replay against this live server URL (default in-process)")
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="in-process on the workers of this Dask scheduler, files and chunk ranges "
+        "spread over them (the recording folder at the same path on every worker); the "
+        "report and exit status are the serial run's",
+    )
+    where.add_argument(
+        "--local-workers",
+        type=_at_least(1),
+        metavar="N",
+        help="as --dask, on a local Dask cluster of N worker processes (started and stopped "
+        "by the command)",
+    )
     rep.add_argument(
         "--rtol",
         type=_tolerance,
@@ -575,6 +636,13 @@ def _add_replay(sub: Any, filters: argparse.ArgumentParser) -> None:
         "--allow-empty",
         action="store_true",
         help="exit 0, not 2, when there is nothing to compare",
+    )
+    rep.add_argument(
+        "--part-bytes",
+        type=_at_least(1),
+        metavar="N",
+        help="with --dask/--local-workers: bytes of chunks per task when a large file is "
+        "cut into chunk ranges (default 8 MiB)",
     )
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")

@@ -20,6 +20,8 @@ records with the same id and time but different bytes are a conflict, which the 
 never writes: the first read is kept, and the conflict is reported naming both by file and
 offset. Records are told apart by a keyed 64-bit hash of their bytes (Python's ``hash``,
 SipHash with a key drawn at each start), which a hostile file cannot aim at without the key.
+The rules are :class:`plotgate.clients.pairing.Pairing`'s, which the fleet replay's merge
+(:mod:`plotgate.clients.fleet`) pairs with too, so the two cannot drift apart.
 
 A file without its footer is *open* while a process on this host still has it open (its
 name carries its writer's ``pid``; :mod:`plotgate.clients.live`), *unfinished* otherwise:
@@ -34,17 +36,16 @@ when other files are recordings.
 
 import json
 import os
-from collections import OrderedDict, deque
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 from mcap.records import Channel, Metadata, Schema
 
 from plotgate.clients.live import writer_alive
 from plotgate.clients.messages import MAX_DEPTH, Envelope, check_messages, loads, parse_record
+from plotgate.clients.pairing import MAX_LISTED, Filters, Pair, Pairing, Seen, iso_time
 from plotgate.clients.scan import (
     MAX_RECORD_BYTES,
     Damage,
@@ -52,15 +53,16 @@ from plotgate.clients.scan import (
     NotMcap,
     Scan,
     check_regular,
-    location,
 )
 
 __all__ = [
     "MAX_DEPTH",
     "Exchange",
     "Filters",
+    "OnRecord",
     "Reader",
     "Recording",
+    "exchange_of",
     "file_state",
     "iso_time",
     "parse_record",
@@ -69,12 +71,8 @@ __all__ = [
     "recording_files",
 ]
 
-MAX_LISTED = 100
-"""Damage listed per file; the rest is counted."""
 _CHECKED_TOGETHER = 2**20
 """Bytes of messages checked in one call of :func:`~plotgate.clients.messages.check_messages`."""
-_RECENT = 200_000
-"""Records of answered exchanges remembered to recognise one written twice."""
 
 
 class Exchange:
@@ -223,34 +221,6 @@ def file_state(summary: dict[str, Any]) -> str:
     return str(summary["state"])
 
 
-def iso_time(ns: int | None) -> str | None:
-    """Nanoseconds since the epoch as an ISO 8601 UTC time (microseconds)."""
-    if ns is None:
-        return None
-    return (
-        datetime.fromtimestamp(ns / 1e9, UTC)
-        .isoformat(timespec="microseconds")
-        .replace("+00:00", "Z")
-    )
-
-
-@dataclass(frozen=True)
-class Filters:
-    """Which exchanges to take: by operation and by request time (``since`` inclusive,
-    ``until`` exclusive, ns since the epoch); empty or None takes all."""
-
-    operations: frozenset[str] = frozenset()
-    since: int | None = None
-    until: int | None = None
-
-    def admit(self, operation: str, log_time: int) -> bool:
-        return (
-            (not self.operations or operation in self.operations)
-            and (self.since is None or log_time >= self.since)
-            and (self.until is None or log_time < self.until)
-        )
-
-
 def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
     """The MCAP files at ``paths`` (files, or folders whose ``*.mcap`` are taken), each once,
     in name order (names start with their UTC time, so this is time order).
@@ -293,30 +263,9 @@ def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | s
     return operation, kind
 
 
-class _Source(NamedTuple):
-    """Where a record was read, and a keyed hash of its bytes: enough to tell a record the
-    recorder wrote twice (the same bytes) from a conflicting one, and to name both."""
-
-    digest: int
-    file: str
-    offset: int
-    inner: int | None
-
-    def __str__(self) -> str:
-        return f"{self.file} at {location(self.offset, self.inner)}"
-
-
-class _Waiting(NamedTuple):
-    """A record waiting for its counterpart."""
-
-    operation: str
-    request_id: str
-    log_time: int
-    file: str
-    source: _Source
-    data: bytes | None
-    """The record's bytes; None for a request the filters leave out."""
-    envelope: Envelope
+OnRecord = Callable[[Seen, Envelope, bytes], None]
+"""Called with each checked record instead of pairing it: its description, its envelope
+and its bytes."""
 
 
 class Reader:
@@ -347,21 +296,26 @@ class Reader:
         filters: Filters | None = None,
         *,
         max_record_bytes: int = MAX_RECORD_BYTES,
+        span: tuple[int, int] | None = None,
+        on_record: OnRecord | None = None,
+        digest: Callable[[bytes], Any] = hash,
     ) -> None:
+        """``span`` reads only that range of each file (:class:`Scan`); ``on_record`` takes
+        every checked record in file order, and then nothing is paired (the fleet replay
+        pairs the records of many parts itself); ``digest`` tells records apart (the fleet's
+        parts need one that is the same in every process, which ``hash`` is not)."""
         self.paths = recording_files(paths)
+        self.span = span
+        self.on_record = on_record
+        self.digest = digest
+        self.stopped_at = 0
+        """Where reading the last file stopped (:attr:`Scan.stopped_at`)."""
         self.filters = filters or Filters()
         self.max_record_bytes = max_record_bytes
         self.files: list[Recording] = []
         self.unreadable: list[str] = []
         self.skipped: list[str] = []
-        self.written_twice = 0
-        self.conflicts: list[str] = []
-        self.conflict_count = 0
-        self._requests: dict[tuple[str, str], deque[_Waiting]] = {}
-        self._responses: dict[tuple[str, str], deque[_Waiting]] = {}
-        self._seen: dict[tuple[str, str, str, int], _Source] = {}  # (kind, op, id, time) waiting
-        self._recent: OrderedDict[tuple[str, str, str, int], _Source] = OrderedDict()
-        self._originals: set[tuple[str, str]] = set()
+        self._pairing = Pairing(self.filters)
 
     @property
     def recordings(self) -> int:
@@ -373,10 +327,11 @@ class Reader:
             rec = Recording(path)
             self.files.append(rec)
             yield from self._file(rec)
-        yield from self._leftovers()
+        for pair in self._pairing.leftovers():
+            yield exchange_of(pair)
 
     def _file(self, rec: Recording) -> Iterator[Exchange]:
-        scan = Scan(rec.path, max_record_bytes=self.max_record_bytes)
+        scan = Scan(rec.path, max_record_bytes=self.max_record_bytes, span=self.span)
         channels: dict[int, tuple[str, str] | str] = {}
         schemas: set[int] = set()
         runs: list[Messages] = []
@@ -414,6 +369,7 @@ class Reader:
             self.unreadable.append(rec.error)
         rec.size, rec.complete, rec.tail = scan.size, scan.complete, scan.unfinished
         rec.chunks, rec.chunks_damaged = scan.chunks, scan.chunks_damaged
+        self.stopped_at = scan.stopped_at
         if rec.complete or rec.skipped is not None or rec.error is not None:
             rec.state = "complete" if rec.complete else "unread"
         else:
@@ -469,92 +425,53 @@ class Reader:
         filters take."""
         _, _, _, t, _, data = run.records[index]
         operation, kind = channel
-        rid = envelope.request_id
-        key = (operation, rid)
-        mark = (kind, operation, rid, t)
-        source = _Source(hash(data), file, *run.located(index))
-        first = self._seen.get(mark) or self._recent.get(mark)
-        if first is not None:
-            self._again(mark, first, source)
-            return None
-        keep = kind == "response" or self.filters.admit(operation, t)
-        current = _Waiting(operation, rid, t, file, source, data if keep else None, envelope)
-        if kind == "request":
-            if envelope.replay_of is None:
-                self._originals.add(key)
-            mine, other = self._requests, self._responses
-        else:
-            mine, other = self._responses, self._requests
-        counterparts = other.get(key)
-        if not counterparts:
-            mine.setdefault(key, deque()).append(current)
-            self._seen[mark] = source
-            return None
-        waiting = counterparts.popleft()
-        if not counterparts:
-            del other[key]
-        self._seen.pop(
-            (("response" if kind == "request" else "request"), *key, waiting.log_time), None
+        offset, inner = run.located(index)
+        replay_of = envelope.replay_of if kind == "request" else None
+        seen = Seen(
+            kind, operation, envelope.request_id, t, self.digest(data), offset, inner, replay_of
         )
-        request, response = (current, waiting) if kind == "request" else (waiting, current)
-        self._recent[("request", *key, request.log_time)] = request.source
-        self._recent[("response", *key, response.log_time)] = response.source
-        while len(self._recent) > _RECENT:
-            self._recent.popitem(last=False)
-        return None if request.data is None else self._exchange(request, response)
+        if self.on_record is not None:
+            self.on_record(seen, envelope, data)
+            return None
+        pair = self._pairing.take(None, file, seen, (envelope, data))
+        return None if pair is None else exchange_of(pair)
 
-    def _again(self, mark: tuple[str, str, str, int], first: _Source, again: _Source) -> None:
-        """A record with the key and time of one read before: written twice by the
-        recorder when the bytes are the same, else a conflict (the first one read stays)."""
-        if again.digest == first.digest:
-            self.written_twice += 1
-            return
-        self.conflict_count += 1
-        if len(self.conflicts) < MAX_LISTED:
-            kind, operation, rid, t = mark
-            self.conflicts.append(
-                f"{operation} {rid} at {iso_time(t)}: the {kind} record {again} differs from "
-                f"the one at {first} (that one kept)"
-            )
+    @property
+    def written_twice(self) -> int:
+        """Records seen a second time, byte for byte."""
+        return self._pairing.written_twice
 
-    def _exchange(self, request: _Waiting, response: _Waiting | None = None) -> Exchange:
-        replay_of = request.envelope.replay_of
-        answer = None if response is None else response.envelope
-        return Exchange(
-            request.operation,
-            request.request_id,
-            None,
-            None,
-            request.log_time,
-            request.file,
-            replay_of is not None and (request.operation, replay_of) in self._originals,
-            request.data,
-            None if response is None else response.data,
-            replay_of=replay_of,
-            status=None if answer is None else answer.status,
-            duration_s=None if answer is None else answer.duration_s,
-        )
+    @property
+    def conflict_count(self) -> int:
+        return self._pairing.conflict_count
 
-    def _leftovers(self) -> Iterator[Exchange]:
-        for queue in self._requests.values():
-            for request in queue:
-                if request.data is not None:
-                    yield self._exchange(request)
-        for queue in self._responses.values():
-            for response in queue:
-                if self.filters.admit(response.operation, response.log_time):
-                    yield Exchange(
-                        response.operation,
-                        response.request_id,
-                        log_time=response.log_time,
-                        file=response.file,
-                        response_bytes=response.data,
-                        status=response.envelope.status,
-                        duration_s=response.envelope.duration_s,
-                    )
-        self._requests.clear()
-        self._responses.clear()
-        self._seen.clear()
+    @property
+    def conflicts(self) -> list[str]:
+        return self._pairing.conflicts
+
+
+def exchange_of(pair: Pair) -> Exchange:
+    """The exchange of a pair whose records carry their payloads (envelope, bytes): its
+    values are built from the bytes on first use."""
+    request, response = pair.request, pair.response
+    first = request or response
+    assert first is not None
+    envelope, request_bytes = request.payload if request is not None else (None, None)
+    answer, response_bytes = response.payload if response is not None else (None, None)
+    return Exchange(
+        first.seen.operation,
+        first.seen.request_id,
+        None,
+        None,
+        first.seen.log_time,
+        first.file,
+        pair.original_read,
+        request_bytes,
+        response_bytes,
+        replay_of=None if envelope is None else envelope.replay_of,
+        status=None if answer is None else answer.status,
+        duration_s=None if answer is None else answer.duration_s,
+    )
 
 
 def read_recording(path: Path | str) -> Recording:

@@ -43,6 +43,7 @@ it as a replay of its original, never under the original's id.
 """
 
 import contextlib
+import ctypes
 import errno
 import importlib
 import json
@@ -50,8 +51,7 @@ import signal
 import threading
 import time
 import uuid
-from collections import Counter
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -70,18 +70,22 @@ from plotgate.service.schemas import ENDPOINTS
 if TYPE_CHECKING:
     import httpx
 
-    from plotgate.service.registry import Operation, Outcome
+    from plotgate.service.registry import Operation
+    from plotgate.service.registry import Outcome as Answered
 
 __all__ = [
     "Answer",
     "Change",
     "InProcess",
+    "Outcome",
     "ReplayReport",
     "diff",
     "in_process",
+    "judge",
     "over_http",
     "replay",
     "sent_body",
+    "tally",
 ]
 
 MAX_CHANGES = 1000
@@ -246,8 +250,71 @@ def _failure(status: int, problem: Any) -> dict[str, Any]:
 
 
 class _Overtime(BaseException):
-    """Raised in the main thread when an in-process exchange passes its deadline (a
-    BaseException, so no ``except Exception`` in an operation swallows it)."""
+    """Raised when an in-process exchange passes its deadline (a BaseException, so no
+    ``except Exception`` in an operation swallows it)."""
+
+
+@contextlib.contextmanager
+def _thread_alarm(seconds: float) -> Iterator[None]:
+    """:class:`_Overtime` in this thread after ``seconds``, from the one watchdog thread
+    (a timer thread per exchange cost more than many exchanges). Raised between two
+    bytecodes, so a long call into compiled code ends first. Once the block is left the
+    deadline is disarmed; an exception set but not raised yet is cleared and raised here,
+    so it can never surface after the block."""
+    target = threading.get_ident()
+    _WATCHDOG.arm(target, seconds)
+    try:
+        yield
+    finally:
+        if _WATCHDOG.disarm(target):
+            ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), None)
+            raise _Overtime
+
+
+class _Watchdog:
+    """Deadlines of threads (by id), each rung once by one daemon thread: an asynchronous
+    :class:`_Overtime` set on the thread."""
+
+    def __init__(self) -> None:
+        self._changed = threading.Condition()
+        self._due: dict[int, float] = {}
+        self._rang: set[int] = set()
+        self._thread: threading.Thread | None = None
+
+    def arm(self, target: int, seconds: float) -> None:
+        with self._changed:
+            self._rang.discard(target)  # rung while its last block was being left
+            self._due[target] = time.monotonic() + seconds
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._watch, name="replay-deadlines")
+                self._thread.daemon = True
+                self._thread.start()
+            self._changed.notify()
+
+    def disarm(self, target: int) -> bool:
+        """Whether the deadline rang."""
+        with self._changed:
+            self._due.pop(target, None)
+            rang = target in self._rang
+            self._rang.discard(target)
+            return rang
+
+    def _watch(self) -> None:
+        with self._changed:
+            while True:
+                now = time.monotonic()
+                for target, due in list(self._due.items()):
+                    if due <= now:
+                        del self._due[target]
+                        self._rang.add(target)
+                        ctypes.pythonapi.PyThreadState_SetAsyncExc(
+                            ctypes.c_ulong(target), ctypes.py_object(_Overtime)
+                        )
+                wait = min(self._due.values(), default=now + 3600.0) - now
+                self._changed.wait(max(wait, 0.0))
+
+
+_WATCHDOG = _Watchdog()
 
 
 LONGEST_DEADLINE_S = 1e8
@@ -267,10 +334,12 @@ class InProcess:
     ``PLOTGATE_LIMITS`` caps) is not run.
 
     What does not change from one exchange to the next is paid once. The registry is
-    imported when the runner is made. The deadline is a real-time alarm, delivered only to
-    the main thread (elsewhere there is no deadline): inside ``with`` the runner installs
-    its handler once for the whole run and each exchange only arms and disarms the timer;
-    called outside ``with``, each exchange installs and removes the handler itself. The
+    imported when the runner is made. In the main thread the deadline is a real-time alarm:
+    inside ``with`` the runner installs its handler once for the whole run and each
+    exchange only arms and disarms the timer; called outside ``with``, each exchange
+    installs and removes the handler itself. In another thread (a Dask worker's task), where
+    no signal is delivered, an exception the one watchdog thread sets on it
+    (:func:`_thread_alarm`). The
     request body is serialized from the recorded one by pydantic-core's encoder (about a
     third of the ``json`` module's time; the same values, NaN and Infinity included, and
     the ``json`` module for what it refuses: a lone surrogate).
@@ -325,7 +394,12 @@ class InProcess:
             try:
                 if self._installed:
                     signal.setitimer(signal.ITIMER_REAL, self._timeout)
-                outcome = self._outcome(op, exchange, rid)
+                    outcome = self._outcome(op, exchange, rid)
+                elif self._timeout:  # a thread no signal reaches: a Dask worker's task
+                    with _thread_alarm(self._timeout):
+                        outcome = self._outcome(op, exchange, rid)
+                else:
+                    outcome = self._outcome(op, exchange, rid)
             finally:
                 if self._installed:
                     signal.setitimer(signal.ITIMER_REAL, 0)
@@ -349,7 +423,7 @@ class InProcess:
             importlib.import_module(self._registry.OPERATIONS[operation].module)
             self._met.add(operation)
 
-    def _outcome(self, op: "Operation", exchange: Exchange, rid: str) -> "Outcome | None":
+    def _outcome(self, op: "Operation", exchange: Exchange, rid: str) -> "Answered | None":
         """The registry's outcome, or None for a request over the caps whose recorded
         answer is not that cap's refusal."""
         registry = self._registry
@@ -459,7 +533,6 @@ def replay(
     """
     report = ReplayReport()
     reader = Reader(paths, filters)
-    not_compared: Counter[str] = Counter()
     with contextlib.ExitStack() as resources:
         if server:
             import httpx
@@ -477,30 +550,7 @@ def replay(
 
         quiet = None if progress is None else not progress
         for exchange in tqdm(reader, desc="replay", unit="exchange", disable=quiet):
-            report.exchanges += 1
-            reason = _not_comparable(exchange)
-            if reason is None and exchange.operation not in ENDPOINTS:
-                _count(
-                    report,
-                    exchange,
-                    [("operation", exchange.operation, "not an operation of this build")],
-                )
-                continue
-            if reason is None:
-                rid = uuid.uuid4().hex
-                meet(exchange.operation)
-                started = time.perf_counter()
-                answer = run(exchange, rid)
-                reason = answer.skip
-            if reason is not None:
-                not_compared[reason] += 1
-                continue
-            if answer.note and len(report.notes) < MAX_LISTED:
-                report.notes.append(answer.note)
-            if writer is not None and answer.status is not None:
-                writer(exchange, rid, answer, time.perf_counter() - started)
-            _count(report, exchange, _differences(exchange, answer, rtol, atol))
-    report.not_compared = dict(not_compared)
+            tally(report, exchange, judge(exchange, run, rtol, atol, writer, meet))
     report.files = [rec.summary() for rec in reader.files]
     report.unreadable = list(reader.unreadable)
     report.skipped = list(reader.skipped)
@@ -508,6 +558,59 @@ def replay(
     report.written_twice = reader.written_twice
     report.conflict_count, report.conflicts = reader.conflict_count, list(reader.conflicts)
     return report
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What replaying one exchange found: ``skip`` says why it was not compared; else the
+    ``differences`` (none: unchanged) and a ``note`` (an exception raised in process)."""
+
+    skip: str | None = None
+    differences: tuple[tuple[str, Any, Any], ...] = ()
+    note: str | None = None
+
+
+def judge(
+    exchange: Exchange,
+    run: Runner,
+    rtol: float,
+    atol: float,
+    writer: Callable[[Exchange, str, Answer, float], None] | None = None,
+    meet: Callable[[str], None] | None = None,
+) -> Outcome:
+    """Run one exchange again (when it can be compared) and compare its answer; ``writer``
+    writes the replayed exchange, ``meet`` loads its operation before its clock starts (so
+    a written duration holds no import or compilation). The serial replay and the fleet's
+    workers both judge with this, and :func:`tally` counts the outcomes in the serial
+    order."""
+    reason = _not_comparable(exchange)
+    if reason is None and exchange.operation not in ENDPOINTS:
+        return Outcome(
+            differences=(("operation", exchange.operation, "not an operation of this build"),)
+        )
+    if reason is not None:
+        return Outcome(skip=reason)
+    rid = uuid.uuid4().hex
+    if meet is not None:
+        meet(exchange.operation)
+    started = time.perf_counter()
+    answer = run(exchange, rid)
+    if answer.skip is not None:
+        return Outcome(skip=answer.skip)
+    if writer is not None and answer.status is not None:
+        writer(exchange, rid, answer, time.perf_counter() - started)
+    return Outcome(None, tuple(_differences(exchange, answer, rtol, atol)), answer.note)
+
+
+def tally(report: ReplayReport, exchange: Exchange, outcome: Outcome) -> None:
+    """Count one exchange's outcome into ``report``, in the order exchanges are read."""
+    report.exchanges += 1
+    if outcome.skip is not None:
+        report.not_compared[outcome.skip] = report.not_compared.get(outcome.skip, 0) + 1
+        return
+    if outcome.note and len(report.notes) < MAX_LISTED:
+        report.notes.append(outcome.note)
+    _count(report, exchange, outcome.differences)
 
 
 def _refused_alike(exchange: Exchange, status: int, fields: list[str]) -> bool:
@@ -559,7 +662,7 @@ def _differences(
 
 
 def _count(
-    report: ReplayReport, exchange: Exchange, differences: list[tuple[str, Any, Any]]
+    report: ReplayReport, exchange: Exchange, differences: tuple[tuple[str, Any, Any], ...]
 ) -> None:
     report.compared += 1
     if not differences:

@@ -397,8 +397,17 @@ class Scan:
         *,
         max_record_bytes: int = MAX_RECORD_BYTES,
         max_chunk_bytes: int = MAX_CHUNK_BYTES,
+        span: tuple[int, int] | None = None,
     ) -> None:
         self.path = Path(path)
+        self.span = span
+        """Read only the records that start in [start, stop) (a range of whole chunks of a
+        file whose summary indexes them; None: the whole file). The summary's schemas and
+        channels are read first all the same; the missing footer is reported only by a span
+        that runs to the file's end."""
+        self.stopped_at = 0
+        """Where reading stopped: the first record at or past the span's end (past it when
+        damage was skipped across the end), or the file's size."""
         self.max_record_bytes = max_record_bytes
         self.max_chunk_bytes = max_chunk_bytes
         self.size = 0
@@ -460,13 +469,17 @@ class Scan:
     def _read(self) -> Iterator[Located | Damage | Messages | _OneMessage]:
         self._fd = open_regular(self.path)
         try:
-            self.size = os.fstat(self._fd).st_size
+            self.size = self.stopped_at = os.fstat(self._fd).st_size
             self._blocks = _Blocks(self._fd, self.size)
             if self._pread(len(MAGIC), 0) != MAGIC:
                 raise NotMcap(not_mcap(self.path, self.size))
-            yield from self._summary_channels()
-            yield from self._records(len(MAGIC))
-            if not self.complete and self.unfinished is None:
+            start, stop = self.span or (len(MAGIC), self.size)
+            for item in self._summary_channels():
+                if start == len(MAGIC) or not isinstance(item, Damage):
+                    yield item  # its damage is the first span's to report
+            yield from self._records(start, min(stop, self.size))
+            # the file's tail is the last span's to judge
+            if not self.complete and stop >= self.size and self.unfinished is None:
                 self.unfinished = "it ends after a whole record, without its footer"
         finally:
             os.close(self._fd)
@@ -474,9 +487,9 @@ class Scan:
     def _pread(self, n: int, at: int) -> bytes:
         return self._blocks.read(n, at)
 
-    def _records(self, pos: int) -> Iterator[Located | Damage | Messages | _OneMessage]:
+    def _records(self, pos: int, stop: int) -> Iterator[Located | Damage | Messages | _OneMessage]:
         in_summary = False
-        while pos < self.size:
+        while pos < stop:
             head = self._pread(9, pos)
             if len(head) < 9:
                 self.skipped_bytes += len(head)
@@ -533,6 +546,7 @@ class Scan:
             elif opcode == DATA_END:
                 in_summary = True
             pos = end
+        self.stopped_at = pos
 
     def _cut_short(self, pos: int, opcode: int, length: int) -> bool:
         """Whether the record at ``pos``, which declares more bytes than the file has, is an

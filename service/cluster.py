@@ -433,6 +433,10 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
                 # a free port: None means Dask's 8787, and a second cluster on the
                 # machine warned "Port 8787 is already in use" (an error under the tests)
                 dashboard_address=":0",
+                # the workers' own logs are not the command's output: at shutdown on a busy
+                # machine a worker's heartbeat to the closed scheduler logged a traceback on
+                # the command's stderr; a task's error still comes back as it is raised
+                silence_logs=logging.CRITICAL,
             )
             _start_workers(local, local_workers)
             address = local.scheduler_address

@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, given
 from hypothesis import settings as hsettings
 from hypothesis import strategies as st
-from mcap.writer import CompressionType, Writer
+from mcap.writer import Writer
 
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
@@ -29,7 +29,7 @@ from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.recording import request_record, response_record
 from plotgate.service.recording.files import RecordingFile
 from plotgate.service.registry import OPERATIONS, execute
-from plotgate.service.schemas import request_schema, response_schema
+from tests.clients.recorded import write_files
 from tests.service.test_recording import BAD_COV, GOOD
 
 OP = "gates.test"
@@ -47,30 +47,6 @@ def _answers() -> dict[str, tuple[bytes, int, bytes]]:
         "refused": (BAD_BODY, bad.status, bad.content),
         "changed": (GOOD_BODY, good.status, json.dumps(changed).encode()),
     }
-
-
-def write_files(folder: Path, events: list[tuple[int, str, bytes]], cuts: set[int]) -> None:
-    """Messages (time, kind, record) in order into files, a new file after each index in
-    ``cuts`` (a rotation), with the recorder's channels and schemas."""
-    folder.mkdir(parents=True, exist_ok=True)
-    writer = None
-    for i, (t, kind, data) in enumerate(events):
-        if writer is None:
-            stream = open(folder / f"plotgate-{i:05d}.mcap", "wb")  # noqa: SIM115
-            writer = Writer(stream, compression=CompressionType.LZ4)
-            writer.start()
-            channels = {}
-            for k, schema, model in (
-                ("request", request_schema, OPERATIONS[OP].request),
-                ("response", response_schema, OPERATIONS[OP].response),
-            ):
-                sid = writer.register_schema(k, "jsonschema", json.dumps(schema(model)).encode())
-                channels[k] = writer.register_channel(f"{OP}/{k}", "json", sid)
-        writer.add_message(channels[kind], t, data, t)
-        if i in cuts or i == len(events) - 1:
-            writer.finish()
-            stream.close()
-            writer = None
 
 
 KINDS = ("ok", "refused", "changed", "never", "timeout")
