@@ -231,19 +231,16 @@ def test_filters_and_a_changed_answer_in_parts(tmp_path):
     _same(serial, fleet_replay(folder, judging, part_bytes=1))
 
 
-def test_an_exchange_past_its_timeout_is_stopped_on_a_worker_thread_too(tmp_path, monkeypatch):
+def test_an_exchange_past_its_timeout_is_stopped_on_a_worker_thread_too(tmp_path, swap_handler):
     """A Dask task runs in a worker's thread, where no signal arrives: the deadline is an
     exception set on the thread, and the report is the serial one's (a SIGALRM there)."""
-    from plotgate.service import registry
-
-    op = registry.OPERATIONS[OP]
     status, content = _answer(GOOD)
 
     def slow(request):
         for _ in range(3000):  # 30 s, unless stopped between two sleeps
             time.sleep(0.01)
 
-    monkeypatch.setitem(registry.OPERATIONS, OP, registry.Operation(op.endpoint, slow, op.fields))
+    swap_handler(OP, slow)
     events = [(T0, "request", request_record("r", OP, GOOD))]
     events.append((T0 + MS, "response", response_record("r", OP, status, 0.001, content)))
     write_files(tmp_path / "rec", events, set())
