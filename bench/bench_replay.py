@@ -17,7 +17,9 @@ Then, best of ``--repeat`` each:
   path, in this process (imports already paid);
 - **plotgate replay**: the command in a subprocess, as a user runs it: wall time with its
   imports, and its peak RSS;
-- **fleet replay**: :func:`fleet_replay` (fills in once fleet replay has landed).
+- **fleet replay**: :func:`plotgate.clients.fleet.fleet_replay` on ``--workers`` local Dask
+  workers, cluster start included, its report checked equal to the in-process one
+  (bench/bench_fleet_replay.py times it at scale, against 1 worker).
 
     python bench/bench_replay.py [--exchanges 15000 --connections 4 --repeat 3]
 """
@@ -129,10 +131,12 @@ def command(folder: Path) -> tuple[float, float, float]:
     return seconds, cpu, after.ru_maxrss / 1024
 
 
-def fleet_replay(folder: Path, workers: int) -> ReplayReport | None:
-    """Fleet replay of ``folder`` on ``workers`` local Dask workers, or None while fleet
-    replay has not landed: fill in with its call, timed by the caller like the rest."""
-    return None
+def fleet_replay(folder: Path, workers: int) -> ReplayReport:
+    """Fleet replay of ``folder`` on ``workers`` local Dask workers (cluster start
+    included)."""
+    from plotgate.clients.fleet import fleet_replay as on_cluster
+
+    return on_cluster(folder, local_workers=workers)
 
 
 def main() -> None:
@@ -161,11 +165,9 @@ def main() -> None:
         wall, cpu, rss = command(folder)
         rows.append((f"plotgate replay, imports included (peak RSS {rss:.0f} MiB)", wall, cpu))
         wall, cpu, fleet = best(lambda: fleet_replay(folder, args.workers), 1)
-        if fleet is not None:
-            rows.append((f"fleet replay ({args.workers} workers)", wall, cpu))
+        assert fleet.text() == report.text(), "the fleet's report is not the serial one"
+        rows.append((f"fleet replay ({args.workers} local workers; CPU: this process)", wall, cpu))
         table(rows, n)
-        if fleet is None:
-            print("fleet replay: not measured (fleet_replay() is to be filled in)")
 
 
 def table(rows: list[tuple[str, float, float]], n: int) -> None:
