@@ -236,6 +236,24 @@ def test_the_compose_file_names_this_builds_commands_and_settings():
         assert name.removeprefix("PLOTGATE_").lower() in Settings.model_fields
 
 
+def test_the_compose_file_publishes_loopback_only_and_records_where_the_server_can_write():
+    """What running it for real found (deploy/run_stack.sh, docs/deploy.md): podman-compose
+    starts one worker unless the mode is written out, and a host folder bind-mounted on
+    /data is root's, where the server (user 10001) cannot write."""
+    from pathlib import Path
+
+    import yaml
+
+    compose = yaml.safe_load((Path(__file__).parents[2] / "deploy/compose.yaml").read_text())
+    services = compose["services"]
+    assert services["worker"]["deploy"] == {"mode": "replicated", "replicas": 2}
+    published = [port for s in services.values() for port in s.get("ports", [])]
+    assert published and all(port.startswith("127.0.0.1:") for port in published)
+    [volume] = services["plotgate"]["volumes"]
+    name, target = volume.split(":")
+    assert target == "/data" and name in compose["volumes"]
+
+
 def test_a_progress_bar_counts_the_chunks_on_stderr(capsys):
     scenario = mu_scenario(20.0)
     runs = 3 * CHUNK_RUNS
