@@ -21,6 +21,8 @@ deadline the coroutine is cancelled, and anything Dask raises while connecting o
 talking becomes :class:`ClusterUnavailable`, whatever its type; only an error a task
 itself raised on a worker comes back as it is, as it would in-process.
 :func:`configure` cancels the calls in flight, so a stuck call never holds up shutdown.
+One request's work is cancelled alone with :class:`Cancellable` (its client went away):
+its calls to the cluster, and in this process the chunks not yet started.
 
 Dask (``distributed``) is an optional dependency: ``pip install "plotgate[cluster]"``.
 """

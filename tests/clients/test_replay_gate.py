@@ -17,6 +17,7 @@ from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
 from plotgate.clients.replay import (
     BODY_TIMEOUT,
+    CLIENT_GONE,
     NEVER_ANSWERED,
     OVER_CAPS,
     REFUSED_FOR_THE_SERVER,
@@ -437,6 +438,24 @@ def test_a_recorded_503_is_set_aside_not_compared(tmp_path):
     report = replay(tmp_path / "rec", progress=False)
     assert (report.compared, report.unchanged) == (1, 1)
     assert report.not_compared == {REFUSED_FOR_THE_SERVER: 1}
+
+
+def test_a_request_its_client_gave_up_is_set_aside_not_compared(tmp_path):
+    """A 499 (the client went away, its work cancelled) answered nothing: replayed, the
+    operation would answer 200 and read as a change. It is counted apart."""
+    body, _, content = _answers()["ok"]
+    err = ProblemError("client-disconnected", 499, "the client closed the connection")
+    problem = problem_json(err, OPERATIONS[OP].path, "r0")
+    events = [
+        (T0, "request", request_record("r0", OP, body)),
+        (T0 + MS, "response", response_record("r0", OP, 499, 0.001, problem)),
+        (T0 + 2 * MS, "request", request_record("r1", OP, body)),
+        (T0 + 3 * MS, "response", response_record("r1", OP, 200, 0.001, content)),
+    ]
+    write_files(tmp_path / "rec", events, set())
+    report = replay(tmp_path / "rec", progress=False)
+    assert (report.compared, report.unchanged) == (1, 1)
+    assert report.not_compared == {CLIENT_GONE: 1}
 
 
 def test_a_file_that_is_not_a_recording_is_named_once(tmp_path, capsys):
