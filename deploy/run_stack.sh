@@ -10,6 +10,10 @@
 #   - the answer is, bit for bit, the one the same image computes in one process
 #     (plotgate call, no cluster);
 #   - the exchange is in the service's recording (plotgate inspect).
+# Then (unless NO_FAULTS=1) the faults: a long evaluate given up by its client after 5 s
+# has its tasks cancelled on the scheduler; the scheduler container killed mid-request
+# answers it 503 with Retry-After; started again, the workers rejoin it and the next
+# evaluate runs on them, with the same answer; the 499 and the 503 are recorded.
 # The stack (containers, their volumes, its network) and the image it built are removed
 # on exit, whatever happens (trap), and every wait is bounded.
 #
@@ -22,6 +26,7 @@
 #   STACK_WAIT_S        longest wait for each step, s (240)
 #   NO_BUILD=1          run PLOTGATE_IMAGE as it is, and leave it at the end
 #   KEEP_IMAGE=1        leave the image built at the end
+#   NO_FAULTS=1         stop after the first evaluate
 # Exit: 0 the stack answered on its workers; 1 it did not (build, start, answer; each
 # container's last log lines are printed); 2 a tool is missing.
 set -uo pipefail
@@ -165,4 +170,57 @@ say "the answer is the in-process one, bit for bit (plotgate call in the same im
 "$ENGINE" exec "$SERVICE" plotgate inspect /data > "$WORK/inspect.txt" 2>&1 || fail "plotgate inspect /data failed"
 sed 's/^/    /' "$WORK/inspect.txt" >&2
 grep -Eq '^initiation\.evaluate +1 +1 ' "$WORK/inspect.txt" || fail "the exchange is not in the recording"
-say "PASS: the stack answered the evaluate on its workers, recorded"
+[ -n "${NO_FAULTS:-}" ] && { say "PASS: the stack answered the evaluate on its workers, recorded"; exit 0; }
+
+# The faults: a client that goes away, then the scheduler killed mid-request and started
+# again. LONG has 80 chunks: minutes on two workers, far past every wait below.
+LONG='{"runs": 2000, "seed": 1, "scenario": {"clutter": 250}, "config": {"mode": "polar", "v_max": 30}}'
+post_long() {  # $1: curl's --max-time; prints the status and the seconds it took
+  curl -s -o "$WORK/long.json" -D "$WORK/long.headers" -w '%{http_code} %{time_total}' \
+    --max-time "$1" -H 'content-type: application/json' -d "$LONG" "$URL/v1/initiation/evaluate"
+}
+scheduler_tasks() {
+  "$ENGINE" exec -i "$SERVICE" timeout 60 python - <<'PY'
+from distributed import Client
+with Client("tcp://scheduler:8786", timeout=30) as client:
+    print(client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks)))
+PY
+}
+
+say "a client that goes away: an evaluate of 80 chunks, given up after 5 s"
+post_long 5 > /dev/null
+deadline=$((SECONDS + 30))
+until [ "$(scheduler_tasks)" = 0 ]; do
+  [ $SECONDS -lt $deadline ] || fail "its tasks were still on the scheduler 30 s after the client left"
+  sleep 1
+done
+say "its tasks left the scheduler (cancelled) within $((30 - deadline + SECONDS)) s"
+
+say "the scheduler killed mid-request: an evaluate of 80 chunks, the scheduler killed 8 s in"
+SCHEDULER=$(one scheduler)
+post_long "$WAIT_S" > "$WORK/killed" &
+sleep 8
+"$ENGINE" kill "$SCHEDULER" > /dev/null || fail "could not kill the scheduler"
+wait
+read -r code took < "$WORK/killed"
+retry=$(awk -F': ' 'tolower($1) == "retry-after" {print $2}' "$WORK/long.headers" | tr -d '\r')
+say "answered $code with Retry-After: ${retry:-none} after $took s: $(head -c 160 "$WORK/long.json")"
+[ "$code" = 503 ] && [ -n "$retry" ] || fail "the request was not answered 503 with Retry-After"
+
+say "the scheduler started again: the workers rejoin it (restart: unless-stopped)"
+"$ENGINE" start "$SCHEDULER" > /dev/null || fail "could not start the scheduler again"
+executed > "$WORK/before" || fail "the two workers did not join the restarted scheduler within ${WAIT_S} s"
+code=$(curl -s -o "$WORK/again.json" -w '%{http_code}' --max-time "$WAIT_S" \
+  -H 'content-type: application/json' -d "$BODY" "$URL/v1/initiation/evaluate")
+executed > "$WORK/after" || fail "the restarted scheduler did not answer"
+ran=$(join <(sort "$WORK/before") <(sort "$WORK/after") | awk '$1 != "chunk_runs" {n += $3 - $2} END {print n + 0}')
+[ "$code" = 200 ] && [ "$ran" = "$chunks" ] || fail "answered $code, $ran chunks on the workers"
+python3 -c 'import json, sys; sys.exit(json.load(open(sys.argv[1])) != json.load(open(sys.argv[2])))' \
+  "$WORK/again.json" "$WORK/answer.json" || fail "the answer after the restart differs"
+say "the next evaluate answered 200 on the restarted scheduler: all $chunks chunks on the workers, the same answer"
+
+"$ENGINE" exec "$SERVICE" plotgate inspect /data > "$WORK/inspect.txt" 2>&1 || fail "plotgate inspect /data failed"
+sed 's/^/    /' "$WORK/inspect.txt" >&2
+grep -q 'status 499: 1' "$WORK/inspect.txt" && grep -q 'status 503: 1' "$WORK/inspect.txt" \
+  || fail "the 499 and the 503 are not both in the recording"
+say "PASS: answered on its workers and recorded; a request given up cancelled; 503 without its scheduler, which is used again once back"
