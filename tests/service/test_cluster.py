@@ -238,8 +238,9 @@ def test_the_compose_file_names_this_builds_commands_and_settings():
 
 def test_the_compose_file_publishes_loopback_only_and_records_where_the_server_can_write():
     """What running it for real found (deploy/run_stack.sh, docs/deploy.md): podman-compose
-    starts one worker unless the mode is written out, and a host folder bind-mounted on
-    /data is root's, where the server (user 10001) cannot write."""
+    starts one worker unless the mode is written out, a host folder bind-mounted on /data
+    is root's, where the server (user 10001) cannot write, and a worker leaves with exit 0
+    when its scheduler dies, which ``on-failure`` does not restart."""
     from pathlib import Path
 
     import yaml
@@ -247,6 +248,7 @@ def test_the_compose_file_publishes_loopback_only_and_records_where_the_server_c
     compose = yaml.safe_load((Path(__file__).parents[2] / "deploy/compose.yaml").read_text())
     services = compose["services"]
     assert services["worker"]["deploy"] == {"mode": "replicated", "replicas": 2}
+    assert services["worker"]["restart"] == "unless-stopped"  # they leave with a scheduler
     published = [port for s in services.values() for port in s.get("ports", [])]
     assert published and all(port.startswith("127.0.0.1:") for port in published)
     [volume] = services["plotgate"]["volumes"]
