@@ -806,44 +806,6 @@ def test_velocity_of_wrong_batch_length():
 
 
 @pytest.mark.parametrize(
-    ("sigma_r", "sigma_az_deg", "speeds", "prior"),
-    [
-        (200.0, 0.5, (100.0, 500.0), "area"),  # Konovalov's example
-        (200.0, 0.5, (0.0, 300.0), "speed"),
-        (20.0, 1.0, (100.0, 500.0), "area"),  # axis ratio 26: graded about the smeared ring
-        (200.0, 0.5, (300.0, 300.0), "area"),  # a circle: the thin-ring rule
-        (200.0, 0.5, (300.0, 300.02), "speed"),
-    ],
-    ids=["paper", "speed-from-zero", "eccentric", "circle", "thin-ring"],
-)
-def test_compiled_density_matches_numpy_reference(sigma_r, sigma_az_deg, speeds, prior):
-    g = mark_geometry(50e3, 0.4, sigma_r, math.radians(sigma_az_deg), tau=TAU)
-    R_min, R_max = speeds[0] * TAU, speeds[1] * TAU
-    lam_min, lam_max = np.linalg.eigvalsh(g.P1[0] + g.P2[0])
-    eccentric = bool(lam_max >= 64.0 * lam_min)
-    rng = np.random.default_rng(15)
-    # random points out to the density's reach, the origin, and points on the ring's circles
-    d = rng.uniform(-1.0, 1.0, (3000, 2)) * (R_max + 9.0 * math.sqrt(lam_max))
-    d[:3] = [[0.0, 0.0], [R_min, 0.0], [0.0, -R_max]]
-    for m, scale in gp.RULES:
-        ref = gp.prior_density_reference(
-            d[None, :, 0], d[None, :, 1], g.B, R_min, R_max, prior, m, scale, eccentric
-        )[0]
-        fast = gp.compiled_density(
-            d[:, 0], d[:, 1], g.B, R_min, R_max, prior, m, scale, eccentric, 4096
-        )
-        np.testing.assert_allclose(fast, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
-
-
-def test_compiled_density_of_no_points_is_empty():
-    g = paper_geometry(50e3)
-    out = gp.compiled_density(
-        np.empty(0), np.empty(0), g.B, 500.0, 2500.0, "area", 8, 1.0, False, 4096
-    )
-    assert out.shape == (0,)
-
-
-@pytest.mark.parametrize(
     "kind", ["ring", "combined", "expanded", "ellipse", "first_association", "eccentric"]
 )
 def test_unconditional_probability_matches_numpy_reference(kind):
@@ -867,33 +829,3 @@ def test_unconditional_probability_matches_numpy_reference(kind):
     res = unconditional_probability(gate, g, 100.0, 500.0, "area")
     ref_error = np.abs(high - low)
     assert (np.abs(res.probability - high) <= 2.0 * ref_error + res.error + 1e-10).all()
-
-
-@pytest.mark.parametrize(
-    ("sigma_r", "sigma_az_deg", "speeds", "prior"),
-    [
-        (200.0, 0.5, (100.0, 500.0), "area"),
-        (200.0, 0.5, (0.0, 300.0), "speed"),
-        (150.0, 0.5, (0.0, 500.0), "area"),  # axis ratio 2.9
-        (100.0, 0.1, (50.0, 250.0), "speed"),
-    ],
-)
-def test_mapped_heading_rule_matches_adaptive_quad(sigma_r, sigma_az_deg, speeds, prior):
-    g = mark_geometry(50e3, 0.4, sigma_r, math.radians(sigma_az_deg), tau=TAU)
-    R_min, R_max = speeds[0] * TAU, speeds[1] * TAU
-    lam_min, lam_max = np.linalg.eigvalsh(g.P1[0] + g.P2[0])
-    rng = np.random.default_rng(16)
-    d = rng.uniform(-1.0, 1.0, (40, 2)) * (R_max + 3.0 * math.sqrt(lam_max))
-    d[:3] = [[0.0, 0.0], [R_min, 0.0], [0.0, -R_max]]
-    fast = gp.mapped_prior_density(d[:, 0], d[:, 1], g.B, R_min, R_max, prior)
-    ref = gp.prior_density_reference(
-        d[None, :, 0], d[None, :, 1], g.B, R_min, R_max, prior, 14, 0.25, True
-    )[0]
-    bound = (
-        2.0
-        * np.pi
-        * np.sqrt(2.0 * np.pi * lam_max)
-        / (R_max - R_min)
-        * (2.0 if prior == "area" else 1.0)
-    )
-    np.testing.assert_allclose(fast, ref, rtol=0.0, atol=1e-8 * bound)
