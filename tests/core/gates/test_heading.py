@@ -82,6 +82,27 @@ def test_mapped_heading_rule_matches_the_reference(sigma_r, sigma_az_deg, speeds
     assert typical.mean() >= 0.99
 
 
+@pytest.mark.parametrize(
+    ("r", "sigma_r", "sigma_az_deg", "speeds"),
+    [
+        (50e3, 150.0, 0.05, (100.0, 500.0)),  # axis ratio 3.4
+        (80e3, 20.0, 1.0, (100.0, 500.0)),  # 70
+        (50e3, 1.0, 0.5, (0.0, 500.0)),  # 436, a ring from the first mark
+        (30e3, 10.0, 0.5, (20.0, 60.0)),  # 26, a ring narrower than sigma_max
+    ],
+)
+def test_principal_axes_density_matches_the_reference(r, sigma_r, sigma_az_deg, speeds):
+    """The area prior with an eccentric B in B's principal axes, against the graded heading
+    panels on a fine rule, for both rules of the unconditional probability."""
+    g, ring, lam_min, lam_max = problem(sigma_r, sigma_az_deg, speeds, "area", r=r)
+    assert lam_max >= heading.ECCENTRIC**2 * lam_min  # the rule the kernel picks
+    d = points(ring, lam_max, 1000, 18)
+    ref = heading.prior_density_reference(d[None, :, 0], d[None, :, 1], g.B, ring, (16, 0.25))[0]
+    for rule in RULES:
+        fast = heading.prior_density(d[:, 0], d[:, 1], g.B, ring, rule)
+        np.testing.assert_allclose(fast, ref, rtol=0.0, atol=5e-8 * bound(ring, lam_max))
+
+
 def test_reference_is_the_double_integral():
     """The reference at a few points against scipy's dblquad of the prior over the ring.
 
