@@ -253,11 +253,22 @@ def _theta_edges(
         width = np.where(lam_max >= ECCENTRIC**2 * lam_min, np.sqrt(lam_min / lam_max), np.inf)
         centres += [major + k * 0.5 * np.pi for k in range(4)]
         widths += [width] * 4
-    full = bool((region.span >= 2.0 * np.pi).all())
+    # 8 equal panels a turn to start with, at least 2; the centres and kinks of a half turn
+    # (_half_turn) are symmetric under theta + pi, so wrapping keeps their images in it
+    uniform = max(2, round(4.0 * float(region.span.min()) / np.pi))
     widths = [scale * w for w in widths]
-    return angle_breaks(
-        region.start, region.span, centres, widths, region.kinks, uniform=8 if full else 2
-    )
+    return angle_breaks(region.start, region.span, centres, widths, region.kinks, uniform=uniform)
+
+
+def _half_turn(region: StarRegion) -> tuple[StarRegion, float]:
+    """The region and the number of times its integral counts: half of it, twice, when the
+    gate is symmetric about z1 itself (ring, combined, expanded, an ellipse or rectangle
+    without offset), for then so is the integrand: the prior is isotropic and B's
+    Gaussian even, so g(-d) = g(d). That halves the gate's nodes."""
+    if not region.symmetric or region.origin.any():
+        return region, 1.0
+    half = np.full(region.span.shape, np.pi)
+    return StarRegion(region.origin, region.start, half, region.kinks, region.radii), 2.0
 
 
 def _validate_prior(prior: str) -> None:
@@ -346,11 +357,12 @@ def unconditional_quadrature(
     out = np.empty(geometry.n)
     for i in range(geometry.n):
         part = geometry.take(slice(i, i + 1))
-        region = gate.region(part)
+        region, turns = _half_turn(gate.region(part))
         theta_edges = _theta_edges(region, part.B, R_min, R_max, rule[1])
-        out[i] = _unconditional_chunk(
+        chunk = _unconditional_chunk(
             region, part.B, R_min, R_max, prior, rule, theta_edges, reference
-        )[0]
+        )
+        out[i] = turns * chunk[0]
     return out
 
 

@@ -29,6 +29,7 @@ from plotgate.core import (
     monte_carlo_probability,
     unconditional_probability,
 )
+from plotgate.core.gates.regions import StarRegion
 
 TAU = 5.0
 TARGET = 1e-6  # the target: absolute quadrature error below 1e-6, reported
@@ -586,6 +587,52 @@ def test_conditional_error_estimate_is_honest(gate, monkeypatch):
     assert (fine.error < 1e-11).all()
     assert (np.abs(res.probability - fine.probability) <= res.error + 1e-12).all()
     assert (res.error < TARGET).all()
+
+
+# ---------------------------------------------------------------- symmetric gates: half a turn
+
+
+SYMMETRIC_GATES = [
+    RingGate(100.0, 500.0),
+    CombinedGate(100.0, 500.0, 0.9),
+    ExpandedGate(500.0, 0.9),
+    EllipseGate(0.9),
+    EllipseGate(0.9, offset=(0.0, 1500.0)),
+    RectangularGate(2.0, offset=(700.0, -400.0)),
+]
+
+
+@pytest.mark.parametrize("gate", SYMMETRIC_GATES, ids=lambda g: type(g).__name__)
+def test_symmetric_regions_are_symmetric(gate):
+    g = mark_geometry([20e3, 50e3], [0.3, 2.0], 200.0, math.radians(0.5), tau=TAU)
+    region = gate.region(g)
+    assert region.symmetric
+    theta = np.random.default_rng(19).uniform(-4.0, 4.0, (2, 50))
+    for a, b in zip(region.radii(theta), region.radii(theta + math.pi), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=0.0)
+
+
+class WholeTurn:
+    """A gate whose region does not claim its symmetry: integrated over the whole turn."""
+
+    def __init__(self, gate):
+        self.gate = gate
+
+    def region(self, g):
+        origin, start, span, kinks, radii, _ = self.gate.region(g)
+        return StarRegion(origin, start, span, kinks, radii, False)
+
+
+@pytest.mark.parametrize("gate", SYMMETRIC_GATES[:3], ids=lambda g: type(g).__name__)
+def test_half_turn_is_the_whole_turn(gate):
+    """Half a turn, counted twice, against the whole turn, within the error estimates."""
+    g = mark_geometry(30e3, 0.7, 150.0, math.radians(0.4), tau=TAU)
+    half = unconditional_probability(gate, g, 100.0, 500.0, "area")
+    whole = [
+        gp.unconditional_quadrature(WholeTurn(gate), g, 500.0, 2500.0, "area", rule)[0]
+        for rule in gp.RULES
+    ]
+    assert abs(half.probability[0] - whole[0]) <= half.error[0] + abs(whole[0] - whole[1])
 
 
 # ---------------------------------------------------------------- vectorization
