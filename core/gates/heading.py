@@ -25,6 +25,7 @@ record (plain tuples to numba; their types are stated once, :data:`GAUSSIAN` and
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -37,13 +38,20 @@ from plotgate.core.sym2 import Sym2, inverse
 
 __all__ = [
     "BLOCK",
+    "DensityTable",
     "ECCENTRIC",
     "GAUSSIAN",
     "PRIOR_RING",
+    "TABLE_ORDER",
+    "TABLE_PANEL",
     "TAIL",
     "Gaussian",
     "PriorRing",
+    "cached_table",
+    "clear_tables",
+    "density_table",
     "gaussian",
+    "interpolated_density",
     "prior_density",
     "prior_density_reference",
     "prior_ring",
@@ -51,6 +59,9 @@ __all__ = [
     "ray_moments",
     "ray_moments_reference",
     "ring_features",
+    "table_shape",
+    "table_size",
+    "tabulates",
 ]
 
 BLOCK = 4096
@@ -493,6 +504,189 @@ def _principal_density(
         outer = _disk_probability(xi, eta, R_max, sig_min, sig_max, scale, x_gl, w_gl)
         inner = _disk_probability(xi, eta, R_min, sig_min, sig_max, scale, x_gl, w_gl)
         out[i] = factor * (outer - inner)
+    return out
+
+
+class DensityTable(NamedTuple):
+    """The density of one problem on a grid in B's principal axes, for interpolation.
+
+    g(d) is even in both principal coordinates (the prior is isotropic, B's Gaussian even),
+    so the grid covers the quarter 0 <= xi <= L_xi, 0 <= eta <= L_eta (beyond it, more
+    than :data:`TAIL` standard deviations from the ring, g is below e^-40 of its bound).
+    Each axis is cut into equal panels, each with the ``order`` Chebyshev-Lobatto points
+    (shared at the panels' ends); ``values`` holds the density at the grid's points.
+    """
+
+    major: float
+    lengths: tuple[float, float]  # L_xi, L_eta, m
+    panels: tuple[int, int]
+    order: int
+    values: np.ndarray  # (panels_xi (order - 1) + 1, panels_eta (order - 1) + 1)
+
+    @property
+    def size(self) -> int:
+        return int(self.values.size)
+
+    def args(self) -> TableArgs:
+        """The record as a kernel receives it (numba takes a plain tuple)."""
+        return (self.major, *self.lengths, *self.panels, self.order, self.values)
+
+
+TableArgs = tuple[float, float, float, int, int, int, np.ndarray]
+_TABLE = "Tuple((float64, float64, float64, int64, int64, int64, float64[:, :]))"
+"""numba type of a :class:`DensityTable`."""
+TABLE_ORDER = 16
+"""Chebyshev-Lobatto points a panel of the density table, along each axis."""
+TABLE_PANEL = 3.0
+"""Most width of a table panel, in standard deviations of B along its axis: with
+:data:`TABLE_ORDER` points, the interpolation error measured below 1e-10 of the density's
+bound (tests/core/gates/test_heading.py)."""
+
+
+def _lobatto(order: int) -> np.ndarray:
+    """Chebyshev-Lobatto points on [0, 1], increasing."""
+    return 0.5 - 0.5 * np.cos(np.pi * np.arange(order) / (order - 1))
+
+
+def table_shape(B: Sym2, ring: PriorRing) -> tuple[tuple[float, float], tuple[int, int]]:
+    """The lengths and panel counts of the density table of one problem (B of length 1)."""
+    g = gaussian(B)
+    sigmas = (math.sqrt(g.lam_max), math.sqrt(g.lam_min))
+    lengths = (ring.R_max + TAIL * sigmas[0], ring.R_max + TAIL * sigmas[1])
+    panels = (
+        max(1, math.ceil(lengths[0] / (TABLE_PANEL * sigmas[0]))),
+        max(1, math.ceil(lengths[1] / (TABLE_PANEL * sigmas[1]))),
+    )
+    return lengths, panels
+
+
+def tabulates(B: Sym2, ring: PriorRing) -> bool:
+    """Whether the density of one problem is accurate enough everywhere to tabulate.
+
+    A table spreads the error of each of its points over a panel, so it takes the rules
+    that hold everywhere: B's principal axes (the area prior, 1e-9 of the bound) and the
+    mapped heading rule (a nearly round B, about 1e-8). The graded heading panels are
+    centred on the direction of d, and where the heading's peak lies elsewhere (near
+    z1, an eccentric B) they err by up to 1e-4 of the density at single points, which a
+    gate node of small weight bears alone but a table would not.
+    """
+    g = gaussian(B)
+    return ring.closed_form and (ring.c0 == 0.0 or g.lam_max < ECCENTRIC**2 * g.lam_min)
+
+
+def table_size(B: Sym2, ring: PriorRing) -> int:
+    """Grid points of the density table of one problem: the densities it costs."""
+    _, panels = table_shape(B, ring)
+    return (panels[0] * (TABLE_ORDER - 1) + 1) * (panels[1] * (TABLE_ORDER - 1) + 1)
+
+
+def density_table(B: Sym2, ring: PriorRing, rule: tuple[int, float]) -> DensityTable:
+    """Tabulate :func:`prior_density` (with ``rule``) for one problem (B of length 1).
+
+    The area prior is tabulated in B's principal axes whatever B's axis ratio: there it
+    holds 1e-9 of the density's bound, where the mapped heading rule holds about 1e-8
+    (up to 3e-7 at single points), and the table's error is common to both rules of the
+    unconditional probability, so its error estimate cannot see it.
+    """
+    g = gaussian(B)
+    lengths, panels = table_shape(B, ring)
+    unit = _lobatto(TABLE_ORDER)[:-1]
+    axes = [
+        np.append((np.arange(p)[:, None] + unit).ravel() * (L / p), L)
+        for L, p in zip(lengths, panels, strict=True)
+    ]
+    xi, eta = np.meshgrid(*axes, indexing="ij")
+    ex, ey = math.cos(g.major), math.sin(g.major)
+    dx, dy = (xi * ex - eta * ey).ravel(), (xi * ey + eta * ex).ravel()
+    if ring.closed_form and ring.c0 == 0.0:  # the area prior: B's principal axes, 1e-9
+        x_gl, w_gl = gauss_legendre(rule[0])
+        values = _principal_density(dx, dy, g.args(), ring.args(), (x_gl, w_gl, float(rule[1])))
+    else:
+        values = prior_density(dx, dy, B, ring, rule)
+    return DensityTable(g.major, lengths, panels, TABLE_ORDER, values.reshape(xi.shape))
+
+
+def cached_table(B: Sym2, ring: PriorRing, rule: tuple[int, float]) -> DensityTable:
+    """:func:`density_table`, kept for the last few problems: gates.design evaluates about
+    twenty probabilities of one problem (one B, one prior), each gate sharing its table."""
+    key = (
+        tuple(float(x[0]) for x in B),
+        ring.R_min,
+        ring.R_max,
+        ring.c0,
+        ring.c1,
+        tuple(ring.nodes),
+        tuple(ring.weights),
+        rule,
+    )
+    return _table_of(key)
+
+
+def clear_tables() -> None:
+    """Forget the kept tables (a bench timing a cold call)."""
+    _table_of.cache_clear()
+
+
+@functools.lru_cache(maxsize=4)
+def _table_of(key: tuple) -> DensityTable:  # type: ignore[type-arg]
+    (xx, xy, yy, det), R_min, R_max, c0, c1, nodes, weights, rule = key
+    B = Sym2(*(np.array([x]) for x in (xx, xy, yy, det)))
+    ring = PriorRing(R_min, R_max, c0, c1, np.array(nodes), np.array(weights))
+    return density_table(B, ring, rule)
+
+
+@kernel("void(float64, float64[:], float64[:], float64[:])")
+def _lagrange(t: float, nodes: np.ndarray, weights: np.ndarray, basis: np.ndarray) -> None:
+    """The Lagrange basis at t in [0, 1] on ``nodes``, barycentric (second form)."""
+    total = 0.0
+    for j in range(nodes.size):
+        diff = t - nodes[j]
+        if diff == 0.0:
+            basis[:] = 0.0
+            basis[j] = 1.0
+            return
+        basis[j] = weights[j] / diff
+        total += basis[j]
+    for j in range(nodes.size):
+        basis[j] /= total
+
+
+@kernel(f"float64[:]({_POINTS}, {_TABLE})")
+def interpolated_density(dx: np.ndarray, dy: np.ndarray, table: TableArgs) -> np.ndarray:
+    """The density at (K,) points from a :class:`DensityTable`, by barycentric Lagrange
+    interpolation on the panel of each point, along each principal axis."""
+    major, L_xi, L_eta, p_xi, p_eta, order, values = table
+    ex = math.cos(major)
+    ey = math.sin(major)
+    h_xi = L_xi / p_xi
+    h_eta = L_eta / p_eta
+    nodes = np.empty(order)
+    weights = np.empty(order)
+    for j in range(order):
+        nodes[j] = 0.5 - 0.5 * math.cos(math.pi * j / (order - 1))
+        weights[j] = (-1.0) ** j * (0.5 if j == 0 or j == order - 1 else 1.0)
+    basis_xi = np.empty(order)
+    basis_eta = np.empty(order)
+    out = np.empty(dx.size)
+    for i in range(dx.size):
+        xi = abs(dx[i] * ex + dy[i] * ey)
+        eta = abs(dy[i] * ex - dx[i] * ey)
+        if xi > L_xi or eta > L_eta:
+            out[i] = 0.0
+            continue
+        a = min(int(xi / h_xi), p_xi - 1)
+        b = min(int(eta / h_eta), p_eta - 1)
+        _lagrange(xi / h_xi - a, nodes, weights, basis_xi)
+        _lagrange(eta / h_eta - b, nodes, weights, basis_eta)
+        total = 0.0
+        first_xi = a * (order - 1)
+        first_eta = b * (order - 1)
+        for j in range(order):
+            row = 0.0
+            for k in range(order):
+                row += basis_eta[k] * values[first_xi + j, first_eta + k]
+            total += basis_xi[j] * row
+        out[i] = total
     return out
 
 

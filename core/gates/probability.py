@@ -39,7 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal, cast
+from typing import Literal, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,12 +49,17 @@ from plotgate.core.gates.heading import (
     ECCENTRIC,
     SMEARED,
     TAIL,
+    PriorRing,
+    cached_table,
+    interpolated_density,
     principal_axes,
     prior_density,
     prior_density_reference,
     prior_ring,
     ray_moments_reference,
     ring_features,
+    table_size,
+    tabulates,
 )
 from plotgate.core.gates.kinds import Gate
 from plotgate.core.gates.parameters import ring_radii
@@ -80,6 +85,14 @@ RULES = ((8, 1.0), (7, np.sqrt(3.0)))
 unconditional probability: the result, and the reference whose difference from it is the
 error estimate. The reference's panels interleave with the result's, so the estimate
 catches a feature the panels miss as well as too low an order."""
+Rules = tuple[tuple[int, float], ...]
+TABLE_GAIN = 2
+"""The unconditional probability tabulates the density when the gate's nodes (both rules)
+number at least this many times the table's points: a table point costs a density (as a
+node does) and interpolating 0.1-0.2 us a node, so below it the table would not pay."""
+TABLE_MOST = 1 << 21
+"""Most points of a density table (16 MiB): an extremely eccentric B (sigma_min of
+millimetres) would need millions; its nodes are evaluated directly instead."""
 M_CONDITIONAL = (10, 5)
 """Gauss-Legendre orders of the adaptive conditional probability's two rules."""
 _CONDITIONAL_TOL = 1e-10
@@ -182,28 +195,34 @@ def conditional_probability(
     return GateProbability(integral / norm, error / norm)
 
 
-def _unconditional_chunk(
+class GateNodes(NamedTuple):
+    """A rule's nodes d over the gate of one problem, relative to z1, and their weights
+    (area element rho d rho d theta included)."""
+
+    dx: np.ndarray
+    dy: np.ndarray
+    weights: np.ndarray
+
+
+def _gate_nodes(
     region: StarRegion,
     B: Sym2,
     R_min: float,
     R_max: float,
-    prior: str,
     rule: tuple[int, float],
-    theta_edges: np.ndarray,
-    reference: bool,
-) -> np.ndarray:
-    """Integral over the gate of the prior-averaged density, for one problem (B of length 1)."""
+) -> GateNodes:
+    """The gate's nodes of one problem (B of length 1) by ``rule``."""
     m, scale = rule
     lam_min, lam_max, major = principal_axes(B)
     sigma = np.sqrt(lam_min)[:, None, None]
     reach = R_max + TAIL * np.sqrt(lam_max)[:, None]  # beyond it the density is < 1e-17
     # gate directions theta: (n, T)
-    theta, w_theta = panel_rule(theta_edges, m)
+    theta, w_theta = panel_rule(_theta_edges(region, B, R_min, R_max, scale), m)
     ux, uy = np.cos(theta), np.sin(theta)
     lo, hi = region.radii(theta)
     ox, oy = region.origin[:, :1], region.origin[:, 1:]
     # gate radii rho on the part of each ray within reach of z1, graded towards the
-    # prior ring's edges and the ray's closest approach to z1: (n, T, R)
+    # prior ring's edges and the ray's closest approach to z1: (n, T, R);
     # towards the smeared ring's edges from SMEARED: below it they are blurred enough that
     # the error estimate stays under 1e-6 without them (measured up to 6e-7 at an axis
     # ratio of 8.7), above it the estimate would reach 1e-5 by a ratio of 14, and with
@@ -218,18 +237,43 @@ def _unconditional_chunk(
     hi = np.maximum(np.minimum(hi, closest + chord), lo)
     rho_edges = breakpoints(lo, hi, features, np.broadcast_to(scale * sigma, features.shape))
     rho, w_rho = panel_rule(rho_edges, m)
-    n, T, R = rho.shape
-    dx = (ox[..., None] + rho * ux[..., None]).reshape(n, T * R)
-    dy = (oy[..., None] + rho * uy[..., None]).reshape(n, T * R)
-    ring = prior_ring(prior, R_min, R_max, float(lam_min[0]))
-    if reference:
-        density = prior_density_reference(dx, dy, B, ring, rule)
-    else:
-        density = prior_density(dx[0], dy[0], B, ring, rule)[None]
-    radial = np.einsum("ntr,ntr->nt", w_rho * rho, density.reshape(n, T, R))
-    total = np.einsum("nt,nt->n", w_theta, radial)
-    probability: np.ndarray = total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
-    return probability
+    dx = ox[..., None] + rho * ux[..., None]
+    dy = oy[..., None] + rho * uy[..., None]
+    weights = w_theta[..., None] * w_rho * rho
+    return GateNodes(dx.ravel(), dy.ravel(), weights.ravel())
+
+
+def _densities(
+    nodes: list[GateNodes], B: Sym2, ring: PriorRing, rules: Rules, source: str
+) -> list[np.ndarray]:
+    """The prior-averaged density at each rule's gate nodes, from ``source``:
+
+    - ``"reference"``: :func:`plotgate.core.gates.heading.prior_density_reference`;
+    - ``"direct"``: :func:`plotgate.core.gates.heading.prior_density` at every node, with
+      the rule's own heading;
+    - ``"table"``: the same, but interpolated from one table of the problem (built with
+      the first rule's heading, shared by every rule and node, and kept for the next call
+      on the problem) where its density holds everywhere
+      (:func:`plotgate.core.gates.heading.tabulates`) and it holds at most
+      :data:`TABLE_MOST` points; directly otherwise;
+    - ``"auto"``: ``"table"`` where the gate's nodes number at least :data:`TABLE_GAIN`
+      times the table's points, ``"direct"`` otherwise.
+    """
+    if source == "reference":
+        return [
+            prior_density_reference(x.dx[None], x.dy[None], B, ring, rule)[0]
+            for x, rule in zip(nodes, rules, strict=True)
+        ]
+    size = table_size(B, ring)
+    pays = TABLE_GAIN * size <= sum(x.dx.size for x in nodes)
+    if (
+        tabulates(B, ring)
+        and size <= TABLE_MOST
+        and (source == "table" or source == "auto" and pays)
+    ):
+        table = cached_table(B, ring, rules[0]).args()
+        return [interpolated_density(x.dx, x.dy, table) for x in nodes]
+    return [prior_density(x.dx, x.dy, B, ring, rule) for x, rule in zip(nodes, rules, strict=True)]
 
 
 def _theta_edges(
@@ -320,9 +364,7 @@ def unconditional_probability(
     """
     _validate_prior(prior)
     R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
-    high, low = (
-        unconditional_quadrature(gate, geometry, R_min, R_max, prior, rule) for rule in RULES
-    )
+    high, low = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "auto")
     return GateProbability(high, np.abs(high - low))
 
 
@@ -335,6 +377,7 @@ def unconditional_quadrature(
     rule: tuple[int, float],
     *,
     reference: bool = False,
+    table: bool = False,
 ) -> np.ndarray:
     """The unconditional probability with one rule, problem by problem.
 
@@ -348,21 +391,41 @@ def unconditional_quadrature(
     The prior-averaged density at the gate's nodes is computed by the compiled
     :func:`plotgate.core.gates.heading.prior_density`, or with ``reference=True`` by its
     numpy reference :func:`plotgate.core.gates.heading.prior_density_reference` (the same
-    gate nodes; the same result within the error estimates).
+    gate nodes; the same result within the error estimates), or with ``table=True``
+    interpolated from the problem's density table (:func:`_densities`), which is kept for
+    the next call on the same problem: the gate design's search makes about twenty.
 
     Each problem is one 3-D quadrature of 10^5-10^6 nodes. Problems are not
     stacked into one array: their features lie in different places, and a common array
     would pad every problem to the panels of the most demanding one.
     """
-    out = np.empty(geometry.n)
+    source = "reference" if reference else "table" if table else "direct"
+    out: np.ndarray = _quadratures(gate, geometry, R_min, R_max, prior, (rule,), source)[0]
+    return out
+
+
+def _quadratures(
+    gate: Gate,
+    geometry: MarkGeometry,
+    R_min: float,
+    R_max: float,
+    prior: str,
+    rules: Rules,
+    source: str,
+) -> np.ndarray:
+    """The unconditional probability by each of ``rules``, (len(rules), N), problem by
+    problem; ``source`` of the density as :func:`_densities`."""
+    out = np.empty((len(rules), geometry.n))
     for i in range(geometry.n):
         part = geometry.take(slice(i, i + 1))
         region, turns = _half_turn(gate.region(part))
-        theta_edges = _theta_edges(region, part.B, R_min, R_max, rule[1])
-        chunk = _unconditional_chunk(
-            region, part.B, R_min, R_max, prior, rule, theta_edges, reference
-        )
-        out[i] = turns * chunk[0]
+        lam_min = float(principal_axes(part.B)[0][0])
+        ring = prior_ring(prior, R_min, R_max, lam_min)
+        nodes = [_gate_nodes(region, part.B, R_min, R_max, rule) for rule in rules]
+        densities = _densities(nodes, part.B, ring, rules, source)
+        norm = 4.0 * np.pi * np.pi * float(np.sqrt(part.B.det[0]))
+        for k, (x, density) in enumerate(zip(nodes, densities, strict=True)):
+            out[k, i] = turns * float(x.weights @ density) / norm
     return out
 
 

@@ -152,3 +152,51 @@ def test_density_of_no_points_is_empty():
     assert heading.prior_density(np.empty(0), np.empty(0), eccentric.B, ring, RULES[0]).shape == (
         0,
     )
+
+
+@pytest.mark.parametrize(
+    ("r", "sigma_r", "sigma_az_deg", "speeds", "prior"),
+    [
+        (50e3, 200.0, 0.5, (100.0, 500.0), "area"),  # Konovalov's example
+        (50e3, 200.0, 0.5, (0.0, 300.0), "speed"),
+        (80e3, 20.0, 1.0, (100.0, 500.0), "area"),  # axis ratio 70
+        (50e3, 150.0, 0.05, (100.0, 500.0), "area"),  # 3.4
+        (20e3, 100.0, 0.5, (0.0, 500.0), "area"),  # a ring from z1
+    ],
+)
+def test_table_interpolates_the_density(r, sigma_r, sigma_az_deg, speeds, prior):
+    """The density table (shared by both rules and every gate node) against the density
+    computed at each point: the table's error is not in the error estimate, so it must be
+    far below it."""
+    g, ring, lam_min, lam_max = problem(sigma_r, sigma_az_deg, speeds, prior, r=r)
+    assert heading.tabulates(g.B, ring)
+    table = heading.density_table(g.B, ring, RULES[0])
+    assert table.size == heading.table_size(g.B, ring)
+    d = points(ring, lam_max, 2000, 20)
+    d[3:6] = [[table.lengths[0], 0.0], [0.0, table.lengths[1]], [1e9, -1e9]]  # edges, far
+    d[3:5] = d[3:5] @ np.array(
+        [
+            [math.cos(table.major), math.sin(table.major)],
+            [-math.sin(table.major), math.cos(table.major)],
+        ]
+    )
+    interpolated = heading.interpolated_density(d[:, 0].copy(), d[:, 1].copy(), table.args())
+    ref = heading.prior_density_reference(d[None, :, 0], d[None, :, 1], g.B, ring, (16, 0.25))[0]
+    np.testing.assert_allclose(interpolated, ref, rtol=0.0, atol=5e-8 * bound(ring, lam_max))
+    assert interpolated[5] == 0.0
+
+
+def test_graded_densities_are_not_tabulated():
+    g, ring, _, _ = problem(150.0, 0.05, (100.0, 500.0), "speed")  # axis ratio 3.4
+    assert not heading.tabulates(g.B, ring)
+    g, ring, _, _ = problem(200.0, 0.5, (300.0, 300.0), "area")  # a circle: nodes
+    assert not heading.tabulates(g.B, ring)
+
+
+def test_tables_are_kept_per_problem():
+    g, ring, _, _ = problem(200.0, 0.5, (100.0, 500.0), "area")
+    heading.clear_tables()
+    first = heading.cached_table(g.B, ring, RULES[0])
+    assert heading.cached_table(g.B, ring, RULES[0]) is first
+    other, ring2, _, _ = problem(150.0, 0.5, (100.0, 500.0), "area")
+    assert heading.cached_table(other.B, ring2, RULES[0]) is not first

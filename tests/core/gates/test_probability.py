@@ -548,7 +548,9 @@ def test_unconditional_error_estimate_is_honest_with_monkeypatched_orders(monkey
     finer_rules(monkeypatch, 16)
     fine = unconditional_probability(gate, g, 100.0, 500.0, "area")
     assert fine.error[0] < 1e-10
-    assert abs(res.probability[0] - fine.probability[0]) <= res.error[0] + 1e-12
+    # 1e-10: where the gate's nodes outnumber the density table's (the finer rules' do),
+    # both rules share the table, whose error (1e-11 here) neither rule's difference sees
+    assert abs(res.probability[0] - fine.probability[0]) <= res.error[0] + 1e-10
 
 
 @pytest.mark.parametrize(
