@@ -9,9 +9,10 @@ Each operation's example request (``gates.probability``, ``gates.analysis``,
 with the most nodes) with the range sigma cut until B's axis ratio
 sqrt(lambda_max / lambda_min) reaches each value (the azimuth sigma and the range stay the
 example's: 0.5 deg at 50 km). Each request runs through the service's in-process path
-(``service.registry.execute``, no caps), timed once, with the quadrature's gate node
-count (each gate node integrates the prior's heading). The axis ratio is the work size
-``mark.axis_ratio`` an operator may cap (``PLOTGATE_LIMITS``); the schema does not bound
+(``service.registry.execute``, no caps), timed once and cold (no density table kept
+from an earlier request), with the quadrature's gate node count (each gate node
+integrates the prior's heading). The axis ratio is the work size ``mark.axis_ratio``
+an operator may cap (``PLOTGATE_LIMITS``); the schema does not bound
 it. Each operation first answers its example untimed (its lazy imports). Once a request
 of an operation takes longer than ``--budget`` seconds, its larger ratios are not run
 (they cost more). Prints a markdown table.
@@ -31,6 +32,7 @@ import numpy as np
 import scipy
 
 import plotgate.core.gates.probability as gp
+from plotgate.core.gates import heading
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import ENDPOINTS, Mark
 
@@ -72,6 +74,8 @@ def at_ratio(name: str, gate: dict | None, ratio: float) -> dict:
 
 
 def timed(name: str, body: dict) -> tuple[float, int]:
+    """One request, cold: no density table kept from an earlier request."""
+    heading.clear_tables()
     start = time.perf_counter()
     outcome = execute(OPERATIONS[name], json.dumps(body).encode())
     return time.perf_counter() - start, outcome.status

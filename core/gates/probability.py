@@ -90,6 +90,9 @@ TABLE_GAIN = 2
 """The unconditional probability tabulates the density when the gate's nodes (both rules)
 number at least this many times the table's points: a table point costs a density (as a
 node does) and interpolating 0.1-0.2 us a node, so below it the table would not pay."""
+SEARCH_CALLS = 20
+"""Calls on one problem a ``table=True`` quadrature expects: gates.design's search makes
+about twenty, and its table pays over all of them."""
 TABLE_MOST = 1 << 21
 """Most points of a density table (16 MiB): an extremely eccentric B (sigma_min of
 millimetres) would need millions; its nodes are evaluated directly instead."""
@@ -244,7 +247,7 @@ def _gate_nodes(
 
 
 def _densities(
-    nodes: list[GateNodes], B: Sym2, ring: PriorRing, rules: Rules, source: str
+    nodes: list[GateNodes], B: Sym2, ring: PriorRing, rules: Rules, source: str, calls: int
 ) -> list[np.ndarray]:
     """The prior-averaged density at each rule's gate nodes, from ``source``:
 
@@ -253,11 +256,10 @@ def _densities(
       the rule's own heading;
     - ``"table"``: the same, but interpolated from one table of the problem (built with
       the first rule's heading, shared by every rule and node, and kept for the next call
-      on the problem) where its density holds everywhere
-      (:func:`plotgate.core.gates.heading.tabulates`) and it holds at most
-      :data:`TABLE_MOST` points; directly otherwise;
-    - ``"auto"``: ``"table"`` where the gate's nodes number at least :data:`TABLE_GAIN`
-      times the table's points, ``"direct"`` otherwise.
+      on the problem) where it pays: the gate's nodes, times the ``calls`` expected on the
+      problem, number at least :data:`TABLE_GAIN` times the table's points, the table
+      holds at most :data:`TABLE_MOST`, and its density holds everywhere
+      (:func:`plotgate.core.gates.heading.tabulates`); directly otherwise.
     """
     if source == "reference":
         return [
@@ -265,12 +267,8 @@ def _densities(
             for x, rule in zip(nodes, rules, strict=True)
         ]
     size = table_size(B, ring)
-    pays = TABLE_GAIN * size <= sum(x.dx.size for x in nodes)
-    if (
-        tabulates(B, ring)
-        and size <= TABLE_MOST
-        and (source == "table" or source == "auto" and pays)
-    ):
+    pays = TABLE_GAIN * size <= calls * sum(x.dx.size for x in nodes)
+    if source == "table" and pays and size <= TABLE_MOST and tabulates(B, ring):
         table = cached_table(B, ring, rules[0]).args()
         return [interpolated_density(x.dx, x.dy, table) for x in nodes]
     return [prior_density(x.dx, x.dy, B, ring, rule) for x, rule in zip(nodes, rules, strict=True)]
@@ -364,7 +362,7 @@ def unconditional_probability(
     """
     _validate_prior(prior)
     R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
-    high, low = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "auto")
+    high, low = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "table", 1)
     return GateProbability(high, np.abs(high - low))
 
 
@@ -392,15 +390,18 @@ def unconditional_quadrature(
     :func:`plotgate.core.gates.heading.prior_density`, or with ``reference=True`` by its
     numpy reference :func:`plotgate.core.gates.heading.prior_density_reference` (the same
     gate nodes; the same result within the error estimates), or with ``table=True``
-    interpolated from the problem's density table (:func:`_densities`), which is kept for
-    the next call on the same problem: the gate design's search makes about twenty.
+    interpolated from the problem's density table where it pays over
+    :data:`SEARCH_CALLS` calls (:func:`_densities`); the table is kept for the next call
+    on the same problem.
 
     Each problem is one 3-D quadrature of 10^5-10^6 nodes. Problems are not
     stacked into one array: their features lie in different places, and a common array
     would pad every problem to the panels of the most demanding one.
     """
     source = "reference" if reference else "table" if table else "direct"
-    out: np.ndarray = _quadratures(gate, geometry, R_min, R_max, prior, (rule,), source)[0]
+    out: np.ndarray = _quadratures(
+        gate, geometry, R_min, R_max, prior, (rule,), source, SEARCH_CALLS
+    )[0]
     return out
 
 
@@ -412,9 +413,10 @@ def _quadratures(
     prior: str,
     rules: Rules,
     source: str,
+    calls: int,
 ) -> np.ndarray:
     """The unconditional probability by each of ``rules``, (len(rules), N), problem by
-    problem; ``source`` of the density as :func:`_densities`."""
+    problem; ``source`` of the density and ``calls`` as :func:`_densities`."""
     out = np.empty((len(rules), geometry.n))
     for i in range(geometry.n):
         part = geometry.take(slice(i, i + 1))
@@ -422,7 +424,7 @@ def _quadratures(
         lam_min = float(principal_axes(part.B)[0][0])
         ring = prior_ring(prior, R_min, R_max, lam_min)
         nodes = [_gate_nodes(region, part.B, R_min, R_max, rule) for rule in rules]
-        densities = _densities(nodes, part.B, ring, rules, source)
+        densities = _densities(nodes, part.B, ring, rules, source, calls)
         norm = 4.0 * np.pi * np.pi * float(np.sqrt(part.B.det[0]))
         for k, (x, density) in enumerate(zip(nodes, densities, strict=True)):
             out[k, i] = turns * float(x.weights @ density) / norm
