@@ -35,6 +35,7 @@ from plotgate.service.scenes.draw import FRAME, Canvas, colors, timestamp
 __all__ = [
     "DRAWERS",
     "FRAME",
+    "Encoded",
     "LOG_TOPIC",
     "PARENT_FRAME",
     "SCENE_PREFIX",
@@ -152,3 +153,36 @@ def _problem(response: dict[str, Any]) -> str:
     )
     text = f"{error.get('title')}: {fields or error.get('detail')}"
     return text[:1000]
+
+
+class Encoded:
+    """The scenes as bytes, for writers that know nothing of foxglove-sdk (``plotgate
+    view``'s, in the clients layer, which is handed one): schemas by name, and each
+    message as ``(topic, schema name, protobuf bytes)``."""
+
+    def __init__(self) -> None:
+        self._schemas = {
+            cls: cls.get_schema() for cls in (fm.SceneUpdate, fm.FrameTransform, fm.Log)
+        }
+
+    def schemas(self) -> dict[str, tuple[str, bytes]]:
+        """Each schema's name: its encoding and data."""
+        return {s.name: (s.encoding, bytes(s.data)) for s in self._schemas.values()}
+
+    def _encoded(self, topic: str, message: Message) -> tuple[str, str, bytes]:
+        return topic, self._schemas[type(message)].name, message.encode()
+
+    def exchange(
+        self,
+        operation: str,
+        request: dict[str, Any] | None,
+        response: dict[str, Any] | None,
+        log_time: int,
+    ) -> list[tuple[str, str, bytes]]:
+        """:func:`scene_messages`, encoded."""
+        messages = scene_messages(operation, request, response, log_time)
+        return [self._encoded(topic, message) for topic, message in messages]
+
+    def transform(self, log_time: int) -> tuple[str, str, bytes]:
+        """:func:`radar_transform` on :data:`TRANSFORM_TOPIC`, encoded."""
+        return self._encoded(TRANSFORM_TOPIC, radar_transform(log_time))

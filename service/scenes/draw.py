@@ -79,6 +79,14 @@ def _color(c: Color) -> fm.Color:
     return fm.Color(r=c[0], g=c[1], b=c[2], a=c[3])
 
 
+def _identity(x: float = 0.0, y: float = 0.0) -> fm.Pose:
+    """A pose at (x, y, 0), unrotated. Every primitive is given one: a pose left out
+    decodes as null, which Foxglove's schemas refuse."""
+    return fm.Pose(
+        position=fm.Vector3(x=x, y=y, z=0.0), orientation=fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+    )
+
+
 def _points(xy: np.ndarray) -> list[fm.Point3]:
     z = xy[:, 2] if xy.shape[1] > 2 else np.zeros(len(xy))
     return [
@@ -223,6 +231,7 @@ class Canvas:
         lines = [
             fm.LinePrimitive(
                 type=line.kind,
+                pose=_identity(),
                 points=_points(line.xy),
                 color=_color(line.color),
                 thickness=LINE_PX,
@@ -234,6 +243,7 @@ class Canvas:
             lines.append(
                 fm.LinePrimitive(
                     type=fm.LinePrimitiveLineType.LineList,
+                    pose=_identity(),
                     points=_points(_crosses(xy, arm * size)),
                     color=_color(color),
                     thickness=LINE_PX,
@@ -242,10 +252,7 @@ class Canvas:
             )
         texts = [
             fm.TextPrimitive(
-                pose=fm.Pose(
-                    position=fm.Vector3(x=x, y=y, z=0.0),
-                    orientation=fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0),
-                ),
+                pose=_identity(x, y),
                 billboard=True,
                 font_size=TEXT_PX,
                 scale_invariant=True,
@@ -258,6 +265,8 @@ class Canvas:
             timestamp=timestamp(log_time),
             frame_id=FRAME,
             id=entity_id,
+            lifetime=fm.Duration(sec=0, nsec=0),  # until the operation's next exchange
+            frame_locked=False,
             metadata=[fm.KeyValuePair(key=k, value=v) for k, v in metadata.items()],
             lines=lines,
             texts=texts,
