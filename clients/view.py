@@ -51,7 +51,7 @@ class Scenes(Protocol):
         log_time: int,
     ) -> list[tuple[str, str, bytes]]: ...
 
-    def transform(self, log_time: int) -> tuple[str, str, bytes]: ...
+    def transform(self, log_time: int) -> list[tuple[str, str, bytes]]: ...
 
 
 @dataclass
@@ -160,8 +160,8 @@ def _write(stream: BinaryIO, reader: Reader, scenes: Scenes, report: ViewReport)
     for ex in reader:
         t = ex.log_time
         if last_transform is None or abs(t - last_transform) >= TRANSFORM_EVERY_NS:
-            topic, schema, data = scenes.transform(t)
-            writer.add_message(channels.scene(topic, schema), t, data, t)
+            for topic, schema, data in scenes.transform(t):
+                writer.add_message(channels.scene(topic, schema), t, data, t)
             last_transform = t
         _copy(writer, channels, ex)
         for topic, schema, data in scenes.exchange(ex.operation, ex.request, ex.response, t):

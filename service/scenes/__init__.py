@@ -25,6 +25,7 @@ hand-written schemas. Imported only by ``plotgate view`` and by a server given
 """
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import foxglove.messages as fm
@@ -35,12 +36,15 @@ from plotgate.service.scenes.draw import FRAME, Canvas, colors, timestamp
 __all__ = [
     "DRAWERS",
     "FRAME",
+    "Drawn",
     "Encoded",
     "LOG_TOPIC",
+    "MAX_TIME_NS",
     "PARENT_FRAME",
     "SCENE_PREFIX",
     "TRANSFORM_TOPIC",
     "Message",
+    "draw",
     "log",
     "radar_transform",
     "scene_messages",
@@ -52,6 +56,9 @@ LOG_TOPIC = "/log"
 TRANSFORM_TOPIC = "/tf"
 PARENT_FRAME = "world"
 ENTITY_ID = "exchange"
+MAX_TIME_NS = 2**32 * 1_000_000_000 - 1
+"""The last time Foxglove's Timestamp holds (its seconds are 32 bits: early 2106). An
+exchange stamped later (a damaged or hostile file's) is not drawn."""
 
 Message = fm.SceneUpdate | fm.FrameTransform | fm.Log
 Drawer = Callable[[Canvas, dict[str, Any], dict[str, Any]], None]
@@ -89,56 +96,70 @@ def log(log_time: int, level: fm.LogLevel, operation: str, message: str) -> fm.L
     return fm.Log(timestamp=timestamp(log_time), level=level, message=message, name=operation)
 
 
+@dataclass
+class Drawn:
+    """One exchange drawn: its picture (None when there is none to show: a request never
+    answered, an answer whose request is lost), the scene entity's metadata, and its Log
+    messages."""
+
+    canvas: Canvas | None
+    metadata: dict[str, str]
+    logs: list[fm.Log]
+
+
+def draw(
+    operation: str,
+    request: dict[str, Any] | None,
+    response: dict[str, Any] | None,
+    log_time: int,
+) -> Drawn:
+    """Draw one exchange from its request and response records as recorded (either None
+    when missing)."""
+    if request is None or response is None:
+        what = "request record lost" if request is None else "never answered"
+        rid = (request or response or {}).get("request_id")
+        return Drawn(None, {}, [log(log_time, fm.LogLevel.Warning, operation, f"{rid}: {what}")])
+    rid = str(request.get("request_id"))
+    status = response.get("status")
+    drawn = Drawn(Canvas(), {"request_id": rid, "status": str(status), "operation": operation}, [])
+    if not isinstance(status, int) or status >= 400 or "body" not in request:
+        failed = f"{status} {_problem(response)}"
+        assert drawn.canvas is not None
+        drawn.canvas.text((0.0, 0.0), failed, colors.OUTSIDE)
+        server = not isinstance(status, int) or status >= 500
+        level = fm.LogLevel.Error if server else fm.LogLevel.Warning
+        drawn.logs.append(log(log_time, level, operation, f"{rid}: {failed}"))
+        return drawn
+    try:
+        assert drawn.canvas is not None
+        DRAWERS[operation](drawn.canvas, request["body"], response["result"])
+    except _CANNOT_DRAW as exc:
+        drawn.canvas = Canvas()
+        reason = f"cannot draw this record: {type(exc).__name__}: {str(exc)[:200]}"
+        drawn.canvas.text((0.0, 0.0), reason, colors.OUTSIDE)
+        drawn.logs.append(log(log_time, fm.LogLevel.Warning, operation, f"{rid}: {reason}"))
+    if drawn.canvas.left_out:
+        note = f"{rid}: drawn in part, {drawn.canvas.left_out} items left out (the scene's caps)"
+        drawn.logs.append(log(log_time, fm.LogLevel.Info, operation, note))
+    return drawn
+
+
 def scene_messages(
     operation: str,
     request: dict[str, Any] | None,
     response: dict[str, Any] | None,
     log_time: int,
 ) -> list[tuple[str, Message]]:
-    """The scene and log messages of one exchange (its request and response records as
-    recorded, either None when missing), as ``(topic, message)``."""
-    if request is None:
-        return [_note(log_time, fm.LogLevel.Warning, operation, response, "request record lost")]
-    rid = str(request.get("request_id"))
-    if response is None:
-        return [_note(log_time, fm.LogLevel.Warning, operation, request, "never answered")]
-    status = response.get("status")
-    metadata = {"request_id": rid, "status": str(status), "operation": operation}
-    canvas = Canvas()
-    out: list[tuple[str, Message]] = []
-    if not isinstance(status, int) or status >= 400 or "body" not in request:
-        canvas.text((0.0, 0.0), f"{status} {_problem(response)}", colors.OUTSIDE)
-        level = (
-            fm.LogLevel.Error
-            if not isinstance(status, int) or status >= 500
-            else fm.LogLevel.Warning
-        )
-        out.append(
-            (LOG_TOPIC, log(log_time, level, operation, f"{rid}: {status} {_problem(response)}"))
-        )
-    else:
-        try:
-            DRAWERS[operation](canvas, request["body"], response["result"])
-        except _CANNOT_DRAW as exc:
-            canvas = Canvas()
-            reason = f"cannot draw this record: {type(exc).__name__}: {str(exc)[:200]}"
-            canvas.text((0.0, 0.0), reason, colors.OUTSIDE)
-            out.append(
-                (LOG_TOPIC, log(log_time, fm.LogLevel.Warning, operation, f"{rid}: {reason}"))
-            )
-        if canvas.left_out:
-            note = f"{rid}: drawn in part, {canvas.left_out} items left out (the scene's caps)"
-            out.append((LOG_TOPIC, log(log_time, fm.LogLevel.Info, operation, note)))
-    entity = canvas.entity(ENTITY_ID, log_time, metadata)
-    out.insert(0, (SCENE_PREFIX + operation, fm.SceneUpdate(entities=[entity])))
+    """The scene and log messages of one exchange (:func:`draw`), as ``(topic, message)``
+    of the SDK's classes."""
+    if not 0 <= log_time <= MAX_TIME_NS:
+        return []
+    drawn = draw(operation, request, response, log_time)
+    out: list[tuple[str, Message]] = [(LOG_TOPIC, message) for message in drawn.logs]
+    if drawn.canvas is not None:
+        entity = drawn.canvas.entity(ENTITY_ID, log_time, drawn.metadata)
+        out.insert(0, (SCENE_PREFIX + operation, fm.SceneUpdate(entities=[entity])))
     return out
-
-
-def _note(
-    log_time: int, level: fm.LogLevel, operation: str, record: dict[str, Any] | None, what: str
-) -> tuple[str, Message]:
-    rid = None if record is None else record.get("request_id")
-    return LOG_TOPIC, log(log_time, level, operation, f"{rid}: {what}")
 
 
 def _problem(response: dict[str, Any]) -> str:
@@ -179,10 +200,21 @@ class Encoded:
         response: dict[str, Any] | None,
         log_time: int,
     ) -> list[tuple[str, str, bytes]]:
-        """:func:`scene_messages`, encoded."""
-        messages = scene_messages(operation, request, response, log_time)
-        return [self._encoded(topic, message) for topic, message in messages]
+        """:func:`scene_messages`, encoded (the scene by
+        :meth:`~plotgate.service.scenes.draw.Canvas.encoded`: the SDK's bytes, with numpy)."""
+        if not 0 <= log_time <= MAX_TIME_NS:
+            return []
+        drawn = draw(operation, request, response, log_time)
+        out = [self._encoded(LOG_TOPIC, message) for message in drawn.logs]
+        if drawn.canvas is not None:
+            scene = drawn.canvas.encoded(ENTITY_ID, log_time, drawn.metadata)
+            name = self._schemas[fm.SceneUpdate].name
+            out.insert(0, (SCENE_PREFIX + operation, name, scene))
+        return out
 
-    def transform(self, log_time: int) -> tuple[str, str, bytes]:
-        """:func:`radar_transform` on :data:`TRANSFORM_TOPIC`, encoded."""
-        return self._encoded(TRANSFORM_TOPIC, radar_transform(log_time))
+    def transform(self, log_time: int) -> list[tuple[str, str, bytes]]:
+        """:func:`radar_transform` on :data:`TRANSFORM_TOPIC`, encoded (none past
+        :data:`MAX_TIME_NS`)."""
+        if not 0 <= log_time <= MAX_TIME_NS:
+            return []
+        return [self._encoded(TRANSFORM_TOPIC, radar_transform(log_time))]

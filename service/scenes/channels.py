@@ -12,6 +12,7 @@ from foxglove.channels import FrameTransformChannel, LogChannel, SceneUpdateChan
 from plotgate.service.scenes import (
     DRAWERS,
     LOG_TOPIC,
+    MAX_TIME_NS,
     SCENE_PREFIX,
     TRANSFORM_TOPIC,
     log,
@@ -39,6 +40,8 @@ class LiveChannels:
     def log_exchange(self, offered: tuple[str, int, bytes, bytes]) -> None:
         """Draw one exchange (its records as the route made them) on its channels."""
         operation, log_time, request, response = offered
+        if not 0 <= log_time <= MAX_TIME_NS:  # the server's clock past 2106
+            return
         if time.monotonic() - self._transform_at >= TRANSFORM_EVERY_S:
             self.transforms.log(radar_transform(log_time), log_time=log_time)
             self._transform_at = time.monotonic()

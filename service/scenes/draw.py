@@ -19,6 +19,8 @@ from typing import Any
 import foxglove.messages as fm
 import numpy as np
 
+from plotgate.service.scenes.wire import Color, Line, Text, scene_update
+
 __all__ = [
     "CROSS_FRACTION",
     "FRAME",
@@ -41,7 +43,13 @@ LINE_PX = 1.5
 TEXT_PX = 14.0
 MIN_EXTENT = 500.0
 
-Color = tuple[float, float, float, float]
+LINE_STRIP, LINE_LOOP, LINE_LIST = 0, 1, 2
+"""Foxglove's ``LinePrimitive.Type`` numbers."""
+_LINE_TYPES = {
+    LINE_STRIP: fm.LinePrimitiveLineType.LineStrip,
+    LINE_LOOP: fm.LinePrimitiveLineType.LineLoop,
+    LINE_LIST: fm.LinePrimitiveLineType.LineList,
+}
 
 
 class colors:  # noqa: N801 - a namespace of constants, read as colors.INSIDE
@@ -108,7 +116,7 @@ def as_points(values: Any) -> np.ndarray:
 
 @dataclass
 class _Line:
-    kind: fm.LinePrimitiveLineType
+    kind: int
     xy: np.ndarray
     color: Color
 
@@ -120,7 +128,7 @@ class Canvas:
 
     lines: list[_Line] = field(default_factory=list)
     marks: list[tuple[np.ndarray, Color, float]] = field(default_factory=list)
-    texts: list[tuple[float, float, str, Color]] = field(default_factory=list)
+    texts: list[Text] = field(default_factory=list)
     left_out: int = 0
     """Items not drawn because of the caps."""
     _points: int = 0
@@ -148,8 +156,7 @@ class Canvas:
         if len(self.lines) >= MAX_LINES or self._room(len(xy)) < len(xy):
             self.left_out += 1
             return
-        kind = fm.LinePrimitiveLineType.LineLoop if closed else fm.LinePrimitiveLineType.LineStrip
-        self.lines.append(_Line(kind, xy, color))
+        self.lines.append(_Line(LINE_LOOP if closed else LINE_STRIP, xy, color))
 
     def segments(self, starts: Any, ends: Any, color: Color) -> None:
         """One segment from each start to its end (a line list)."""
@@ -163,7 +170,7 @@ class Canvas:
         self.left_out += len(pairs) - keep
         if keep:
             xy = pairs[:keep].reshape(-1, d)
-            self.lines.append(_Line(fm.LinePrimitiveLineType.LineList, xy, color))
+            self.lines.append(_Line(LINE_LIST, xy, color))
 
     def circle(self, centre: Any, radius: float, color: Color) -> None:
         """A circle of ``radius`` metres about ``centre``."""
@@ -225,31 +232,28 @@ class Canvas:
             return MIN_EXTENT
         return max(float(np.ptp(xy, axis=0).max()), MIN_EXTENT)
 
-    def entity(self, entity_id: str, log_time: int, metadata: dict[str, str]) -> fm.SceneEntity:
-        """The picture as one scene entity in :data:`FRAME`, stamped ``log_time``."""
+    def primitives(self) -> list[Line]:
+        """Every line to draw, the crosses made lines now the extent is known: (type, points,
+        color), the type Foxglove's ``LinePrimitive.Type`` number."""
         arm = CROSS_FRACTION * self.extent()
+        lines = [(line.kind, line.xy, line.color) for line in self.lines]
+        lines += [(LINE_LIST, _crosses(xy, arm * size), color) for xy, color, size in self.marks]
+        return lines
+
+    def entity(self, entity_id: str, log_time: int, metadata: dict[str, str]) -> fm.SceneEntity:
+        """The picture as one scene entity in :data:`FRAME`, stamped ``log_time``, built
+        with the SDK's classes: the reference :meth:`encoded` is held to."""
         lines = [
             fm.LinePrimitive(
-                type=line.kind,
+                type=_LINE_TYPES[kind],
                 pose=_identity(),
-                points=_points(line.xy),
-                color=_color(line.color),
+                points=_points(xy),
+                color=_color(color),
                 thickness=LINE_PX,
                 scale_invariant=True,
             )
-            for line in self.lines
+            for kind, xy, color in self.primitives()
         ]
-        for xy, color, size in self.marks:
-            lines.append(
-                fm.LinePrimitive(
-                    type=fm.LinePrimitiveLineType.LineList,
-                    pose=_identity(),
-                    points=_points(_crosses(xy, arm * size)),
-                    color=_color(color),
-                    thickness=LINE_PX,
-                    scale_invariant=True,
-                )
-            )
         texts = [
             fm.TextPrimitive(
                 pose=_identity(x, y),
@@ -270,6 +274,13 @@ class Canvas:
             metadata=[fm.KeyValuePair(key=k, value=v) for k, v in metadata.items()],
             lines=lines,
             texts=texts,
+        )
+
+    def encoded(self, entity_id: str, log_time: int, metadata: dict[str, str]) -> bytes:
+        """``SceneUpdate(entities=[self.entity(...)]).encode()``, the SDK's bytes, written
+        with numpy (:mod:`plotgate.service.scenes.wire`): what ``plotgate view`` writes."""
+        return scene_update(
+            FRAME, entity_id, log_time, metadata, self.primitives(), self.texts, LINE_PX, TEXT_PX
         )
 
 

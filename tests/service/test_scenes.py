@@ -7,8 +7,17 @@ import numpy as np
 import pytest
 
 from plotgate.service.registry import OPERATIONS, execute
-from plotgate.service.scenes import DRAWERS, LOG_TOPIC, SCENE_PREFIX, scene_messages
+from plotgate.service.scenes import (
+    DRAWERS,
+    LOG_TOPIC,
+    MAX_TIME_NS,
+    SCENE_PREFIX,
+    Encoded,
+    draw,
+    scene_messages,
+)
 from plotgate.service.scenes.draw import MAX_MARKS, Canvas
+from plotgate.service.scenes.geometry import plot_position, plot_positions
 from plotgate.service.schemas.examples import EXAMPLES
 
 T = 1_764_000_000_123_456_789
@@ -65,3 +74,56 @@ def test_the_canvas_caps_what_one_exchange_draws():
     canvas.plots(rng.normal(size=(MAX_MARKS + 7, 2)), (1.0, 1.0, 1.0, 1.0))
     assert canvas.left_out == 7
     assert sum(len(xy) for xy, _, _ in canvas.marks) == MAX_MARKS
+
+
+def sdk_bytes(canvas: Canvas, log_time: int, metadata: dict[str, str]) -> bytes:
+    """The reference: the picture built with the SDK's classes, encoded by the SDK."""
+    return fm.SceneUpdate(entities=[canvas.entity("exchange", log_time, metadata)]).encode()
+
+
+@pytest.mark.parametrize("operation", sorted(EXAMPLES))
+def test_the_numpy_encoding_is_the_sdks_byte_for_byte(operation):
+    request, response = exchange(operation, EXAMPLES[operation])
+    drawn = draw(operation, request, response, T)
+    assert drawn.canvas.encoded("exchange", T, drawn.metadata) == sdk_bytes(
+        drawn.canvas, T, drawn.metadata
+    )
+
+
+def test_the_numpy_encoding_matches_on_random_pictures_zeros_included():
+    rng = np.random.default_rng(7)
+    for trial in range(30):
+        canvas = Canvas()
+        n = int(rng.integers(0, 40))
+        xy = rng.normal(scale=10.0 ** rng.integers(-3, 6), size=(n, 3 if trial % 3 else 2))
+        xy[rng.random(xy.shape) < 0.3] = 0.0
+        xy[rng.random(xy.shape) < 0.1] = -0.0
+        canvas.plots(xy, tuple(rng.choice([0.0, 0.5, 1.0], 4)), size=float(rng.random()))
+        canvas.line(xy, (0.0, 0.0, 0.0, 0.0), closed=bool(trial % 2))
+        canvas.segments(xy[: n // 2], xy[n // 2 : 2 * (n // 2)], (1.0, 0.0, 0.0, 1.0))
+        canvas.ellipse(xy[0, :2] if n else [0.0, 0.0], np.diag([4.0, 1.0]), (1, 1, 0, 1))
+        canvas.text([float(rng.normal()), 0.0], "é" * int(rng.integers(0, 3)))
+        metadata = {"request_id": f"r{trial}", "": "empty key", "k": ""}
+        t = int(rng.integers(0, MAX_TIME_NS))
+        assert canvas.encoded("exchange", t, metadata) == sdk_bytes(canvas, t, metadata)
+
+
+def test_plot_positions_are_plot_position_at_speed():
+    rng = np.random.default_rng(3)
+    plots = [
+        {"frame": "cartesian", "x": x, "y": y, "covariance": [[1, 0], [0, 1]]}
+        for x, y in rng.normal(size=(20, 2))
+    ] + [
+        {"frame": "polar", "r": r, "az_deg": az, "sigma_r": 1.0, "sigma_az_deg": 0.1}
+        | ({"sensor": [5.0, -3.0]} if az > 0 else {})
+        for r, az in zip(rng.uniform(1, 1e5, 20), rng.uniform(-180, 180, 20), strict=True)
+    ]
+    reference = np.array([plot_position(p)[0] for p in plots])
+    assert np.allclose(plot_positions(plots), reference, rtol=1e-15, atol=1e-9)
+
+
+def test_times_past_the_schemas_range_draw_nothing():
+    request, response = exchange("gates.test", EXAMPLES["gates.test"])
+    assert scene_messages("gates.test", request, response, MAX_TIME_NS + 1) == []
+    assert Encoded().exchange("gates.test", request, response, 2**64 - 1) == []
+    assert Encoded().transform(2**64 - 1) == []
