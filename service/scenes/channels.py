@@ -1,23 +1,23 @@
 """The live view's foxglove-sdk channels, in the publisher process
 (:mod:`plotgate.service.scenes.live`): every scene topic advertised from the start, so a
-client can subscribe before the first exchange of an operation."""
+client can subscribe before the first exchange of an operation. Messages are logged as the
+bytes :class:`~plotgate.service.scenes.Encoded` writes (the SDK's encoding, with numpy), on
+channels of the SDK's schemas."""
 
 import json
 import time
-from typing import Any
 
+import foxglove
 import foxglove.messages as fm
-from foxglove.channels import FrameTransformChannel, LogChannel, SceneUpdateChannel
 
 from plotgate.service.scenes import (
     DRAWERS,
     LOG_TOPIC,
-    MAX_TIME_NS,
     SCENE_PREFIX,
     TRANSFORM_TOPIC,
+    Encoded,
+    Message,
     log,
-    radar_transform,
-    scene_messages,
 )
 
 __all__ = ["LiveChannels"]
@@ -30,28 +30,34 @@ class LiveChannels:
     sent with the first exchange and then at most once a second."""
 
     def __init__(self) -> None:
-        self.channels: dict[str, Any] = {
-            SCENE_PREFIX + op: SceneUpdateChannel(SCENE_PREFIX + op) for op in DRAWERS
-        }
-        self.channels[LOG_TOPIC] = LogChannel(LOG_TOPIC)
-        self.transforms = FrameTransformChannel(TRANSFORM_TOPIC)
+        self.encoded = Encoded()
+        self.channels: dict[str, foxglove.Channel] = {}
+        for op in DRAWERS:
+            self._channel(SCENE_PREFIX + op, fm.SceneUpdate)
+        self._channel(LOG_TOPIC, fm.Log)
+        self._channel(TRANSFORM_TOPIC, fm.FrameTransform)
         self._transform_at = -float("inf")
+
+    def _channel(self, topic: str, message_type: type[Message]) -> foxglove.Channel:
+        if topic not in self.channels:
+            schema = message_type.get_schema()
+            self.channels[topic] = foxglove.Channel(
+                topic, message_encoding=schema.encoding, schema=schema
+            )
+        return self.channels[topic]
 
     def log_exchange(self, offered: tuple[str, int, bytes, bytes]) -> None:
         """Draw one exchange (its records as the route made them) on its channels."""
         operation, log_time, request, response = offered
-        if not 0 <= log_time <= MAX_TIME_NS:  # the server's clock past 2106
-            return
+        messages = []
         if time.monotonic() - self._transform_at >= TRANSFORM_EVERY_S:
-            self.transforms.log(radar_transform(log_time), log_time=log_time)
+            messages += self.encoded.transform(log_time)
             self._transform_at = time.monotonic()
-        if not request:  # over the size a live picture takes
+        if request:
+            values = json.loads(request), json.loads(response)
+            messages += self.encoded.exchange(operation, *values, log_time)
+        else:  # over the size a live picture takes
             note = log(log_time, fm.LogLevel.Info, operation, "too large to draw live")
-            self.channels[LOG_TOPIC].log(note, log_time=log_time)
-            return
-        messages = scene_messages(operation, json.loads(request), json.loads(response), log_time)
-        for topic, message in messages:
-            channel = self.channels.get(topic)
-            if channel is None:  # an operation this build does not draw
-                channel = self.channels[topic] = SceneUpdateChannel(topic)
-            channel.log(message, log_time=log_time)  # type: ignore[arg-type]  # by topic
+            messages.append((LOG_TOPIC, "foxglove.Log", note.encode()))
+        for topic, _, data in messages:
+            self._channel(topic, fm.SceneUpdate).log(data, log_time=log_time)
