@@ -22,7 +22,7 @@ the recordings read.
 import contextlib
 import json
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO, Protocol
@@ -139,17 +139,30 @@ def view(
     report = ViewReport(out, reader=reader)
     partial = out.with_name(f".{out.name}.{os.getpid()}.partial")
     try:
-        with open(partial, "wb") as stream:
+        with _naming(out), open(partial, "wb") as stream:
             _write(stream, reader, scenes, report)
             stream.flush()
             os.fsync(stream.fileno())
         if reader.recordings:
-            os.replace(partial, out)
+            with _naming(out):
+                os.replace(partial, out)
             report.written = True
     finally:
         with contextlib.suppress(FileNotFoundError):
             partial.unlink()
     return report
+
+
+@contextlib.contextmanager
+def _naming(out: Path) -> Iterator[None]:
+    """An ``OSError`` of the output's temporary named as the output the user gave (a
+    folder there, a missing folder, a full disk)."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None or exc.filename == str(out):
+            raise
+        raise OSError(exc.errno, exc.strerror, str(out)) from exc
 
 
 def _write(stream: BinaryIO, reader: Reader, scenes: Scenes, report: ViewReport) -> None:

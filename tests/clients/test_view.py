@@ -78,8 +78,12 @@ def test_bad_inputs_end_with_a_message_and_exit_2(session, tmp_path, capsys):
     [recording] = session.glob("*.mcap")
     assert main(["view", str(session), "-o", str(recording)]) == 2
     assert "is one of the recordings read" in capsys.readouterr().err
-    assert main(["view", str(session), "-o", str(tmp_path / "no" / "dir.mcap")]) == 2
-    assert "dir.mcap" in capsys.readouterr().err
+    missing = tmp_path / "no" / "dir.mcap"
+    assert main(["view", str(session), "-o", str(missing)]) == 2
+    assert f"plotgate view: {missing}: No such file or directory" in capsys.readouterr().err
+    assert main(["view", str(session), "-o", str(tmp_path)]) == 2  # a folder: named as given
+    assert f"plotgate view: {tmp_path}: Is a directory" in capsys.readouterr().err
+    assert not list(tmp_path.glob(".*.partial"))
 
 
 def test_a_cut_file_gives_its_intact_exchanges(tmp_path, capsys):
