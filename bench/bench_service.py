@@ -190,14 +190,18 @@ def _subscribed(port: int) -> Iterator[None]:
         stderr=subprocess.DEVNULL,
         text=True,
     )
+    drain = None
     try:
         assert client.stdout is not None
         assert "subscribed" in client.stdout.readline(), "the Foxglove client did not subscribe"
-        with subprocess.Popen(["cat"], stdin=client.stdout, stdout=subprocess.DEVNULL):
-            yield  # cat drains the messages, so the client never blocks on its output
+        # cat drains the messages, so the client never blocks on its output
+        drain = subprocess.Popen(["cat"], stdin=client.stdout, stdout=subprocess.DEVNULL)
+        yield
     finally:
-        client.kill()
+        client.kill()  # first: cat ends with the client's output
         client.wait()
+        if drain is not None:
+            drain.wait(timeout=30)
         if client.stdout is not None:
             client.stdout.close()
 
