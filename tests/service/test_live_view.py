@@ -39,14 +39,14 @@ def test_a_foxglove_client_receives_the_scene_of_its_call(tmp_path, interop_node
     port = free_port()
     with serve(tmp_path, "--foxglove-port", str(port)) as (_, url):
         client = subprocess.Popen(
-            [interop_node, str(LIVE), f"ws://127.0.0.1:{port}", "/scene/gates.test", "1", "60"],
+            [interop_node, str(LIVE), f"ws://127.0.0.1:{port}", "/scene/gates.test", "1", "120"],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
         )
         try:
             lines, gathering = lines_of(client)
-            deadline = time.monotonic() + 60
+            deadline = time.monotonic() + 120
             while not lines and client.poll() is None and time.monotonic() < deadline:
                 time.sleep(0.05)
             assert lines, client.stderr.read() if client.poll() is not None else "no advertise"
@@ -61,7 +61,7 @@ def test_a_foxglove_client_receives_the_scene_of_its_call(tmp_path, interop_node
                 timeout=30,
             )
             assert answer.status_code == 200
-            assert client.wait(timeout=60) == 0, client.stderr.read()
+            assert client.wait(timeout=180) == 0, client.stderr.read()
         finally:
             if client.poll() is None:
                 client.kill()
