@@ -1,23 +1,29 @@
-"""Cost of one unconditional gating probability against the axis ratio of B.
+"""Cost of the unconditional gating probability's requests against the axis ratio of B.
 
 Run from the repository root::
 
-    python bench/bench_axis_ratio.py
+    python bench/bench_axis_ratio.py [--ratios 2.18 10 26 70 436] [--budget 60]
 
-Konovalov's example (ring gate 100..500 m/s, tau 5 s, first mark 50 km north, sigma_az
-0.5 deg, the area prior) with the range sigma swept from 200 m (B's axis ratio
-sqrt(lambda_max / lambda_min) about 2, the paper's case) down to 1 mm (about 4 x 10^5),
-then the azimuth sigma down to 1e-6 degrees; each probability through the service's
-in-process path (``service.registry.execute``), timed once (the slow ones take minutes),
-with the quadrature's gate node count (each gate node integrates the prior's heading).
-The axis ratio is the work size ``mark.axis_ratio``
-an operator may cap (``PLOTGATE_LIMITS``); the last rows time ``gates.design``, which
-evaluates about twenty such probabilities. Prints a markdown table.
+Each operation's example request (``gates.probability``, ``gates.analysis``,
+``gates.design``; for the first two also with the first-association window, the gate
+with the most nodes) with the range sigma cut until B's axis ratio
+sqrt(lambda_max / lambda_min) reaches each value (the azimuth sigma and the range stay the
+example's: 0.5 deg at 50 km). Each request runs through the service's in-process path
+(``service.registry.execute``, no caps), timed once and cold (no density table kept
+from an earlier request), with the quadrature's gate node count (each gate node
+integrates the prior's heading). The axis ratio is the work size ``mark.axis_ratio``
+an operator may cap (``PLOTGATE_LIMITS``); the schema does not bound
+it. Each operation first answers its example untimed (its lazy imports). Once a request
+of an operation takes longer than ``--budget`` seconds, its larger ratios are not run
+(they cost more). Prints a markdown table.
 """
 
 from __future__ import annotations
 
+import argparse
+import copy
 import json
+import math
 import platform
 import sys
 import time
@@ -26,15 +32,18 @@ import numpy as np
 import scipy
 
 import plotgate.core.gates.probability as gp
+from plotgate.core.gates import heading
 from plotgate.service.registry import OPERATIONS, execute
-from plotgate.service.schemas import Mark
+from plotgate.service.schemas import ENDPOINTS, Mark
 
-MARK = {"r": 50_000.0, "az_deg": 0.0, "sigma_r": 200.0, "sigma_az_deg": 0.5}
-PRIOR = {"kind": "area", "v_min": 100.0, "v_max": 500.0}
-CASES = [("sigma_r", v) for v in (200.0, 20.0, 1.0, 1e-3)] + [
-    ("sigma_az_deg", v) for v in (0.05, 1e-3, 1e-6)
+FIRST_ASSOCIATION = {"kind": "first_association", "v_max": 500.0, "K_R": 3.0, "K_az": 3.0}
+REQUESTS = [
+    ("gates.probability", None),
+    ("gates.probability", FIRST_ASSOCIATION),
+    ("gates.analysis", None),
+    ("gates.analysis", FIRST_ASSOCIATION),
+    ("gates.design", None),
 ]
-DESIGN_CASES = [("sigma_r", v) for v in (200.0, 20.0)]
 
 
 def nodes_counted() -> list[int]:
@@ -53,55 +62,51 @@ def nodes_counted() -> list[int]:
     return count
 
 
-def timed(name: str, body: dict) -> tuple[float, int, str]:
+def at_ratio(name: str, gate: dict | None, ratio: float) -> dict:
+    """The example of ``name`` (with ``gate``) with sigma_r set for B's axis ratio."""
+    body = copy.deepcopy(ENDPOINTS[name].example)
+    if gate is not None:
+        body["gate"] = gate
+    mark = body["mark"]
+    cross = mark["r"] * math.radians(mark["sigma_az_deg"])  # m, across the line of sight
+    mark["sigma_r"] = cross / ratio
+    return body
+
+
+def timed(name: str, body: dict) -> tuple[float, int]:
+    """One request, cold: no density table kept from an earlier request."""
+    heading.clear_tables()
     start = time.perf_counter()
     outcome = execute(OPERATIONS[name], json.dumps(body).encode())
-    return time.perf_counter() - start, outcome.status, outcome.content.decode()[:60]
+    return time.perf_counter() - start, outcome.status
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ratios", type=float, nargs="+", default=[2.18, 10, 26, 70, 436])
+    parser.add_argument("--budget", type=float, default=60.0)
+    args = parser.parse_args()
     print(
         f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
         f"{scipy.__version__}, {platform.machine()}\n"
     )
     count = nodes_counted()
-    print("| operation | changed | axis ratio | seconds | gate nodes | status |")
-    print("|---|---|---:|---:|---:|---|")
-    for field, value in CASES:
-        mark = dict(MARK, **{field: value})
-        ratio = Mark(**mark).axis_ratio()
-        count[0] = 0
-        body = {
-            "gate": {"kind": "ring", "v_min": 100.0, "v_max": 500.0},
-            "mark": mark,
-            "tau": 5.0,
-            "prior": PRIOR,
-        }
-        seconds, status, _ = timed("gates.probability", body)
-        print(
-            f"| gates.probability | {field} = {value:g} | {ratio:.3g} | {seconds:.2f} | "
-            f"{count[0]:.3g} | {status} |",
-            flush=True,
-        )
-    for field, value in DESIGN_CASES:
-        mark = dict(MARK, **{field: value})
-        ratio = Mark(**mark).axis_ratio()
-        count[0] = 0
-        body = {
-            "gate": {"kind": "expanded", "v_max": 300.0},
-            "mark": mark,
-            "tau": 5.0,
-            "capture": 0.9,
-            "prior": {"kind": "area", "v_min": 0.0, "v_max": 300.0},
-            "P_D1": 0.99,
-            "resolution": {"range": 500.0, "azimuth_deg": 1.5},
-        }
-        seconds, status, _ = timed("gates.design", body)
-        print(
-            f"| gates.design | {field} = {value:g} | {ratio:.3g} | {seconds:.2f} | "
-            f"{count[0]:.3g} | {status} |",
-            flush=True,
-        )
+    print("| operation | gate | sigma_r m | axis ratio | seconds | gate nodes | status |")
+    print("|---|---|---:|---:|---:|---:|---|")
+    for name, gate in REQUESTS:
+        timed(name, ENDPOINTS[name].example)  # untimed: the operation's lazy imports
+        for ratio in args.ratios:
+            body = at_ratio(name, gate, ratio)
+            count[0] = 0
+            seconds, status = timed(name, body)
+            print(
+                f"| {name} | {body['gate']['kind']} | {body['mark']['sigma_r']:.3g} "
+                f"| {Mark(**body['mark']).axis_ratio():.3g} | {seconds:.2f} | {count[0]:.3g} "
+                f"| {status} |",
+                flush=True,
+            )
+            if seconds > args.budget:
+                break
 
 
 if __name__ == "__main__":

@@ -19,6 +19,11 @@ and the best round of each is kept. Then:
   a few percent); its p99;
 * **two workers**: ``plotgate serve --workers 2`` (recording), closed loop at 10 and 50
   clients, against one worker: the scaling on this machine, where wrk shares the cores;
+* **live view** (``--live``, which runs this stage alone): ``plotgate serve`` recording,
+  against the same with ``--foxglove-port`` and one Foxglove client subscribed to the
+  operation's scene topic (``tests/interop/live.mjs``, niced: a viewer runs on another
+  machine, not on the server's two cores), rounds alternating, best of each at every
+  client count; the aim is at least 0.98x. The publisher's drops are read from /metrics;
 * **profile** (``--profile``): py-spy samples the recording server under
   ``--profile-clients`` clients (10 by default) and the top entries, inclusive and self,
   are printed.
@@ -27,7 +32,7 @@ Besides requests per second and latency it reports the server's CPU time per req
 (from /proc), the load-independent cost.
 
     python bench/bench_service.py [--seconds 10 --connections 1,10,50 --rounds 3 --profile]
-        [--profile-clients 1]
+        [--profile-clients 1] [--live]
 """
 
 import argparse
@@ -175,6 +180,71 @@ def _profile(pid: int, seconds: int, url: str, script: Path, clients: int) -> st
     return "\n".join(lines)
 
 
+@contextlib.contextmanager
+def _subscribed(port: int) -> Iterator[None]:
+    """One Foxglove client subscribed to ``/scene/gates.test`` on ``port`` until the end."""
+    client = subprocess.Popen(
+        ["nice", "-n", "19", "node", str(ROOT / "tests/interop/live.mjs")]
+        + [f"ws://127.0.0.1:{port}", "/scene/gates.test", str(10**9), str(10**6)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    drain = None
+    try:
+        assert client.stdout is not None
+        assert "subscribed" in client.stdout.readline(), "the Foxglove client did not subscribe"
+        # cat drains the messages, so the client never blocks on its output
+        drain = subprocess.Popen(["cat"], stdin=client.stdout, stdout=subprocess.DEVNULL)
+        yield
+    finally:
+        client.kill()  # first: cat ends with the client's output
+        client.wait()
+        if drain is not None:
+            drain.wait(timeout=30)
+        if client.stdout is not None:
+            client.stdout.close()
+
+
+def _live(args: argparse.Namespace, folder: Path, script: Path, levels: list[int]) -> None:
+    """The live view's cost: recording with and without it (one client subscribed)."""
+    best: dict[tuple[int, str], dict[str, float]] = {}
+    dropped = ""
+    for _ in range(args.rounds):
+        for kind in ("on", "live"):
+            port = free_port()
+            flags = ("--foxglove-port", str(port)) if kind == "live" else ()
+            with _server("on", folder, *flags) as (proc, url):
+                with _subscribed(port) if kind == "live" else contextlib.nullcontext():
+                    _wrk(url + "/v1/gates/test", script, 2, max(levels))  # warm-up
+                    for c in levels:
+                        cpu = _cpu_seconds(proc.pid)
+                        run = _wrk(url + "/v1/gates/test", script, args.seconds, c)
+                        run["cpu_ms"] = (_cpu_seconds(proc.pid) - cpu) / run["requests"] * 1e3
+                        if (c, kind) not in best or run["rate"] > best[c, kind]["rate"]:
+                            best[c, kind] = run
+                    if kind == "live":
+                        metrics = httpx.get(url + "/metrics").text
+                        dropped = "\n".join(
+                            line for line in metrics.splitlines() if "plotgate_foxglove" in line
+                        )
+    print(
+        f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, recording; live: with "
+        "--foxglove-port and one client subscribed"
+    )
+    print("\n| clients | server | requests/s | live / on | p50 ms | p99 ms | CPU ms/req |")
+    print("|---:|---|---:|---:|---:|---:|---:|")
+    for c in levels:
+        for kind in ("on", "live"):
+            r = best[c, kind]
+            ratio = r["rate"] / best[c, "on"]["rate"]
+            print(
+                f"| {c} | {kind} | {r['rate']:,.0f} | {ratio:.3f}x | {r['p50']:.2f} | "
+                f"{r['p99']:.2f} | {r['cpu_ms']:.3f} |"
+            )
+    print(f"\nthe last live round's /metrics:\n{dropped}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=int, default=10)
@@ -182,6 +252,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--profile", action="store_true", help="py-spy the recording server")
     parser.add_argument("--profile-clients", type=int, default=10)
+    parser.add_argument(
+        "--live", action="store_true", help="only the live view's cost (--foxglove-port)"
+    )
     args = parser.parse_args()
     if not shutil.which("wrk"):
         sys.exit("wrk not found: apt-get install wrk")
@@ -192,6 +265,9 @@ def main() -> None:
         (folder / "body.json").write_bytes(BODY)
         script = folder / "post.lua"
         script.write_text(POST.format(body=folder / "body.json"))
+        if args.live:
+            _live(args, folder, script, levels)
+            return
         for _ in range(args.rounds):
             for kind in SERVERS:
                 with _server(kind, folder) as (proc, url):

@@ -94,6 +94,8 @@ def _serve(args: argparse.Namespace) -> int:
         "PLOTGATE_WORKERS": args.workers,
         "PLOTGATE_LOG_DIR": args.log_dir,
         "PLOTGATE_RECORD": args.record,
+        "PLOTGATE_FOXGLOVE_PORT": args.foxglove_port,
+        "PLOTGATE_FOXGLOVE_HOST": args.foxglove_host,
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
     try:  # settings the app would refuse at start: a usage error, not a bug
@@ -101,6 +103,10 @@ def _serve(args: argparse.Namespace) -> int:
         check_limits(settings.limits)
     except ValueError as exc:
         print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
+        return 2
+    refused = _live_view_refused(settings)
+    if refused:
+        print(f"plotgate serve: --foxglove-port: {refused}", file=sys.stderr)
         return 2
     if settings.record:
         from plotgate.service.recording import Recorder, RecordingError
@@ -123,6 +129,28 @@ def _serve(args: argparse.Namespace) -> int:
         timeout_graceful_shutdown=settings.graceful_shutdown_s,
     )
     return 0
+
+
+def _live_view_refused(settings: Any) -> str | None:
+    """Why ``--foxglove-port`` cannot be served, checked before the server starts (a
+    failure in the app's start-up is a traceback): foxglove-sdk missing, several workers
+    (each would bind the port), the port not free."""
+    import importlib.util
+    import socket
+
+    if settings.foxglove_port is None:
+        return None
+    if importlib.util.find_spec("foxglove") is None:
+        return 'needs foxglove-sdk: pip install "plotgate[view]"'
+    if settings.workers > 1:
+        return "one live view per server: run it with --workers 1"
+    try:
+        with socket.create_server((settings.foxglove_host, settings.foxglove_port)):
+            return None
+    except OSError as exc:
+        return (
+            f"cannot listen on {settings.foxglove_host}:{settings.foxglove_port}: {exc.strerror}"
+        )
 
 
 def _at_least(minimum: int) -> Callable[[str], int]:
@@ -649,6 +677,56 @@ def _add_replay(sub: Any, filters: argparse.ArgumentParser) -> None:
     rep.set_defaults(func=_replay)
 
 
+def _add_view(sub: Any, filters: argparse.ArgumentParser) -> None:
+    view = sub.add_parser(
+        "view",
+        parents=[filters],
+        help="write recordings as a Foxglove scene (needs plotgate[view])",
+        description="Writes one MCAP that Foxglove opens as a scene: the original request "
+        "and response channels, and per exchange a foxglove.SceneUpdate on "
+        "/scene/<operation> (plots, gates, tracks, platforms, solutions, bearings in the "
+        "radar frame: x east, y north, m), a foxglove.Log on /log for problems and the "
+        "radar frame's foxglove.FrameTransform on /tf (docs/view.md; docs/foxglove_layout.json "
+        "is a layout for it). Files are read as inspect reads them. Exit 0; 2 when a file "
+        "cannot be read, none is a recording, OUT cannot be written or is one of the inputs, "
+        "or foxglove-sdk is missing.",
+    )
+    view.add_argument("-o", "--out", type=Path, required=True, help="the MCAP file to write")
+    view.set_defaults(func=_view)
+
+
+def _view(args: argparse.Namespace) -> int:
+    from plotgate.clients.view import view
+
+    try:  # the scene builder is the service's: imported here only (the layers' one direction)
+        from plotgate.service.scenes import Encoded
+    except ImportError as exc:
+        print(
+            f"plotgate view: needs foxglove-sdk ({exc.name} is missing): "
+            'pip install "plotgate[view]"',
+            file=sys.stderr,
+        )
+        return 2
+    try:
+        report = view(args.paths, args.out, Encoded(), _filters(args))
+    except ValueError as exc:
+        print(f"plotgate view: {exc}", file=sys.stderr)
+        return 2
+    reader = report.reader
+    assert reader is not None
+    for rec in reader.files:
+        if rec.damage_count:
+            print(
+                f"plotgate view: {rec.path}: {rec.damage_count} damaged records skipped "
+                f"(first: {rec.damage[0]})",
+                file=sys.stderr,
+            )
+    code = _unreadable("view", args.paths, reader.unreadable, reader.skipped, reader.recordings)
+    if report.written:
+        _write(report.text())
+    return code
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="plotgate", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=f"plotgate {__version__}")
@@ -665,6 +743,19 @@ def _parser() -> argparse.ArgumentParser:
         action="store_const",
         const=False,
         help="do not record (PLOTGATE_RECORD=false)",
+    )
+    serve.add_argument(
+        "--foxglove-port",
+        type=int,
+        metavar="PORT",
+        help="publish every answered exchange's scene live over Foxglove's WebSocket "
+        "protocol on this port (PLOTGATE_FOXGLOVE_PORT; off by default; needs "
+        "plotgate[view]; docs/view.md)",
+    )
+    serve.add_argument(
+        "--foxglove-host",
+        metavar="HOST",
+        help="address of the live view (PLOTGATE_FOXGLOVE_HOST, default 127.0.0.1)",
     )
     serve.set_defaults(func=_serve)
 
@@ -694,6 +785,7 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     _add_replay(sub, filters)
+    _add_view(sub, filters)
 
     rec = sub.add_parser(
         "recover",

@@ -21,6 +21,7 @@ import threading
 from collections.abc import AsyncIterator, Callable, Mapping
 from contextlib import asynccontextmanager
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -40,6 +41,9 @@ from plotgate.service.provenance import VERSION, provenance
 from plotgate.service.recording import Recorder
 from plotgate.service.registry import OPERATIONS, check_limits, load_all
 from plotgate.service.routes import PROBLEM_JSON, Operations, health_router, request_id_of
+
+if TYPE_CHECKING:  # foxglove-sdk is imported only with a live view
+    from plotgate.service.scenes.live import LiveView
 
 __all__ = ["create_app"]
 
@@ -75,6 +79,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 compaction_wait_s=settings.graceful_shutdown_s,
             ).start()
         app.state.recorder = recorder
+        app.state.live = _live_view(settings)
         configure(settings.dask_scheduler, settings.dask_timeout_s)
         if gc.get_freeze_count() == 0:
             # what start-up built lives as long as the process: keep it out of every
@@ -93,6 +98,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             restore_signals()
             if watch is not None:
                 watch.cancel()
+            if app.state.live is not None:
+                app.state.live.close()
             try:
                 app.state.large_bodies.close()
             finally:  # the last file closed and compacted, whatever stopping the worker raised
@@ -110,8 +117,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.recorder = None
+    app.state.live = None
     app.state.stopping = asyncio.Event()  # the lifespan makes its own, on its loop
-    app.state.metrics = Metrics(lambda: app.state.recorder)
+    app.state.metrics = Metrics(lambda: app.state.recorder, lambda: app.state.live)
     app.state.large_bodies = LargeBodies(settings.dask_scheduler, settings.dask_timeout_s)
     app.include_router(health_router())
     app.include_router(docs_router(app.title))
@@ -131,6 +139,27 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     app.add_middleware(RequestId)
     return app
+
+
+def _live_view(settings: Settings) -> "LiveView | None":
+    """The live view of ``--foxglove-port``, or None when it is off. One that cannot start
+    (foxglove-sdk missing, the port taken) is logged and kept without a publisher: the
+    service answers and records as ever, and counts the exchanges it could not show."""
+    if settings.foxglove_port is None:
+        return None
+    try:
+        from plotgate.service.scenes.live import LiveView
+    except ImportError as exc:
+        log.error("no live view: foxglove-sdk is missing (%s): pip install 'plotgate[view]'", exc)
+        return None
+    live = LiveView(settings.foxglove_host, settings.foxglove_port)
+    try:
+        live.start()
+    except RuntimeError as exc:
+        log.error("no live view: %s", exc)
+        return live
+    log.info("Foxglove live view on ws://%s:%d", settings.foxglove_host, live.port)
+    return live
 
 
 def _stop_within(grace_s: float, stopping: asyncio.Event) -> Callable[[], None]:

@@ -91,6 +91,18 @@ class Settings(BaseSettings):
         "20 s leaves a 30 s termination grace period (Kubernetes' default) room to close the "
         "recordings.",
     )
+    foxglove_port: int | None = Field(
+        default=None,
+        ge=0,
+        le=65535,
+        description="Publish every answered exchange's scene live on Foxglove's WebSocket "
+        "protocol on this port (plotgate serve --foxglove-port; needs plotgate[view]); unset: "
+        "off. 0 picks a free port (logged).",
+    )
+    foxglove_host: str = Field(
+        default="127.0.0.1",
+        description="Address the live view binds (the protocol has no authentication).",
+    )
     api_key: SecretStr | None = Field(
         default=None, description="When set, requests need this X-API-Key header."
     )

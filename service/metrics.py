@@ -6,15 +6,17 @@ the client waits). The recorder: ``plotgate_recorder_records_total`` (records ha
 the OS), ``plotgate_recorder_bytes_total``, ``plotgate_recorder_files_rotated_total``,
 ``plotgate_recorder_queue_depth`` (records added, waiting for their flush),
 ``plotgate_recorder_ready`` and the flush-latency histogram
-``plotgate_recorder_flush_seconds``; with best-effort recording,
-``plotgate_unrecorded_total{operation}``. The process: prometheus_client's default
-collectors, ``process_*`` (CPU seconds, resident memory, open file descriptors, start
-time), ``python_info`` and ``python_gc_*`` (collections and the objects they freed, by
-generation). Each app has its own registry, so several apps in one process (tests) never
-share counters.
+``plotgate_recorder_flush_seconds``; with a live view (``--foxglove-port``),
+``plotgate_foxglove_published_total`` and ``plotgate_foxglove_dropped_total{reason}``;
+with best-effort recording, ``plotgate_unrecorded_total{operation}``. The process:
+prometheus_client's default collectors, ``process_*`` (CPU seconds, resident memory, open
+file descriptors, start time), ``python_info`` and ``python_gc_*`` (collections and the
+objects they freed, by generation). Each app has its own registry, so several apps in one
+process (tests) never share counters.
 """
 
 from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING
 
 from prometheus_client import (
     CollectorRegistry,
@@ -29,6 +31,9 @@ from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metri
 from prometheus_client.registry import Collector
 
 from plotgate.service.recording import Recorder
+
+if TYPE_CHECKING:  # foxglove-sdk is imported only with a live view
+    from plotgate.service.scenes.live import LiveView
 
 __all__ = ["CONTENT_TYPE", "Metrics"]
 
@@ -87,11 +92,41 @@ class _RecorderCollector(Collector):
         )
 
 
+class _LiveCollector(Collector):
+    """Reads the live view's counters at scrape time (nothing without one)."""
+
+    def __init__(self, live: Callable[[], "LiveView | None"]) -> None:
+        self.live = live
+
+    def collect(self) -> Iterator[Metric]:
+        live = self.live()
+        if live is None:
+            return
+        yield CounterMetricFamily(
+            "plotgate_foxglove_published",
+            "Exchanges handed to the Foxglove live view's publisher.",
+            value=live.published,
+        )
+        dropped = CounterMetricFamily(
+            "plotgate_foxglove_dropped",
+            "Exchanges the live view did not show, by reason: queue_full (the publisher "
+            "behind), too_large (a record over 1 MiB), no_publisher (it failed or died).",
+            labels=["reason"],
+        )
+        for reason, count in live.dropped.items():
+            dropped.add_metric([reason], count)
+        yield dropped
+
+
 class Metrics:
     """The registry of one app, the request counters the routes update and the flush
     histogram the recorder observes (``Recorder(on_flush=metrics.flush.observe)``)."""
 
-    def __init__(self, recorder: Callable[[], Recorder | None]) -> None:
+    def __init__(
+        self,
+        recorder: Callable[[], Recorder | None],
+        live: Callable[[], "LiveView | None"] = lambda: None,
+    ) -> None:
         self.registry = CollectorRegistry()
         self.requests = Counter(
             "plotgate_requests",
@@ -119,6 +154,7 @@ class Metrics:
             registry=self.registry,
         )
         self.registry.register(_RecorderCollector(recorder))
+        self.registry.register(_LiveCollector(live))
         ProcessCollector(registry=self.registry)
         PlatformCollector(registry=self.registry)
         GCCollector(registry=self.registry)

@@ -14,7 +14,9 @@ Every operation (:class:`Operations`) does the same steps, in this order:
    otherwise), before running a small body's operation, with the answer for a large one;
 5. add the response record and wait for the flush that hands both records to the operating
    system;
-6. answer (:class:`plotgate.service.guards.RequestId` puts ``X-Request-ID`` on every response).
+6. with a live view (``--foxglove-port``), offer both records to its bounded queue, which
+   never waits (:mod:`plotgate.service.scenes.live`);
+7. answer (:class:`plotgate.service.guards.RequestId` puts ``X-Request-ID`` on every response).
 
 If the records cannot be written the answer is a 503 problem with ``Retry-After``: nothing
 is acknowledged unrecorded. With ``PLOTGATE_RECORD_BEST_EFFORT`` the exchange is answered
@@ -26,7 +28,7 @@ import logging
 import math
 import time
 from collections.abc import Awaitable
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
@@ -70,6 +72,9 @@ from plotgate.service.registry import (
     parse,
 )
 from plotgate.service.schemas import FieldError
+
+if TYPE_CHECKING:  # foxglove-sdk is imported only with a live view
+    from plotgate.service.scenes.live import LiveView
 
 _T = TypeVar("_T")
 
@@ -152,6 +157,7 @@ class Operations:
         settings: Settings = self.state.settings
         metrics = self.state.metrics
         started = time.perf_counter()
+        arrived = time.time_ns()  # the live view's stamp of the exchange
         exchange: Exchange | None = None
         close = False  # the connection, after answering: the body was not read to its end
         try:
@@ -177,7 +183,8 @@ class Operations:
             # a small body, or a refused one (nothing to parse)
             parsed = refused or parse(op, body, sized_up=True)
             strict = parsed.json
-        if recorder is None:
+        live: LiveView | None = self.state.live
+        if recorder is None and live is None:
             record = b""
         elif large:  # a copy of every byte: tens of milliseconds for the largest
             record = await run_in_threadpool(request_record, rid, op.name, body, strict, replay)
@@ -196,7 +203,8 @@ class Operations:
             if answer is None:
                 assert parsed is not None
                 answer = await self._answer_small(op, parsed, rid, limits, receive)
-            if recorder is not None and exchange is not None:
+            asked = record  # the request's record, for the live view
+            if (recorder is not None and exchange is not None) or live is not None:
                 record = response_record(
                     rid,
                     op.name,
@@ -204,6 +212,7 @@ class Operations:
                     time.perf_counter() - started,
                     answer.content,
                 )
+            if recorder is not None and exchange is not None:
                 try:
                     await recorder.aresponse(exchange, record)
                 except RecordingError:
@@ -220,6 +229,8 @@ class Operations:
             if recorder is not None and exchange is not None:
                 recorder.forget(exchange)
         metrics.observe(op.name, answer.status, time.perf_counter() - started)
+        if live is not None:  # after the records are flushed: the picture never delays them
+            live.offer(op.name, arrived, asked, record)
         headers = [(b"connection", b"close")] if close else []
         if answer.status == 503:  # the cluster: try again after the recorder's probe
             headers.append(self._retry_after())

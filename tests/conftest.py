@@ -85,11 +85,13 @@ class McapReader:
 
 
 @pytest.fixture(scope="session")
-def mcap_check() -> McapReader:
-    """The independent MCAP reader: ``mcap_check(path)`` is (0 if sound else 1, report)."""
+def interop_node() -> str:
+    """Node, with tests/interop's packages installed (``npm ci`` once)."""
     node, npm = shutil.which("node"), shutil.which("npm")
     assert node and npm, "Node >= 18 (node and npm) is needed for tests/interop"
-    if not (READER / "node_modules").exists():
+    installed = READER / "node_modules"
+    wanted = json.loads((READER / "package.json").read_text())["dependencies"]
+    if not all((installed / name).exists() for name in wanted):
         subprocess.run(
             [npm, "ci", "--no-audit", "--no-fund"],
             cwd=READER,
@@ -97,7 +99,32 @@ def mcap_check() -> McapReader:
             capture_output=True,
             timeout=600,
         )
-    return McapReader(node)
+    return node
+
+
+@pytest.fixture(scope="session")
+def mcap_check(interop_node: str) -> McapReader:
+    """The independent MCAP reader: ``mcap_check(path)`` is (0 if sound else 1, report)."""
+    return McapReader(interop_node)
+
+
+@pytest.fixture(scope="session")
+def foxglove_check(interop_node: str):
+    """Foxglove's schemas on a scene file: ``foxglove_check(path)`` is (0 when every
+    protobuf message validates against @foxglove/schemas' JSON schema of its type, else 1,
+    report) (tests/interop/scenes.mjs)."""
+
+    def check(path: Path) -> tuple[int, dict]:
+        run = subprocess.run(
+            [interop_node, "--single-threaded", str(READER / "scenes.mjs"), str(path)],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert run.stdout, run.stderr
+        return run.returncode, json.loads(run.stdout)
+
+    return check
 
 
 def cartesian(

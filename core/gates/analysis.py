@@ -243,7 +243,9 @@ def design_gate(
     def gated(x: float) -> float:
         # the search runs on a cheaper rule (error ~1e-7); the answer is re-evaluated fully
         return float(
-            unconditional_quadrature(sized(x), geometry, R_min, R_max, prior, _SEARCH_RULE)[0]
+            unconditional_quadrature(
+                sized(x), geometry, R_min, R_max, prior, _SEARCH_RULE, table=True
+            )[0]
         )
 
     wanted = capture / detection

@@ -17,14 +17,15 @@ closed-form integral,
           q(t) = (t\\mathbf{u} - \\mathbf{m})^T \\mathbf{B}^{-1} (t\\mathbf{u} - \\mathbf{m}),
           \\; k = 0, 1,
 
-with erf and exp only (:func:`_ray_moments`). The conditional probability is then
-a 1-D integral over direction; the unconditional one integrates the gate's
-directions and radii and the prior's heading, with the prior's speed in closed form.
-Every integral uses composite Gauss-Legendre panels graded towards its thin features
-(:mod:`plotgate.core.gates.quadrature`): the Gaussian's angular peak, the kinks of the gate's
-boundary, and the edges of the prior's ring. The conditional probability bisects its
-panels until a 10-point and a 5-point rule agree to 1e-10 and reports the sum of their
-differences (the error of the lower order: a bound in practice). The unconditional
+with erf and exp only (:func:`plotgate.core.gates.heading.ray_moments_reference`). The
+conditional probability is then a 1-D integral over direction; the unconditional one
+integrates the gate's directions and radii and the prior's heading
+(:mod:`plotgate.core.gates.heading`), with the prior's speed in closed form. Every
+integral uses composite Gauss-Legendre panels graded towards its thin features
+(:mod:`plotgate.core.gates.quadrature`): the Gaussian's angular peak, the kinks of the
+gate's boundary, and the edges of the prior's ring. The conditional probability bisects
+its panels until a 10-point and a 5-point rule agree to 1e-10 and reports the sum of
+their differences (the error of the lower order: a bound in practice). The unconditional
 one reports its difference from a second, lower-order rule on interleaved panels: an
 estimate, not a bound. Checked against 14-point rules it was within a factor 5 of the
 true error wherever that exceeded 1e-9, and the true error stayed below 1e-7 on every
@@ -38,22 +39,31 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal, cast
+from typing import Literal, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.special import ndtr
 
 from plotgate.core.errors import ParameterError
-from plotgate.core.gates.heading import BLOCK, mapped_density, prior_density
+from plotgate.core.gates.heading import (
+    ECCENTRIC,
+    SMEARED,
+    TAIL,
+    PriorRing,
+    cached_table,
+    interpolated_density,
+    principal_axes,
+    prior_density,
+    prior_density_reference,
+    prior_ring,
+    ray_moments_reference,
+    ring_features,
+    table_size,
+    tabulates,
+)
 from plotgate.core.gates.kinds import Gate
 from plotgate.core.gates.parameters import ring_radii
-from plotgate.core.gates.quadrature import (
-    adaptive_panels,
-    breakpoints,
-    gauss_legendre,
-    panel_rule,
-)
+from plotgate.core.gates.quadrature import adaptive_panels, angle_breaks, breakpoints, panel_rule
 from plotgate.core.gates.regions import MarkGeometry, StarRegion
 from plotgate.core.sym2 import Sym2, inverse
 from plotgate.core.validation import as_points, pair_count
@@ -61,11 +71,8 @@ from plotgate.core.validation import as_points, pair_count
 __all__ = [
     "GateProbability",
     "Prior",
-    "compiled_density",
     "conditional_probability",
-    "mapped_prior_density",
     "monte_carlo_probability",
-    "prior_density_reference",
     "unconditional_probability",
     "unconditional_quadrature",
 ]
@@ -78,34 +85,21 @@ RULES = ((8, 1.0), (7, np.sqrt(3.0)))
 unconditional probability: the result, and the reference whose difference from it is the
 error estimate. The reference's panels interleave with the result's, so the estimate
 catches a feature the panels miss as well as too low an order."""
-HEADING_SPREAD = 4.0
-"""epsilon / w of the conformal map of the heading integral: the peak, w wide, is spread
-over about a quarter of the mapped circle."""
-HEADING_TOL = 1e-10
-"""Wanted error of the mapped trapezoid sum of the heading integral, relative to a bound
-on that integral (successive sums agree within its square root). The stop on delta^2 is
-a heuristic: at the gate nodes of Konovalov's example the largest error measured was
-3e-7 of the bound (at nodes where the integral is far below it); the second rule's
-looser heading puts that into the error estimate (1.4e-8 there, against 4e-10 from the
-numpy reference)."""
+Rules = tuple[tuple[int, float], ...]
+TABLE_GAIN = 2
+"""The unconditional probability tabulates the density when the gate's nodes (both rules)
+number at least this many times the table's points: a table point costs a density (as a
+node does) and interpolating 0.1-0.2 us a node, so below it the table would not pay."""
+SEARCH_CALLS = 20
+"""Calls on one problem a ``table=True`` quadrature expects: gates.design's search makes
+about twenty, and its table pays over all of them."""
+TABLE_MOST = 1 << 21
+"""Most points of a density table (16 MiB): an extremely eccentric B (sigma_min of
+millimetres) would need millions; its nodes are evaluated directly instead."""
 M_CONDITIONAL = (10, 5)
 """Gauss-Legendre orders of the adaptive conditional probability's two rules."""
 _CONDITIONAL_TOL = 1e-10
 """Absolute error the conditional probability's panels are refined to."""
-_SQRT_2PI = np.sqrt(2.0 * np.pi)
-_ECCENTRIC = 3.0
-"""Axis ratio sqrt(lambda_max / lambda_min) of B from which its axes get their own panels."""
-_SMEARED = 8.0
-"""Axis ratio from which the unconditional quadrature also grades towards the smeared
-ring's edges: below it they are blurred enough that the error estimate stays under
-1e-6 without them (measured up to 6e-7 at an axis ratio of 8.7), above it the estimate
-would reach 1e-5 by a ratio of 14, and with them it stays near 1e-8 at 6-8 times
-the cost."""
-_TAIL = 9.0
-"""Standard deviations beyond which a Gaussian's density (< e^-40) is left out."""
-_THIN_NODES = 8
-"""Gauss-Legendre nodes across a prior ring no wider than sigma_min: the Gaussian varies
-by at most one standard deviation across it, and 8 nodes hold the integral to ~1e-12."""
 
 
 @dataclass(frozen=True)
@@ -124,94 +118,6 @@ class GateProbability:
     error: np.ndarray
 
 
-def _column(S: Sym2, ndim: int) -> Sym2:
-    return Sym2(*(np.reshape(x, (-1,) + (1,) * (ndim - 1)) for x in S))
-
-
-def _axes(B: Sym2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """lambda_min, lambda_max and the major-axis direction of B."""
-    half_diff = 0.5 * (B.xx - B.yy)
-    root = np.hypot(half_diff, B.xy)
-    mean = 0.5 * (B.xx + B.yy)
-    lam_max = mean + root
-    return B.det / lam_max, lam_max, 0.5 * np.arctan2(B.xy, half_diff)
-
-
-def _ray_moments(
-    ux: np.ndarray,
-    uy: np.ndarray,
-    mx: np.ndarray,
-    my: np.ndarray,
-    Q: Sym2,
-    t1: np.ndarray | np.float64,
-    t2: np.ndarray | np.float64,
-) -> tuple[np.ndarray, np.ndarray]:
-    """M_k = integral over t in [t1, t2] of t^k exp(-q(t)/2), k = 0, 1.
-
-    q(t) = (t u - m)^T Q (t u - m) with a unit direction u and Q = B^-1. Writing
-    a = u^T Q u, b = u^T Q m and the minimum of q along the ray
-    k = |Q| (u x m)^2 / a (Lagrange's identity, free of cancellation),
-
-    M0 = sqrt(2 pi / a) exp(-k/2) [Phi(s2) - Phi(s1)],  s_i = (a t_i - b) / sqrt(a),
-    M1 = [exp(-q(t1)/2) - exp(-q(t2)/2)] / a + (b / a) M0.
-    """
-    a = Q.xx * ux * ux
-    a += 2.0 * Q.xy * ux * uy
-    a += Q.yy * uy * uy
-    b = Q.xx * ux * mx
-    b += Q.xy * (ux * my + uy * mx)
-    b += Q.yy * uy * my
-    k = ux * my
-    k -= uy * mx
-    k *= k
-    k *= Q.det
-    k /= a
-    root_a = np.sqrt(a)
-    s1 = a * t1
-    s1 -= b
-    s1 /= root_a
-    s2 = a * t2
-    s2 -= b
-    s2 /= root_a
-    # Phi(s2) - Phi(s1) from the tail that does not cancel: flip both when s1 > 0
-    flip = np.where(s1 > 0.0, -1.0, 1.0)
-    M0 = ndtr(flip * s2)
-    M0 -= ndtr(flip * s1)
-    M0 *= flip
-    M0 *= np.exp(-0.5 * k)
-    M0 *= _SQRT_2PI
-    M0 /= root_a
-    s1 *= s1
-    s1 += k
-    s2 *= s2
-    s2 += k
-    M1 = np.exp(-0.5 * s1)
-    M1 -= np.exp(-0.5 * s2)
-    b *= M0
-    M1 += b
-    M1 /= a
-    return M0, M1
-
-
-def _angle_breaks(
-    start: np.ndarray,
-    span: np.ndarray,
-    centres: list[np.ndarray],
-    widths: list[np.ndarray],
-    kinks: np.ndarray | None,
-    uniform: int,
-) -> np.ndarray:
-    return breakpoints(
-        start,
-        start + span,
-        np.stack(centres, axis=-1),
-        np.stack(widths, axis=-1),
-        kinks,
-        periodic=True,
-        uniform=uniform,
-    )
-
-
 def _conditional_integrand(
     region: StarRegion, Q: Sym2, rel: np.ndarray
 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -220,7 +126,7 @@ def _conditional_integrand(
     def integrand(rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
         lo, hi = region.radii(theta, rows)
         Qr = Sym2(*(x[rows][:, None] for x in Q))
-        _, M1 = _ray_moments(
+        _, M1 = ray_moments_reference(
             np.cos(theta), np.sin(theta), rel[rows, :1], rel[rows, 1:], Qr, lo, hi
         )
         return M1
@@ -272,7 +178,7 @@ def conditional_probability(
     region = gate.region(geometry)
     mean = np.broadcast_to(v * geometry.tau, (n, 2))
     rel = mean - region.origin
-    lam_min, _, major = _axes(geometry.B)
+    lam_min, _, major = principal_axes(geometry.B)
     centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
     # starting panels: the Gaussian subtends about sigma / |m| seen from the origin, or
     # sigma / lo where the inner edge lo of the gate cuts it (then about B's major axis);
@@ -281,7 +187,7 @@ def conditional_probability(
     reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
     with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
         width = np.sqrt(lam_min) / reach
-    edges = _angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
+    edges = angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
     norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
     integral, error = adaptive_panels(
         _conditional_integrand(region, inverse(geometry.B), rel),
@@ -292,83 +198,41 @@ def conditional_probability(
     return GateProbability(integral / norm, error / norm)
 
 
-def _ring_features(
-    ox: np.ndarray,
-    oy: np.ndarray,
-    ux: np.ndarray,
-    uy: np.ndarray,
-    radii: tuple[float, float],
-    minor: np.ndarray | None,
-) -> np.ndarray:
-    """Distances along rays o + t u to the edges of the blurred prior ring (NaN: none).
+class GateNodes(NamedTuple):
+    """A rule's nodes d over the gate of one problem, relative to z1, and their weights
+    (area element rho d rho d theta included)."""
 
-    The ray's closest approach to z1, its crossings of the circles |x| = R, and, for an
-    eccentric B (``minor``, the direction of its minor axis, given), its crossings of
-    the lines x . e_minor = +-R: a long Gaussian smears the ring along its major axis,
-    and the smeared ring's sharp edges are those lines.
-    """
-    along = ox * ux + oy * uy
-    base = along * along - (ox * ox + oy * oy)
-    out = [-along]
-    for R in radii:
-        with np.errstate(invalid="ignore"):
-            root = np.sqrt(base + R * R)
-        out += [-along - root, -along + root]
-    if minor is not None:
-        ex, ey = np.cos(minor), np.sin(minor)
-        offset, rate = ox * ex + oy * ey, ux * ex + uy * ey
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out += [(c - offset) / rate for R in radii for c in (R, -R)]
-    return np.stack(out, axis=-1)
+    dx: np.ndarray
+    dy: np.ndarray
+    weights: np.ndarray
 
 
-def _prior_weights(prior: str, R_min: float, R_max: float) -> tuple[float, float]:
-    """(c0, c1): the prior density of the length s is c0 + c1 s on [R_min, R_max]."""
-    if prior == "speed":
-        return 1.0 / (R_max - R_min), 0.0
-    return 0.0, 2.0 / (R_max * R_max - R_min * R_min)
-
-
-def _thin_ring_rule(prior: str, R_min: float, R_max: float) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes s_j and weights of the prior's integral over a ring thinner than sigma_min.
-
-    Gauss-Legendre in u = (s - R_min) / (R_max - R_min) on [0, 1], where the prior's
-    density is 1 (``"speed"``) or 2 s / (R_max + R_min) (``"area"``): finite and free of
-    cancellation however thin or small the ring (tau or the speeds down to 5e-324),
-    where the closed form's 1 / (R_max^2 - R_min^2) overflows and its moments cancel.
-    """
-    u, w = panel_rule(np.array([0.0, 1.0]), _THIN_NODES)
-    s = R_min + u * (R_max - R_min)
-    if prior == "area":
-        w = w * (2.0 * s / (R_max + R_min))
-    return s, w
-
-
-def _unconditional_chunk(
+def _gate_nodes(
     region: StarRegion,
     B: Sym2,
     R_min: float,
     R_max: float,
-    prior: str,
     rule: tuple[int, float],
-    theta_edges: np.ndarray,
-    reference: bool,
-) -> np.ndarray:
-    """Integral over the gate of the prior-averaged density, for a chunk of problems."""
+) -> GateNodes:
+    """The gate's nodes of one problem (B of length 1) by ``rule``."""
     m, scale = rule
-    lam_min, lam_max, major = _axes(B)
+    lam_min, lam_max, major = principal_axes(B)
     sigma = np.sqrt(lam_min)[:, None, None]
-    reach = R_max + _TAIL * np.sqrt(lam_max)[:, None]  # beyond it the density is < 1e-17
+    reach = R_max + TAIL * np.sqrt(lam_max)[:, None]  # beyond it the density is < 1e-17
     # gate directions theta: (n, T)
-    theta, w_theta = panel_rule(theta_edges, m)
+    theta, w_theta = panel_rule(_theta_edges(region, B, R_min, R_max, scale), m)
     ux, uy = np.cos(theta), np.sin(theta)
     lo, hi = region.radii(theta)
     ox, oy = region.origin[:, :1], region.origin[:, 1:]
     # gate radii rho on the part of each ray within reach of z1, graded towards the
-    # prior ring's edges and the ray's closest approach to z1: (n, T, R)
-    eccentric = bool((lam_max >= _SMEARED**2 * lam_min).any())
+    # prior ring's edges and the ray's closest approach to z1: (n, T, R);
+    # towards the smeared ring's edges from SMEARED: below it they are blurred enough that
+    # the error estimate stays under 1e-6 without them (measured up to 6e-7 at an axis
+    # ratio of 8.7), above it the estimate would reach 1e-5 by a ratio of 14, and with
+    # them it stays near 1e-8 at 6-8 times the cost
+    eccentric = bool((lam_max >= SMEARED**2 * lam_min).any())
     minor = (major + 0.5 * np.pi)[:, None] if eccentric else None
-    features = _ring_features(ox, oy, ux, uy, (R_min, R_max), minor)
+    features = ring_features(ox, oy, ux, uy, (R_min, R_max), minor)
     closest = features[..., 0]
     with np.errstate(invalid="ignore"):
         chord = np.sqrt(np.maximum(reach**2 - (ox * ox + oy * oy - closest**2), 0.0))
@@ -376,195 +240,45 @@ def _unconditional_chunk(
     hi = np.maximum(np.minimum(hi, closest + chord), lo)
     rho_edges = breakpoints(lo, hi, features, np.broadcast_to(scale * sigma, features.shape))
     rho, w_rho = panel_rule(rho_edges, m)
-    n, T, R = rho.shape
-    dx = (ox[..., None] + rho * ux[..., None]).reshape(n, T * R)
-    dy = (oy[..., None] + rho * uy[..., None]).reshape(n, T * R)
-    density = np.empty((n, T * R))
-    if reference:
-        block = max(1, BLOCK // n)
-        for first in range(0, T * R, block):
-            cols = slice(first, first + block)
-            density[:, cols] = prior_density_reference(
-                dx[:, cols], dy[:, cols], B, R_min, R_max, prior, m, scale, eccentric
-            )
-    else:
-        for i in range(n):
-            Bi = Sym2(*(x[i : i + 1] for x in B))
-            if lam_max[i] >= _ECCENTRIC**2 * lam_min[i] or R_max - R_min <= np.sqrt(lam_min[i]):
-                density[i] = compiled_density(
-                    dx[i], dy[i], Bi, R_min, R_max, prior, m, scale, eccentric, max(1, BLOCK // n)
-                )
-            else:
-                density[i] = mapped_prior_density(dx[i], dy[i], Bi, R_min, R_max, prior, scale)
-    radial = np.einsum("ntr,ntr->nt", w_rho * rho, density.reshape(n, T, R))
-    total = np.einsum("nt,nt->n", w_theta, radial)
-    probability: np.ndarray = total / (4.0 * np.pi * np.pi * np.sqrt(B.det))
-    return probability
+    dx = ox[..., None] + rho * ux[..., None]
+    dy = oy[..., None] + rho * uy[..., None]
+    weights = w_theta[..., None] * w_rho * rho
+    return GateNodes(dx.ravel(), dy.ravel(), weights.ravel())
 
 
-def compiled_density(
-    dx: np.ndarray,
-    dy: np.ndarray,
-    B: Sym2,
-    R_min: float,
-    R_max: float,
-    prior: str,
-    m: int,
-    scale: float,
-    eccentric: bool,
-    block: int,
-) -> np.ndarray:
-    """:func:`prior_density_reference` for one problem (B of length 1) at (K,) points, compiled.
+def _densities(
+    nodes: list[GateNodes], B: Sym2, ring: PriorRing, rules: Rules, source: str, calls: int
+) -> list[np.ndarray]:
+    """The prior-averaged density at each rule's gate nodes, from ``source``:
 
-    The kernel :func:`plotgate.core.gates.heading.prior_density` builds the same heading
-    panels point by point (``block`` points share their grading levels, as one array of
-    the reference does) and sums the same closed-form radial integrals.
+    - ``"reference"``: :func:`plotgate.core.gates.heading.prior_density_reference`;
+    - ``"direct"``: :func:`plotgate.core.gates.heading.prior_density` at every node, with
+      the rule's own heading;
+    - ``"table"``: the same, but interpolated from one table of the problem (built with
+      the first rule's heading, shared by every rule and node, and kept for the next call
+      on the problem) where it pays: the gate's nodes, times the ``calls`` expected on the
+      problem, number at least :data:`TABLE_GAIN` times the table's points, the table
+      holds at most :data:`TABLE_MOST`, and its density holds everywhere
+      (:func:`plotgate.core.gates.heading.tabulates`); directly otherwise.
     """
-    lam_min, lam_max, major = (float(x[0]) for x in _axes(B))
-    Q = inverse(B)
-    closed_form = R_max - R_min > np.sqrt(lam_min)
-    c0, c1, s, w = 0.0, 0.0, np.empty(0), np.empty(0)
-    if closed_form:
-        c0, c1 = _prior_weights(prior, R_min, R_max)
-    elif R_max > R_min:
-        s, w = _thin_ring_rule(prior, R_min, R_max)
-    else:
-        s, w = np.array([R_max]), np.array([1.0])
-    x_gl, w_gl = gauss_legendre(m)
-    density: np.ndarray = prior_density(
-        np.ascontiguousarray(dx, dtype=np.float64),
-        np.ascontiguousarray(dy, dtype=np.float64),
-        float(Q.xx[0]),
-        float(Q.xy[0]),
-        float(Q.yy[0]),
-        float(Q.det[0]),
-        lam_min,
-        lam_max,
-        major,
-        float(R_min),
-        float(R_max),
-        float(c0),
-        float(c1),
-        s,
-        w,
-        bool(closed_form),
-        eccentric,
-        x_gl,
-        w_gl,
-        float(scale),
-        block,
-    )
-    return density
-
-
-def mapped_prior_density(
-    dx: np.ndarray,
-    dy: np.ndarray,
-    B: Sym2,
-    R_min: float,
-    R_max: float,
-    prior: str,
-    scale: float = 1.0,
-) -> np.ndarray:
-    """:func:`prior_density_reference` by the mapped periodic trapezoid rule, compiled.
-
-    For one problem (B of length 1) at (K,) points, a ring wider than sigma_min and a
-    nearly round B (axis ratio below :data:`_ECCENTRIC`, as in Konovalov's example): the
-    heading integrand has one peak, about as wide in every direction, and
-    :func:`plotgate.core.gates.heading.mapped_density` integrates it with a
-    geometrically converging rule, doubling its nodes until two sums agree within
-    sqrt(:data:`HEADING_TOL`) (times ``scale``: the lower rule of :data:`RULES` gets a
-    looser heading, so their difference also covers the heading's error) of
-    2 pi (c0 + c1 R_max) sqrt(2 pi lambda_max), a bound on the integral; the finer sum's
-    error is then about :data:`HEADING_TOL` of it.
-    """
-    lam_min, lam_max, _ = (float(x[0]) for x in _axes(B))
-    Q = inverse(B)
-    c0, c1 = _prior_weights(prior, R_min, R_max)
-    bound = 2.0 * np.pi * (c0 + c1 * R_max) * np.sqrt(2.0 * np.pi * lam_max)
-    density: np.ndarray = mapped_density(
-        np.ascontiguousarray(dx, dtype=np.float64),
-        np.ascontiguousarray(dy, dtype=np.float64),
-        float(Q.xx[0]),
-        float(Q.xy[0]),
-        float(Q.yy[0]),
-        float(Q.det[0]),
-        lam_min,
-        float(R_min),
-        float(R_max),
-        float(c0),
-        float(c1),
-        HEADING_SPREAD,
-        float(np.sqrt(HEADING_TOL) * scale * bound),
-        16,
-        1 << 14,
-    )
-    return density
-
-
-def prior_density_reference(
-    dx: np.ndarray,
-    dy: np.ndarray,
-    B: Sym2,
-    R_min: float,
-    R_max: float,
-    prior: str,
-    m: int,
-    scale: float,
-    eccentric: bool,
-) -> np.ndarray:
-    """2 pi |B|^1/2 (2 pi) g(d) at (n, K) points d: the heading integral of the prior's
-    closed-form radial integral of N(s e_phi; d, B), with numpy (the tested oracle of
-    :func:`compiled_density`).
-
-    Headings are integrated within reach of d and graded about the direction of d:
-    N(d, B) subtends about sigma_min / |d|, or sigma_min / R_min where the inner circle
-    cuts it. A long N(d, B) meets the prior ring along the line d + t e_major, and the
-    directions of that line's crossings of the ring's circles are sharp features too.
-    """
-    lam_min, lam_max, major = _axes(B)
-    sigma = np.sqrt(lam_min)[:, None]
-    dist = np.hypot(dx, dy)
-    # near the origin (or a vanishing ring) the ratios overflow to inf: every heading
-    # is within reach, and an infinite width grades nothing
-    with np.errstate(over="ignore"):
-        half = np.arcsin(
-            np.minimum(1.0, _TAIL * np.sqrt(lam_max)[:, None] / np.maximum(dist, 1e-300))
-        )
-        half = np.where(half < 0.5 * np.pi, half, np.pi)
-        centres = [np.arctan2(dy, dx)]
-        widths = [scale * sigma / np.maximum(dist, max(R_min, 1e-300))]
-        if eccentric:
-            ex, ey = np.cos(major)[:, None], np.sin(major)[:, None]
-            crossings = _ring_features(dx, dy, ex, ey, (R_min, R_max), None)[..., 1:]
-            for k, R in enumerate((R_min, R_min, R_max, R_max)):
-                t = crossings[..., k]
-                centres.append(np.arctan2(dy + t * ey, dx + t * ex))
-                widths.append(np.broadcast_to(scale * sigma / max(R, 1e-300), t.shape))
-    phi_edges = _angle_breaks(centres[0] - half, 2.0 * half, centres, widths, None, uniform=2)
-    phi, w_phi = panel_rule(phi_edges, m)
-    Q = _column(inverse(B), 3)
-    ex, ey = np.cos(phi), np.sin(phi)
-    mx, my = dx[..., None], dy[..., None]
-    if R_max - R_min > float(sigma.min()):
-        c0, c1 = _prior_weights(prior, R_min, R_max)
-        M0, M1 = _ray_moments(ex, ey, mx, my, Q, np.float64(R_min), np.float64(R_max))
-        kernel = c0 * M0 + c1 * M1 if c1 else c0 * M0
-    else:  # a ring thinner than the Gaussian (v_min = v_max: a circle) is a smooth factor
-        s, w = _thin_ring_rule(prior, R_min, R_max) if R_max > R_min else ([R_max], [1.0])
-        kernel = np.zeros(np.broadcast_shapes(ex.shape, mx.shape))
-        for s_j, w_j in zip(s, w, strict=True):
-            nx, ny = s_j * ex - mx, s_j * ey - my
-            kernel += w_j * np.exp(-0.5 * (Q.xx * nx * nx + 2.0 * Q.xy * nx * ny + Q.yy * ny * ny))
-    density: np.ndarray = np.einsum("nkf,nkf->nk", w_phi, kernel)
-    return density
+    if source == "reference":
+        return [
+            prior_density_reference(x.dx[None], x.dy[None], B, ring, rule)[0]
+            for x, rule in zip(nodes, rules, strict=True)
+        ]
+    size = table_size(B, ring)
+    pays = TABLE_GAIN * size <= calls * sum(x.dx.size for x in nodes)
+    if source == "table" and pays and size <= TABLE_MOST and tabulates(B, ring):
+        table = cached_table(B, ring, rules[0]).args()
+        return [interpolated_density(x.dx, x.dy, table) for x in nodes]
+    return [prior_density(x.dx, x.dy, B, ring, rule) for x, rule in zip(nodes, rules, strict=True)]
 
 
 def _theta_edges(
     region: StarRegion, B: Sym2, R_min: float, R_max: float, scale: float = 1.0
 ) -> np.ndarray:
     """Gate-direction panels: kinks, plus the tangents to the prior ring from an outer origin."""
-    lam_min, _, major = _axes(B)
+    lam_min, _, major = principal_axes(B)
     ox, oy = region.origin[:, 0], region.origin[:, 1]
     dist = np.hypot(ox, oy)
     towards = np.arctan2(-oy, -ox)
@@ -577,15 +291,26 @@ def _theta_edges(
     # an eccentric B blurs the ring's edges by sigma_min along its minor axis and by
     # about sigma_max |alpha| at an angle alpha from it: features 1 / kappa wide
     lam_max = B.xx + B.yy - lam_min
-    if (lam_max >= _ECCENTRIC**2 * lam_min).any():
-        width = np.where(lam_max >= _ECCENTRIC**2 * lam_min, np.sqrt(lam_min / lam_max), np.inf)
+    if (lam_max >= ECCENTRIC**2 * lam_min).any():
+        width = np.where(lam_max >= ECCENTRIC**2 * lam_min, np.sqrt(lam_min / lam_max), np.inf)
         centres += [major + k * 0.5 * np.pi for k in range(4)]
         widths += [width] * 4
-    full = bool((region.span >= 2.0 * np.pi).all())
+    # 8 equal panels a turn to start with, at least 2; the centres and kinks of a half turn
+    # (_half_turn) are symmetric under theta + pi, so wrapping keeps their images in it
+    uniform = max(2, round(4.0 * float(region.span.min()) / np.pi))
     widths = [scale * w for w in widths]
-    return _angle_breaks(
-        region.start, region.span, centres, widths, region.kinks, uniform=8 if full else 2
-    )
+    return angle_breaks(region.start, region.span, centres, widths, region.kinks, uniform=uniform)
+
+
+def _half_turn(region: StarRegion) -> tuple[StarRegion, float]:
+    """The region and the number of times its integral counts: half of it, twice, when the
+    gate is symmetric about z1 itself (ring, combined, expanded, an ellipse or rectangle
+    without offset), for then so is the integrand: the prior is isotropic and B's
+    Gaussian even, so g(-d) = g(d). That halves the gate's nodes."""
+    if not region.symmetric or region.origin.any():
+        return region, 1.0
+    half = np.full(region.span.shape, np.pi)
+    return StarRegion(region.origin, region.start, half, region.kinks, region.radii), 2.0
 
 
 def _validate_prior(prior: str) -> None:
@@ -637,9 +362,7 @@ def unconditional_probability(
     """
     _validate_prior(prior)
     R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
-    high, low = (
-        unconditional_quadrature(gate, geometry, R_min, R_max, prior, rule) for rule in RULES
-    )
+    high, low = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "table", 1)
     return GateProbability(high, np.abs(high - low))
 
 
@@ -652,6 +375,7 @@ def unconditional_quadrature(
     rule: tuple[int, float],
     *,
     reference: bool = False,
+    table: bool = False,
 ) -> np.ndarray:
     """The unconditional probability with one rule, problem by problem.
 
@@ -663,21 +387,47 @@ def unconditional_quadrature(
     higher-order rules.
 
     The prior-averaged density at the gate's nodes is computed by the compiled
-    :func:`compiled_density`, or with ``reference=True`` by its numpy oracle
-    :func:`prior_density_reference` (same nodes, same result to rounding).
+    :func:`plotgate.core.gates.heading.prior_density`, or with ``reference=True`` by its
+    numpy reference :func:`plotgate.core.gates.heading.prior_density_reference` (the same
+    gate nodes; the same result within the error estimates), or with ``table=True``
+    interpolated from the problem's density table where it pays over
+    :data:`SEARCH_CALLS` calls (:func:`_densities`); the table is kept for the next call
+    on the same problem.
 
     Each problem is one 3-D quadrature of 10^5-10^6 nodes. Problems are not
     stacked into one array: their features lie in different places, and a common array
     would pad every problem to the panels of the most demanding one.
     """
-    out = np.empty(geometry.n)
+    source = "reference" if reference else "table" if table else "direct"
+    out: np.ndarray = _quadratures(
+        gate, geometry, R_min, R_max, prior, (rule,), source, SEARCH_CALLS
+    )[0]
+    return out
+
+
+def _quadratures(
+    gate: Gate,
+    geometry: MarkGeometry,
+    R_min: float,
+    R_max: float,
+    prior: str,
+    rules: Rules,
+    source: str,
+    calls: int,
+) -> np.ndarray:
+    """The unconditional probability by each of ``rules``, (len(rules), N), problem by
+    problem; ``source`` of the density and ``calls`` as :func:`_densities`."""
+    out = np.empty((len(rules), geometry.n))
     for i in range(geometry.n):
         part = geometry.take(slice(i, i + 1))
-        region = gate.region(part)
-        theta_edges = _theta_edges(region, part.B, R_min, R_max, rule[1])
-        out[i] = _unconditional_chunk(
-            region, part.B, R_min, R_max, prior, rule, theta_edges, reference
-        )[0]
+        region, turns = _half_turn(gate.region(part))
+        lam_min = float(principal_axes(part.B)[0][0])
+        ring = prior_ring(prior, R_min, R_max, lam_min)
+        nodes = [_gate_nodes(region, part.B, R_min, R_max, rule) for rule in rules]
+        densities = _densities(nodes, part.B, ring, rules, source, calls)
+        norm = 4.0 * np.pi * np.pi * float(np.sqrt(part.B.det[0]))
+        for k, (x, density) in enumerate(zip(nodes, densities, strict=True)):
+            out[k, i] = turns * float(x.weights @ density) / norm
     return out
 
 

@@ -16,7 +16,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["RATIO", "adaptive_panels", "breakpoints", "gauss_legendre", "panel_rule"]
+__all__ = [
+    "RATIO",
+    "adaptive_panels",
+    "angle_breaks",
+    "breakpoints",
+    "gauss_legendre",
+    "panel_rule",
+]
 
 RATIO = 3.0
 """Growth factor of the panel widths away from a feature."""
@@ -93,6 +100,26 @@ def breakpoints(
         pts = lo_ + np.mod(pts - lo_, 2.0 * np.pi)
     pts = np.clip(pts, lo_, hi_)
     return _distinct(np.sort(np.concatenate([lo_, pts, hi_], axis=-1), axis=-1))
+
+
+def angle_breaks(
+    start: np.ndarray,
+    span: np.ndarray,
+    centres: list[np.ndarray],
+    widths: list[np.ndarray],
+    kinks: np.ndarray | None,
+    uniform: int,
+) -> np.ndarray:
+    """:func:`breakpoints` of angles on [start, start + span], graded about each centre."""
+    return breakpoints(
+        start,
+        start + span,
+        np.stack(centres, axis=-1),
+        np.stack(widths, axis=-1),
+        kinks,
+        periodic=True,
+        uniform=uniform,
+    )
 
 
 def _distinct(edges: np.ndarray) -> np.ndarray:

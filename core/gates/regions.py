@@ -213,6 +213,8 @@ class StarRegion(NamedTuple):
         ``radii(theta, rows)`` returns (lo, hi), each shaped like theta, metres: theta
         is (N, T) for all problems, or (P, T) with ``rows`` (P,) naming the problem
         of each row.
+    symmetric : bool
+        The region is symmetric about its origin: radii(theta + pi) = radii(theta).
     """
 
     origin: np.ndarray
@@ -220,6 +222,7 @@ class StarRegion(NamedTuple):
     span: np.ndarray
     kinks: np.ndarray
     radii: Callable[..., tuple[np.ndarray, np.ndarray]]
+    symmetric: bool = False
 
 
 def full_turn(
@@ -228,9 +231,14 @@ def full_turn(
     kinks: np.ndarray,
     radii: Callable[..., tuple[np.ndarray, np.ndarray]],
 ) -> StarRegion:
-    """A region seen over every direction from ``origin`` (relative to z1), for n problems."""
+    """A region seen over every direction from ``origin`` (relative to z1), for n problems.
+
+    Every gate seen over a full turn is a ring, an ellipse, the union of the two, or a
+    rectangle, each centred on its origin, so the region is ``symmetric`` (the tests check
+    radii(theta + pi) = radii(theta) for every such gate kind).
+    """
     return StarRegion(
-        np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI), kinks, radii
+        np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI), kinks, radii, True
     )
 
 

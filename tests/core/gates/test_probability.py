@@ -29,6 +29,7 @@ from plotgate.core import (
     monte_carlo_probability,
     unconditional_probability,
 )
+from plotgate.core.gates.regions import StarRegion
 
 TAU = 5.0
 TARGET = 1e-6  # the target: absolute quadrature error below 1e-6, reported
@@ -547,7 +548,9 @@ def test_unconditional_error_estimate_is_honest_with_monkeypatched_orders(monkey
     finer_rules(monkeypatch, 16)
     fine = unconditional_probability(gate, g, 100.0, 500.0, "area")
     assert fine.error[0] < 1e-10
-    assert abs(res.probability[0] - fine.probability[0]) <= res.error[0] + 1e-12
+    # 1e-10: where the gate's nodes outnumber the density table's (the finer rules' do),
+    # both rules share the table, whose error (1e-11 here) neither rule's difference sees
+    assert abs(res.probability[0] - fine.probability[0]) <= res.error[0] + 1e-10
 
 
 @pytest.mark.parametrize(
@@ -586,6 +589,52 @@ def test_conditional_error_estimate_is_honest(gate, monkeypatch):
     assert (fine.error < 1e-11).all()
     assert (np.abs(res.probability - fine.probability) <= res.error + 1e-12).all()
     assert (res.error < TARGET).all()
+
+
+# ---------------------------------------------------------------- symmetric gates: half a turn
+
+
+SYMMETRIC_GATES = [
+    RingGate(100.0, 500.0),
+    CombinedGate(100.0, 500.0, 0.9),
+    ExpandedGate(500.0, 0.9),
+    EllipseGate(0.9),
+    EllipseGate(0.9, offset=(0.0, 1500.0)),
+    RectangularGate(2.0, offset=(700.0, -400.0)),
+]
+
+
+@pytest.mark.parametrize("gate", SYMMETRIC_GATES, ids=lambda g: type(g).__name__)
+def test_symmetric_regions_are_symmetric(gate):
+    g = mark_geometry([20e3, 50e3], [0.3, 2.0], 200.0, math.radians(0.5), tau=TAU)
+    region = gate.region(g)
+    assert region.symmetric
+    theta = np.random.default_rng(19).uniform(-4.0, 4.0, (2, 50))
+    for a, b in zip(region.radii(theta), region.radii(theta + math.pi), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=0.0)
+
+
+class WholeTurn:
+    """A gate whose region does not claim its symmetry: integrated over the whole turn."""
+
+    def __init__(self, gate):
+        self.gate = gate
+
+    def region(self, g):
+        origin, start, span, kinks, radii, _ = self.gate.region(g)
+        return StarRegion(origin, start, span, kinks, radii, False)
+
+
+@pytest.mark.parametrize("gate", SYMMETRIC_GATES[:3], ids=lambda g: type(g).__name__)
+def test_half_turn_is_the_whole_turn(gate):
+    """Half a turn, counted twice, against the whole turn, within the error estimates."""
+    g = mark_geometry(30e3, 0.7, 150.0, math.radians(0.4), tau=TAU)
+    half = unconditional_probability(gate, g, 100.0, 500.0, "area")
+    whole = [
+        gp.unconditional_quadrature(WholeTurn(gate), g, 500.0, 2500.0, "area", rule)[0]
+        for rule in gp.RULES
+    ]
+    assert abs(half.probability[0] - whole[0]) <= half.error[0] + abs(whole[0] - whole[1])
 
 
 # ---------------------------------------------------------------- vectorization
@@ -806,44 +855,6 @@ def test_velocity_of_wrong_batch_length():
 
 
 @pytest.mark.parametrize(
-    ("sigma_r", "sigma_az_deg", "speeds", "prior"),
-    [
-        (200.0, 0.5, (100.0, 500.0), "area"),  # Konovalov's example
-        (200.0, 0.5, (0.0, 300.0), "speed"),
-        (20.0, 1.0, (100.0, 500.0), "area"),  # axis ratio 26: graded about the smeared ring
-        (200.0, 0.5, (300.0, 300.0), "area"),  # a circle: the thin-ring rule
-        (200.0, 0.5, (300.0, 300.02), "speed"),
-    ],
-    ids=["paper", "speed-from-zero", "eccentric", "circle", "thin-ring"],
-)
-def test_compiled_density_matches_numpy_reference(sigma_r, sigma_az_deg, speeds, prior):
-    g = mark_geometry(50e3, 0.4, sigma_r, math.radians(sigma_az_deg), tau=TAU)
-    R_min, R_max = speeds[0] * TAU, speeds[1] * TAU
-    lam_min, lam_max = np.linalg.eigvalsh(g.P1[0] + g.P2[0])
-    eccentric = bool(lam_max >= 64.0 * lam_min)
-    rng = np.random.default_rng(15)
-    # random points out to the density's reach, the origin, and points on the ring's circles
-    d = rng.uniform(-1.0, 1.0, (3000, 2)) * (R_max + 9.0 * math.sqrt(lam_max))
-    d[:3] = [[0.0, 0.0], [R_min, 0.0], [0.0, -R_max]]
-    for m, scale in gp.RULES:
-        ref = gp.prior_density_reference(
-            d[None, :, 0], d[None, :, 1], g.B, R_min, R_max, prior, m, scale, eccentric
-        )[0]
-        fast = gp.compiled_density(
-            d[:, 0], d[:, 1], g.B, R_min, R_max, prior, m, scale, eccentric, 4096
-        )
-        np.testing.assert_allclose(fast, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
-
-
-def test_compiled_density_of_no_points_is_empty():
-    g = paper_geometry(50e3)
-    out = gp.compiled_density(
-        np.empty(0), np.empty(0), g.B, 500.0, 2500.0, "area", 8, 1.0, False, 4096
-    )
-    assert out.shape == (0,)
-
-
-@pytest.mark.parametrize(
     "kind", ["ring", "combined", "expanded", "ellipse", "first_association", "eccentric"]
 )
 def test_unconditional_probability_matches_numpy_reference(kind):
@@ -867,33 +878,3 @@ def test_unconditional_probability_matches_numpy_reference(kind):
     res = unconditional_probability(gate, g, 100.0, 500.0, "area")
     ref_error = np.abs(high - low)
     assert (np.abs(res.probability - high) <= 2.0 * ref_error + res.error + 1e-10).all()
-
-
-@pytest.mark.parametrize(
-    ("sigma_r", "sigma_az_deg", "speeds", "prior"),
-    [
-        (200.0, 0.5, (100.0, 500.0), "area"),
-        (200.0, 0.5, (0.0, 300.0), "speed"),
-        (150.0, 0.5, (0.0, 500.0), "area"),  # axis ratio 2.9
-        (100.0, 0.1, (50.0, 250.0), "speed"),
-    ],
-)
-def test_mapped_heading_rule_matches_adaptive_quad(sigma_r, sigma_az_deg, speeds, prior):
-    g = mark_geometry(50e3, 0.4, sigma_r, math.radians(sigma_az_deg), tau=TAU)
-    R_min, R_max = speeds[0] * TAU, speeds[1] * TAU
-    lam_min, lam_max = np.linalg.eigvalsh(g.P1[0] + g.P2[0])
-    rng = np.random.default_rng(16)
-    d = rng.uniform(-1.0, 1.0, (40, 2)) * (R_max + 3.0 * math.sqrt(lam_max))
-    d[:3] = [[0.0, 0.0], [R_min, 0.0], [0.0, -R_max]]
-    fast = gp.mapped_prior_density(d[:, 0], d[:, 1], g.B, R_min, R_max, prior)
-    ref = gp.prior_density_reference(
-        d[None, :, 0], d[None, :, 1], g.B, R_min, R_max, prior, 14, 0.25, True
-    )[0]
-    bound = (
-        2.0
-        * np.pi
-        * np.sqrt(2.0 * np.pi * lam_max)
-        / (R_max - R_min)
-        * (2.0 if prior == "area" else 1.0)
-    )
-    np.testing.assert_allclose(fast, ref, rtol=0.0, atol=1e-8 * bound)
