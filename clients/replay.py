@@ -28,14 +28,15 @@ so the session cannot be called unchanged.
 Not every exchange can be compared; these are counted apart, each with its reason, and do
 not change the exit code by themselves: a request never answered (the server stopped
 first), an answer whose request record was lost to damage, a body that timed out (408:
-the body never arrived whole, so it cannot be sent again), a replay whose original was read
-before it (a folder replayed into itself would otherwise grow and compare twice), and, in
-process, a request over this replay's work caps (the server's: the defaults with
-``PLOTGATE_LIMITS`` over them; ``no_limits`` runs it) whose recorded answer is not that
-same cap's refusal: a recording made under higher caps answered it, and a 422 here would
-read as a change. A recorded refusal by the same cap is refused again and compared. The
-tally adds up: exchanges = compared + not compared, compared = unchanged + changed, each
-exchange counted once.
+the body never arrived whole, so it cannot be sent again), a request its client gave up
+(499: its work was cancelled, so nothing was answered to compare with), a replay whose
+original was read before it (a folder replayed into itself would otherwise grow and
+compare twice), and, in process, a request over this replay's work caps (the server's:
+the defaults with ``PLOTGATE_LIMITS`` over them; ``no_limits`` runs it) whose recorded
+answer is not that same cap's refusal: a recording made under higher caps answered it,
+and a 422 here would read as a change. A recorded refusal by the same cap is refused
+again and compared. The tally adds up: exchanges = compared + not compared, compared =
+unchanged + changed, each exchange counted once.
 
 A replay over HTTP sends each request under a new request id with header
 ``X-Plotgate-Replay-Of: <original id>``, so a server recording into the same folder records
@@ -99,6 +100,7 @@ REPLAYED_ORIGINAL = "replay of an exchange read before it"
 REFUSED_FOR_THE_SERVER = (
     "refused for the server's state (503: recording, cluster or shutdown), not for its input"
 )
+CLIENT_GONE = "given up by its client (499): the work was cancelled, no answer to compare"
 OVER_CAPS = "over this replay's work caps (the defaults and PLOTGATE_LIMITS; --no-limits runs it)"
 
 
@@ -631,6 +633,8 @@ def _not_comparable(exchange: Exchange) -> str | None:
         return BODY_TIMEOUT
     if exchange.response.get("status") == 503:  # says nothing of what the operation answers
         return REFUSED_FOR_THE_SERVER
+    if exchange.response.get("status") == 499:
+        return CLIENT_GONE
     if exchange.original_read:
         return REPLAYED_ORIGINAL
     return None

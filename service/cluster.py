@@ -21,6 +21,8 @@ deadline the coroutine is cancelled, and anything Dask raises while connecting o
 talking becomes :class:`ClusterUnavailable`, whatever its type; only an error a task
 itself raised on a worker comes back as it is, as it would in-process.
 :func:`configure` cancels the calls in flight, so a stuck call never holds up shutdown.
+One request's work is cancelled alone with :class:`Cancellable` (its client went away):
+its calls to the cluster, and in this process the chunks not yet started.
 
 Dask (``distributed``) is an optional dependency: ``pip install "plotgate[cluster]"``.
 """
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextvars
 import logging
 import multiprocessing
 import signal
@@ -43,8 +46,10 @@ from tqdm import tqdm
 
 __all__ = [
     "CONNECT_S",
+    "Cancellable",
     "ClusterTimeout",
     "ClusterUnavailable",
+    "WorkCancelled",
     "cancel_calls",
     "cluster",
     "configure",
@@ -84,6 +89,65 @@ class ClusterTimeout(ClusterUnavailable):
     """The work did not finish on the cluster within the timeout; its tasks are cancelled.
     The service answers 504, which a client does not retry: the same work would take as
     long again."""
+
+
+class WorkCancelled(ClusterUnavailable):
+    """The work was cancelled before it finished (:meth:`Cancellable.cancel`: the service's
+    client went away): its talk with the cluster was cancelled, and its tasks with it, or,
+    in this process, no further chunk was started."""
+
+
+class Cancellable:
+    """One request's batch work, which another thread can cancel: the service runs an
+    operation with :meth:`run` in a worker thread and cancels it when the client goes
+    away. The work's talks with the cluster are cancelled then (so are their tasks on
+    the workers), and in this process the next chunk does not start (the chunk running
+    finishes: a compiled kernel cannot be stopped). Either way the work raises
+    :class:`WorkCancelled`. Work run outside :meth:`run` is not cancellable, as before."""
+
+    def __init__(self) -> None:
+        self.cancelled = False
+        self._lock = threading.Lock()
+        self._calls: set[concurrent.futures.Future[Any]] = set()
+
+    def run(self, function: Callable[..., _T], *args: Any) -> _T:
+        """``function(*args)`` with its batch work cancellable by :meth:`cancel`."""
+        token = _current.set(self)
+        try:
+            return function(*args)
+        finally:
+            _current.reset(token)
+
+    def cancel(self) -> None:
+        """Stop the work: its talks with the cluster now, the chunks in this process before
+        the next one starts. Safe from any thread, and more than once."""
+        with self._lock:
+            self.cancelled = True
+            calls = list(self._calls)
+        for call in calls:
+            call.cancel()
+
+    def check(self) -> None:
+        """Raise :class:`WorkCancelled` if :meth:`cancel` was called."""
+        if self.cancelled:
+            raise WorkCancelled("the work was cancelled: its client went away")
+
+    def _watch(self, call: concurrent.futures.Future[Any]) -> None:
+        with self._lock:
+            if not self.cancelled:
+                self._calls.add(call)
+                return
+        call.cancel()
+
+    def _forget(self, call: concurrent.futures.Future[Any]) -> None:
+        with self._lock:
+            self._calls.discard(call)
+
+
+_current: contextvars.ContextVar[Cancellable | None] = contextvars.ContextVar(
+    "plotgate_cancellable", default=None
+)
+"""The work this thread runs inside :meth:`Cancellable.run`, if any."""
 
 
 class _TaskFailed(Exception):
@@ -145,14 +209,19 @@ def _talk(
     an error of a task of its own (:class:`_TaskFailed`), re-raised as the task raised it.
     """
     call = asyncio.run_coroutine_threadsafe(_bounded(work, within, failing, late), _cluster_loop())
+    cancellable = _current.get()
     with _lock:
         _calls.add(call)
+    if cancellable is not None:
+        cancellable._watch(call)
     try:
         # the loop enforces `within` itself; this wait only covers a loop that stalls
         return call.result(None if within is None else within + _CLOSE_S + 1.0)
     except _TaskFailed as exc:
         raise exc.error from None
     except concurrent.futures.CancelledError:
+        if cancellable is not None:
+            cancellable.check()
         raise ClusterUnavailable(
             f"{failing}: the call was cancelled (the cluster reconfigured or the service stopping)"
         ) from None
@@ -162,6 +231,8 @@ def _talk(
     finally:
         with _lock:
             _calls.discard(call)
+        if cancellable is not None:
+            cancellable._forget(call)
 
 
 async def _bounded(
@@ -255,8 +326,10 @@ def _open(address: str, within: float) -> Any:
 
 def _connected(within: float) -> Any:
     """The client of the configured scheduler, connecting (again) when there is none or
-    it has lost the scheduler. Two requests may connect at once; the later client is
-    closed and the first one kept."""
+    it has lost the scheduler (a scheduler restarted on the same address is used by the
+    next request). The client it replaces is closed: one still trying to reconnect would
+    otherwise join the new scheduler too, and hold a connection for nothing. Two requests
+    may connect at once; the later client is closed and the first one kept."""
     global _client
     with _lock:
         client, address = _client, _address
@@ -266,10 +339,11 @@ def _connected(within: float) -> Any:
     client = _open(address, within)
     with _lock:
         if _address == address and (_client is None or _client.status != "running"):
-            _client = client
-            return client
-        kept = _client if _address == address else None
-    _close(client)
+            stale, _client, kept = _client, client, client
+        else:
+            stale, kept = client, (_client if _address == address else None)
+    if stale is not None:
+        _close(stale)
     if kept is None:
         raise ClusterUnavailable("the service's cluster was reconfigured meanwhile")
     return kept
@@ -307,7 +381,7 @@ def mapper() -> Callable[..., Iterable[Any]] | None:
         (:class:`ClusterTimeout`, its tasks cancelled).
     """
     if _client is None and _address is None:
-        return _in_process if _progress else None
+        return _in_process if _progress or _current.get() is not None else None
     timeout = _timeout
     deadline = None if timeout is None else time.monotonic() + timeout
     if _address is not None:
@@ -375,11 +449,15 @@ def _bar(total: int) -> tqdm[Any]:
 
 
 def _in_process(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
-    """The builtin ``map`` with the progress bar."""
+    """The builtin ``map`` with the progress bar, and stopped before the next item once the
+    work is cancelled (:class:`Cancellable`)."""
     items = list(items)
+    cancellable = _current.get()
     out = []
     with _bar(len(items)) as bar:
         for item in items:
+            if cancellable is not None:
+                cancellable.check()
             out.append(function(item))
             bar.update()
     return out

@@ -14,6 +14,8 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``shutting-down`` (503): the server reached the end of its graceful shutdown
   (``PLOTGATE_GRACEFUL_SHUTDOWN_S``) before the operation finished; another replica, or
   this one restarted, will answer it;
+- ``client-disconnected`` (499, nginx's "client closed request"): the client went away
+  before the answer and its work was cancelled; recorded, sent to nobody;
 - ``cluster-timeout`` (504): the work on the cluster did not finish within
   ``PLOTGATE_DASK_TIMEOUT_S`` (its tasks are cancelled; not worth retrying as it is);
 - ``internal`` (500): a bug; never bad input.
@@ -44,6 +46,7 @@ TITLES = {
     "recording-unavailable": "Recording unavailable",
     "cluster-unavailable": "Cluster unavailable",
     "shutting-down": "Shutting down",
+    "client-disconnected": "Client closed request",
     "cluster-timeout": "Cluster timeout",
     "internal": "Internal error",
 }

@@ -42,6 +42,7 @@ from plotgate.service.bodies import (
     read_body,
     value_ceiling,
 )
+from plotgate.service.cluster import Cancellable
 from plotgate.service.config import Settings
 from plotgate.service.guards import (
     ASGIApp,
@@ -201,7 +202,7 @@ class Operations:
                     metrics.unrecorded(op.name)
             if answer is None:
                 assert parsed is not None
-                answer = await self._answer_small(op, parsed, rid, limits)
+                answer = await self._answer_small(op, parsed, rid, limits, receive)
             asked = record  # the request's record, for the live view
             if (recorder is not None and exchange is not None) or live is not None:
                 record = response_record(
@@ -236,23 +237,50 @@ class Operations:
         return answer.status, answer.content, headers
 
     async def _answer_small(
-        self, op: Operation, parsed: Parsed, rid: str, limits: dict[str, int] | None
+        self,
+        op: Operation,
+        parsed: Parsed,
+        rid: str,
+        limits: dict[str, int] | None,
+        receive: Receive,
     ) -> Outcome:
         """A small body's answer: on the event loop (a thread hand-off costs more than a
         gate test of a few hundred plots), in a worker thread for an operation whose
         endpoint is marked ``slow`` (quadratures that take tenths of a second or more, and
-        release the interpreter in compiled kernels)."""
-        if parsed.request is not None and op.endpoint.slow:
-            work = run_in_threadpool(outcome, op, parsed, rid, limits)
-            return await self._before_stopping(work) or _stopping(op, rid)
-        return outcome(op, parsed, rid, limits)
+        release the interpreter in compiled kernels).
 
-    async def _before_stopping(self, work: Awaitable[_T]) -> _T | None:
+        A slow operation's batch work is cancelled when its client goes away before the
+        answer (:class:`plotgate.service.cluster.Cancellable`: its chunks on the cluster
+        and the next chunk in this process) or at the end of the graceful shutdown. The
+        exchange is still recorded: as 499 ``client-disconnected`` (nginx's "client closed
+        request"), an answer nobody received, so a replay or an audit sees the request was
+        given up rather than missing. Only a small body's operation is watched: a large
+        body's runs in the worker process of :mod:`plotgate.service.offload`."""
+        if parsed.request is None or not op.endpoint.slow:
+            return outcome(op, parsed, rid, limits)
+        cancellable = Cancellable()
+        gone = asyncio.ensure_future(_disconnect(receive))
+        try:
+            work = run_in_threadpool(cancellable.run, outcome, op, parsed, rid, limits)
+            answer = await self._before_stopping(work, gone)
+        finally:
+            gone.cancel()
+        if answer is not None:
+            return answer
+        cancellable.cancel()
+        if gone.done() and not gone.cancelled():
+            return _client_gone(op, rid)
+        return _stopping(op, rid)
+
+    async def _before_stopping(
+        self, work: Awaitable[_T], gone: "asyncio.Future[None] | None" = None
+    ) -> _T | None:
         """``work``'s result, or None when the server reaches the end of its graceful
         shutdown first (:func:`plotgate.service.app.create_app` sets ``stopping`` a second
-        before uvicorn would cancel this request and answer a bare 500, unrecorded). The
-        work is not cancelled: a thread cannot be stopped, and cancelling the wait for one
-        would wait for it; its result is dropped with the process."""
+        before uvicorn would cancel this request and answer a bare 500, unrecorded), or
+        ``gone`` (the client's disconnect) comes first. The wait for a thread's work is not
+        cancelled: a thread cannot be stopped, and cancelling the wait for one would wait
+        for it; its result is dropped."""
         stopping: asyncio.Event = self.state.stopping
         if stopping.is_set():  # too late to start it
             if asyncio.iscoroutine(work):
@@ -260,7 +288,10 @@ class Operations:
             return None
         task = asyncio.ensure_future(work)
         waiter = asyncio.ensure_future(stopping.wait())
-        await asyncio.wait({task, waiter}, return_when=asyncio.FIRST_COMPLETED)
+        await asyncio.wait(
+            {task, waiter} | ({gone} if gone is not None else set()),
+            return_when=asyncio.FIRST_COMPLETED,
+        )
         waiter.cancel()
         if task.done():
             return task.result()
@@ -269,6 +300,25 @@ class Operations:
 
     def _retry_after(self) -> Header:
         return b"retry-after", retry_after(self.state.settings).encode()
+
+
+async def _disconnect(receive: Receive) -> None:
+    """Return when the client disconnects: after the whole body, the only message left for
+    a request is ``http.disconnect`` (sent when the connection closes, or by the server
+    once the response is complete)."""
+    while (await receive())["type"] != "http.disconnect":
+        pass
+
+
+def _client_gone(op: Operation, rid: str) -> Outcome:
+    """The exchange of a client that went away before its answer: 499, recorded, sent to
+    nobody."""
+    err = ProblemError(
+        "client-disconnected",
+        499,
+        "the client closed the connection before the answer: its work was cancelled",
+    )
+    return Outcome(499, problem_json(err, op.path, rid), err)
 
 
 def _stopping(op: Operation, rid: str) -> Outcome:

@@ -7,6 +7,7 @@ import os
 import time
 from pathlib import Path
 
+import pytest
 from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, given
 from hypothesis import settings as hsettings
@@ -17,6 +18,7 @@ from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
 from plotgate.clients.replay import (
     BODY_TIMEOUT,
+    CLIENT_GONE,
     NEVER_ANSWERED,
     OVER_CAPS,
     REFUSED_FOR_THE_SERVER,
@@ -420,23 +422,26 @@ def test_a_recorded_cap_refusal_is_refused_again_and_compared(settings, monkeypa
     assert (report.compared, report.not_compared) == (0, {OVER_CAPS: 1})
 
 
-def test_a_recorded_503_is_set_aside_not_compared(tmp_path):
-    """A 503 (recording, cluster or shutdown) says what the server could not do then, not
-    what the operation answers: replayed in process it would answer 200 and read as a
-    change. It is counted apart, with its reason."""
+@pytest.mark.parametrize(
+    ("kind", "status", "reason"),
+    [("shutting-down", 503, REFUSED_FOR_THE_SERVER), ("client-disconnected", 499, CLIENT_GONE)],
+)
+def test_an_answer_that_says_nothing_of_the_operation_is_set_aside(tmp_path, kind, status, reason):
+    """A 503 (recording, cluster or shutdown) says what the server could not do then, and a
+    499 (the client went away, its work cancelled) answered nothing: replayed in process
+    either would answer 200 and read as a change. Each is counted apart, with its reason."""
     body, _, content = _answers()["ok"]
-    err = ProblemError("shutting-down", 503, "the server is shutting down")
-    problem = problem_json(err, OPERATIONS[OP].path, "r0")
+    problem = problem_json(ProblemError(kind, status, kind), OPERATIONS[OP].path, "r0")
     events = [
         (T0, "request", request_record("r0", OP, body)),
-        (T0 + MS, "response", response_record("r0", OP, 503, 0.001, problem)),
+        (T0 + MS, "response", response_record("r0", OP, status, 0.001, problem)),
         (T0 + 2 * MS, "request", request_record("r1", OP, body)),
         (T0 + 3 * MS, "response", response_record("r1", OP, 200, 0.001, content)),
     ]
     write_files(tmp_path / "rec", events, set())
     report = replay(tmp_path / "rec", progress=False)
     assert (report.compared, report.unchanged) == (1, 1)
-    assert report.not_compared == {REFUSED_FOR_THE_SERVER: 1}
+    assert report.not_compared == {reason: 1}
 
 
 def test_a_file_that_is_not_a_recording_is_named_once(tmp_path, capsys):
