@@ -48,12 +48,27 @@ from plotgate.service.schemas.probability import (
 from plotgate.service.schemas.study import StudyRequest, StudyResult
 from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
-__all__ = ["ENDPOINTS", "MEMORY_BUDGET_MIB", "Endpoint", "work_caps"]
+__all__ = [
+    "CLUSTER_BUDGET_S",
+    "ENDPOINTS",
+    "MEMORY_BUDGET_MIB",
+    "TIME_BUDGET_S",
+    "Endpoint",
+    "work_caps",
+]
 
 MEMORY_BUDGET_MIB = 1024
 """The peak RSS, MiB, a server process stays under while it answers the largest request
 its default caps accept (:attr:`Endpoint.caps`; ``bench/bench_worst_requests.py``
 measures each operation's worst request in a fresh process)."""
+TIME_BUDGET_S = 10.0
+"""The wall time, s, on one core, that the largest request the default caps accept stays
+under (``bench/bench_worst_requests.py`` searches each operation's slowest one)."""
+CLUSTER_BUDGET_S = 300.0
+"""The time, s, one request may keep each worker thread of a Dask cluster busy: the
+default ``PLOTGATE_DASK_TIMEOUT_S``. A chunked operation's cluster cap is its one-core cap
+times ``CLUSTER_BUDGET_S / TIME_BUDGET_S`` per worker thread (:meth:`Endpoint.cluster_cap`),
+so a request the cluster takes can finish before the service's timeout."""
 
 
 @dataclass(frozen=True)
@@ -86,11 +101,26 @@ class Endpoint:
     fitted at every sample), each set so that the largest request they accept keeps the
     process under :data:`MEMORY_BUDGET_MIB` (measured by ``bench/bench_worst_requests.py``).
     An operator's ``PLOTGATE_LIMITS`` lowers or raises any of them (:func:`work_caps`)."""
+    cluster_caps: dict[str, int] = field(default_factory=dict)
+    """For an operation whose work runs in chunks on a Dask cluster when the service has
+    one: the hard ceiling of each default cap that a cluster widens
+    (:meth:`cluster_cap`). A ceiling bounds what the cluster cannot spread: the results
+    gathered in the service's memory and the chunks' count."""
 
     def __post_init__(self) -> None:
         unknown = set(self.caps) - set(self.work)
         if unknown:
             raise ValueError(f"{self.name}: default caps on sizes it lacks: {sorted(unknown)}")
+        if set(self.cluster_caps) - set(self.caps):
+            raise ValueError(f"{self.name}: cluster ceilings on sizes without a default cap")
+
+    def cluster_cap(self, size: str, workers: int) -> int:
+        """The cap on ``size`` with a Dask cluster of ``workers`` worker threads: the one-core
+        default times ``CLUSTER_BUDGET_S / TIME_BUDGET_S`` per thread, never under the
+        default nor over the ceiling (:attr:`cluster_caps`)."""
+        default = self.caps[size]
+        widened = default * workers * round(CLUSTER_BUDGET_S / TIME_BUDGET_S)
+        return min(self.cluster_caps[size], max(default, widened))
 
     @property
     def tag(self) -> str:
@@ -107,6 +137,16 @@ class Endpoint:
         """A small valid request body (:data:`plotgate.service.schemas.examples.EXAMPLES`), a
         copy."""
         return copy.deepcopy(EXAMPLES[self.name])
+
+
+EVALUATION_WORK_CAP = 1_200_000
+"""Default cap of ``initiation.evaluate``'s ``runs x scans x plots``, plot-equivalents
+(:meth:`~plotgate.service.schemas.EvaluateRequest.work`): about 6.5 s on one core."""
+CLUSTER_EVALUATION_WORK = 200_000_000
+"""Its ceiling on a cluster of any size: about 18 core-minutes of work. What the service
+gathers is one score a run and rule, at most 10^4 runs x 51 rules (the schema's bounds),
+a few hundred bytes each; the plots stay on the workers (``bench/README.md`` measures the
+service's peak RSS during a 10^4-run evaluation on a cluster)."""
 
 
 def _study_range_sums(request: StudyRequest) -> int:
@@ -266,7 +306,12 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "scenario.scans": lambda r: r.scenario.scans,
                 "scenario.clutter": lambda r: math.ceil(r.scenario.clutter),
                 "sweep.values": lambda r: 0 if r.sweep is None else len(r.sweep.values),
+                "runs x scans x plots": EvaluateRequest.work,
             },
+            # plot-equivalents of about 5.4 us on one core (EvaluateRequest.work): 6.5 s;
+            # a cluster takes 30 times as many per worker thread, up to the schema's ceiling
+            caps={"runs x scans x plots": EVALUATION_WORK_CAP},
+            cluster_caps={"runs x scans x plots": CLUSTER_EVALUATION_WORK},
         ),
         Endpoint(
             "identification.pair",

@@ -18,11 +18,14 @@ from plotgate.service.schemas import (
     ENDPOINTS,
     MAX_GATE_CLUTTER,
     MEMORY_BUDGET_MIB,
+    RUN_COST,
     Endpoint,
     EvaluateRequest,
     IdentifyPictureRequest,
     IdentifySimulateRequest,
+    InitiationSettings,
     NoiseRequest,
+    ScenarioIn,
     StudyRequest,
     work_caps,
 )
@@ -109,6 +112,14 @@ SIZED: dict[tuple[str, str], Callable[[int], Any]] = {
     ),
     ("identification.simulate", "runs x (n + m)"): lambda v: (
         IdentifySimulateRequest.model_construct(runs=v, n=1, m=0)
+    ),
+    ("initiation.evaluate", "runs x scans x plots"): lambda v: EvaluateRequest.model_construct(
+        config=InitiationSettings(),
+        sweep=None,
+        runs=1,
+        scenario=ScenarioIn.model_construct(
+            scans=1, clutter=0.0, targets=[None] * (v - RUN_COST), region=(0.0, 1.0, 0.0, 1.0)
+        ),
     ),
 }
 """A request (unvalidated: only its sizes are read) whose work size is exactly v."""
