@@ -44,6 +44,7 @@ from plotgate.service.schemas.probability import (
     GateProbabilityRequest,
     GateProbabilityResult,
     unconditional_axis_ratio,
+    unconditional_cost,
 )
 from plotgate.service.schemas.study import StudyRequest, StudyResult
 from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
@@ -139,6 +140,24 @@ class Endpoint:
         return copy.deepcopy(EXAMPLES[self.name])
 
 
+AXIS_RATIO_CAP = 6
+"""Default cap of ``mark.axis_ratio`` for one unconditional probability (gates.probability,
+gates.analysis, each point of a curve). Its cost grows steeply with the ratio (the
+quadrature grades its panels towards B's thin features), and with the gate kind and the
+prior. Measured one by one on a shared core, where the paper's example took 3.4-4.9 times
+its quiet 0.07 s: at ratio 5.5, 3-5 s for the ring and expanded gates over a 10 km prior
+ring, 14 s for the first-association window under the paper's prior (about 3-4 s quiet);
+at 10.9 already 8-19 s for the ring, ellipse, combined and expanded gates.
+``mark.axis_ratio`` is rounded up, so 6 takes ratios up to 6 and the paper's 2.2."""
+DESIGN_AXIS_RATIO_CAP = 3
+"""Default cap of ``gates.design``'s ``mark.axis_ratio``: a design evaluates four to ten
+unconditional probabilities (0.9 s warm for the paper's example on a shared core, 3.7 of
+its probabilities), each up to 1.5 s there at ratio 3 over a wide prior."""
+CURVE_COST_CAP = 6
+"""Default cap of a curve's ``values x gate cost`` (:data:`~plotgate.service.schemas.
+probability.GATE_COST`): each unconditional point costs what one probability does, up to
+about 1.5 s on a quiet core at ratio 6 (5 s on a shared one), three times that for the
+first-association window."""
 EVALUATION_WORK_CAP = 1_200_000
 """Default cap of ``initiation.evaluate``'s ``runs x scans x plots``, plot-equivalents
 (:meth:`~plotgate.service.schemas.EvaluateRequest.work`): about 6.5 s on one core."""
@@ -150,9 +169,20 @@ service's peak RSS during a 10^4-run evaluation on a cluster)."""
 
 
 def _study_range_sums(request: StudyRequest) -> int:
-    """The range sums a study simulates, each held with its solves (about 470 bytes each:
-    2.4 million took 1.37 GB of RSS)."""
+    """The range sums a study simulates and solves one by one. Memory: about 470 bytes each
+    (2.4 million took 1.37 GB of RSS). Time: 2000 runs x 200 samples x 3 receivers, 1.2
+    million, took 14.1 s on a shared core; the default cap, 700,000, about 8 s."""
     return request.runs * len(request.sample_times) * len(request.receivers)
+
+
+def _study_prefix_work(request: StudyRequest) -> int:
+    """With ``tracks``, the range sums of every prefix's trajectory solve (runs x samples^2 x
+    receivers; 0 without tracks). 1000 runs x 200^2 x 3, 1.2e8, took 47 s with the 600,000
+    range sums' 7 s: about 0.33 us a unit, so the default cap, 2e7, is about 7 s with its
+    range sums."""
+    if not request.tracks:
+        return 0
+    return request.runs * len(request.sample_times) ** 2 * len(request.receivers)
 
 
 ENDPOINTS: dict[str, Endpoint] = {
@@ -183,6 +213,7 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateProbabilityResult,
             slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
+            caps={"mark.axis_ratio": AXIS_RATIO_CAP},
         ),
         Endpoint(
             "gates.probability_curve",
@@ -191,7 +222,13 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateProbabilityCurveRequest,
             GateProbabilityCurve,
             slow=True,
-            work={"values": lambda r: len(r.values), "mark.axis_ratio": unconditional_axis_ratio},
+            work={
+                "values": lambda r: len(r.values),
+                "mark.axis_ratio": unconditional_axis_ratio,
+                "values x gate cost": unconditional_cost,
+            },
+            # each unconditional point costs what one gates.probability does
+            caps={"mark.axis_ratio": AXIS_RATIO_CAP, "values x gate cost": CURVE_COST_CAP},
         ),
         Endpoint(
             "gates.analysis",
@@ -201,6 +238,7 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateAnalysisResult,
             slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
+            caps={"mark.axis_ratio": AXIS_RATIO_CAP},
         ),
         Endpoint(
             "gates.design",
@@ -210,6 +248,8 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateDesignResult,
             slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
+            # a root search over the gate's parameter: four to ten unconditional probabilities
+            caps={"mark.axis_ratio": DESIGN_AXIS_RATIO_CAP},
         ),
         Endpoint(
             "solves.position",
@@ -269,8 +309,12 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "runs": lambda r: r.runs,
                 "sample_times": lambda r: len(r.sample_times),
                 "runs x sample_times x receivers": _study_range_sums,
+                "runs x sample_times^2 x receivers": _study_prefix_work,
             },
-            caps={"runs x sample_times x receivers": 1_200_000},
+            caps={
+                "runs x sample_times^2 x receivers": 20_000_000,
+                "runs x sample_times x receivers": 700_000,
+            },
         ),
         Endpoint(
             "initiation.initiate",
