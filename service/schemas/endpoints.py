@@ -175,14 +175,23 @@ def _study_range_sums(request: StudyRequest) -> int:
     return request.runs * len(request.sample_times) * len(request.receivers)
 
 
+def _study_solve_work(request: StudyRequest) -> int:
+    """The solves' work with many receivers: each solve of P pairs weighs its P x P
+    covariance, so time and memory grow as P^2. 54 runs x 200 samples x 64 receivers (691,200
+    range sums, under their cap) took 239 s and 2380 MiB of RSS on a shared core, 5.4 us and
+    54 bytes a unit; 1166 runs x 200 x 3 took 15.7 s in the same run. The default cap,
+    2,100,000, is the range sums' cap at 3 receivers."""
+    return _study_range_sums(request) * len(request.receivers)
+
+
 def _study_prefix_work(request: StudyRequest) -> int:
-    """With ``tracks``, the range sums of every prefix's trajectory solve (runs x samples^2 x
-    receivers; 0 without tracks). 1000 runs x 200^2 x 3, 1.2e8, took 47 s with the 600,000
-    range sums' 7 s: about 0.33 us a unit, so the default cap, 2e7, is about 7 s with its
-    range sums."""
+    """With ``tracks``, the work of every prefix's trajectory solve (runs x samples^2 x
+    receivers^2; 0 without tracks). 1000 runs x 200^2 x 3^2, 3.6e8, took 47 s with the
+    600,000 range sums' 7 s: about 0.11 us a unit, so the default cap, 6e7, is about 7 s
+    with its range sums."""
     if not request.tracks:
         return 0
-    return request.runs * len(request.sample_times) ** 2 * len(request.receivers)
+    return request.runs * len(request.sample_times) ** 2 * len(request.receivers) ** 2
 
 
 ENDPOINTS: dict[str, Endpoint] = {
@@ -309,10 +318,12 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "runs": lambda r: r.runs,
                 "sample_times": lambda r: len(r.sample_times),
                 "runs x sample_times x receivers": _study_range_sums,
-                "runs x sample_times^2 x receivers": _study_prefix_work,
+                "runs x sample_times x receivers^2": _study_solve_work,
+                "runs x sample_times^2 x receivers^2": _study_prefix_work,
             },
             caps={
-                "runs x sample_times^2 x receivers": 20_000_000,
+                "runs x sample_times^2 x receivers^2": 60_000_000,
+                "runs x sample_times x receivers^2": 2_100_000,
                 "runs x sample_times x receivers": 700_000,
             },
         ),

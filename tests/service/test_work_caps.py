@@ -115,6 +115,13 @@ def _eccentric(model: type, v: int, **fields: Any) -> Any:
     return model.model_construct(mark=mark, prior=SpeedPrior(v_max=500.0), **fields)
 
 
+def _tracked_study(v: int) -> Any:
+    """A study with tracks of prefix work v: v / 10^4 runs x 100 samples^2 x 1 receiver."""
+    return StudyRequest.model_construct(
+        runs=v // 10_000, sample_times=[0.0] * 100, receivers=[None], tracks=True
+    )
+
+
 def _curve(ratio: int, points: int) -> Any:
     """An unconditional ring-gate curve of ``points`` values at axis ratio ``ratio``."""
     ring = RingRegion(kind="ring", v_max=1.0)
@@ -135,11 +142,16 @@ SIZED: dict[tuple[str, str], Callable[[int], Any]] = {
     ("solves.study", "runs x sample_times x receivers"): lambda v: StudyRequest.model_construct(
         runs=v, sample_times=[0.0], receivers=[None]
     ),
-    ("solves.study", "runs x sample_times^2 x receivers"): lambda v: StudyRequest.model_construct(
-        runs=v // STEP["solves.study", "runs x sample_times^2 x receivers"],
-        sample_times=[0.0] * 100,
-        receivers=[None],
-        tracks=True,
+    ("solves.study", "runs x sample_times x receivers^2"): lambda v: StudyRequest.model_construct(
+        runs=v // 16, sample_times=[0.0], receivers=[None] * 4
+    ),
+    ("solves.study", "runs x sample_times^2 x receivers^2"): lambda v: (
+        StudyRequest.model_construct(
+            runs=v // STEP["solves.study", "runs x sample_times^2 x receivers^2"],
+            sample_times=[0.0] * 100,
+            receivers=[None],
+            tracks=True,
+        )
     ),
     ("solves.noise", "sample_times x window"): lambda v: NoiseRequest.model_construct(
         sample_times=[0.0] * v, window=1
@@ -159,8 +171,12 @@ SIZED: dict[tuple[str, str], Callable[[int], Any]] = {
 """A request (unvalidated: only its sizes are read) whose work size is exactly v (a multiple
 of :data:`STEP` where it has one), every other size within its cap."""
 
-STEP = {("solves.study", "runs x sample_times^2 x receivers"): 10_000}
-"""The sizes only multiples of a step reach within the other caps (runs x 100 samples^2)."""
+STEP = {
+    ("solves.study", "runs x sample_times^2 x receivers^2"): 10_000,
+    ("solves.study", "runs x sample_times x receivers^2"): 16,
+}
+"""The sizes only multiples of a step reach within the other caps (runs x 100 samples^2,
+runs x 4 receivers^2)."""
 
 DEFAULT_CAPS = [(name, size, cap) for name, e in ENDPOINTS.items() for size, cap in e.caps.items()]
 
