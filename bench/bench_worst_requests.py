@@ -368,8 +368,9 @@ _EVALUATIONS = [
         },
     ),  # fmt: skip
     _evaluation("clutter 2000, 40 scans", "runs", {"clutter": 2000.0, "scans": 40}),
+    _evaluation("1 run, clutter 2000 (0.07 a gate)", "scans", {"clutter": 2000.0}),
+    _evaluation("1 run, clutter 5000 (0.17 a gate)", "scans", {"clutter": 5000.0}),
     _evaluation("1 run, clutter 10,000 (0.35 a gate)", "scans", {"clutter": 10_000.0}),
-    _evaluation("1 run, clutter 28,000 (0.98 a gate)", "scans", {"clutter": 28_000.0}),
     _evaluation("1 run, polar, clutter 10,000", "scans", {"clutter": 10_000.0}, {"mode": "polar"}),
 ]
 """Along every dimension of the evaluation's work (EvaluateRequest.work): runs of a sparse

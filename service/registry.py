@@ -185,8 +185,8 @@ def over_caps(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> Pro
     Raises
     ------
     ClusterUnavailable
-        The request needs the cluster's cap and the scheduler cannot be reached (503, as
-        the work itself would be).
+        The request needs the cluster's cap and the scheduler cannot be reached, or reports
+        no workers (503 with ``Retry-After``, as the work itself would be).
     """
     for size, cap in caps.items():
         value = op.endpoint.work[size](request)
@@ -195,6 +195,11 @@ def over_caps(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> Pro
         origin = _cap_origin(op, size, cap)
         if size in op.endpoint.cluster_caps and op.endpoint.caps[size] == cap:
             threads = workers()
+            if threads == 0:  # workers may join: the cluster is unavailable, not too small
+                raise ClusterUnavailable(
+                    f"{size} is {value}, over the one-core cap {cap}, and the Dask scheduler "
+                    "reports no workers to widen it"
+                )
             if threads is None:
                 origin += f"; {_on_a_cluster(op, size)}"
             else:

@@ -154,6 +154,20 @@ def test_an_unreachable_scheduler_is_a_503_not_a_422(settings, swap_handler):
     assert r.status_code == 503 and "retry-after" in r.headers
 
 
+def test_a_scheduler_without_workers_is_a_503_for_work_past_the_one_core_cap(
+    settings, swap_handler
+):
+    swap_handler("initiation.evaluate", _cut_short)
+    with LocalCluster(
+        n_workers=0, processes=False, host="127.0.0.1", protocol="tcp", dashboard_address=":0"
+    ) as local:
+        r = _post(
+            settings.model_copy(update={"dask_scheduler": local.scheduler_address}), MUST_SHOW
+        )
+    assert r.status_code == 503 and "retry-after" in r.headers
+    assert "reports no workers" in r.json()["detail"]
+
+
 def test_the_command_lines_cluster_reports_its_threads(scheduler):
     assert workers() is None
     with cluster(scheduler):
