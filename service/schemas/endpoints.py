@@ -186,9 +186,10 @@ def _study_solve_work(request: StudyRequest) -> int:
 
 def _study_prefix_work(request: StudyRequest) -> int:
     """With ``tracks``, the work of every prefix's trajectory solve (runs x samples^2 x
-    receivers^2; 0 without tracks). 1000 runs x 200^2 x 3^2, 3.6e8, took 47 s with the
-    600,000 range sums' 7 s: about 0.11 us a unit, so the default cap, 6e7, is about 7 s
-    with its range sums."""
+    receivers^2; 0 without tracks). Measured by ``bench/bench_worst_requests.py`` on a
+    shared core: 166 runs x 200^2 x 3^2 (6e7) took 29.5 s, 6 runs x 1000^2 x 3^2 23.9 s,
+    while 1166 runs x 200 x 3 without tracks took 8.8 s in the same run: about 0.45 us a
+    unit there. The default cap, 2e7, is about 9 s there, a third of that on a quiet core."""
     if not request.tracks:
         return 0
     return request.runs * len(request.sample_times) ** 2 * len(request.receivers) ** 2
@@ -322,7 +323,7 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "runs x sample_times^2 x receivers^2": _study_prefix_work,
             },
             caps={
-                "runs x sample_times^2 x receivers^2": 60_000_000,
+                "runs x sample_times^2 x receivers^2": 20_000_000,
                 "runs x sample_times x receivers^2": 2_100_000,
                 "runs x sample_times x receivers": 700_000,
             },

@@ -145,14 +145,7 @@ SIZED: dict[tuple[str, str], Callable[[int], Any]] = {
     ("solves.study", "runs x sample_times x receivers^2"): lambda v: StudyRequest.model_construct(
         runs=v // 16, sample_times=[0.0], receivers=[None] * 4
     ),
-    ("solves.study", "runs x sample_times^2 x receivers^2"): lambda v: (
-        StudyRequest.model_construct(
-            runs=v // STEP["solves.study", "runs x sample_times^2 x receivers^2"],
-            sample_times=[0.0] * 100,
-            receivers=[None],
-            tracks=True,
-        )
-    ),
+    ("solves.study", "runs x sample_times^2 x receivers^2"): _tracked_study,
     ("solves.noise", "sample_times x window"): lambda v: NoiseRequest.model_construct(
         sample_times=[0.0] * v, window=1
     ),
