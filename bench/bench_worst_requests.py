@@ -10,8 +10,9 @@ each dimension is found by bisection against the caps themselves (:func:`_larges
 rerun after a cap changes measures the new bound. Each request runs in its own Python
 process, through the registry exactly as the server runs it (``parse`` then ``run`` with
 the caps in force, after one small request of the same operation, as a server that has
-answered before), and reports its status, wall time and peak RSS (``ru_maxrss``: the
-whole process, imports and parsing included). The server promises every accepted row
+answered before), and reports its status, wall time, CPU time (what a shared machine
+inflates least) and peak RSS (``ru_maxrss``: the whole process, imports and parsing
+included). The server promises every accepted row
 under ``TIME_BUDGET_S`` (10 s on one core) and ``MEMORY_BUDGET_MIB``; the last table
 names each operation's slowest accepted request.
 
@@ -55,13 +56,13 @@ caps = None if no_limits else Settings(record=False).limits.get(name, {})
 execute(op, json.dumps(op.endpoint.example).encode())  # as a server that has answered before
 body = open(path, "rb").read()
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-start = time.perf_counter()
+start, cpu = time.perf_counter(), time.process_time()
 parsed = parse(op, body)
 outcome = failed(op, parsed.problem, None) if parsed.request is None else run(
     op, parsed.request, None, caps)
-seconds = time.perf_counter() - start
+seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
 detail = "" if outcome.ok else outcome.json().get("detail", "")
-print(json.dumps({"status": outcome.status, "seconds": seconds, "base_kib": base,
+print(json.dumps({"status": outcome.status, "seconds": seconds, "cpu": cpu, "base_kib": base,
     "peak_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
     "answer_bytes": len(outcome.content), "detail": detail[:160]}))
 """
@@ -495,8 +496,9 @@ def _measure(name: str, body: Body, no_limits: bool, tmp: Path) -> dict[str, Any
 def _row(name: str, label: str, r: dict[str, Any]) -> str:
     size = f"{r['body_bytes'] / 2**20:.1f} MB" if "body_bytes" in r else ""
     wall = f"{r['seconds']:.1f}" if "seconds" in r else ""
+    cpu = f"{r['cpu']:.1f}" if "cpu" in r else ""
     peak = f"{r['peak_kib'] / 1024:.0f}" if "peak_kib" in r else ""
-    return f"| {name} | {label} | {size} | {r['status']} | {wall} | {peak} |"
+    return f"| {name} | {label} | {size} | {r['status']} | {wall} | {cpu} | {peak} |"
 
 
 def main() -> None:
@@ -505,9 +507,9 @@ def main() -> None:
     parser.add_argument("--no-limits", action="store_true", help="run without the caps")
     args = parser.parse_args()
     header = (
-        "| operation | request | body | status | wall s | peak RSS MiB |\n"
+        "| operation | request | body | status | wall s | CPU s | peak RSS MiB |\n"
         + "|---|---|"
-        + ("---:|" * 4)
+        + ("---:|" * 5)
     )
     print(header)
     slowest: dict[str, tuple[float, str]] = {}
