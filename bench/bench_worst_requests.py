@@ -442,7 +442,7 @@ WORST: list[tuple[str, Candidate]] = [
     *(
         ("gates.design", _design(kind, capture))
         for kind in ("expanded", "combined")
-        for capture in (0.9, 0.99)
+        for capture in (0.9, 0.98)
     ),
     ("solves.position", _position),
     ("solves.trajectory", _trajectory),

@@ -140,24 +140,24 @@ class Endpoint:
         return copy.deepcopy(EXAMPLES[self.name])
 
 
-AXIS_RATIO_CAP = 6
+AXIS_RATIO_CAP = 9
 """Default cap of ``mark.axis_ratio`` for one unconditional probability (gates.probability,
-gates.analysis, each point of a curve). Its cost grows steeply with the ratio (the
-quadrature grades its panels towards B's thin features), and with the gate kind and the
-prior. Measured one by one on a shared core, where the paper's example took 3.4-4.9 times
-its quiet 0.07 s: at ratio 5.5, 3-5 s for the ring and expanded gates over a 10 km prior
-ring, 14 s for the first-association window under the paper's prior (about 3-4 s quiet);
-at 10.9 already 8-19 s for the ring, ellipse, combined and expanded gates.
-``mark.axis_ratio`` is rounded up, so 6 takes ratios up to 6 and the paper's 2.2."""
-DESIGN_AXIS_RATIO_CAP = 3
+gates.analysis, each point of a curve). Its cost grows in steps with the ratio (the
+quadrature adds a grading level about B's thin features each time the ratio triples) and
+with the gate kind and the prior. CPU time of one request, measured by
+``bench/bench_worst_requests.py`` on a shared machine (the CPU time is what a quiet core's
+wall time would be): at ratio 6, at most 1.0 s (the first-association window; the ring,
+combined and expanded gates 0.2-0.5 s); at ratio 12, 1.6-3.6 s and 7.2 s for the
+first-association window. 9 is the last ratio before the next grading level."""
+DESIGN_AXIS_RATIO_CAP = 6
 """Default cap of ``gates.design``'s ``mark.axis_ratio``: a design evaluates four to ten
-unconditional probabilities (0.9 s warm for the paper's example on a shared core, 3.7 of
-its probabilities), each up to 1.5 s there at ratio 3 over a wide prior."""
-CURVE_COST_CAP = 6
+unconditional probabilities of the combined or expanded gate, each at most 0.5 s of CPU at
+ratio 6 (0.1-0.2 s for a whole design at ratio 3)."""
+CURVE_COST_CAP = 20
 """Default cap of a curve's ``values x gate cost`` (:data:`~plotgate.service.schemas.
-probability.GATE_COST`): each unconditional point costs what one probability does, up to
-about 1.5 s on a quiet core at ratio 6 (5 s on a shared one), three times that for the
-first-association window."""
+probability.GATE_COST`): each unconditional point costs what one probability does, 0.2 s of
+CPU at ratio 6 for the expanded gate (6 points: 0.9-1.2 s), 0.45 s for the first-association
+window (2 points: 0.9 s)."""
 EVALUATION_WORK_CAP = 1_200_000
 """Default cap of ``initiation.evaluate``'s ``runs x scans x plots``, plot-equivalents
 (:meth:`~plotgate.service.schemas.EvaluateRequest.work`): about 6.5 s on one core."""
@@ -170,26 +170,26 @@ service's peak RSS during a 10^4-run evaluation on a cluster)."""
 
 def _study_range_sums(request: StudyRequest) -> int:
     """The range sums a study simulates and solves one by one. Memory: about 470 bytes each
-    (2.4 million took 1.37 GB of RSS). Time: 2000 runs x 200 samples x 3 receivers, 1.2
-    million, took 14.1 s on a shared core; the default cap, 700,000, about 8 s."""
+    (2.4 million took 1.37 GB of RSS; the cap, 1.2 million, 809 MiB). Time: 1166 runs x 200
+    samples x 3 receivers (700,000) took 2.9 s of CPU (``bench/bench_worst_requests.py``),
+    so the cap is about 5 s."""
     return request.runs * len(request.sample_times) * len(request.receivers)
 
 
 def _study_solve_work(request: StudyRequest) -> int:
     """The solves' work with many receivers: each solve of P pairs weighs its P x P
     covariance, so time and memory grow as P^2. 54 runs x 200 samples x 64 receivers (691,200
-    range sums, under their cap) took 239 s and 2380 MiB of RSS on a shared core, 5.4 us and
-    54 bytes a unit; 1166 runs x 200 x 3 took 15.7 s in the same run. The default cap,
-    2,100,000, is the range sums' cap at 3 receivers."""
+    range sums, under their cap) took 239 s and 2380 MiB of RSS on a shared machine, 54
+    bytes a unit; 2 runs x 200 x 64 took 0.5 s of CPU. The default cap, 3,600,000 (the range
+    sums' cap at 3 receivers), is about 1 s and 200 MiB."""
     return _study_range_sums(request) * len(request.receivers)
 
 
 def _study_prefix_work(request: StudyRequest) -> int:
     """With ``tracks``, the work of every prefix's trajectory solve (runs x samples^2 x
-    receivers^2; 0 without tracks). Measured by ``bench/bench_worst_requests.py`` on a
-    shared core: 166 runs x 200^2 x 3^2 (6e7) took 29.5 s, 6 runs x 1000^2 x 3^2 23.9 s,
-    while 1166 runs x 200 x 3 without tracks took 8.8 s in the same run: about 0.45 us a
-    unit there. The default cap, 2e7, is about 9 s there, a third of that on a quiet core."""
+    receivers^2; 0 without tracks). 55 runs x 200^2 x 3^2 (2e7) took 1.3 s of CPU, and so did
+    2 runs x 1000^2 x 3^2 (``bench/bench_worst_requests.py``): the default cap, 6e7, is about
+    4 s."""
     if not request.tracks:
         return 0
     return request.runs * len(request.sample_times) ** 2 * len(request.receivers) ** 2
@@ -323,9 +323,9 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "runs x sample_times^2 x receivers^2": _study_prefix_work,
             },
             caps={
-                "runs x sample_times^2 x receivers^2": 20_000_000,
-                "runs x sample_times x receivers^2": 2_100_000,
-                "runs x sample_times x receivers": 700_000,
+                "runs x sample_times^2 x receivers^2": 60_000_000,
+                "runs x sample_times x receivers^2": 3_600_000,
+                "runs x sample_times x receivers": 1_200_000,
             },
         ),
         Endpoint(

@@ -143,7 +143,7 @@ SIZED: dict[tuple[str, str], Callable[[int], Any]] = {
         runs=v, sample_times=[0.0], receivers=[None]
     ),
     ("solves.study", "runs x sample_times x receivers^2"): lambda v: StudyRequest.model_construct(
-        runs=v // 16, sample_times=[0.0], receivers=[None] * 4
+        runs=v // 36, sample_times=[0.0], receivers=[None] * 6
     ),
     ("solves.study", "runs x sample_times^2 x receivers^2"): _tracked_study,
     ("solves.noise", "sample_times x window"): lambda v: NoiseRequest.model_construct(
@@ -166,10 +166,10 @@ of :data:`STEP` where it has one), every other size within its cap."""
 
 STEP = {
     ("solves.study", "runs x sample_times^2 x receivers^2"): 10_000,
-    ("solves.study", "runs x sample_times x receivers^2"): 16,
+    ("solves.study", "runs x sample_times x receivers^2"): 36,
 }
 """The sizes only multiples of a step reach within the other caps (runs x 100 samples^2,
-runs x 4 receivers^2)."""
+runs x 6 receivers^2)."""
 
 DEFAULT_CAPS = [(name, size, cap) for name, e in ENDPOINTS.items() for size, cap in e.caps.items()]
 
