@@ -153,11 +153,11 @@ DESIGN_AXIS_RATIO_CAP = 6
 """Default cap of ``gates.design``'s ``mark.axis_ratio``: a design evaluates four to ten
 unconditional probabilities of the combined or expanded gate, each at most 0.5 s of CPU at
 ratio 6 (0.1-0.2 s for a whole design at ratio 3)."""
-CURVE_COST_CAP = 20
+CURVE_COST_CAP = 12
 """Default cap of a curve's ``values x gate cost`` (:data:`~plotgate.service.schemas.
-probability.GATE_COST`): each unconditional point costs what one probability does, 0.2 s of
-CPU at ratio 6 for the expanded gate (6 points: 0.9-1.2 s), 0.45 s for the first-association
-window (2 points: 0.9 s)."""
+probability.GATE_COST`): each unconditional point costs what one probability does. At
+ratio 9, 20 points of the expanded gate took 8.2-8.8 s of CPU and 6 of the
+first-association window 3.9-5.0 s (``bench/bench_worst_requests.py``): 12 is about 5 s."""
 EVALUATION_WORK_CAP = 1_200_000
 """Default cap of ``initiation.evaluate``'s ``runs x scans x plots``, plot-equivalents
 (:meth:`~plotgate.service.schemas.EvaluateRequest.work`): about 6.5 s on one core."""
