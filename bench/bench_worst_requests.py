@@ -1,19 +1,28 @@
-"""Peak memory and time of the largest request each operation accepts, in a fresh process.
+"""The slowest and largest request each operation accepts, in a fresh process.
 
-For each of the registry's operations, one request at the bounds the server accepts by
-default (the schema's bounds and the default caps on work sizes, ``Endpoint.caps``) along
-the dimension whose memory grows fastest: the most candidates, the largest matrix, the most
-Monte Carlo runs x samples, the densest clutter that initiation still takes... Each runs in
-its own Python process, through the registry exactly as the server runs it (``parse`` then
-``run`` with the caps in force), and reports its status, wall time and peak RSS
-(``ru_maxrss``: the whole process, imports and parsing included). The table is what the
-server promises: every row under ``MEMORY_BUDGET_MIB``.
+For each of the registry's operations, the requests at the bounds the server accepts by
+default (the schema's bounds and the default caps on work sizes, ``Endpoint.caps``),
+along every dimension that drives its time or its memory: the most candidates, the
+largest matrix, the most Monte Carlo runs x samples, the densest clutter initiation still
+takes, the most eccentric error ellipse and the widest gate of every costly gate kind...
+Where a cap bounds a product or a weighted estimate, the largest accepted value along
+each dimension is found by bisection against the caps themselves (:func:`_largest`), so a
+rerun after a cap changes measures the new bound. Each request runs in its own Python
+process, through the registry exactly as the server runs it (``parse`` then ``run`` with
+the caps in force, after one small request of the same operation, as a server that has
+answered before), and reports its status, wall time, CPU time (what a shared machine
+inflates least) and peak RSS (``ru_maxrss``: the whole process, imports and parsing
+included). The server promises every accepted row
+under ``TIME_BUDGET_S`` (10 s on one core) and ``MEMORY_BUDGET_MIB``; the last table
+names each operation's slowest accepted request.
 
     python bench/bench_worst_requests.py [--only OPERATION ...] [--no-limits]
 
 ``--no-limits`` runs the same requests without the caps (the schema's bounds alone): on a
 build without default caps, or to see what a cap saves. A request the caps refuse shows its
-status (422), its time and memory: the refusal's cost.
+status (422), its time and memory: the refusal's cost. To re-derive a cap after core gets
+faster: raise it (``PLOTGATE_LIMITS``, which this script applies too), rerun the
+operation with ``--only``, and keep the largest value whose slowest row stays under 10 s.
 """
 
 import argparse
@@ -24,43 +33,71 @@ import subprocess
 import sys
 import tempfile
 from collections.abc import Callable
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.config import Settings
+from plotgate.service.registry import OPERATIONS, over_caps, parse
+from plotgate.service.schemas import ENDPOINTS, MEMORY_BUDGET_MIB, TIME_BUDGET_S
 
 Body = dict[str, Any]
+Candidate = Callable[[], tuple[str, Body]]
+
+ROOT = Path(__file__).resolve().parent.parent
 
 _CHILD = """
 import json, resource, sys, time
 from plotgate.service.config import Settings
-from plotgate.service.registry import OPERATIONS, failed, parse, run
+from plotgate.service.registry import OPERATIONS, execute, failed, parse, run
 name, path, no_limits = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
 op = OPERATIONS[name]
 caps = None if no_limits else Settings(record=False).limits.get(name, {})
+execute(op, json.dumps(op.endpoint.example).encode())  # as a server that has answered before
 body = open(path, "rb").read()
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-start = time.perf_counter()
+start, cpu = time.perf_counter(), time.process_time()
 parsed = parse(op, body)
 outcome = failed(op, parsed.problem, None) if parsed.request is None else run(
     op, parsed.request, None, caps)
-seconds = time.perf_counter() - start
+seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
 detail = "" if outcome.ok else outcome.json().get("detail", "")
-print(json.dumps({"status": outcome.status, "seconds": seconds, "base_kib": base,
+print(json.dumps({"status": outcome.status, "seconds": seconds, "cpu": cpu, "base_kib": base,
     "peak_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
     "answer_bytes": len(outcome.content), "detail": detail[:160]}))
 """
 
 
+@lru_cache
 def _caps(name: str) -> dict[str, int]:
-    """The default caps of an operation (none on a build that has none)."""
-    return dict(getattr(ENDPOINTS[name], "caps", {}))
+    """The caps a server applies to an operation: the defaults with PLOTGATE_LIMITS over
+    them."""
+    return dict(Settings(record=False).limits.get(name, {}))
 
 
 def _cap(name: str, size: str, bound: int) -> int:
-    """The largest value of a work size the server accepts: its default cap, else ``bound``
-    (the schema's)."""
+    """The largest value of a work size the server accepts: its cap, else ``bound`` (the
+    schema's)."""
     return min(bound, _caps(name).get(size, bound))
+
+
+def _accepted(name: str, body: Body) -> bool:
+    """Whether the server takes ``body``: valid, and within the caps (no cluster)."""
+    op = OPERATIONS[name]
+    parsed = parse(op, json.dumps(body).encode())
+    return parsed.request is not None and over_caps(op, parsed.request, _caps(name)) is None
+
+
+def _largest(name: str, build: Callable[[int], Body], lo: int, hi: int) -> int:
+    """The largest n in [lo, hi] whose ``build(n)`` the server accepts, by bisection (the
+    work sizes grow with n); ``lo`` when none is."""
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if _accepted(name, build(mid)):
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
 
 
 def _polar(r: float, az_deg: float) -> Body:
@@ -84,26 +121,83 @@ def _gates_pairs() -> tuple[str, Body]:
     return f"{n} polar pairs", body
 
 
-def _axis_ratio(name: str) -> tuple[str, Body]:
-    """The example with sigma_r cut until B's axis ratio reaches the cap (default: 22, the
-    seconds of bench/README.md's axis-ratio table, when no cap is set)."""
-    body = ENDPOINTS[name].example
-    ratio = _cap(name, "mark.axis_ratio", 22)
-    mark = body["mark"]
-    cross = mark["r"] * math.radians(mark["sigma_az_deg"])  # m, across the line of sight
-    mark["sigma_r"] = cross / ratio
-    return f"axis ratio {ratio}", body
+GATES: dict[str, Body] = {
+    "ring": {"kind": "ring", "v_min": 0.0},
+    "combined": {"kind": "combined", "v_min": 0.0},
+    "expanded": {"kind": "expanded"},
+    "first_association": {"kind": "first_association"},
+}
+"""The gate kinds whose unconditional probability costs most (bench/README.md)."""
+
+PRIORS: dict[str, tuple[float, float, str, float]] = {
+    "paper's prior": (5.0, 100.0, "area", 500.0),
+    "10 km prior": (1000.0, 0.0, "speed", 10_000.0),
+}
+"""tau, v_min, prior kind, v_max: the paper's ring of 0.5-2.5 km, and a 10 km disc (a prior
+ring far wider than B costs more grading levels)."""
 
 
-def _curve() -> tuple[str, Body]:
-    """The most points (conditional: a known velocity per speed). An unconditional curve
-    holds at most 100 points, each costing what one gates.probability at its axis ratio
-    costs in time, not in memory."""
+def _unconditional(name: str, kind: str, prior: str) -> Candidate:
+    """The operation's example with ``kind``'s gate over ``prior``, sigma_r cut until B's
+    axis ratio reaches the cap (default: 22, the seconds of bench/README.md's axis-ratio
+    table, when no cap is set)."""
+
+    def build() -> tuple[str, Body]:
+        body = ENDPOINTS[name].example
+        tau, v_min, prior_kind, v_max = PRIORS[prior]
+        body["tau"] = tau
+        body["prior"] = {"kind": prior_kind, "v_min": v_min, "v_max": v_max}
+        body["gate"] = {**GATES[kind], "v_max": v_max}
+        if "v_min" in GATES[kind]:
+            body["gate"]["v_min"] = v_min
+        ratio = _cap(name, "mark.axis_ratio", 22)
+        mark = body["mark"]
+        cross = mark["r"] * math.radians(mark["sigma_az_deg"])  # m, across the line of sight
+        mark["sigma_r"] = cross / ratio * (1 + 1e-9)  # the ratio is rounded up
+        return f"{kind}, {prior}, axis ratio {ratio}", body
+
+    return build
+
+
+def _conditional_curve() -> tuple[str, Body]:
+    """The most points of a conditional curve (a known velocity per speed)."""
     name = "gates.probability_curve"
     body = ENDPOINTS[name].example
     n = _cap(name, "values", 1000)  # MAX_CURVE_POINTS
     body["values"] = [100.0 + 400.0 * i / (n - 1) for i in range(n)]
     return f"{n} conditional speeds", body
+
+
+def _unconditional_curve(kind: str, prior: str) -> Candidate:
+    """The most points of an unconditional curve against range with ``kind``'s gate, from
+    10 km out to the range where B's axis ratio reaches the cap (200 m, 0.5 deg)."""
+    name = "gates.probability_curve"
+
+    def body_of(n: int) -> Body:
+        _, body = _unconditional("gates.probability", kind, prior)()
+        ratio = _cap(name, "mark.axis_ratio", 22)
+        far = ratio * 200.0 / math.radians(0.5) * (1 - 1e-9)
+        body["mark"]["sigma_r"] = 200.0
+        values = [10_000.0 + (far - 10_000.0) * i / max(n - 1, 1) for i in range(n)]
+        return {**body, "against": "range", "values": values}
+
+    def build() -> tuple[str, Body]:
+        n = _largest(name, body_of, 1, 100)  # MAX_UNCONDITIONAL_POINTS
+        return f"{n} unconditional ranges, {kind}, {prior}", body_of(n)
+
+    return build
+
+
+def _design(kind: str, capture: float) -> Candidate:
+    def build() -> tuple[str, Body]:
+        _, body = _unconditional("gates.design", "ring", "paper's prior")()
+        body["gate"] = {"kind": kind, "v_max": 500.0}
+        body["prior"] = ENDPOINTS["gates.design"].example["prior"] | {"v_max": 500.0}
+        body["capture"] = capture
+        ratio = _cap("gates.design", "mark.axis_ratio", 22)
+        return f"{kind}, capture {capture}, axis ratio {ratio}", body
+
+    return build
 
 
 def _ring(n: int, radius: float = 10_000.0) -> list[list[float]]:
@@ -182,22 +276,25 @@ def _noise() -> tuple[str, Body]:
     return f"{n} samples, window {window}, degrees 10", body
 
 
-def _study() -> tuple[str, Body]:
-    name = "solves.study"
-    pairs, samples = 3, 200
-    sums = _cap(name, "runs x sample_times x receivers", 2_400_000)  # MAX_STUDY_RANGE_SUMS
-    runs = min(10_000, sums // (samples * pairs))
-    body = ENDPOINTS[name].example
-    body.update(sample_times=[float(i) for i in range(samples)], runs=runs, tracks=False)
-    return f"{runs} runs x {samples} samples x {pairs} pairs, no tracks", body
+def _study(samples: int, receivers: int, tracks: bool) -> Candidate:
+    """The most runs a study of ``samples`` x ``receivers`` takes, with or without tracks."""
 
+    def body_of(runs: int) -> Body:
+        body = ENDPOINTS["solves.study"].example
+        body.update(
+            receivers=[{"position": rx} for rx in _ring(receivers)],
+            sample_times=[float(i) for i in range(samples)],
+            runs=runs,
+            tracks=tracks,
+        )
+        return body
 
-def _study_tracks() -> tuple[str, Body]:
-    """The default study's size with tracks, at MAX_STUDY_TRACK_WORK (runs x samples^2 x
-    pairs): minutes of prefix solves."""
-    body = ENDPOINTS["solves.study"].example
-    body.update(sample_times=[float(i) for i in range(200)], runs=1000, tracks=True)
-    return "1000 runs x 200 samples x 3 pairs, tracks", body
+    def build() -> tuple[str, Body]:
+        runs = _largest("solves.study", body_of, 1, 10_000)  # MAX_STUDY_RUNS
+        label = "tracks" if tracks else "no tracks"
+        return f"{runs} runs x {samples} samples x {receivers} pairs, {label}", body_of(runs)
+
+    return build
 
 
 def _initiate() -> tuple[str, Body]:
@@ -223,15 +320,62 @@ def _simulate() -> tuple[str, Body]:
     return f"{scans} scans x {clutter:.0f} clutter", body
 
 
-def _evaluate() -> tuple[str, Body]:
-    """Clutter a third of the gate rule's bound (0.35 plots per capture gate) over 400 scans
-    of one run: 400,896 false tracks. Denser clutter over as many scans runs for longer
-    than this bench waits (20,000 a scan over 200 scans: more than 400 s), or ends early
-    in core's refusal of a tangle (28,000 a scan, 0.98 plots a gate, 40 scans: 2.6 s, 647
-    MB)."""
-    scans, clutter = 400, 10_000.0
-    body = {"scenario": {"scans": scans, "clutter": clutter}, "runs": 1, "seed": 1}
-    return f"1 run x {scans} scans x {clutter:.0f} clutter", body
+SCORE = json.loads((ROOT / "docs/examples/score_initiation.json").read_text())
+"""The README's score configuration (Mu et al.'s scenario, bench/README.md)."""
+
+
+def _evaluation(
+    label: str, along: str, scenario: Body, config: Body | None = None, sweep: Body | None = None
+) -> Candidate:
+    """The evaluation of ``scenario`` (under ``config``, ``sweep``) with the most ``runs`` or
+    ``scans`` (``along``) the caps take, the other one 1 (runs) or the scenario's (scans)."""
+    bound = {"runs": 10_000, "scans": 1000}[along]
+
+    def body_of(n: int) -> Body:
+        body: Body = {"scenario": dict(scenario), "runs": 1, "seed": 1}
+        if along == "runs":
+            body["runs"] = n
+        else:
+            body["scenario"]["scans"] = n
+        if config is not None:
+            body["config"] = config
+        if sweep is not None:
+            body["sweep"] = sweep
+        return body
+
+    def build() -> tuple[str, Body]:
+        n = _largest("initiation.evaluate", body_of, 1, bound)
+        return f"{label}: {n} {along}", body_of(n)
+
+    return build
+
+
+_EVALUATIONS = [
+    _evaluation("clutter 250, score config", "runs", {"clutter": 250.0}, SCORE),
+    _evaluation("clutter 250, polar", "runs", {"clutter": 250.0}, {"mode": "polar"}),
+    _evaluation(
+        "clutter 250, sweep of 50 gate_P_G",
+        "runs",
+        {"clutter": 250.0},
+        sweep={"parameter": "gate_P_G", "values": [0.5 + 0.009 * i for i in range(50)]},
+    ),
+    _evaluation(
+        "one plot a run",
+        "runs",
+        {
+            "scans": 1,
+            "clutter": 0.0,
+            "targets": [{"position": [5000.0, 5000.0], "velocity": [10.0, 0.0]}],
+        },
+    ),  # fmt: skip
+    _evaluation("clutter 2000, 40 scans", "runs", {"clutter": 2000.0, "scans": 40}),
+    _evaluation("1 run, clutter 2000 (0.07 a gate)", "scans", {"clutter": 2000.0}),
+    _evaluation("1 run, clutter 5000 (0.17 a gate)", "scans", {"clutter": 5000.0}),
+    _evaluation("1 run, clutter 10,000 (0.35 a gate)", "scans", {"clutter": 10_000.0}),
+    _evaluation("1 run, polar, clutter 10,000", "scans", {"clutter": 10_000.0}, {"mode": "polar"}),
+]
+"""Along every dimension of the evaluation's work (EvaluateRequest.work): runs of a sparse
+scenario, polar mode, a sweep, runs that are all overhead, scans of dense clutter."""
 
 
 def _pair() -> tuple[str, Body]:
@@ -271,40 +415,54 @@ def _ragged_picture() -> tuple[str, Body]:
     return f"{tracks} passive tracks, one of 100,000 samples, x 100", body
 
 
-def _identification_simulate() -> tuple[str, Body]:
-    name = "identification.simulate"
-    n, m = 50, 5
-    draws = _cap(name, "runs x (n + m)", 50_000_000)  # MAX_SIMULATED_SAMPLES
-    runs = min(10_000_000, draws // (n + m))
-    return f"{runs} runs x ({n} + {m})", {"n": n, "m": m, "runs": runs, "seed": 1}
+def _identification_simulate(n: int, m: int) -> Candidate:
+    def build() -> tuple[str, Body]:
+        draws = _cap("identification.simulate", "runs x (n + m)", 50_000_000)
+        runs = min(10_000_000, draws // (n + m))  # MAX_SIMULATED_SAMPLES
+        return f"{runs} runs x ({n} + {m})", {"n": n, "m": m, "runs": runs, "seed": 1}
+
+    return build
 
 
-def _example(name: str) -> Callable[[], tuple[str, Body]]:
-    return lambda: ("the example", ENDPOINTS[name].example)
-
-
-WORST: list[tuple[str, Callable[[], tuple[str, Body]]]] = [
+WORST: list[tuple[str, Candidate]] = [
     ("gates.test", _gates_test),
     ("gates.pairs", _gates_pairs),
-    ("gates.probability", lambda: _axis_ratio("gates.probability")),
-    ("gates.probability_curve", _curve),
-    ("gates.analysis", lambda: _axis_ratio("gates.analysis")),
-    ("gates.design", _example("gates.design")),
+    *(
+        (name, _unconditional(name, kind, prior))
+        for name in ("gates.probability", "gates.analysis")
+        for kind in GATES
+        for prior in PRIORS
+    ),
+    ("gates.probability_curve", _conditional_curve),
+    *(
+        ("gates.probability_curve", _unconditional_curve(kind, prior))
+        for kind in ("expanded", "first_association")
+        for prior in PRIORS
+    ),
+    *(
+        ("gates.design", _design(kind, capture))
+        for kind in ("expanded", "combined")
+        for capture in (0.9, 0.98)
+    ),
     ("solves.position", _position),
     ("solves.trajectory", _trajectory),
     ("solves.crlb", _crlb),
     ("solves.noise", _noise),
-    ("solves.study", _study),
-    ("solves.study", _study_tracks),
+    ("solves.study", _study(200, 3, tracks=False)),
+    ("solves.study", _study(200, 3, tracks=True)),
+    ("solves.study", _study(1000, 3, tracks=True)),
+    ("solves.study", _study(200, 64, tracks=False)),
     ("initiation.initiate", _initiate),
     ("initiation.simulate", _simulate),
-    ("initiation.evaluate", _evaluate),
+    *(("initiation.evaluate", candidate) for candidate in _EVALUATIONS),
     ("identification.pair", _pair),
     ("identification.picture", _picture),
     ("identification.picture", _ragged_picture),
-    ("identification.simulate", _identification_simulate),
+    ("identification.simulate", _identification_simulate(50, 5)),
+    ("identification.simulate", _identification_simulate(1000, 1000)),
 ]
-"""Each operation's worst request (the picture has two: square and ragged)."""
+"""Each operation's candidates for its slowest or largest request, one per dimension that
+drives its time or memory."""
 
 
 ADDRESS_SPACE = 8 * 2**30
@@ -335,25 +493,45 @@ def _measure(name: str, body: Body, no_limits: bool, tmp: Path) -> dict[str, Any
     return result
 
 
+def _row(name: str, label: str, r: dict[str, Any]) -> str:
+    size = f"{r['body_bytes'] / 2**20:.1f} MB" if "body_bytes" in r else ""
+    wall = f"{r['seconds']:.1f}" if "seconds" in r else ""
+    cpu = f"{r['cpu']:.1f}" if "cpu" in r else ""
+    peak = f"{r['peak_kib'] / 1024:.0f}" if "peak_kib" in r else ""
+    return f"| {name} | {label} | {size} | {r['status']} | {wall} | {cpu} | {peak} |"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", nargs="*", help="operations to run (default: all)")
     parser.add_argument("--no-limits", action="store_true", help="run without the caps")
     args = parser.parse_args()
-    print("| operation | worst request | body | status | wall s | peak RSS MiB |")
-    print("|---|---|---:|---:|---:|---:|")
+    header = (
+        "| operation | request | body | status | wall s | CPU s | peak RSS MiB |\n"
+        + "|---|---|"
+        + ("---:|" * 5)
+    )
+    print(header)
+    slowest: dict[str, tuple[float, str]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, build in WORST:
             if args.only and name not in args.only:
                 continue
             label, body = build()
             r = _measure(name, body, args.no_limits, Path(tmp))
-            size = f"{r['body_bytes'] / 2**20:.1f} MB" if "body_bytes" in r else ""
-            wall = f"{r['seconds']:.1f}" if "seconds" in r else ""
-            peak = f"{r['peak_kib'] / 1024:.0f}" if "peak_kib" in r else ""
-            print(f"| {name} | {label} | {size} | {r['status']} | {wall} | {peak} |", flush=True)
+            row = _row(name, label, r)
+            print(row, flush=True)
             if r.get("detail"):
                 print(f"<!-- {name}: {r['detail']} -->", file=sys.stderr, flush=True)
+            if r["status"] == 200 and r["seconds"] > slowest.get(name, (-1.0, ""))[0]:
+                slowest[name] = (r["seconds"], row)
+    print(
+        f"\nThe slowest accepted request of each operation (budget: {TIME_BUDGET_S:g} s, "
+        f"{MEMORY_BUDGET_MIB} MiB):\n"
+    )
+    print(header)
+    for _, row in slowest.values():
+        print(row)
 
 
 if __name__ == "__main__":

@@ -55,6 +55,7 @@ __all__ = [
     "configure",
     "mapper",
     "run_worker",
+    "workers",
 ]
 
 CONNECT_S = 5.0
@@ -401,6 +402,37 @@ def mapper() -> Callable[..., Iterable[Any]] | None:
             )
 
     return mapped
+
+
+def workers() -> int | None:
+    """The worker threads the cluster's scheduler reports now, or None without a cluster.
+
+    What a cluster may take in one request scales with it
+    (:func:`plotgate.service.registry.over_caps`). Asked when a request passes a one-core
+    cap, so a request within the caps never waits for the scheduler. A scheduler that has
+    lost every worker reports 0.
+
+    Raises
+    ------
+    ClusterUnavailable
+        The configured scheduler cannot be reached, or does not answer in time.
+    """
+    if _client is None and _address is None:
+        return None
+    within = CONNECT_S if _timeout is None else min(CONNECT_S, _timeout)
+    client = _connected(within) if _address is not None else _client
+    failing = "the Dask scheduler did not report its workers"
+
+    def late() -> ClusterUnavailable:
+        return ClusterUnavailable(f"{failing} within {within:g} s")
+
+    return _talk(_threads(client), within, failing, late)
+
+
+async def _threads(client: Any) -> int:
+    """The threads of every worker the scheduler knows (its ``ncores``)."""
+    nthreads: dict[str, int] = await client.scheduler.ncores()
+    return sum(nthreads.values())
 
 
 async def _mapped(

@@ -6,7 +6,7 @@ from pathlib import Path
 from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from plotgate.service.schemas import MEMORY_BUDGET_MIB, work_caps
+from plotgate.service.schemas import MEMORY_BUDGET_MIB, TIME_BUDGET_S, work_caps
 
 __all__ = ["Settings", "get_settings"]
 
@@ -64,14 +64,16 @@ class Settings(BaseSettings):
         validate_default=True,
         description="Per-operation caps below the schema's bounds, JSON: {operation: "
         '{size: max}}, e.g. {"initiation.evaluate": {"runs": 1000}}, laid over the default '
-        f"caps that keep the largest request under {MEMORY_BUDGET_MIB} MiB (an operator's cap "
-        "lowers or raises a default); the sizes each operation offers, and the caps in force, "
+        f"caps that keep the largest request under {MEMORY_BUDGET_MIB} MiB and "
+        f"{TIME_BUDGET_S:g} s on one core (an operator's cap lowers or raises a default, and "
+        "a cluster never widens it); the sizes each operation offers, and the caps in force, "
         "are in the OpenAPI schema (x-plotgate-limits).",
     )
     dask_scheduler: str | None = Field(
         default=None,
         description="A Dask scheduler (tcp://host:8786) for initiation.evaluate's Monte Carlo "
-        "chunks; unset: in-process. Unreachable: 503 with Retry-After.",
+        "chunks, whose default work cap then grows with the worker threads it reports, up "
+        "to a ceiling; unset: in-process. Unreachable: 503 with Retry-After.",
     )
     dask_timeout_s: float = Field(
         default=300.0,

@@ -23,10 +23,16 @@ from pydantic import BaseModel, ValidationError
 
 from plotgate.core import PlotgateError
 from plotgate.service.bodies import is_strict_json, shape_problem, value_ceiling
-from plotgate.service.cluster import ClusterTimeout, ClusterUnavailable
+from plotgate.service.cluster import ClusterTimeout, ClusterUnavailable, workers
 from plotgate.service.fields import FieldMap, resolve
 from plotgate.service.problems import ProblemError, from_core, from_validation, problem_json
-from plotgate.service.schemas import ENDPOINTS, MEMORY_BUDGET_MIB, Endpoint, FieldError
+from plotgate.service.schemas import (
+    ENDPOINTS,
+    MEMORY_BUDGET_MIB,
+    TIME_BUDGET_S,
+    Endpoint,
+    FieldError,
+)
 
 __all__ = [
     "HANDLERS",
@@ -166,16 +172,45 @@ def over_caps(op: Operation, request: BaseModel, caps: Mapping[str, int]) -> Pro
 
     Work sizes are read from the validated request alone, so this runs before any work. The
     problem names the size as its field and says whether the cap is the operation's default
-    (:attr:`~plotgate.service.schemas.Endpoint.caps`, set to a memory budget) or an
-    operator's.
+    (:attr:`~plotgate.service.schemas.Endpoint.caps`, set to a memory and time budget), an
+    operator's, or a cluster's.
+
+    A default cap that a Dask cluster widens (:attr:`~plotgate.service.schemas.Endpoint.
+    cluster_caps`, the chunked operations) is widened only when the request passes it and
+    the process has a cluster: only then is the scheduler asked for its worker threads
+    (:func:`plotgate.service.cluster.workers`), so a request within the one-core caps never
+    waits for it. An operator's cap (``PLOTGATE_LIMITS``) is never widened: it is the
+    operator's word, cluster or not.
+
+    Raises
+    ------
+    ClusterUnavailable
+        The request needs the cluster's cap and the scheduler cannot be reached, or reports
+        no workers (503 with ``Retry-After``, as the work itself would be).
     """
     for size, cap in caps.items():
         value = op.endpoint.work[size](request)
-        if value > cap:
-            reason = f"is {value}; this server allows at most {cap} ({_cap_origin(op, size, cap)})"
-            return ProblemError(
-                "invalid-input", 422, f"{size}: {reason}", [FieldError(field=size, reason=reason)]
-            )
+        if value <= cap:
+            continue
+        origin = _cap_origin(op, size, cap)
+        if size in op.endpoint.cluster_caps and op.endpoint.caps[size] == cap:
+            threads = workers()
+            if threads == 0:  # workers may join: the cluster is unavailable, not too small
+                raise ClusterUnavailable(
+                    f"{size} is {value}, over the one-core cap {cap}, and the Dask scheduler "
+                    "reports no workers to widen it"
+                )
+            if threads is None:
+                origin += f"; {_on_a_cluster(op, size)}"
+            else:
+                cap = op.endpoint.cluster_cap(size, threads)
+                if value <= cap:
+                    continue
+                origin = _cluster_origin(op, size, threads)
+        reason = f"is {value}; this server allows at most {cap} ({origin})"
+        return ProblemError(
+            "invalid-input", 422, f"{size}: {reason}", [FieldError(field=size, reason=reason)]
+        )
     return None
 
 
@@ -183,9 +218,28 @@ def _cap_origin(op: Operation, size: str, cap: int) -> str:
     if op.endpoint.caps.get(size) == cap:
         return (
             f"the default, which bounds one request's work (under {MEMORY_BUDGET_MIB} MiB of "
-            "memory); PLOTGATE_LIMITS sets another"
+            f"memory and {TIME_BUDGET_S:g} s on one core); PLOTGATE_LIMITS sets another"
         )
     return "PLOTGATE_LIMITS"
+
+
+def _per_thread(op: Operation, size: str) -> int:
+    return op.endpoint.cluster_cap(size, 1)
+
+
+def _on_a_cluster(op: Operation, size: str) -> str:
+    return (
+        f"a Dask cluster (PLOTGATE_DASK_SCHEDULER, --dask, --local-workers) takes "
+        f"{_per_thread(op, size)} per worker thread, at most {op.endpoint.cluster_caps[size]}"
+    )
+
+
+def _cluster_origin(op: Operation, size: str, threads: int) -> str:
+    return (
+        f"the cluster's cap: {_per_thread(op, size)} per worker thread x the {threads} its "
+        f"scheduler reports, at most {op.endpoint.cluster_caps[size]}, the ceiling of the "
+        "results gathered in the service"
+    )
 
 
 @dataclass(frozen=True)
@@ -251,10 +305,10 @@ def run(
     replay's ``--no-limits``).
     """
     try:
-        over = over_caps(op, request, limits or {})
-        if over is not None:
-            raise over
         try:
+            over = over_caps(op, request, limits or {})
+            if over is not None:
+                raise over
             response = op.handler(request)
         except PlotgateError as exc:
             raise from_core(exc, resolve(op.fields, request, exc)) from exc

@@ -34,13 +34,15 @@ def serve(
     env: dict[str, str] | None = None,
     log: Path | None = None,
     source: Path | None = None,
+    ready_s: float = 30.0,
 ) -> Iterator[tuple[subprocess.Popen, str]]:
     """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready.
 
     ``preexec_fn`` runs in the child before the server starts (e.g. to set rlimits); ``env``
     adds environment variables (``PLOTGATE_*`` settings); ``log`` keeps the server's
     output (its logs, the access log included) in that file; ``source`` runs the server
-    from another checkout (its folder goes first on ``PYTHONPATH``), by default this one.
+    from another checkout (its folder goes first on ``PYTHONPATH``), by default this one;
+    ``ready_s`` is the longest wait for ``/readyz`` (a bench on a loaded machine waits more).
     """
     port = free_port()
     stderr = open(log, "wb") if log is not None else subprocess.PIPE  # noqa: SIM115
@@ -65,7 +67,7 @@ def serve(
     if log is not None:
         stderr.close()  # the child has its own copy
     url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + ready_s
     try:
         while True:
             assert proc.poll() is None, (
@@ -76,7 +78,7 @@ def serve(
                     break
             except httpx.TransportError:
                 pass
-            assert time.monotonic() < deadline, "server did not become ready in 30 s"
+            assert time.monotonic() < deadline, f"server did not become ready in {ready_s:g} s"
             time.sleep(0.1)
         yield proc, url
     finally:

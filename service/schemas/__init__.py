@@ -18,7 +18,14 @@ from plotgate.service.schemas.crlb import (
     CrlbResult,
     SingleShotBound,
 )
-from plotgate.service.schemas.endpoints import ENDPOINTS, MEMORY_BUDGET_MIB, Endpoint, work_caps
+from plotgate.service.schemas.endpoints import (
+    CLUSTER_BUDGET_S,
+    ENDPOINTS,
+    MEMORY_BUDGET_MIB,
+    TIME_BUDGET_S,
+    Endpoint,
+    work_caps,
+)
 from plotgate.service.schemas.gates import (
     CombinedGate,
     CombinedRegion,
@@ -58,6 +65,7 @@ from plotgate.service.schemas.initiation import (
     MAX_EVALUATION_PLOTS,
     MAX_GATE_CLUTTER,
     MAX_SCANS,
+    RUN_COST,
     EvaluateRequest,
     EvaluateResult,
     InitiateRequest,
@@ -136,6 +144,7 @@ __all__ = [
     "MAX_CURVE_POINTS",
     "MAX_DISTANCE",
     "MAX_EVALUATION_PLOTS",
+    "RUN_COST",
     "MAX_GATE_CLUTTER",
     "MAX_MEASUREMENTS",
     "MAX_PICTURE_SAMPLES",
@@ -154,6 +163,8 @@ __all__ = [
     "MAX_TRACK_SAMPLES",
     "MAX_UNCONDITIONAL_POINTS",
     "MEMORY_BUDGET_MIB",
+    "TIME_BUDGET_S",
+    "CLUSTER_BUDGET_S",
     "MIN_RANGE",
     "AccumulatedBound",
     "AreaApproximation",

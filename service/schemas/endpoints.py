@@ -44,16 +44,32 @@ from plotgate.service.schemas.probability import (
     GateProbabilityRequest,
     GateProbabilityResult,
     unconditional_axis_ratio,
+    unconditional_cost,
 )
 from plotgate.service.schemas.study import StudyRequest, StudyResult
 from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
-__all__ = ["ENDPOINTS", "MEMORY_BUDGET_MIB", "Endpoint", "work_caps"]
+__all__ = [
+    "CLUSTER_BUDGET_S",
+    "ENDPOINTS",
+    "MEMORY_BUDGET_MIB",
+    "TIME_BUDGET_S",
+    "Endpoint",
+    "work_caps",
+]
 
 MEMORY_BUDGET_MIB = 1024
 """The peak RSS, MiB, a server process stays under while it answers the largest request
 its default caps accept (:attr:`Endpoint.caps`; ``bench/bench_worst_requests.py``
 measures each operation's worst request in a fresh process)."""
+TIME_BUDGET_S = 10.0
+"""The wall time, s, on one core, that the largest request the default caps accept stays
+under (``bench/bench_worst_requests.py`` searches each operation's slowest one)."""
+CLUSTER_BUDGET_S = 300.0
+"""The time, s, one request may keep each worker thread of a Dask cluster busy: the
+default ``PLOTGATE_DASK_TIMEOUT_S``. A chunked operation's cluster cap is its one-core cap
+times ``CLUSTER_BUDGET_S / TIME_BUDGET_S`` per worker thread (:meth:`Endpoint.cluster_cap`),
+so a request the cluster takes can finish before the service's timeout."""
 
 
 @dataclass(frozen=True)
@@ -86,11 +102,26 @@ class Endpoint:
     fitted at every sample), each set so that the largest request they accept keeps the
     process under :data:`MEMORY_BUDGET_MIB` (measured by ``bench/bench_worst_requests.py``).
     An operator's ``PLOTGATE_LIMITS`` lowers or raises any of them (:func:`work_caps`)."""
+    cluster_caps: dict[str, int] = field(default_factory=dict)
+    """For an operation whose work runs in chunks on a Dask cluster when the service has
+    one: the hard ceiling of each default cap that a cluster widens
+    (:meth:`cluster_cap`). A ceiling bounds what the cluster cannot spread: the results
+    gathered in the service's memory and the chunks' count."""
 
     def __post_init__(self) -> None:
         unknown = set(self.caps) - set(self.work)
         if unknown:
             raise ValueError(f"{self.name}: default caps on sizes it lacks: {sorted(unknown)}")
+        if set(self.cluster_caps) - set(self.caps):
+            raise ValueError(f"{self.name}: cluster ceilings on sizes without a default cap")
+
+    def cluster_cap(self, size: str, workers: int) -> int:
+        """The cap on ``size`` with a Dask cluster of ``workers`` worker threads: the one-core
+        default times ``CLUSTER_BUDGET_S / TIME_BUDGET_S`` per thread, never under the
+        default nor over the ceiling (:attr:`cluster_caps`)."""
+        default = self.caps[size]
+        widened = default * workers * round(CLUSTER_BUDGET_S / TIME_BUDGET_S)
+        return min(self.cluster_caps[size], max(default, widened))
 
     @property
     def tag(self) -> str:
@@ -109,10 +140,59 @@ class Endpoint:
         return copy.deepcopy(EXAMPLES[self.name])
 
 
+AXIS_RATIO_CAP = 9
+"""Default cap of ``mark.axis_ratio`` for one unconditional probability (gates.probability,
+gates.analysis, each point of a curve). Its cost grows in steps with the ratio (the
+quadrature adds a grading level about B's thin features each time the ratio triples) and
+with the gate kind and the prior. CPU time of one request, measured by
+``bench/bench_worst_requests.py`` on a shared machine (the CPU time is what a quiet core's
+wall time would be): at ratio 6, at most 1.0 s (the first-association window; the ring,
+combined and expanded gates 0.2-0.5 s); at ratio 12, 1.6-3.6 s and 7.2 s for the
+first-association window. 9 is the last ratio before the next grading level."""
+DESIGN_AXIS_RATIO_CAP = 6
+"""Default cap of ``gates.design``'s ``mark.axis_ratio``: a design evaluates four to ten
+unconditional probabilities of the combined or expanded gate, each at most 0.5 s of CPU at
+ratio 6 (0.1-0.2 s for a whole design at ratio 3)."""
+CURVE_COST_CAP = 12
+"""Default cap of a curve's ``values x gate cost`` (:data:`~plotgate.service.schemas.
+probability.GATE_COST`): each unconditional point costs what one probability does. At
+ratio 9, 20 points of the expanded gate took 8.2-8.8 s of CPU and 6 of the
+first-association window 3.9-5.0 s (``bench/bench_worst_requests.py``): 12 is about 5 s."""
+EVALUATION_WORK_CAP = 1_200_000
+"""Default cap of ``initiation.evaluate``'s ``runs x scans x plots``, plot-equivalents
+(:meth:`~plotgate.service.schemas.EvaluateRequest.work`): about 6.5 s on one core."""
+CLUSTER_EVALUATION_WORK = 200_000_000
+"""Its ceiling on a cluster of any size: about 18 core-minutes of work. What the service
+gathers is one score a run and rule, at most 10^4 runs x 51 rules (the schema's bounds),
+a few hundred bytes each; the plots stay on the workers (``bench/README.md`` measures the
+service's peak RSS during a 10^4-run evaluation on a cluster)."""
+
+
 def _study_range_sums(request: StudyRequest) -> int:
-    """The range sums a study simulates, each held with its solves (about 470 bytes each:
-    2.4 million took 1.37 GB of RSS)."""
+    """The range sums a study simulates and solves one by one. Memory: about 470 bytes each
+    (2.4 million took 1.37 GB of RSS; the cap, 1.2 million, 809 MiB). Time: 1166 runs x 200
+    samples x 3 receivers (700,000) took 2.9 s of CPU (``bench/bench_worst_requests.py``),
+    so the cap is about 5 s."""
     return request.runs * len(request.sample_times) * len(request.receivers)
+
+
+def _study_solve_work(request: StudyRequest) -> int:
+    """The solves' work with many receivers: each solve of P pairs weighs its P x P
+    covariance, so time and memory grow as P^2. 54 runs x 200 samples x 64 receivers (691,200
+    range sums, under their cap) took 239 s and 2380 MiB of RSS on a shared machine, 54
+    bytes a unit; 2 runs x 200 x 64 took 0.5 s of CPU. The default cap, 3,600,000 (the range
+    sums' cap at 3 receivers), is about 1 s and 200 MiB."""
+    return _study_range_sums(request) * len(request.receivers)
+
+
+def _study_prefix_work(request: StudyRequest) -> int:
+    """With ``tracks``, the work of every prefix's trajectory solve (runs x samples^2 x
+    receivers^2; 0 without tracks). 55 runs x 200^2 x 3^2 (2e7) took 1.3 s of CPU, and so did
+    2 runs x 1000^2 x 3^2 (``bench/bench_worst_requests.py``): the default cap, 6e7, is about
+    4 s."""
+    if not request.tracks:
+        return 0
+    return request.runs * len(request.sample_times) ** 2 * len(request.receivers) ** 2
 
 
 ENDPOINTS: dict[str, Endpoint] = {
@@ -143,6 +223,7 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateProbabilityResult,
             slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
+            caps={"mark.axis_ratio": AXIS_RATIO_CAP},
         ),
         Endpoint(
             "gates.probability_curve",
@@ -151,7 +232,13 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateProbabilityCurveRequest,
             GateProbabilityCurve,
             slow=True,
-            work={"values": lambda r: len(r.values), "mark.axis_ratio": unconditional_axis_ratio},
+            work={
+                "values": lambda r: len(r.values),
+                "mark.axis_ratio": unconditional_axis_ratio,
+                "values x gate cost": unconditional_cost,
+            },
+            # each unconditional point costs what one gates.probability does
+            caps={"mark.axis_ratio": AXIS_RATIO_CAP, "values x gate cost": CURVE_COST_CAP},
         ),
         Endpoint(
             "gates.analysis",
@@ -161,6 +248,7 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateAnalysisResult,
             slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
+            caps={"mark.axis_ratio": AXIS_RATIO_CAP},
         ),
         Endpoint(
             "gates.design",
@@ -170,6 +258,8 @@ ENDPOINTS: dict[str, Endpoint] = {
             GateDesignResult,
             slow=True,
             work={"mark.axis_ratio": unconditional_axis_ratio},
+            # a root search over the gate's parameter: four to ten unconditional probabilities
+            caps={"mark.axis_ratio": DESIGN_AXIS_RATIO_CAP},
         ),
         Endpoint(
             "solves.position",
@@ -229,8 +319,14 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "runs": lambda r: r.runs,
                 "sample_times": lambda r: len(r.sample_times),
                 "runs x sample_times x receivers": _study_range_sums,
+                "runs x sample_times x receivers^2": _study_solve_work,
+                "runs x sample_times^2 x receivers^2": _study_prefix_work,
             },
-            caps={"runs x sample_times x receivers": 1_200_000},
+            caps={
+                "runs x sample_times^2 x receivers^2": 60_000_000,
+                "runs x sample_times x receivers^2": 3_600_000,
+                "runs x sample_times x receivers": 1_200_000,
+            },
         ),
         Endpoint(
             "initiation.initiate",
@@ -266,7 +362,12 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "scenario.scans": lambda r: r.scenario.scans,
                 "scenario.clutter": lambda r: math.ceil(r.scenario.clutter),
                 "sweep.values": lambda r: 0 if r.sweep is None else len(r.sweep.values),
+                "runs x scans x plots": EvaluateRequest.work,
             },
+            # plot-equivalents of about 5.4 us on one core (EvaluateRequest.work): 6.5 s;
+            # a cluster takes 30 times as many per worker thread, up to the schema's ceiling
+            caps={"runs x scans x plots": EVALUATION_WORK_CAP},
+            cluster_caps={"runs x scans x plots": CLUSTER_EVALUATION_WORK},
         ),
         Endpoint(
             "identification.pair",

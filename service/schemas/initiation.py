@@ -36,6 +36,7 @@ from plotgate.service.schemas.solves import Time
 
 __all__ = [
     "MAX_EVALUATION_PLOTS",
+    "RUN_COST",
     "MAX_GATE_CLUTTER",
     "MAX_SCANS",
     "EvaluateRequest",
@@ -57,8 +58,22 @@ __all__ = [
 
 MAX_SCANS = 1000
 """Most scans of one initiate call or one simulated scenario."""
-MAX_EVALUATION_PLOTS = 5_000_000
-"""Most plots an evaluation may simulate: runs x scans x (clutter + targets)."""
+MAX_EVALUATION_PLOTS = 100_000_000
+"""Most plots an evaluation may simulate and initiate, runs x scans x (clutter + targets) x
+evaluations (1 + sweep values), on a Dask cluster of any size. The work size
+``runs x scans x plots`` (:meth:`EvaluateRequest.work`) has caps far lower by default."""
+RUN_COST = 200
+"""What one run costs besides its plots, in plot-equivalents (:meth:`EvaluateRequest.work`):
+2000 runs of one scan and one plot took as long as 230,000 plots at clutter 250 in the
+same run (115 a run), rounded up."""
+GATE_CLUTTER_COST = 30.0
+"""The extra cost of a plot per expected clutter plot in a capture gate
+(:meth:`ScenarioIn.gate_clutter`): the tentative tracks a plot starts or feeds grow with it.
+Measured, one core: 5.4 us a plot at Mu et al.'s clutter 250 (0.009 plots a gate), 59 us at
+clutter 10,000 (0.35 a gate), 11x, so 1 + 30 x 0.35."""
+MODE_COST = {"cartesian": 1.0, "polar": 2.0}
+"""The cost of a plot in each mode, relative to the Cartesian logic: Mu et al.'s polar
+method took twice as long on the same scans (200 runs at clutter 250, in one run)."""
 MAX_SPEED = 1e6
 """Largest |velocity component| of a simulated target, m/s."""
 MAX_GATE_CLUTTER = 1.0
@@ -573,21 +588,45 @@ class EvaluateRequest(Schema):
                     ],
                 ) from None
         self._clutter_thin_enough(configs)
-        points = len(configs)
-        work = self.runs * self.scenario.plots() * points
-        if work > MAX_EVALUATION_PLOTS:
+        plots = self.runs * self.scenario.plots() * len(configs)
+        if plots > MAX_EVALUATION_PLOTS:
             raise invalid(
                 "EvaluateRequest",
                 [
                     (
                         ("runs",),
                         f"runs x expected plots per run x evaluations (1 + sweep "
-                        f"values) is {work:.0f}; at most {MAX_EVALUATION_PLOTS}",
+                        f"values) is {plots:.0f}; at most {MAX_EVALUATION_PLOTS}",
                         self.runs,
                     )
                 ],
             )
         return self
+
+    def configs(self) -> list[InitiationSettings]:
+        """The rules evaluated: the config, then one per sweep value."""
+        return [self.config, *(() if self.sweep is None else self.sweep.settings(self.config))]
+
+    def work(self) -> int:
+        """The work size ``runs x scans x plots``: the evaluation's cost in plot-equivalents,
+        what its default cap (one core, :data:`~plotgate.service.schemas.TIME_BUDGET_S`)
+        and its cluster cap count.
+
+        Each rule evaluated initiates every run's plots, runs x scans x (clutter +
+        targets), each plot weighted by what it costs there: 1 + :data:`GATE_CLUTTER_COST`
+        x the expected clutter plots in a capture gate, times :data:`MODE_COST` of the
+        mode; and each run costs :data:`RUN_COST` more. A plot-equivalent is about 5.4 us
+        on one core (Mu et al.'s scenario at clutter 250, Cartesian logic); the default
+        cap, 1,200,000, is about 6.5 s. The estimate is what sets the cap; the bench
+        (``bench/bench_worst_requests.py``) checks its worst requests against the 10 s.
+        """
+        total = 0.0
+        for config in self.configs():
+            weight = (1.0 + GATE_CLUTTER_COST * self.scenario.gate_clutter(config)) * MODE_COST[
+                config.mode
+            ]
+            total += self.runs * (self.scenario.plots() * weight + RUN_COST)
+        return math.ceil(total)
 
     def _clutter_thin_enough(self, configs: list[InitiationSettings]) -> None:
         """Refuse (on ``scenario.clutter``) a scenario whose clutter fills the capture gates

@@ -28,6 +28,7 @@ __all__ = [
     "MAX_CURVE_POINTS",
     "MAX_SPEED",
     "MAX_UNCONDITIONAL_POINTS",
+    "GATE_COST",
     "AreaApproximation",
     "FalseMarks",
     "GateAnalysisRequest",
@@ -43,6 +44,7 @@ __all__ = [
     "SpeedPrior",
     "Velocity",
     "unconditional_axis_ratio",
+    "unconditional_cost",
 ]
 
 MAX_CURVE_POINTS = 1000
@@ -363,6 +365,22 @@ class GateDesignResult(Schema):
     area: float = Field(description="Gate area, m^2.")
     cells: float = Field(description="Resolution cells S' it covers.")
     false_marks: FalseMarks = Field(description="False marks in the gate (m_max = 5).")
+
+
+GATE_COST = {"first_association": 3}
+"""What one unconditional probability costs with each gate kind, relative to the ring's
+(1 for every kind not named): the polar first-association window, whose origin is the
+radar, took 3 times the ring's worst time over the prior's widths, and up to 25 times at
+the paper's example (``bench/bench_worst_requests.py``)."""
+
+
+def unconditional_cost(request: GateProbabilityCurveRequest) -> int:
+    """The work size ``values x gate cost`` of a curve: its unconditional probabilities, each
+    weighted by its gate kind's :data:`GATE_COST`; 0 for a conditional curve (a thousand
+    conditional points cost a third of a second)."""
+    if request.prior is None:
+        return 0
+    return len(request.values) * GATE_COST.get(request.gate.kind, 1)
 
 
 def unconditional_axis_ratio(

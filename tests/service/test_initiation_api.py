@@ -149,7 +149,10 @@ def test_bad_scenarios_are_named(client):
     invalid_input(
         post("/v1/initiation/simulate", scenario={"clutter": 90000, "scans": 2}), "scenario"
     )
-    invalid_input(post("/v1/initiation/evaluate", runs=10_000, scenario={"clutter": 250}), "runs")
+    # the default cap on an evaluation's work, then the schema's ceiling on its plots
+    work = "runs x scans x plots"
+    invalid_input(post("/v1/initiation/evaluate", runs=10_000, scenario={"clutter": 250}), work)
+    invalid_input(post("/v1/initiation/evaluate", runs=10_000, scenario={"clutter": 2500}), "runs")
     invalid_input(post("/v1/initiation/evaluate", config={"K_A": 0.5}), "config.K_A")
 
 
@@ -240,7 +243,7 @@ def test_bad_sweeps_are_named(client):
     )
     # the work limit counts every evaluation of the sweep
     many = {"parameter": "gate_P_G", "values": [0.9] * 9}
-    invalid_input(post(runs=6000, scenario={"clutter": 20}, sweep=many), "runs")
+    invalid_input(post(runs=600, scenario={"clutter": 20}, sweep=many), "runs x scans x plots")
     invalid_input(post(config={"confirmation": "score"}), "config.clutter_density")
 
 

@@ -5,6 +5,7 @@ The refusals are tested with the operation's handler replaced by one that fails 
 if it runs: the cap must answer before any work, and on a build without the cap the
 request would reach the handler (a 500 here, seconds and gigabytes for real)."""
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -18,11 +19,21 @@ from plotgate.service.schemas import (
     ENDPOINTS,
     MAX_GATE_CLUTTER,
     MEMORY_BUDGET_MIB,
+    RUN_COST,
     Endpoint,
     EvaluateRequest,
+    GateAnalysisRequest,
+    GateDesignRequest,
+    GateProbabilityCurveRequest,
+    GateProbabilityRequest,
     IdentifyPictureRequest,
     IdentifySimulateRequest,
+    InitiationSettings,
+    Mark,
     NoiseRequest,
+    RingRegion,
+    ScenarioIn,
+    SpeedPrior,
     StudyRequest,
     work_caps,
 )
@@ -97,21 +108,68 @@ def test_clutter_in_a_region_of_no_area_is_refused():
     EvaluateRequest.model_validate({"scenario": {"clutter": 0.0, "region": [0, 0, 0, 1e4]}})
 
 
+def _eccentric(model: type, v: int, **fields: Any) -> Any:
+    """An unconditional request of ``model`` whose B has axis ratio v - 0.5 (rounded up: v)."""
+    cross = 50_000.0 * math.radians(0.5)
+    mark = Mark(r=50_000.0, sigma_r=cross / (v - 0.5), sigma_az_deg=0.5)
+    return model.model_construct(mark=mark, prior=SpeedPrior(v_max=500.0), **fields)
+
+
+def _tracked_study(v: int) -> Any:
+    """A study with tracks of prefix work v: v / 10^4 runs x 100 samples^2 x 1 receiver."""
+    return StudyRequest.model_construct(
+        runs=v // 10_000, sample_times=[0.0] * 100, receivers=[None], tracks=True
+    )
+
+
+def _curve(ratio: int, points: int) -> Any:
+    """An unconditional ring-gate curve of ``points`` values at axis ratio ``ratio``."""
+    ring = RingRegion(kind="ring", v_max=1.0)
+    return _eccentric(
+        GateProbabilityCurveRequest, ratio, against="speed", values=[1.0] * points, gate=ring
+    )
+
+
 SIZED: dict[tuple[str, str], Callable[[int], Any]] = {
+    ("gates.probability", "mark.axis_ratio"): lambda v: _eccentric(GateProbabilityRequest, v),
+    ("gates.analysis", "mark.axis_ratio"): lambda v: _eccentric(GateAnalysisRequest, v),
+    ("gates.design", "mark.axis_ratio"): lambda v: _eccentric(GateDesignRequest, v),
+    ("gates.probability_curve", "mark.axis_ratio"): lambda v: _curve(v, 1),
+    ("gates.probability_curve", "values x gate cost"): lambda v: _curve(2, v),
     ("identification.picture", "passive_deg x active_deg"): lambda v: (
         IdentifyPictureRequest.model_construct(passive_deg=[[0.0, 1.0]] * v, active_deg=[[0.0]])
     ),
     ("solves.study", "runs x sample_times x receivers"): lambda v: StudyRequest.model_construct(
         runs=v, sample_times=[0.0], receivers=[None]
     ),
+    ("solves.study", "runs x sample_times x receivers^2"): lambda v: StudyRequest.model_construct(
+        runs=v // 36, sample_times=[0.0], receivers=[None] * 6
+    ),
+    ("solves.study", "runs x sample_times^2 x receivers^2"): _tracked_study,
     ("solves.noise", "sample_times x window"): lambda v: NoiseRequest.model_construct(
         sample_times=[0.0] * v, window=1
     ),
     ("identification.simulate", "runs x (n + m)"): lambda v: (
         IdentifySimulateRequest.model_construct(runs=v, n=1, m=0)
     ),
+    ("initiation.evaluate", "runs x scans x plots"): lambda v: EvaluateRequest.model_construct(
+        config=InitiationSettings(),
+        sweep=None,
+        runs=1,
+        scenario=ScenarioIn.model_construct(
+            scans=1, clutter=0.0, targets=[None] * (v - RUN_COST), region=(0.0, 1.0, 0.0, 1.0)
+        ),
+    ),
 }
-"""A request (unvalidated: only its sizes are read) whose work size is exactly v."""
+"""A request (unvalidated: only its sizes are read) whose work size is exactly v (a multiple
+of :data:`STEP` where it has one), every other size within its cap."""
+
+STEP = {
+    ("solves.study", "runs x sample_times^2 x receivers^2"): 10_000,
+    ("solves.study", "runs x sample_times x receivers^2"): 36,
+}
+"""The sizes only multiples of a step reach within the other caps (runs x 100 samples^2,
+runs x 6 receivers^2)."""
 
 DEFAULT_CAPS = [(name, size, cap) for name, e in ENDPOINTS.items() for size, cap in e.caps.items()]
 
@@ -125,11 +183,12 @@ def test_a_default_cap_takes_its_value_and_refuses_one_more(name, size, cap):
     op = OPERATIONS[name]
     caps = Settings(record=False).limits[name]
     assert caps[size] == cap
+    step = STEP.get((name, size), 1)
     assert over_caps(op, SIZED[name, size](cap), caps) is None
-    problem = over_caps(op, SIZED[name, size](cap + 1), caps)
+    problem = over_caps(op, SIZED[name, size](cap + step), caps)
     assert problem is not None and problem.status == 422
     assert [e.field for e in problem.errors] == [size]
-    assert f"is {cap + 1}; this server allows at most {cap} (the default" in problem.detail
+    assert f"is {cap + step}; this server allows at most {cap} (the default" in problem.detail
 
 
 def test_an_operator_lowers_or_raises_a_default_and_keeps_the_others(tmp_path):
