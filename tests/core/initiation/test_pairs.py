@@ -6,7 +6,12 @@ from scipy import stats
 
 from plotgate.core.initiation import cartesian_scan, polar_scan
 from plotgate.core.initiation.filter import predict
-from plotgate.core.initiation.pairs import track_pairs, window_coefficients
+from plotgate.core.initiation.pairs import (
+    Prediction,
+    ellipse_pairs,
+    window_coefficients,
+    window_pairs,
+)
 from plotgate.core.initiation.search import PlotIndex
 
 
@@ -18,7 +23,7 @@ def test_candidate_search_finds_exactly_the_brute_force_gate_members():
     tr = state.tracks
     dt = s.t - tr.t
     xp, Pp = predict(tr.x, tr.P, dt, CONFIG.q)
-    rows, cols, stat = track_pairs(tr, xp, Pp, dt, s, PlotIndex(s, None), CONFIG)
+    _, cols, stat = ellipse_pairs(tr, Prediction(dt, xp, Pp), s, PlotIndex(s, None), CONFIG)
     nu = s.z - xp[0, :2]
     rho = np.einsum("ni,ij,nj->n", nu, np.linalg.inv(Pp[0, :2, :2] + R4), nu)
     brute = np.flatnonzero(rho <= stats.chi2.ppf(CONFIG.gate_P_G, 2))
@@ -40,7 +45,8 @@ def test_polar_candidate_search_finds_exactly_the_window_members_across_north():
     tr = state.tracks
     dt = s.t - tr.t
     xp, Pp = predict(tr.x, tr.P, dt, POLAR.q)
-    rows, cols, _ = track_pairs(tr, xp, Pp, dt, s, PlotIndex(s, window_coefficients(POLAR)), POLAR)
+    index = PlotIndex(s, window_coefficients(POLAR))
+    _, cols, _ = window_pairs(tr, Prediction(dt, xp, Pp), s, index, POLAR)
     k = np.sqrt(stats.chi2.ppf(POLAR.gate_P_G, 2))
     r_pred = 10020.0
     W_R = k * np.sqrt(SR**2 + 4 * SR**2 + SR**2)
