@@ -32,6 +32,7 @@ from plotgate.core.initiation.capture import (
     capture_gate,
     capture_window,
 )
+from plotgate.core.initiation.checks import acceleration_ok, every_track
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.confirmation import Confirmation, confirmation_rule
 from plotgate.core.initiation.filter import alpha_beta_gain, kalman_gain
@@ -47,7 +48,7 @@ from plotgate.core.initiation.scan import Scan
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.state import Tracks
 
-__all__ = ["Rules", "acceleration_ok", "every_track", "select_rules"]
+__all__ = ["Rules", "select_rules"]
 
 Gain = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 """A filter gain (u, 4, 2) from the updated tracks' plot counts (this plot included),
@@ -84,23 +85,6 @@ class Rules:
     gain: Gain
     confirmation: Confirmation
     plausible: Callable[[Tracks], np.ndarray]
-
-
-def acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
-    """Mu et al.: |second divided difference of range| <= K_A a_max for every plot triple."""
-    r, t = tracks.ranges, tracks.times
-    r1, r2, r3 = r[:, :-2], r[:, 1:-1], r[:, 2:]
-    t1, t2, t3 = t[:, :-2], t[:, 1:-1], t[:, 2:]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dd = 2.0 * ((r3 - r2) / (t3 - t2) - (r2 - r1) / (t2 - t1)) / (t3 - t1)
-    bad = np.isfinite(dd) & (np.abs(dd) > config.K_A * config.a_max)
-    ok: np.ndarray = ~bad.any(axis=1)
-    return ok
-
-
-def every_track(tracks: Tracks) -> np.ndarray:
-    """Cartesian mode checks nothing before confirmation."""
-    return np.ones(tracks.size, dtype=bool)
 
 
 def _branch(pairs: Pairs) -> Pairs:

@@ -266,7 +266,10 @@ class PlotIndex:
         self.scan = scan
         self.windows = windows
         self.points = np.ascontiguousarray(scan.z, dtype=float)
-        self.by_range = np.argsort(scan.r, kind="stable").astype(np.int64)
+        # polar windows read the plots in range order (ties in any order: a window's
+        # plots are sorted by index once found)
+        polar = windows is not None
+        self.by_range = np.argsort(scan.r if polar else scan.r[:0]).astype(np.int64)
         self.r_sorted = np.ascontiguousarray(scan.r[self.by_range], dtype=float)
         self.az_sorted = np.ascontiguousarray(scan.az[self.by_range], dtype=float)
 
