@@ -20,7 +20,13 @@ from scipy.spatial import cKDTree
 from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.scan import Scan
-from plotgate.core.initiation.windows import in_windows, range_bands, window_counts, window_fill
+from plotgate.core.initiation.windows import (
+    in_windows,
+    range_bands,
+    sort_run,
+    window_counts,
+    window_fill,
+)
 
 __all__ = ["BAND_WORK", "MAX_CANDIDATES", "PlotIndex", "near_pairs", "near_pairs_reference"]
 
@@ -165,12 +171,7 @@ def _grid_fill(
                 if _near(points[order[k]], centres[q], radius[q], chebyshev):
                     found[at] = order[k]
                     at += 1
-        for i in range(offsets[q] + 1, at):  # insertion sort: a query has a few plots
-            plot, k = found[i], i - 1
-            while k >= offsets[q] and found[k] > plot:
-                found[k + 1] = found[k]
-                k -= 1
-            found[k + 1] = plot
+        sort_run(found, offsets[q], at)  # a query has a few plots
     return found
 
 

@@ -24,6 +24,7 @@ __all__ = [
     "in_windows",
     "near_windows_reference",
     "range_bands",
+    "sort_run",
     "window_counts",
     "window_fill",
 ]
@@ -69,6 +70,17 @@ def _inside(r_p: float, az_p: float, r: float, az: float, reach_r: float, reach_
     return bool(d_az <= reach_az and abs(r_p - r) <= reach_r)
 
 
+@kernel("void(int64[:], int64, int64)")
+def sort_run(found: np.ndarray, start: int, stop: int) -> None:
+    """Insertion sort of found[start:stop] (a few plots)."""
+    for i in range(start + 1, stop):
+        plot, j = found[i], i - 1
+        while j >= start and found[j] > plot:
+            found[j + 1] = found[j]
+            j -= 1
+        found[j + 1] = plot
+
+
 @kernel(f"int64[:]({_BANDS})")
 def window_counts(
     r_sorted: np.ndarray,
@@ -110,12 +122,7 @@ def window_fill(
             if _inside(r_sorted[k], az_sorted[k], r[q], az[q], reach_r[q], reach_az[q]):
                 found[at] = order[k]
                 at += 1
-        for i in range(offsets[q] + 1, at):  # insertion sort: a window has a few plots
-            plot, j = found[i], i - 1
-            while j >= offsets[q] and found[j] > plot:
-                found[j + 1] = found[j]
-                j -= 1
-            found[j + 1] = plot
+        sort_run(found, offsets[q], at)  # a window has a few plots
     return found
 
 

@@ -4,6 +4,7 @@ plot index's two paths for polar windows (the range bands and the grid) against 
 import numpy as np
 import pytest
 
+from plotgate.core.errors import ParameterError
 from plotgate.core.initiation import polar_scan, search
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.windows import (
@@ -95,3 +96,16 @@ def test_the_grid_answers_as_the_bands_when_the_bands_are_too_full(seed, monkeyp
     assert bands[0].size > 100
     np.testing.assert_array_equal(bands[0], grid[0])
     np.testing.assert_array_equal(bands[1], grid[1])
+
+
+def test_too_many_pairs_are_counted_and_refused(monkeypatch):
+    rng = np.random.default_rng(4)
+    n = 400
+    az = rng.uniform(-0.1, 0.1, n)
+    scan = polar_scan(0.0, np.full(n, 5000.0), az, np.full(n, 5.0), np.full(n, 3e-3))
+    index = PlotIndex(scan, (3.0, 3.0))
+    queries = (np.full(3, 5000.0), np.zeros(3), np.full(3, 10.0), np.full(3, 0.2))
+    assert index.window(*queries)[0].size == 3 * n
+    monkeypatch.setattr(search, "MAX_CANDIDATES", 3 * n - 1)
+    with pytest.raises(ParameterError, match=f"{3 * n} candidate"):
+        index.window(*queries)
