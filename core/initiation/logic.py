@@ -316,15 +316,16 @@ def _confirm(
 
 
 def _dropped(tracks: Tracks, checks: dict[str, np.ndarray], k: int, rules: Rules) -> np.ndarray:
-    """Stage 6: why each track is dropped ("" for a track kept): l misses in a row, the
-    confirmation rule's lapse (k out of reach within m, or the score at Wald's deletion
-    threshold), or stage 5's checks; the first reason of :data:`DROP_REASONS` counts."""
+    """Stage 6: why each track is dropped, as an index into :data:`DROP_REASONS`
+    (len(DROP_REASONS) for a track kept): l misses in a row, the confirmation rule's
+    lapse (k out of reach within m, or the score at Wald's deletion threshold), or stage
+    5's checks; the first reason of :data:`DROP_REASONS` counts."""
     lapse, lapsed = rules.confirmation.lapsed(tracks, k)
     causes = {"misses": tracks.misses >= rules.config.drop_misses, lapse: lapsed, **checks}
-    why = np.full(tracks.size, "", dtype=object)
-    for reason in DROP_REASONS:
-        if reason in causes:
-            why[(why == "") & causes[reason]] = reason
+    why = np.full(tracks.size, len(DROP_REASONS))
+    for code in reversed(range(len(DROP_REASONS))):  # the first reason written last
+        if DROP_REASONS[code] in causes:
+            why[causes[DROP_REASONS[code]]] = code
     return why
 
 
@@ -391,7 +392,7 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
     owners = _plot_owners(state.tracks, association, born, captured, n)
     confirmed, newly, checks = _confirm(updated.join(born), k, rules)
     why = _dropped(confirmed, checks, k, rules)
-    gone = why != ""
+    gone = why < len(DROP_REASONS)
     unused = owners < 0
     report = ScanReport(
         scan=k,
@@ -402,7 +403,7 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
         started=born.id,
         confirmed=confirmed.id[newly],
         dropped=confirmed.id[gone],
-        reasons=why[gone].astype(str),
+        reasons=np.array(DROP_REASONS)[why[gone]],
     )
     return InitiationState(
         version=state.version,

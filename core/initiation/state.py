@@ -59,8 +59,10 @@ class Rows:
         return int(getattr(self, fields(self)[0].name).shape[0])
 
     def take(self, rows: np.ndarray) -> Self:
-        """The rows at ``rows`` (indices or a boolean mask)."""
-        return type(self)(*(getattr(self, f.name)[rows] for f in fields(self)))
+        """The rows at ``rows`` (indices or a boolean mask; a mask is turned into indices
+        once, not once per array)."""
+        index = np.flatnonzero(rows) if rows.dtype == bool else rows
+        return type(self)(*(np.take(getattr(self, f.name), index, axis=0) for f in fields(self)))
 
     def join(self, other: Self) -> Self:
         """These rows followed by ``other``'s."""
