@@ -17,7 +17,7 @@ Run from the repository root::
 2. Time per scan against clutter plots per scan, 10^2 to 10^5, at the paper's clutter
    density (250 per 15 km square): the square grows with the plot count, so the plots
    near each gate stay the same and the growth shows the cost of the machinery itself
-   (a cKDTree per scan, candidate pairs, capture gates). Cartesian plots with a fixed 20 m
+   (the candidate search, candidate pairs, capture gates). Cartesian plots with a fixed 20 m
    sigma (the logic method), and polar plots about a radar at the centre (the polar
    method, whose windows grow with range), and the logic method under score
    confirmation (:data:`SCORE`, the same plots). Mean of scans 2-5 of 5 (scan 1 only

@@ -4,8 +4,10 @@ textbook).
 :mod:`.scan` builds a scan of Cartesian or polar plots, :mod:`.config` holds the rules,
 :mod:`.state` the versioned state between calls (:mod:`.state_json` reads one back
 and checks it), :mod:`.logic` the initiation itself (:mod:`.filter` its track filter,
-:mod:`.search` its candidate search, :mod:`.pairs` its gates on the candidates,
-:mod:`.assignment` and :mod:`.sharing` its association and plot-reuse rules),
+:mod:`.search` its candidate search, :mod:`.pairs` the track gates on the candidates,
+:mod:`.capture` the capture gates, :mod:`.confirmation` the k/m and score rules,
+:mod:`.rules` the choice of each stage's function by the settings, :mod:`.assignment`
+and :mod:`.sharing` its association and plot-reuse rules),
 :mod:`.simulate` the seeded scenario simulator and :mod:`.evaluate` the Monte Carlo
 evaluation (targets initiated, false tracks, time to confirmation).
 """

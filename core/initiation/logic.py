@@ -40,9 +40,19 @@ Each scan, in this order:
 7. Plots of the scan used by no track and captured by no initiator become initiators;
    initiators past their window expire.
 
+Each stage is one function below (:func:`_predicted`, :func:`_associate` and
+:func:`_updated` for 1-3, :func:`_capture` and :func:`_born` for 4, :func:`_confirm` for
+5, :func:`_dropped` for 6, :func:`_initiators` for 7); the choices of the settings are
+made once, by :func:`~plotgate.core.initiation.rules.select_rules`, before the first
+scan. An empty scan associates and captures nothing: every track misses, no initiator
+is captured. A track dropped for several reasons reports the first of
+:data:`DROP_REASONS`.
+
 The filter is :mod:`plotgate.core.initiation.filter`, the candidate search
-:mod:`plotgate.core.initiation.search` and the gates on its candidates
-:mod:`plotgate.core.initiation.pairs`. Every scan counts as an opportunity for every track
+:mod:`plotgate.core.initiation.search`, the track gates on its candidates
+:mod:`plotgate.core.initiation.pairs`, the capture gates
+:mod:`plotgate.core.initiation.capture` and the confirmation rules
+:mod:`plotgate.core.initiation.confirmation`. Every scan counts as an opportunity for every track
 (the scans are one surveillance picture); polar mode measures ranges and azimuths about
 each plot's own sensor, so a track should be fed by one sensor.
 """
@@ -51,32 +61,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.assignment import one_to_one
+from plotgate.core.initiation.capture import capture_pairs
 from plotgate.core.initiation.config import InitiationConfig
-from plotgate.core.initiation.filter import (
-    SPEED_SIGMAS,
-    alpha_beta_gain,
-    kalman_gain,
-    one_point,
-    predict,
-    speed_excess,
-    two_point,
-    update,
-)
-from plotgate.core.initiation.pairs import capture_pairs, nearest, track_pairs, window_coefficients
+from plotgate.core.initiation.filter import SPEED_SIGMAS, predict, speed_excess, update
+from plotgate.core.initiation.pairs import Pairs, Prediction, nearest
+from plotgate.core.initiation.rules import Rules, select_rules
 from plotgate.core.initiation.scan import Scan
-from plotgate.core.initiation.score import (
-    capture_score,
-    first_plot_score,
-    log_clutter_density,
-    miss_score,
-    update_score,
-    wald_thresholds,
-)
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.sharing import keep_greedy, shares_two
 from plotgate.core.initiation.state import (
@@ -87,7 +83,6 @@ from plotgate.core.initiation.state import (
     Tracks,
     empty_state,
 )
-from plotgate.core.sym2 import sym2
 
 __all__ = ["DROP_REASONS", "ScanReport", "initiate"]
 
@@ -133,261 +128,282 @@ class ScanReport:
     reasons: np.ndarray
 
 
-# ------------------------------------------------------------------ track bookkeeping
+# ------------------------------------------------------------------ the stages
 
 
-def _shift_in(old: np.ndarray, new: np.ndarray, hit: np.ndarray) -> np.ndarray:
-    """Append new[i] to row i of a history (dropping the oldest) where hit[i]."""
-    shifted = np.concatenate([old[:, 1:], new[:, None]], axis=1)
-    return np.where(hit[:, None], shifted, old)
+class _Association(NamedTuple):
+    """Stages 2-3: plot (m,) each track took (-1 none) and its gate statistic (0 none);
+    taken (n,) the plots confirmed tracks took (no one else may use them)."""
+
+    plot: np.ndarray
+    statistic: np.ndarray
+    taken: np.ndarray
 
 
-def _acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
-    """Mu et al.: |second divided difference of range| <= K_A a_max for every plot triple."""
-    r, t = tracks.ranges, tracks.times
-    r1, r2, r3 = r[:, :-2], r[:, 1:-1], r[:, 2:]
-    t1, t2, t3 = t[:, :-2], t[:, 1:-1], t[:, 2:]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dd = 2.0 * ((r3 - r2) / (t3 - t2) - (r2 - r1) / (t2 - t1)) / (t3 - t1)
-    bad = np.isfinite(dd) & (np.abs(dd) > config.K_A * config.a_max)
-    ok: np.ndarray = ~bad.any(axis=1)
-    return ok
+def _no_pairs() -> Pairs:
+    none = np.zeros(0, dtype=np.int64)
+    return Pairs(none, none, np.zeros(0))
 
 
-def _new_tracks(
-    ini: Initiators,
-    rows: np.ndarray,
-    cols: np.ndarray,
+def _predicted(tracks: Tracks, t: float, config: InitiationConfig) -> Prediction:
+    """Stage 1: every track predicted to the scan time t (constant velocity, white
+    acceleration q; the alpha-beta smoother's covariance follows the same model)."""
+    dt = t - tracks.t
+    x, P = predict(tracks.x, tracks.P, dt, config.q)
+    return Prediction(dt, x, P)
+
+
+def _associate(
+    tracks: Tracks, prediction: Prediction, scan: Scan, index: PlotIndex, rules: Rules
+) -> _Association:
+    """Stages 2-3: confirmed tracks take plots one to one (the least total statistic);
+    tentative tracks take the nearest plot in their gate that no confirmed track took
+    (several may share one)."""
+    plot = np.full(tracks.size, -1, dtype=np.int64)
+    statistic = np.zeros(tracks.size)
+    taken = np.zeros(scan.size, dtype=bool)
+    if scan.size == 0:
+        return _Association(plot, statistic, taken)
+    gated = rules.track_pairs(tracks, prediction, scan, index)
+    by_confirmed = tracks.confirmed[gated.row]
+    owned = Pairs(*one_to_one(*gated.take(by_confirmed)))
+    plot[owned.row], statistic[owned.row], taken[owned.plot] = owned.plot, owned.statistic, True
+    shared = nearest(gated.take(~by_confirmed & ~taken[gated.plot]))
+    plot[shared.row], statistic[shared.row] = shared.plot, shared.statistic
+    return _Association(plot, statistic, taken)
+
+
+def _shift_in(history: np.ndarray, hit: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """The history (m, H) with new[i] appended to the i-th hit row (its oldest dropped)."""
+    shifted = history.copy()
+    shifted[hit] = np.concatenate([history[hit, 1:], new[:, None]], axis=1)
+    return shifted
+
+
+def _put(values: np.ndarray, hit: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """values with its hit rows replaced by new."""
+    out = values.copy()
+    out[hit] = new
+    return out
+
+
+def _updated(
+    tracks: Tracks,
+    prediction: Prediction,
+    association: _Association,
     scan: Scan,
-    k: int,
     ids: np.ndarray,
-    first_id: int,
-    config: InitiationConfig,
+    rules: Rules,
 ) -> Tracks:
-    """Tentative tracks from (initiator, plot) pairs of scan number k."""
-    m, h = rows.size, config.history
-    tau = scan.t - ini.t[rows]
-    if config.confirmation == "score":  # the speed bound as a prior, updated with z2
-        x1, P1 = one_point(ini.z[rows], ini.R[rows], config.v_max)
-        xp, Pp = predict(x1, P1, tau, config.q)
-        R2 = scan.R[cols]
-        S = Pp[:, :2, :2] + R2
-        nu = scan.z[cols] - xp[:, :2]
-        x, P = update(xp, Pp, scan.z[cols], R2, kalman_gain(Pp, R2))
-        gaps = k - ini.scan[rows] - 1
-        density = log_clutter_density(config, scan.size)
-        score = ini.score[rows] + capture_score(nu, S, gaps, config, density)
-    else:
-        x, P = two_point(ini.z[rows], ini.R[rows], scan.z[cols], scan.R[cols], tau)
-        score = np.zeros(m)
-
-    def history(first: np.ndarray, second: np.ndarray, fill: float) -> np.ndarray:
-        out = np.full((m, h), fill, dtype=np.asarray(first).dtype)
-        out[:, -2], out[:, -1] = first, second
-        return out
-
+    """The tracks after stages 1-3: each predicted to the scan, updated with the plot it
+    took (the rules' gain, the covariance in Joseph form), its counts, histories, last
+    plot and score moved on; a track that took none keeps its prediction and counts a
+    miss."""
+    hit = association.plot >= 0
+    plot = association.plot[hit]
+    x, P = prediction.x.copy(), prediction.P.copy()
+    if plot.size:
+        R = scan.R[plot]
+        K = rules.gain(tracks.n[hit] + 1.0, prediction.dt[hit], prediction.P[hit], R)
+        x[hit], P[hit] = update(prediction.x[hit], prediction.P[hit], scan.z[plot], R, K)
     return Tracks(
-        id=first_id + np.arange(m, dtype=np.int64),
-        confirmed=np.zeros(m, dtype=bool),
+        id=tracks.id,
+        confirmed=tracks.confirmed,
         x=x,
         P=P,
-        t=np.full(m, scan.t),
-        n=np.full(m, 2, dtype=np.int64),
-        first_scan=ini.scan[rows],
-        confirmed_scan=np.full(m, -1, dtype=np.int64),
-        misses=np.zeros(m, dtype=np.int64),
-        cost=np.zeros(m),
-        plots=history(ini.plot[rows], ids[cols], -1),
-        ranges=history(ini.r[rows], scan.r[cols], np.nan),
-        times=history(ini.t[rows], np.full(m, scan.t), np.nan),
-        sigma_r=history(ini.sigma_r[rows], scan.sigma_r[cols], np.nan),
-        az=scan.az[cols],
-        sigma_az=scan.sigma_az[cols],
-        sensor=scan.sensor[cols],
+        t=np.full(tracks.size, scan.t),
+        n=tracks.n + hit,
+        first_scan=tracks.first_scan,
+        confirmed_scan=tracks.confirmed_scan,
+        misses=np.where(hit, 0, tracks.misses + 1),
+        cost=tracks.cost + association.statistic,
+        plots=_shift_in(tracks.plots, hit, ids[plot]),
+        ranges=_shift_in(tracks.ranges, hit, scan.r[plot]),
+        times=_shift_in(tracks.times, hit, np.full(plot.size, scan.t)),
+        sigma_r=_shift_in(tracks.sigma_r, hit, scan.sigma_r[plot]),
+        az=_put(tracks.az, hit, scan.az[plot]),
+        sigma_az=_put(tracks.sigma_az, hit, scan.sigma_az[plot]),
+        sensor=_put(tracks.sensor, hit, scan.sensor[plot]),
+        score=rules.confirmation.rescore(tracks, prediction, association.plot, scan),
+    )
+
+
+def _capture(
+    ini: Initiators, scan: Scan, index: PlotIndex, taken: np.ndarray, k: int, rules: Rules
+) -> Pairs:
+    """Stage 4: (initiator, plot) pairs that start tracks: the plots no confirmed track
+    took inside the capture gates of the initiators within their window, all of them
+    (branch) or each initiator's nearest."""
+    if scan.size == 0:
+        return _no_pairs()
+    return rules.choose(capture_pairs(ini, scan, index, ~taken, k, rules.capture, rules.window))
+
+
+def _history(first: np.ndarray, second: np.ndarray, fill: float, width: int) -> np.ndarray:
+    """Rows of a history (c, width): fill, then the first and the second plot's value."""
+    rows = np.full((first.shape[0], width), fill, dtype=np.asarray(first).dtype)
+    rows[:, -2], rows[:, -1] = first, second
+    return rows
+
+
+def _born(
+    ini: Initiators,
+    captured: Pairs,
+    scan: Scan,
+    ids: np.ndarray,
+    k: int,
+    first_id: int,
+    rules: Rules,
+) -> Tracks:
+    """Stage 4: a tentative track per captured pair of scan number k, in the
+    confirmation rule's starting state."""
+    first, plot = captured.row, captured.plot
+    c, H = first.size, rules.config.history
+    x, P, score = rules.confirmation.start(ini, captured, scan, k)
+    return Tracks(
+        id=first_id + np.arange(c, dtype=np.int64),
+        confirmed=np.zeros(c, dtype=bool),
+        x=x,
+        P=P,
+        t=np.full(c, scan.t),
+        n=np.full(c, 2, dtype=np.int64),
+        first_scan=ini.scan[first],
+        confirmed_scan=np.full(c, -1, dtype=np.int64),
+        misses=np.zeros(c, dtype=np.int64),
+        cost=np.zeros(c),
+        plots=_history(ini.plot[first], ids[plot], -1, H),
+        ranges=_history(ini.r[first], scan.r[plot], np.nan, H),
+        times=_history(ini.t[first], np.full(c, scan.t), np.nan, H),
+        sigma_r=_history(ini.sigma_r[first], scan.sigma_r[plot], np.nan, H),
+        az=scan.az[plot],
+        sigma_az=scan.sigma_az[plot],
+        sensor=scan.sensor[plot],
         score=score,
     )
+
+
+def _confirm(
+    tracks: Tracks, k: int, rules: Rules
+) -> tuple[Tracks, np.ndarray, dict[str, np.ndarray]]:
+    """Stage 5: the ready tentative tracks confirm, the better of two sharing two or more
+    plots first; tentative tracks sharing two or more plots with a confirmed one are
+    pruned.
+
+    A ready track that fails the mode's check (polar: the acceleration check) is dropped,
+    and so is any track faster than v_max allows (confirmed or not: neither confirms nor
+    prunes, and no state carries it; a state with one is refused as tampered). Returns
+    the tracks with their new confirmations, the mask of the newly confirmed, and the
+    masks of those checks' drops by reason.
+    """
+    ready = rules.confirmation.ready(tracks, k)
+    jerky = ready & ~rules.plausible(tracks)
+    fast = speed_excess(tracks.x, tracks.P, rules.config.v_max) > SPEED_SIGMAS
+    candidates = np.flatnonzero(ready & ~jerky & ~fast)
+    merit = rules.confirmation.merit(tracks, candidates)
+    order = candidates[np.argsort(merit, kind="stable")]
+    winners = order[keep_greedy(tracks.plots[order])]
+    confirmed = tracks.confirmed.copy()
+    confirmed[winners] = True
+    newly = np.zeros(tracks.size, dtype=bool)
+    newly[winners] = True
+    tentative = np.flatnonzero(~confirmed)
+    pruned = np.zeros(tracks.size, dtype=bool)
+    pruned[tentative] = shares_two(tracks.plots[tentative], tracks.plots[confirmed & ~fast])
+    after = replace(
+        tracks, confirmed=confirmed, confirmed_scan=np.where(newly, k, tracks.confirmed_scan)
+    )
+    return after, newly, {"acceleration": jerky, "speed": fast, "pruned": pruned}
+
+
+def _dropped(tracks: Tracks, checks: dict[str, np.ndarray], k: int, rules: Rules) -> np.ndarray:
+    """Stage 6: why each track is dropped, as an index into :data:`DROP_REASONS`
+    (len(DROP_REASONS) for a track kept): l misses in a row, the confirmation rule's
+    lapse (k out of reach within m, or the score at Wald's deletion threshold), or stage
+    5's checks; the first reason of :data:`DROP_REASONS` counts."""
+    lapse, lapsed = rules.confirmation.lapsed(tracks, k)
+    causes = {"misses": tracks.misses >= rules.config.drop_misses, lapse: lapsed, **checks}
+    why = np.full(tracks.size, len(DROP_REASONS))
+    for code in reversed(range(len(DROP_REASONS))):  # the first reason written last
+        if DROP_REASONS[code] in causes:
+            why[causes[DROP_REASONS[code]]] = code
+    return why
+
+
+def _initiators(
+    ini: Initiators,
+    captured: Pairs,
+    scan: Scan,
+    ids: np.ndarray,
+    unused: np.ndarray,
+    k: int,
+    rules: Rules,
+) -> Initiators:
+    """Stage 7: the initiators still within their window and not captured, then the
+    unused plots of scan number k, each a new initiator."""
+    alive = rules.window.outlives(ini, k, scan.t)
+    alive[captured.row] = False
+    n = int(unused.sum())
+    new = Initiators(
+        plot=ids[unused],
+        scan=np.full(n, k, dtype=np.int64),
+        t=np.full(n, scan.t),
+        z=scan.z[unused],
+        R=scan.R[unused],
+        sensor=scan.sensor[unused],
+        r=scan.r[unused],
+        az=scan.az[unused],
+        sigma_r=scan.sigma_r[unused],
+        sigma_az=scan.sigma_az[unused],
+        score=np.full(n, rules.confirmation.initiator_score(scan.size)),
+    )
+    return ini.take(alive).join(new)
 
 
 # ------------------------------------------------------------------ one scan
 
 
-def _step(
-    state: InitiationState, scan: Scan, config: InitiationConfig
-) -> tuple[InitiationState, ScanReport]:
+def _plot_owners(
+    tracks: Tracks, association: _Association, born: Tracks, captured: Pairs, n: int
+) -> np.ndarray:
+    """Per plot of the scan: the track it updated or started (a confirmed one first, then
+    a tentative one, then a new one), -1 for none."""
+    hit = association.plot >= 0
+    owner = np.full(n, -1, dtype=np.int64)
+    tentative, confirmed = hit & ~tracks.confirmed, hit & tracks.confirmed
+    owner[association.plot[tentative]] = tracks.id[tentative]
+    owner[association.plot[confirmed]] = tracks.id[confirmed]
+    unset = owner[captured.plot] < 0
+    owner[captured.plot[unset]] = born.id[unset]
+    return owner
+
+
+def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationState, ScanReport]:
+    """One scan: the stages in order (the module's docstring)."""
     k, n = state.scans, scan.size
     if n > PLOT_STRIDE:
         raise ParameterError("scans", f"a scan may hold at most {PLOT_STRIDE} plots, got {n}")
     ids = k * PLOT_STRIDE + np.arange(n, dtype=np.int64)
-    index = PlotIndex(scan, window_coefficients(config) if config.mode == "polar" else None)
-    tracks = state.tracks
-    m = tracks.size
-
-    # 1-3: predict and associate
-    dt = scan.t - tracks.t
-    xp, Pp = predict(tracks.x, tracks.P, dt, config.q)
-    assoc = np.full(m, -1, dtype=np.int64)
-    stat = np.zeros(m)
-    used = np.zeros(n, dtype=bool)  # taken by a confirmed track
-    rows, cols, s = track_pairs(tracks, xp, Pp, dt, scan, index, config)
-    conf = tracks.confirmed[rows]
-    a, b, c = one_to_one(rows[conf], cols[conf], s[conf])
-    assoc[a], stat[a], used[b] = b, c, True
-    free = ~conf & ~used[cols]
-    a, b, c = nearest(rows[free], cols[free], s[free])
-    assoc[a], stat[a] = b, c
-    hit = assoc >= 0
-    score = tracks.score
-    if config.confirmation == "score":
-        score = score + np.where(hit, 0.0, miss_score(config))
-        if hit.any():
-            j = assoc[hit]
-            nu = scan.z[j] - xp[hit, :2]
-            S = sym2(Pp[hit, :2, :2] + scan.R[j])
-            density = log_clutter_density(config, n)
-            score[hit] += update_score(nu[:, 0], nu[:, 1], S, config, density)
-    x, P = xp, Pp
-    if hit.any():
-        j = assoc[hit]
-        x, P = xp.copy(), Pp.copy()
-        if config.filter == "kalman":
-            K = kalman_gain(Pp[hit], scan.R[j])
-        else:
-            K = alpha_beta_gain(tracks.n[hit] + 1.0, dt[hit], config.alpha_min, config.beta_min)
-        x[hit], P[hit] = update(xp[hit], Pp[hit], scan.z[j], scan.R[j], K)
-    j = np.maximum(assoc, 0)
-    tracks = Tracks(
-        id=tracks.id,
-        confirmed=tracks.confirmed,
-        x=x,
-        P=P,
-        t=np.full(m, scan.t),
-        n=tracks.n + hit,
-        first_scan=tracks.first_scan,
-        confirmed_scan=tracks.confirmed_scan,
-        misses=np.where(hit, 0, tracks.misses + 1),
-        cost=tracks.cost + stat,
-        plots=_shift_in(tracks.plots, ids[j] if n else assoc, hit),
-        ranges=_shift_in(tracks.ranges, scan.r[j] if n else dt, hit),
-        times=_shift_in(tracks.times, np.full(m, scan.t), hit),
-        sigma_r=_shift_in(tracks.sigma_r, scan.sigma_r[j] if n else dt, hit),
-        az=np.where(hit, scan.az[j] if n else 0.0, tracks.az),
-        sigma_az=np.where(hit, scan.sigma_az[j] if n else 0.0, tracks.sigma_az),
-        sensor=np.where(hit[:, None], scan.sensor[j] if n else 0.0, tracks.sensor),
-        score=score,
-    )
-    by_track = np.full(n, -1, dtype=np.int64)
-    by_track[assoc[hit & ~tracks.confirmed]] = tracks.id[hit & ~tracks.confirmed]
-    by_track[assoc[hit & tracks.confirmed]] = tracks.id[hit & tracks.confirmed]
-
-    # 4: capture
-    ini = state.initiators
-    rows, cols, dist = capture_pairs(ini, scan, index, config, ~used, k)
-    if config.association == "nearest":
-        rows, cols, dist = nearest(rows, cols, dist)
-    born = _new_tracks(ini, rows, cols, scan, k, ids, state.next_track, config)
-    captured = np.zeros(n, dtype=bool)
-    captured[cols] = True
-    unset = by_track[cols] < 0
-    by_track[cols[unset]] = born.id[unset]
-    tracks = tracks.join(born)
-
-    # 5: confirmation, conflicts, pruning
-    age = k - tracks.first_scan + 1
-    confirm_at, delete_at = wald_thresholds(config)
-    if config.confirmation == "score":
-        ready = ~tracks.confirmed & (tracks.score >= confirm_at) & (tracks.n >= config.confirm_k)
-    else:
-        ready = ~tracks.confirmed & (tracks.n >= config.confirm_k) & (age <= config.confirm_m)
-    dropped, reasons = [], []
-    if config.mode == "polar":
-        jerky = ready & ~_acceleration_ok(tracks, config)
-        dropped.append(jerky)
-        reasons.append("acceleration")
-        ready &= ~jerky
-    # faster than v_max allows, confirmed or not: neither confirms nor prunes, and no
-    # state carries it (a state with one is refused as tampered)
-    fast = speed_excess(tracks.x, tracks.P, config.v_max) > SPEED_SIGMAS
-    dropped.append(fast)
-    reasons.append("speed")
-    ready &= ~fast
-    order = np.flatnonzero(ready)
-    if config.confirmation == "score":  # the likelier track first
-        rank = -tracks.score[order]
-    else:  # the smaller mean statistic first
-        rank = tracks.cost[order] / (tracks.n[order] - 1)
-    order = order[np.argsort(rank, kind="stable")]
-    keep = keep_greedy(tracks.plots[order])
-    confirmed = tracks.confirmed.copy()
-    confirmed[order[keep]] = True
-    newly = np.zeros(tracks.size, dtype=bool)
-    newly[order[keep]] = True
-    tentative = np.flatnonzero(~confirmed)
-    pruned = np.zeros(tracks.size, dtype=bool)
-    pruned[tentative] = shares_two(tracks.plots[tentative], tracks.plots[confirmed & ~fast])
-    dropped.append(pruned)
-    reasons.append("pruned")
-    tracks = replace(
-        tracks, confirmed=confirmed, confirmed_scan=np.where(newly, k, tracks.confirmed_scan)
-    )
-
-    # 6: drops
-    if config.confirmation == "score":
-        dropped.append(~confirmed & (tracks.score <= delete_at))
-        reasons.append("score")
-        window = np.zeros(tracks.size, dtype=bool)
-    else:
-        window = ~confirmed & (tracks.n + (config.confirm_m - age) < config.confirm_k)
-    misses = tracks.misses >= config.drop_misses
-    gone = np.zeros(tracks.size, dtype=bool)
-    why = np.empty(tracks.size, dtype=object)
-    for mask, reason in zip(
-        [misses, window, *dropped], ["misses", "window", *reasons], strict=True
-    ):
-        fresh = mask & ~gone
-        why[fresh] = reason
-        gone |= fresh
-
-    # 7: initiators
-    if config.capture_time is None:
-        alive = (k - ini.scan) < config.capture_scans - 1
-    else:
-        alive = scan.t - ini.t < config.capture_time
-    alive[rows] = False  # captured initiators are consumed
-    fresh = ~used & ~captured & (by_track < 0)
-    new_ini = Initiators(
-        plot=ids[fresh],
-        scan=np.full(fresh.sum(), k, dtype=np.int64),
-        t=np.full(fresh.sum(), scan.t),
-        z=scan.z[fresh],
-        R=scan.R[fresh],
-        sensor=scan.sensor[fresh],
-        r=scan.r[fresh],
-        az=scan.az[fresh],
-        sigma_r=scan.sigma_r[fresh],
-        sigma_az=scan.sigma_az[fresh],
-        score=np.full(
-            fresh.sum(),
-            first_plot_score(config, log_clutter_density(config, n))
-            if config.confirmation == "score"
-            else 0.0,
-        ),
-    )
-    initiators = Initiators(
-        *(
-            np.concatenate([getattr(ini, f)[alive], getattr(new_ini, f)])
-            for f in Initiators.__dataclass_fields__
-        )
-    )
+    index = rules.index(scan)
+    prediction = _predicted(state.tracks, scan.t, rules.config)
+    association = _associate(state.tracks, prediction, scan, index, rules)
+    updated = _updated(state.tracks, prediction, association, scan, ids, rules)
+    captured = _capture(state.initiators, scan, index, association.taken, k, rules)
+    born = _born(state.initiators, captured, scan, ids, k, state.next_track, rules)
+    owners = _plot_owners(state.tracks, association, born, captured, n)
+    confirmed, newly, checks = _confirm(updated.join(born), k, rules)
+    why = _dropped(confirmed, checks, k, rules)
+    gone = why < len(DROP_REASONS)
+    unused = owners < 0
     report = ScanReport(
         scan=k,
         t=scan.t,
         plots=n,
-        associated=by_track,
-        initiators=int(fresh.sum()),
+        associated=owners,
+        initiators=int(unused.sum()),
         started=born.id,
-        confirmed=tracks.id[newly],
-        dropped=tracks.id[gone],
-        reasons=why[gone].astype(str),
+        confirmed=confirmed.id[newly],
+        dropped=confirmed.id[gone],
+        reasons=np.array(DROP_REASONS)[why[gone]],
     )
     return InitiationState(
         version=state.version,
@@ -395,8 +411,8 @@ def _step(
         scans=k + 1,
         t=scan.t,
         next_track=state.next_track + born.size,
-        initiators=initiators,
-        tracks=tracks.take(~gone),
+        initiators=_initiators(state.initiators, captured, scan, ids, unused, k, rules),
+        tracks=confirmed.take(~gone),
     ), report
 
 
@@ -464,6 +480,7 @@ def initiate(
             f"would take the session past {MAX_SESSION_SCANS} "
             f"scans (it has {state.scans}); start a new session",
         )
+    rules = select_rules(config)
     reports = []
     last = state.t
     for i, scan in enumerate(scans):
@@ -476,7 +493,7 @@ def initiate(
             )
         try:
             with np.errstate(all="ignore"):  # checked below, on the step's result
-                state, report = _step(state, scan, config)
+                state, report = _step(state, scan, rules)
         except ParameterError as exc:  # a scan's own problem: say which scan
             if exc.field != "scans" or exc.index is not None:
                 raise

@@ -1,32 +1,66 @@
-"""The plots inside each gate: (track, plot) and (initiator, plot) pairs with their statistic.
+"""The plots inside each track's gate: (track, plot) pairs with their statistic.
 
 Candidates come from the scan's :class:`~plotgate.core.initiation.search.PlotIndex`; the
 gates then test them exactly, vectorized over the candidate pairs. A track's gate is the
-chi-square ellipse rho = nu^T S^-1 nu <= gamma (Cartesian) or the polar windows about
-the range extrapolation and the last azimuth (Mu et al., eq. 1-2, with the azimuth
-window of the tangential speed bound, eq. 4); gamma (or K^2) grows by
-gate_widening[misses] after misses in a row (the secondary-processing textbook's narrow,
-medium and wide gates). An initiator's gate is its capture gate (Konovalov's ring,
-expanded or combined gate; Mu et al.'s first-association windows, eq. 3-4).
+chi-square ellipse rho = nu^T S^-1 nu <= gamma (Cartesian, :func:`ellipse_pairs`) or the
+polar windows about the range extrapolation and the last azimuth (Mu et al., eq. 1-2,
+with the azimuth window of the tangential speed bound, eq. 4: :func:`window_pairs`);
+gamma (or K^2) grows by gate_widening[misses] after misses in a row (the
+secondary-processing textbook's narrow, medium and wide gates). The initiators' capture
+gates are :mod:`plotgate.core.initiation.capture`'s.
+
+Every function here takes a scan of at least one plot: initiation handles an empty scan
+before it looks for pairs.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from plotgate.core.frames import wrap_finite
-from plotgate.core.gates.capture import CombinedGate, ExpandedGate, RingGate
-from plotgate.core.gates.polar import FirstAssociationGate, bearing_turn
+from plotgate.core.gates.polar import bearing_turn
 from plotgate.core.gates.results import window_statistic
-from plotgate.core.gates.thresholds import expansion_coefficient, gate_threshold
+from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.gates.tracking import EllipseGate
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.scan import Scan
 from plotgate.core.initiation.search import PlotIndex
-from plotgate.core.initiation.state import Initiators, Tracks
+from plotgate.core.initiation.state import Tracks
 from plotgate.core.sym2 import sym2
 
-__all__ = ["capture_pairs", "nearest", "track_pairs", "widening", "window_coefficients"]
+__all__ = [
+    "Pairs",
+    "Prediction",
+    "ellipse_pairs",
+    "nearest",
+    "widening",
+    "window_coefficients",
+    "window_pairs",
+]
+
+
+class Pairs(NamedTuple):
+    """Candidate pairs that passed a gate: row (track or initiator), plot (index in the
+    scan) and the gate's statistic, (E,) each."""
+
+    row: np.ndarray
+    plot: np.ndarray
+    statistic: np.ndarray
+
+    def take(self, keep: np.ndarray) -> Pairs:
+        """The pairs at ``keep`` (a boolean mask or indices)."""
+        return Pairs(self.row[keep], self.plot[keep], self.statistic[keep])
+
+
+class Prediction(NamedTuple):
+    """Every track predicted to the scan time: dt (m,) s since its last update, x (m, 4)
+    and P (m, 4, 4) the predicted state and covariance."""
+
+    dt: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
 
 
 def window_coefficients(config: InitiationConfig) -> tuple[float, float]:
@@ -45,44 +79,44 @@ def widening(misses: np.ndarray, config: InitiationConfig) -> np.ndarray:
     return factor
 
 
-def track_pairs(
-    tracks: Tracks,
-    xp: np.ndarray,
-    Pp: np.ndarray,
-    dt: np.ndarray,
-    scan: Scan,
-    index: PlotIndex,
-    config: InitiationConfig,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(track, plot, statistic) of the plots inside each track's gate.
+def ellipse_pairs(
+    tracks: Tracks, prediction: Prediction, scan: Scan, index: PlotIndex, config: InitiationConfig
+) -> Pairs:
+    """(track, plot, rho) of the plots inside each track's chi-square gate (Cartesian).
 
-    Cartesian: the chi-square ellipse of :class:`~plotgate.core.gates.tracking.EllipseGate`,
-    rho = nu^T S^-1 nu with S = P_xy + R, against the gate's threshold times the track's
-    widening. Its :meth:`~plotgate.core.gates.tracking.EllipseGate.statistic` is called
-    without the gate's input checks: those refuse an S whose condition number passes
-    10^12, and a session's state may hold covariances (up to 1e100) that initiation gates
-    and answers.
+    The ellipse of :class:`~plotgate.core.gates.tracking.EllipseGate`, rho = nu^T S^-1 nu
+    with S = P_xy + R, against the gate's threshold times the track's widening. Its
+    :meth:`~plotgate.core.gates.tracking.EllipseGate.statistic` is called without the
+    gate's input checks: those refuse an S whose condition number passes 10^12, and a
+    session's state may hold covariances (up to 1e100) that initiation gates and answers.
+    """
+    gate = EllipseGate(config.gate_P_G)
+    gamma = gate.threshold * widening(tracks.misses, config)
+    xy, P_xy = prediction.x[:, :2], prediction.P[:, :2, :2]
+    r_max = np.trace(scan.R, axis1=1, axis2=2).max()
+    radius = np.sqrt(gamma * (np.trace(P_xy, axis1=1, axis2=2) + r_max))
+    track, plot = index.ball(xy, radius)
+    nu = scan.z[plot] - xy[track]
+    rho = gate.statistic(nu[:, 0], nu[:, 1], sym2(P_xy[track] + scan.R[plot]))
+    return Pairs(track, plot, rho).take(rho <= gamma[track])
 
-    Polar: the windows of Mu et al. about the range extrapolated from the last two
-    ranges (its variance carried through the extrapolation) and the last azimuth, the
-    azimuth window grown by the gates' largest bearing change
-    (:func:`~plotgate.core.gates.polar.bearing_turn`, Mu et al., eq. 4), and decided by
-    the polar gates' statistic (:func:`~plotgate.core.gates.results.window_statistic`,
-    at most 1). Their centre and widths are the extrapolation's, which no wire gate
-    kind has: the sector gate's azimuth window is K_az sigma alone (Mu et al., eq. 2).
-    Plots inside one gate are ranked by (d_r / W_R)^2 + (d_az / W_az)^2.
+
+def window_pairs(
+    tracks: Tracks, prediction: Prediction, scan: Scan, index: PlotIndex, config: InitiationConfig
+) -> Pairs:
+    """(track, plot, rank) of the plots inside each track's polar windows (Mu et al.).
+
+    The windows about the range extrapolated from the last two ranges (its variance
+    carried through the extrapolation) and the last azimuth, the azimuth window grown by
+    the gates' largest bearing change (:func:`~plotgate.core.gates.polar.bearing_turn`,
+    Mu et al., eq. 4), and decided by the polar gates' statistic
+    (:func:`~plotgate.core.gates.results.window_statistic`, at most 1). Their centre and
+    widths are the extrapolation's, which no wire gate kind has: the sector gate's
+    azimuth window is K_az sigma alone (Mu et al., eq. 2). Plots inside one gate are
+    ranked by (d_r / W_R)^2 + (d_az / W_az)^2.
     """
     w = widening(tracks.misses, config)
-    if config.mode == "cartesian":
-        gate = EllipseGate(config.gate_P_G)
-        gamma = gate.threshold * w
-        r_max = np.trace(scan.R, axis1=1, axis2=2).max() if scan.size else 0.0
-        radius = np.sqrt(gamma * (np.trace(Pp[:, :2, :2], axis1=1, axis2=2) + r_max))
-        rows, cols = index.ball(xp[:, :2], radius)
-        nu = scan.z[cols] - xp[rows, :2]
-        s = gate.statistic(nu[:, 0], nu[:, 1], sym2(Pp[rows, :2, :2] + scan.R[cols]))
-        keep = s <= gamma[rows]
-        return rows[keep], cols[keep], s[keep]
+    dt = prediction.dt
     K_R, K_az = window_coefficients(config)
     r_last, r_prev = tracks.ranges[:, -1], tracks.ranges[:, -2]
     span = tracks.times[:, -1] - tracks.times[:, -2]
@@ -91,106 +125,27 @@ def track_pairs(
     var_pred = (1 + a) ** 2 * tracks.sigma_r[:, -1] ** 2 + a**2 * tracks.sigma_r[:, -2] ** 2
     tangential = bearing_turn(config.v_max * dt, r_last)
     k_r, k_az = K_R * np.sqrt(w), K_az * np.sqrt(w)
-    big_r = scan.sigma_r.max() if scan.size else 0.0
-    big_az = scan.sigma_az.max() if scan.size else 0.0
-    rows, cols = index.window(
+    big_r, big_az = scan.sigma_r.max(), scan.sigma_az.max()
+    track, plot = index.window(
         r_pred,
         tracks.az,
         k_r * np.sqrt(big_r**2 + var_pred),
         tangential + k_az * np.sqrt(big_az**2 + tracks.sigma_az**2),
     )
-    W_R = k_r[rows] * np.sqrt(scan.sigma_r[cols] ** 2 + var_pred[rows])
-    W_az = tangential[rows] + k_az[rows] * np.sqrt(
-        scan.sigma_az[cols] ** 2 + tracks.sigma_az[rows] ** 2
+    W_R = k_r[track] * np.sqrt(scan.sigma_r[plot] ** 2 + var_pred[track])
+    W_az = tangential[track] + k_az[track] * np.sqrt(
+        scan.sigma_az[plot] ** 2 + tracks.sigma_az[track] ** 2
     )
-    d_r = np.abs(scan.r[cols] - r_pred[rows])
-    d_az = np.abs(wrap_finite(scan.az[cols] - tracks.az[rows]))
-    keep = window_statistic(d_r, d_az, W_R, W_az) <= 1.0
-    s = (d_r / W_R) ** 2 + (d_az / W_az) ** 2
-    return rows[keep], cols[keep], s[keep]
+    d_r = np.abs(scan.r[plot] - r_pred[track])
+    d_az = np.abs(wrap_finite(scan.az[plot] - tracks.az[track]))
+    inside = window_statistic(d_r, d_az, W_R, W_az) <= 1.0
+    rank = (d_r / W_R) ** 2 + (d_az / W_az) ** 2
+    return Pairs(track, plot, rank).take(inside)
 
 
-def capture_pairs(
-    ini: Initiators,
-    scan: Scan,
-    index: PlotIndex,
-    config: InitiationConfig,
-    allowed: np.ndarray,
-    k: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(initiator, plot, distance) of the plots inside each initiator's capture gate.
-
-    Only initiators within the 2/N (or 2/T) window of scan number k take part. The
-    search radii only bound each gate (the polar windows at the scan's largest sigmas);
-    the gates decide: :class:`~plotgate.core.gates.polar.FirstAssociationGate` (polar),
-    or :class:`~plotgate.core.gates.capture.RingGate`,
-    :class:`~plotgate.core.gates.capture.ExpandedGate` or
-    :class:`~plotgate.core.gates.capture.CombinedGate`, each tested once per initiator
-    time on all its candidate pairs.
-    """
-    tau = scan.t - ini.t
-    if config.capture_time is None:
-        window = k - ini.scan <= config.capture_scans - 1
-    else:
-        window = tau <= config.capture_time
-    R_max = config.v_max * np.maximum(tau, 0.0)
-    later = np.flatnonzero((tau > 0) & window)  # a plot from a later time, in time
-    if config.mode == "polar":
-        K_R, K_az = window_coefficients(config)
-        W_R = R_max + K_R * np.sqrt(ini.sigma_r**2 + scan.sigma_r.max(initial=0.0) ** 2)
-        W_az = bearing_turn(R_max, ini.r) + K_az * np.sqrt(
-            ini.sigma_az**2 + scan.sigma_az.max(initial=0.0) ** 2
-        )
-        rows, cols = index.window(ini.r[later], ini.az[later], W_R[later], W_az[later])
-    elif config.capture_gate == "ring":
-        radius = R_max
-    elif config.capture_gate == "expanded":
-        K_g = float(expansion_coefficient(config.capture_p))
-        radius = R_max + K_g * np.maximum(ini.sigma_r, ini.r * ini.sigma_az)
-    else:
-        gamma = gate_threshold(config.capture_P_G, 2)
-        big = np.trace(scan.R, axis1=1, axis2=2).max(initial=0.0)
-        radius = R_max + np.sqrt(gamma * (np.trace(ini.R, axis1=1, axis2=2) + big))
-    if config.mode == "cartesian":
-        rows, cols = index.ball(ini.z[later], radius[later] * (1 + 1e-9) + 1e-9)
-    rows = later[rows]
-    keep = allowed[cols]
-    rows, cols = rows[keep], cols[keep]
-    inside = np.zeros(rows.size, dtype=bool)
-    for t in np.unique(tau[rows]):  # the gates take one tau; a few initiator times
-        g = np.flatnonzero(tau[rows] == t)
-        i, c = rows[g], cols[g]
-        if config.mode == "polar":
-            res = FirstAssociationGate(config.v_max, K_R, K_az).test(
-                ini.r[i],
-                ini.az[i],
-                scan.r[c],
-                scan.az[c],
-                t,
-                ini.sigma_r[i],
-                ini.sigma_az[i],
-                scan.sigma_r[c],
-                scan.sigma_az[c],
-            )
-        elif config.capture_gate == "ring":
-            res = RingGate(config.v_min, config.v_max).test(ini.z[i], scan.z[c], t)
-        elif config.capture_gate == "expanded":
-            res = ExpandedGate(config.v_max, config.capture_p).test(
-                ini.z[i], scan.z[c], t, ini.sigma_r[i], ini.sigma_az[i], sensor=ini.sensor[i]
-            )
-        else:
-            res = CombinedGate(config.v_min, config.v_max, config.capture_P_G).test(
-                ini.z[i], ini.R[i], scan.z[c], scan.R[c], t
-            )
-        inside[g] = res.inside
-    rows, cols = rows[inside], cols[inside]
-    return rows, cols, np.linalg.norm(scan.z[cols] - ini.z[rows], axis=1)
-
-
-def nearest(
-    rows: np.ndarray, cols: np.ndarray, s: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def nearest(pairs: Pairs) -> Pairs:
     """The pair of smallest statistic for each row (ties: the lower plot index)."""
-    order = np.lexsort((cols, s, rows))
-    first = order[np.r_[True, rows[order][1:] != rows[order][:-1]]] if rows.size else order
-    return rows[first], cols[first], s[first]
+    row = pairs.row
+    order = np.lexsort((pairs.plot, pairs.statistic, row))
+    first = order[np.r_[True, row[order][1:] != row[order][:-1]]] if row.size else order
+    return pairs.take(first)

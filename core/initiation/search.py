@@ -20,14 +20,25 @@ from scipy.spatial import cKDTree
 from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.windows import (
+    in_windows,
+    range_bands,
+    sort_run,
+    window_counts,
+    window_fill,
+)
 
-__all__ = ["MAX_CANDIDATES", "PlotIndex", "near_pairs", "near_pairs_reference"]
+__all__ = ["BAND_WORK", "MAX_CANDIDATES", "PlotIndex", "near_pairs", "near_pairs_reference"]
 
 MAX_CANDIDATES = 2**24
 """Most candidate (track or initiator, plot) pairs one search may return (about 400 MB):
 plots so dense that every gate holds hundreds (a thousand targets at one spot) would
 otherwise grow tentative tracks, and their pairs, without bound. Over it the scan is
 refused (ParameterError on ``scans``)."""
+BAND_WORK = 2**22
+"""Most plots the polar windows' range bands may hold in all, beyond 64 a plot and a window,
+before the windows go to the grid search: reading a band costs a few nanoseconds a plot,
+so this bounds the read at some tens of milliseconds, whatever the plots' layout."""
 
 
 def _too_many(count: int) -> ParameterError:
@@ -160,12 +171,7 @@ def _grid_fill(
                 if _near(points[order[k]], centres[q], radius[q], chebyshev):
                     found[at] = order[k]
                     at += 1
-        for i in range(offsets[q] + 1, at):  # insertion sort: a query has a few plots
-            plot, k = found[i], i - 1
-            while k >= offsets[q] and found[k] > plot:
-                found[k + 1] = found[k]
-                k -= 1
-            found[k + 1] = plot
+        sort_run(found, offsets[q], at)  # a query has a few plots
     return found
 
 
@@ -240,11 +246,15 @@ def near_pairs(
 class PlotIndex:
     """Candidate search over one scan's plots (the gates then test the candidates exactly).
 
-    Cartesian gates: the plots (x, y), searched with a radius bounding each gate. Polar
-    windows |dr| <= W_R, |d az| <= W_az are rectangles in (r, az): the points
-    (r, S az), searched with the Chebyshev radius max(W_R, S W_az), S the typical ratio of
-    the two half-widths, so a window at 100 km does not drag in a disc of its arc
-    length. Every plot also appears 2 pi away, for windows across +-pi.
+    Cartesian gates: the plots (x, y), searched with a radius bounding each gate
+    (:func:`near_pairs`). Polar windows |dr| <= W_R, |d az| <= W_az: the plots sorted by
+    range, each window reading the plots of its band of ranges
+    (:mod:`plotgate.core.initiation.windows`). Where the bands hold more than
+    :data:`BAND_WORK` plots in all (plots on a few rings of range), the windows are
+    rectangles in (r, az) searched on the grid instead: the points (r, S az), with the
+    Chebyshev radius max(W_R, S W_az), S the typical ratio of the two half-widths (so a
+    window at 100 km does not drag in a disc of its arc length), every plot also 2 pi
+    away for windows across +-pi; the windows' own test then decides.
 
     Parameters
     ----------
@@ -254,22 +264,15 @@ class PlotIndex:
     """
 
     def __init__(self, scan: Scan, windows: tuple[float, float] | None) -> None:
-        self.points = np.zeros((0, 2))
-        self.scale = 1.0
-        self.owner = np.zeros(0, dtype=np.int64)
-        if scan.size == 0:
-            return
-        if windows is None:
-            self.points = np.ascontiguousarray(scan.z, dtype=float)
-            return
-        K_R, K_az = windows
-        self.scale = K_R * np.median(scan.sigma_r) / (K_az * np.median(scan.sigma_az))
-        other = scan.az - 2.0 * np.pi * np.sign(scan.az)
-        pts = np.column_stack(
-            [np.concatenate([scan.r, scan.r]), self.scale * np.concatenate([scan.az, other])]
-        )
-        self.points = pts
-        self.owner = np.tile(np.arange(scan.size), 2)
+        self.scan = scan
+        self.windows = windows
+        self.points = np.ascontiguousarray(scan.z, dtype=float)
+        # polar windows read the plots in range order (ties in any order: a window's
+        # plots are sorted by index once found)
+        polar = windows is not None
+        self.by_range = np.argsort(scan.r if polar else scan.r[:0]).astype(np.int64)
+        self.r_sorted = np.ascontiguousarray(scan.r[self.by_range], dtype=float)
+        self.az_sorted = np.ascontiguousarray(scan.az[self.by_range], dtype=float)
 
     def ball(self, centres: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(row, plot) pairs with the plot within radius of centres[row] (Cartesian)."""
@@ -278,13 +281,43 @@ class PlotIndex:
     def window(
         self, r: np.ndarray, az: np.ndarray, W_R: np.ndarray, W_az: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(row, plot) pairs with the plot possibly in the window about (r, az)[row]."""
-        rows, cols = near_pairs(
-            self.points,
-            np.column_stack([r, self.scale * az]),
-            np.maximum(W_R, self.scale * W_az) * (1 + 1e-9),
-            np.inf,
+        """(row, plot) pairs with the plot in the window about (r, az)[row]: |dr| <= W_R and
+        |d az| <= W_az, each widened by a hair (1e-9) for rounding."""
+        queries = (
+            np.ascontiguousarray(r, dtype=float),
+            np.ascontiguousarray(az, dtype=float),
+            np.ascontiguousarray(W_R * (1 + 1e-9), dtype=float),
+            np.ascontiguousarray(W_az * (1 + 1e-9), dtype=float),
         )
-        cols = self.owner[cols]
-        key = np.unique(rows * self.owner.size + cols)  # a wide window may meet both copies
-        return key // self.owner.size, key % self.owner.size
+        first, last = range_bands(self.r_sorted, queries[0], queries[2])
+        if int((last - first).sum()) > BAND_WORK + 64 * (self.scan.size + r.size):
+            return self._grid_window(*queries)
+        bands = (self.r_sorted, self.az_sorted, self.by_range, first, last, *queries)
+        counts = window_counts(*bands)
+        if int(counts.sum()) > MAX_CANDIDATES:
+            raise _too_many(int(counts.sum()))
+        offsets = np.concatenate([[0], np.cumsum(counts)])
+        return np.repeat(np.arange(r.size), counts), window_fill(offsets, *bands)
+
+    def _grid_window(
+        self, r: np.ndarray, az: np.ndarray, reach_r: np.ndarray, reach_az: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`window` on the grid in (r, S az), for bands too full to read."""
+        assert self.windows is not None  # a polar index
+        K_R, K_az = self.windows
+        scan = self.scan
+        scale = K_R * np.median(scan.sigma_r) / (K_az * np.median(scan.sigma_az))
+        other = scan.az - 2.0 * np.pi * np.sign(scan.az)
+        points = np.column_stack(
+            [np.concatenate([scan.r, scan.r]), scale * np.concatenate([scan.az, other])]
+        )
+        rows, cols = near_pairs(
+            points, np.column_stack([r, scale * az]), np.maximum(reach_r, scale * reach_az), np.inf
+        )
+        cols = cols % scan.size  # a plot's copy 2 pi away is the plot
+        key = np.unique(rows * scan.size + cols)  # a wide window may meet both copies
+        row, plot = key // scan.size, key % scan.size
+        keep = in_windows(
+            scan.r[plot], scan.az[plot], r[row], az[row], reach_r[row], reach_az[row]
+        )
+        return row[keep], plot[keep]

@@ -18,7 +18,7 @@ in the session (0, 1, ...) and the plot's index in that scan.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
@@ -30,6 +30,7 @@ __all__ = [
     "NULLABLE",
     "PLOT_STRIDE",
     "STATE_VERSION",
+    "Rows",
     "InitiationState",
     "Initiators",
     "Tracks",
@@ -49,7 +50,32 @@ MAX_TRACK_ID = 1 << 53
 
 
 @dataclass(frozen=True)
-class Initiators:
+class Rows:
+    """Arrays of one length along their first axis, a row each: initiators or tracks."""
+
+    @property
+    def size(self) -> int:
+        """Number of rows."""
+        return int(getattr(self, fields(self)[0].name).shape[0])
+
+    def take(self, rows: np.ndarray) -> Self:
+        """The rows at ``rows`` (indices or a boolean mask; a mask is turned into indices
+        once, not once per array)."""
+        index = np.flatnonzero(rows) if rows.dtype == bool else rows
+        return type(self)(*(np.take(getattr(self, f.name), index, axis=0) for f in fields(self)))
+
+    def join(self, other: Self) -> Self:
+        """These rows followed by ``other``'s."""
+        return type(self)(
+            *(
+                np.concatenate([getattr(self, f.name), getattr(other, f.name)])
+                for f in fields(self)
+            )
+        )
+
+
+@dataclass(frozen=True)
+class Initiators(Rows):
     """Single plots waiting for a second plot in a capture gate (n of them).
 
     plot (n,) ids; scan (n,) scan numbers; t (n,) times, s; z (n, 2), R (n, 2, 2) the
@@ -73,7 +99,7 @@ class Initiators:
 
 
 @dataclass(frozen=True)
-class Tracks:
+class Tracks(Rows):
     """Tentative and confirmed tracks (m of them); H = config.history.
 
     id (m,) track ids; confirmed (m,) bool; x (m, 4) state [x, y, vx, vy] (m, m/s) at
@@ -106,23 +132,6 @@ class Tracks:
     sigma_az: np.ndarray
     sensor: np.ndarray
     score: np.ndarray
-
-    @property
-    def size(self) -> int:
-        return int(self.id.shape[0])
-
-    def take(self, rows: np.ndarray) -> Tracks:
-        """The tracks at ``rows`` (indices or a boolean mask)."""
-        return Tracks(*(getattr(self, f.name)[rows] for f in fields(self)))
-
-    def join(self, other: Tracks) -> Tracks:
-        """These tracks followed by ``other``."""
-        return Tracks(
-            *(
-                np.concatenate([getattr(self, f.name), getattr(other, f.name)])
-                for f in fields(self)
-            )
-        )
 
 
 _DTYPES: dict[str, type] = {

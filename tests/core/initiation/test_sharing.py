@@ -3,7 +3,13 @@
 import numpy as np
 import pytest
 
-from plotgate.core.initiation.sharing import keep_greedy, plot_pairs, shares_two
+from plotgate.core.initiation.sharing import (
+    keep_greedy,
+    keep_greedy_reference,
+    plot_pairs,
+    shares_two,
+    shares_two_reference,
+)
 
 
 def _histories(rng: np.random.Generator, p: int, H: int, pool: int) -> np.ndarray:
@@ -28,9 +34,9 @@ def test_greedy_and_pruning_equal_the_brute_force(seed):
     keep = []
     for i in range(a.shape[0]):
         keep.append(all(_shared(a[i], a[j]) < 2 for j in range(i) if keep[j]))
-    assert keep_greedy(a).tolist() == keep
+    assert keep_greedy(a).tolist() == keep_greedy_reference(a).tolist() == keep
     expected = [any(_shared(row, other) >= 2 for other in b) for row in a]
-    assert shares_two(a, b).tolist() == expected
+    assert shares_two(a, b).tolist() == shares_two_reference(a, b).tolist() == expected
 
 
 def test_pair_keys_count_every_pair_once():
@@ -58,3 +64,14 @@ def test_many_branches_of_one_plot_cost_no_pairs():
     assert plot_pairs(plots, np.array([7]))[0].size == 0  # the one plot they share
     assert keep_greedy(plots).all()
     assert not shares_two(plots, np.array([[7, 5 << 20]])).any()
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_the_compiled_rules_equal_their_references(seed):
+    rng = np.random.default_rng(100 + seed)
+    H = int(rng.integers(2, 9))
+    a = _histories(rng, int(rng.integers(0, 300)), H, pool=int(rng.integers(H, 40)))
+    b = _histories(rng, int(rng.integers(0, 60)), H, pool=40)
+    assert keep_greedy(a).tolist() == keep_greedy_reference(a).tolist()
+    assert shares_two(a, b).tolist() == shares_two_reference(a, b).tolist()
+    assert shares_two(b, a).tolist() == shares_two_reference(b, a).tolist()

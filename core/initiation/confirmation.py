@@ -1,0 +1,181 @@
+"""Confirmation rules: k plots within m scans, or the track score against Wald's thresholds.
+
+The rule the settings name (``confirmation``) decides, for initiation's scan step
+(:mod:`plotgate.core.initiation.logic`): the state a captured pair starts a track with,
+how an association changes a track's score, which tentative tracks are ready to confirm,
+which of the ready tracks win a clash, which tentative tracks lapse, and the score of a
+new initiator.
+
+- :class:`KOfM` (the secondary-processing textbook; Mu et al.'s 3/4): the two-point
+  state, no score, ready with k plots within the first m scans, the smaller mean gate
+  statistic first, lapsed (``"window"``) once k is out of reach within m.
+- :class:`ScoreRule` (Blackman and Popoli, ch. 6; :mod:`plotgate.core.initiation.score`):
+  the first plot with the velocity prior updated with the second, the sequential
+  log-likelihood ratio, ready at ln((1 - beta) / alpha) with at least k plots, the
+  higher score first, lapsed (``"score"``) at ln(beta / (1 - alpha)).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.filter import kalman_gain, one_point, predict, two_point, update
+from plotgate.core.initiation.pairs import Pairs, Prediction
+from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.score import (
+    capture_score,
+    first_plot_score,
+    log_clutter_density,
+    miss_score,
+    update_score,
+    wald_thresholds,
+)
+from plotgate.core.initiation.state import Initiators, Tracks
+from plotgate.core.sym2 import sym2
+
+__all__ = ["Confirmation", "KOfM", "ScoreRule", "confirmation_rule"]
+
+
+class Confirmation(Protocol):
+    """What a confirmation rule decides in a scan (k is the scan's number)."""
+
+    def start(
+        self, ini: Initiators, captured: Pairs, scan: Scan, k: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """State x (c, 4), covariance P (c, 4, 4) and score (c,) of the captured pairs'
+        new tracks."""
+        ...
+
+    def rescore(
+        self, tracks: Tracks, prediction: Prediction, plot: np.ndarray, scan: Scan
+    ) -> np.ndarray:
+        """The tracks' scores after the scan; plot (m,) is each one's plot, -1 for none."""
+        ...
+
+    def ready(self, tracks: Tracks, k: int) -> np.ndarray:
+        """Tentative tracks that may confirm in this scan."""
+        ...
+
+    def merit(self, tracks: Tracks, rows: np.ndarray) -> np.ndarray:
+        """Key of the tracks at ``rows``: the smaller, the better (wins a clash)."""
+        ...
+
+    def lapsed(self, tracks: Tracks, k: int) -> tuple[str, np.ndarray]:
+        """The rule's drop reason, and the tentative tracks it drops."""
+        ...
+
+    def initiator_score(self, plots: int) -> float:
+        """Score of a new initiator in a scan of ``plots`` plots."""
+        ...
+
+
+def _age(tracks: Tracks, k: int) -> np.ndarray:
+    """Scans since each track's first plot, scan k included."""
+    age: np.ndarray = k - tracks.first_scan + 1
+    return age
+
+
+@dataclass(frozen=True)
+class KOfM:
+    """Confirmation k/m: confirm_k plots within the first confirm_m scans."""
+
+    config: InitiationConfig
+
+    def start(
+        self, ini: Initiators, captured: Pairs, scan: Scan, k: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        first, plot = captured.row, captured.plot
+        tau = scan.t - ini.t[first]
+        x, P = two_point(ini.z[first], ini.R[first], scan.z[plot], scan.R[plot], tau)
+        return x, P, np.zeros(first.size)
+
+    def rescore(
+        self, tracks: Tracks, prediction: Prediction, plot: np.ndarray, scan: Scan
+    ) -> np.ndarray:
+        return tracks.score
+
+    def ready(self, tracks: Tracks, k: int) -> np.ndarray:
+        c = self.config
+        ready: np.ndarray = (
+            ~tracks.confirmed & (tracks.n >= c.confirm_k) & (_age(tracks, k) <= c.confirm_m)
+        )
+        return ready
+
+    def merit(self, tracks: Tracks, rows: np.ndarray) -> np.ndarray:
+        mean_statistic: np.ndarray = tracks.cost[rows] / (tracks.n[rows] - 1)
+        return mean_statistic
+
+    def lapsed(self, tracks: Tracks, k: int) -> tuple[str, np.ndarray]:
+        c = self.config
+        reachable = tracks.n + (c.confirm_m - _age(tracks, k)) >= c.confirm_k
+        return "window", ~tracks.confirmed & ~reachable
+
+    def initiator_score(self, plots: int) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class ScoreRule:
+    """Score confirmation: the sequential track score against Wald's thresholds."""
+
+    config: InitiationConfig
+
+    def start(
+        self, ini: Initiators, captured: Pairs, scan: Scan, k: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The speed bound as a prior on the first plot, updated with the second."""
+        c, first, plot = self.config, captured.row, captured.plot
+        x1, P1 = one_point(ini.z[first], ini.R[first], c.v_max)
+        x2, P2 = predict(x1, P1, scan.t - ini.t[first], c.q)
+        R2 = scan.R[plot]
+        innovation = scan.z[plot] - x2[:, :2]
+        x, P = update(x2, P2, scan.z[plot], R2, kalman_gain(P2, R2))
+        gaps = k - ini.scan[first] - 1
+        density = log_clutter_density(c, scan.size)
+        gained = capture_score(innovation, P2[:, :2, :2] + R2, gaps, c, density)
+        return x, P, ini.score[first] + gained
+
+    def rescore(
+        self, tracks: Tracks, prediction: Prediction, plot: np.ndarray, scan: Scan
+    ) -> np.ndarray:
+        hit = plot >= 0
+        score = tracks.score + np.where(hit, 0.0, miss_score(self.config))
+        if hit.any():
+            taken = plot[hit]
+            nu = scan.z[taken] - prediction.x[hit, :2]
+            S = sym2(prediction.P[hit, :2, :2] + scan.R[taken])
+            density = log_clutter_density(self.config, scan.size)
+            score[hit] += update_score(nu[:, 0], nu[:, 1], S, self.config, density)
+        return score
+
+    def ready(self, tracks: Tracks, k: int) -> np.ndarray:
+        confirm_at, _ = wald_thresholds(self.config)
+        ready: np.ndarray = (
+            ~tracks.confirmed & (tracks.score >= confirm_at) & (tracks.n >= self.config.confirm_k)
+        )
+        return ready
+
+    def merit(self, tracks: Tracks, rows: np.ndarray) -> np.ndarray:
+        higher_first: np.ndarray = -tracks.score[rows]
+        return higher_first
+
+    def lapsed(self, tracks: Tracks, k: int) -> tuple[str, np.ndarray]:
+        _, delete_at = wald_thresholds(self.config)
+        return "score", ~tracks.confirmed & (tracks.score <= delete_at)
+
+    def initiator_score(self, plots: int) -> float:
+        return first_plot_score(self.config, log_clutter_density(self.config, plots))
+
+
+def confirmation_rule(config: InitiationConfig) -> Confirmation:
+    """The rule the settings name."""
+    rules: dict[str, Callable[[InitiationConfig], Confirmation]] = {
+        "k_of_m": KOfM,
+        "score": ScoreRule,
+    }
+    return rules[config.confirmation](config)
