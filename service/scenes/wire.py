@@ -89,8 +89,7 @@ _POINT_TAG = _tag(5, _LENGTH_DELIMITED)[0]
 
 def _points(lines: list[Line]) -> list[bytes]:
     """Each line's repeated Point3 (x 1, y 2, z 3) in field 5, all lines at once (a few
-    numpy calls per exchange, not per line): each point is a row of tag, length and three
-    tagged doubles, and a mask keeps the non-zero ones."""
+    numpy calls per exchange, not per line)."""
     sizes = [len(xyz) for _, xyz, _ in lines]
     n = sum(sizes)
     if n == 0:
@@ -101,19 +100,57 @@ def _points(lines: list[Line]) -> list[bytes]:
         coords[start : start + size, : xyz.shape[1]] = xyz[:, :3]
         start += size
     present = coords != 0.0
+    lengths = 9 * present.sum(axis=1)  # at most 27: a one-byte length
+    axes = np.flatnonzero(present.any(axis=0)).tolist()
+    odd = np.flatnonzero(lengths != 9 * len(axes)).tolist()
+    if 8 * len(odd) > n:  # many points with a zero among coordinates others have
+        data = _masked(coords, present, lengths)
+    else:
+        data = _patched(_same_fields(coords, axes), odd, present[:, axes], lengths)
+    ends = np.cumsum(lengths + 2)[np.cumsum(sizes) - 1].tolist()
+    starts = [0, *ends[:-1]]
+    return [data[a:b] if size else b"" for a, b, size in zip(starts, ends, sizes, strict=True)]
+
+
+def _same_fields(coords: np.ndarray, axes: list[int]) -> np.ndarray:
+    """Every point as if each of ``axes`` were non-zero in it (a 2D picture: x and y, z
+    left out): rows of a fixed width, a column of bytes at a time."""
+    rows = np.empty((len(coords), 2 + 9 * len(axes)), dtype=np.uint8)
+    rows[:, 0] = _POINT_TAG
+    rows[:, 1] = 9 * len(axes)
+    for i, axis in enumerate(axes):
+        rows[:, 2 + 9 * i] = _POINT_TAGS[axis]
+        rows[:, 3 + 9 * i : 11 + 9 * i] = coords[:, axis : axis + 1].view(np.uint8)
+    return rows
+
+
+def _patched(rows: np.ndarray, odd: list[int], present: np.ndarray, lengths: np.ndarray) -> bytes:
+    """The fixed-width ``rows`` as bytes, the few ``odd`` ones (a zero among their
+    ``axes``: a cross's arm on x = 0) rewritten without their zero fields."""
+    width, flat = rows.shape[1], rows.tobytes()
+    pieces, done = [], 0
+    for i in odd:
+        row = flat[i * width : (i + 1) * width]
+        fields = [row[2 + 9 * j : 11 + 9 * j] for j, keep in enumerate(present[i]) if keep]
+        pieces += [flat[done * width : i * width], row[:1], bytes([int(lengths[i])]), *fields]
+        done = i + 1
+    pieces.append(flat[done * width :])
+    return b"".join(pieces)
+
+
+def _masked(coords: np.ndarray, present: np.ndarray, lengths: np.ndarray) -> bytes:
+    """Points of any mix of zero coordinates: each point is a row of tag, length and three
+    tagged doubles, and a mask keeps the non-zero ones."""
+    n = len(coords)
     rows = np.empty((n, 2 + 3 * 9), dtype=np.uint8)
     rows[:, 0] = _POINT_TAG
-    lengths = 9 * present.sum(axis=1)  # at most 27: a one-byte length
     rows[:, 1] = lengths
     cells = rows[:, 2:].reshape(n, 3, 9)
     cells[:, :, 0] = _POINT_TAGS
     cells[:, :, 1:] = coords.view(np.uint8).reshape(n, 3, 8)
     keep = np.ones((n, 2 + 3 * 9), dtype=bool)
     keep[:, 2:] = np.repeat(present, 9, axis=1)
-    data = rows[keep].tobytes()
-    ends = np.cumsum(lengths + 2)[np.cumsum(sizes) - 1].tolist()
-    starts = [0, *ends[:-1]]
-    return [data[a:b] if size else b"" for a, b, size in zip(starts, ends, sizes, strict=True)]
+    return rows[keep].tobytes()
 
 
 @functools.lru_cache(maxsize=16)
