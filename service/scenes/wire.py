@@ -103,7 +103,7 @@ def _points(lines: list[Line]) -> list[bytes]:
     lengths = 9 * present.sum(axis=1)  # at most 27: a one-byte length
     axes = np.flatnonzero(present.any(axis=0)).tolist()
     odd = np.flatnonzero(lengths != 9 * len(axes)).tolist()
-    if 8 * len(odd) > n:  # many points with a zero among coordinates others have
+    if 64 * len(odd) > n:  # more than a few points with a zero others do not have
         data = _masked(coords, present, lengths)
     else:
         data = _patched(_same_fields(coords, axes), odd, present[:, axes], lengths)
