@@ -40,12 +40,16 @@ def plot_positions(plots: list[dict[str, Any]]) -> np.ndarray:
     numpy array per plot cost more than the rest of a gate test's picture."""
     if not plots:
         return np.zeros((0, 2))
-    return np.array([_xy(p) for p in plots], dtype=float)
+    return np.array(
+        [
+            (float(p["x"]), float(p["y"])) if p.get("frame") == "cartesian" else _polar_xy(p)
+            for p in plots
+        ],
+        dtype=float,
+    )
 
 
-def _xy(plot: dict[str, Any]) -> tuple[float, float]:
-    if plot.get("frame") == "cartesian":
-        return float(plot["x"]), float(plot["y"])
+def _polar_xy(plot: dict[str, Any]) -> tuple[float, float]:
     r, az = float(plot["r"]), math.radians(float(plot["az_deg"]))
     x0, y0 = plot.get("sensor") or (0.0, 0.0)
     return float(x0) + r * math.sin(az), float(y0) + r * math.cos(az)

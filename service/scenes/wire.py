@@ -15,6 +15,7 @@ of the primitives this package draws is written here.
 Field numbers are those of Foxglove's published ``.proto`` files (``foxglove/*.proto``).
 """
 
+import functools
 import struct
 
 import numpy as np
@@ -33,6 +34,8 @@ _VARINT = 0
 
 
 def _varint(value: int) -> bytes:
+    if value < 0x80:  # most lengths and every tag here: one byte
+        return _BYTES[value]
     out = bytearray()
     while value > 0x7F:
         out.append((value & 0x7F) | 0x80)
@@ -41,6 +44,10 @@ def _varint(value: int) -> bytes:
     return bytes(out)
 
 
+_BYTES = [bytes([b]) for b in range(0x80)]
+
+
+@functools.lru_cache(maxsize=64)
 def _tag(field: int, wire: int) -> bytes:
     return _varint(field << 3 | wire)
 
@@ -77,20 +84,67 @@ def _pose(field: int, x: float = 0.0, y: float = 0.0) -> bytes:
 
 
 _POINT_TAGS = np.array([_tag(i, _DOUBLE)[0] for i in (1, 2, 3)], dtype=np.uint8)
+_POINT_TAG = _tag(5, _LENGTH_DELIMITED)[0]
 
 
-def _points(field: int, xyz: np.ndarray) -> bytes:
-    """Repeated Point3 (x 1, y 2, z 3) in ``field``, all at once: each point is a row of
-    tag, length and three tagged doubles, and a mask keeps the non-zero ones."""
-    n = len(xyz)
+def _points(lines: list[Line]) -> list[bytes]:
+    """Each line's repeated Point3 (x 1, y 2, z 3) in field 5, all lines at once (a few
+    numpy calls per exchange, not per line)."""
+    sizes = [len(xyz) for _, xyz, _ in lines]
+    n = sum(sizes)
     if n == 0:
-        return b""
+        return [b"" for _ in lines]
     coords = np.zeros((n, 3), dtype="<f8")
-    coords[:, : xyz.shape[1]] = xyz[:, :3]
+    start = 0
+    for size, (_, xyz, _) in zip(sizes, lines, strict=True):
+        coords[start : start + size, : xyz.shape[1]] = xyz[:, :3]
+        start += size
     present = coords != 0.0
+    lengths = 9 * present.sum(axis=1)  # at most 27: a one-byte length
+    axes = np.flatnonzero(present.any(axis=0)).tolist()
+    odd = np.flatnonzero(lengths != 9 * len(axes)).tolist()
+    if 64 * len(odd) > n:  # more than a few points with a zero others do not have
+        data = _masked(coords, present, lengths)
+    else:
+        data = _patched(_same_fields(coords, axes), odd, present[:, axes], lengths)
+    ends = np.cumsum(lengths + 2)[np.cumsum(sizes) - 1].tolist()
+    starts = [0, *ends[:-1]]
+    return [data[a:b] if size else b"" for a, b, size in zip(starts, ends, sizes, strict=True)]
+
+
+def _same_fields(coords: np.ndarray, axes: list[int]) -> np.ndarray:
+    """Every point as if each of ``axes`` were non-zero in it (a 2D picture: x and y, z
+    left out): rows of a fixed width, a column of bytes at a time."""
+    rows = np.empty((len(coords), 2 + 9 * len(axes)), dtype=np.uint8)
+    rows[:, 0] = _POINT_TAG
+    rows[:, 1] = 9 * len(axes)
+    for i, axis in enumerate(axes):
+        rows[:, 2 + 9 * i] = _POINT_TAGS[axis]
+        rows[:, 3 + 9 * i : 11 + 9 * i] = coords[:, axis : axis + 1].view(np.uint8)
+    return rows
+
+
+def _patched(rows: np.ndarray, odd: list[int], present: np.ndarray, lengths: np.ndarray) -> bytes:
+    """The fixed-width ``rows`` as bytes, the few ``odd`` ones (a zero among their
+    ``axes``: a cross's arm on x = 0) rewritten without their zero fields."""
+    width, flat = rows.shape[1], rows.tobytes()
+    pieces, done = [], 0
+    for i in odd:
+        row = flat[i * width : (i + 1) * width]
+        fields = [row[2 + 9 * j : 11 + 9 * j] for j, keep in enumerate(present[i]) if keep]
+        pieces += [flat[done * width : i * width], row[:1], bytes([int(lengths[i])]), *fields]
+        done = i + 1
+    pieces.append(flat[done * width :])
+    return b"".join(pieces)
+
+
+def _masked(coords: np.ndarray, present: np.ndarray, lengths: np.ndarray) -> bytes:
+    """Points of any mix of zero coordinates: each point is a row of tag, length and three
+    tagged doubles, and a mask keeps the non-zero ones."""
+    n = len(coords)
     rows = np.empty((n, 2 + 3 * 9), dtype=np.uint8)
-    rows[:, 0] = _tag(field, _LENGTH_DELIMITED)[0]
-    rows[:, 1] = 9 * present.sum(axis=1)  # at most 27: a one-byte length
+    rows[:, 0] = _POINT_TAG
+    rows[:, 1] = lengths
     cells = rows[:, 2:].reshape(n, 3, 9)
     cells[:, :, 0] = _POINT_TAGS
     cells[:, :, 1:] = coords.view(np.uint8).reshape(n, 3, 8)
@@ -99,11 +153,22 @@ def _points(field: int, xyz: np.ndarray) -> bytes:
     return rows[keep].tobytes()
 
 
-def _line(kind: int, xyz: np.ndarray, color: Color, thickness: float) -> bytes:
-    """A LinePrimitive: type 1, pose 2, thickness 3, scale_invariant 4, points 5, color 6."""
+@functools.lru_cache(maxsize=16)
+def _line_head(kind: int, thickness: float) -> bytes:
+    """A line's fields before its points: the same for every line of a type."""
     head = (_tag(1, _VARINT) + _varint(kind) if kind else b"") + _pose(2)
-    head += _tag(3, _DOUBLE) + struct.pack("<d", thickness) + _tag(4, _VARINT) + b"\x01"
-    return head + _points(5, xyz) + _message(6, _doubles(color))
+    return head + _tag(3, _DOUBLE) + struct.pack("<d", thickness) + _tag(4, _VARINT) + b"\x01"
+
+
+@functools.lru_cache(maxsize=256)
+def _color(field: int, color: Color) -> bytes:
+    """A Color in ``field``: the palette's few, written thousands of times (cached)."""
+    return _message(field, _doubles(color))
+
+
+def _line(kind: int, points: bytes, color: Color, thickness: float) -> bytes:
+    """A LinePrimitive: type 1, pose 2, thickness 3, scale_invariant 4, points 5, color 6."""
+    return _line_head(kind, thickness) + points + _color(6, color)
 
 
 def _text(x: float, y: float, text: str, color: Color, font_px: float) -> bytes:
@@ -111,7 +176,7 @@ def _text(x: float, y: float, text: str, color: Color, font_px: float) -> bytes:
     text 6."""
     body = _pose(1, x, y) + _tag(2, _VARINT) + b"\x01" + _tag(3, _DOUBLE)
     body += struct.pack("<d", font_px) + _tag(4, _VARINT) + b"\x01"
-    return body + _message(5, _doubles(color)) + _string(6, text)
+    return body + _color(5, color) + _string(6, text)
 
 
 def scene_update(
@@ -130,6 +195,9 @@ def scene_update(
     entity = _time(1, log_time) + _string(2, frame) + _string(3, entity_id) + _message(4, b"")
     for key, value in metadata.items():
         entity += _message(6, _string(1, key) + _string(2, value))
-    entity += b"".join(_message(11, _line(k, xyz, c, thickness)) for k, xyz, c in lines)
+    points = _points(lines)
+    entity += b"".join(
+        _message(11, _line(k, p, c, thickness)) for (k, _, c), p in zip(lines, points, strict=True)
+    )
     entity += b"".join(_message(13, _text(*t, font_px)) for t in texts)
     return _message(2, entity)

@@ -108,6 +108,23 @@ def test_the_numpy_encoding_matches_on_random_pictures_zeros_included():
         assert canvas.encoded("exchange", t, metadata) == sdk_bytes(canvas, t, metadata)
 
 
+@pytest.mark.parametrize("dims", [2, 3])
+def test_the_numpy_encoding_matches_when_a_few_points_have_a_zero(dims):
+    """Pictures whose points mostly have the same non-zero coordinates, a few with a zero
+    among them (a cross on x = 0, a point at the origin): the fixed-width path, patched."""
+    rng = np.random.default_rng(11)
+    for trial in range(10):
+        xy = rng.normal(scale=1e4, size=(100, dims))
+        odd = rng.choice(100, size=int(rng.integers(1, 3)), replace=False)
+        xy[odd, rng.integers(0, dims, size=len(odd))] = 0.0 if trial % 2 else -0.0
+        canvas = Canvas()
+        canvas.plots(xy, (0.2, 0.85, 0.3, 1.0))
+        canvas.line(xy[:10], (1.0, 0.75, 0.0, 1.0))
+        canvas.plots(np.zeros((1, dims)), (1.0, 1.0, 1.0, 1.0))
+        t = int(rng.integers(0, MAX_TIME_NS))
+        assert canvas.encoded("exchange", t, {}) == sdk_bytes(canvas, t, {})
+
+
 def test_plot_positions_are_plot_position_at_speed():
     rng = np.random.default_rng(3)
     plots = [
