@@ -7,7 +7,6 @@ Each test that needs a cluster starts a LocalCluster of single-threaded worker p
 
 import contextlib
 import json
-import os
 import signal
 import socket
 import subprocess
@@ -25,7 +24,7 @@ from plotgate.core.initiation import InitiationConfig
 from plotgate.core.initiation.evaluate import CHUNK_RUNS, evaluate, sweep
 from plotgate.core.initiation.simulate import mu_scenario
 from plotgate.service.cluster import CONNECT_S, ClusterUnavailable, cluster, configure, mapper
-from tests.servers import free_port, serve
+from tests.servers import free_port, losing_a_worker, serve
 
 SCORE = InitiationConfig(
     mode="polar", v_max=30.0, confirmation="score", P_D=0.8, surveillance_area=15000.0**2
@@ -111,28 +110,12 @@ def test_an_unreachable_scheduler_is_exit_2_with_a_message(tmp_path, capsys):
 def test_a_worker_killed_mid_evaluation_changes_nothing():
     scenario = mu_scenario(250.0)
     runs = 16 * CHUNK_RUNS
-    expected = evaluate(scenario, SCORE, runs, 11)
-    with (
-        LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
-        ) as local,
-        Client(local) as client,
-    ):
-        pids = list(client.run(os.getpid).values())
-        outcome = {}
 
-        def run():
-            with cluster(address=local.scheduler_address):
-                outcome["evaluation"] = evaluate(scenario, SCORE, runs, 11, mapper=mapper())
+    def evaluation(address: str):
+        with cluster(address=address):
+            return evaluate(scenario, SCORE, runs, 11, mapper=mapper())
 
-        thread = threading.Thread(target=run)
-        thread.start()
-        time.sleep(1.5)  # some chunks done, some running
-        assert thread.is_alive()  # killed mid-evaluation, not after it
-        os.kill(pids[0], signal.SIGKILL)
-        thread.join(timeout=300)
-        assert not thread.is_alive()
-    same(outcome["evaluation"], expected)
+    same(losing_a_worker(evaluation), evaluate(scenario, SCORE, runs, 11))
 
 
 def test_plotgate_worker_joins_a_scheduler_and_leaves_on_sigterm():
