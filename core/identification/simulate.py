@@ -16,7 +16,7 @@ depends on n + m alone, never on who runs the chunks), mapped by any ``map`` (a 
 cluster's spreads them), and the answer is the same bit for bit however they run. Chunk 0
 draws from ``default_rng(seed)`` exactly as the unchunked experiment did (all its passive
 bearings, then its active ones), so every experiment that fits one chunk (the default
-10,000 runs of 50 + 5 bearings, and anything up to 36,363 such runs) keeps the numbers it
+10,000 runs of 50 + 5 bearings, and anything up to 18,181 such runs) keeps the numbers it
 always had; chunk c > 0 draws from ``SeedSequence(seed, spawn_key=(c,))``, the child
 ``SeedSequence(seed).spawn`` would give. Each chunk returns its count of runs identified;
 the fraction is their sum over the runs, as the mean over one array of runs was, bit for
@@ -45,8 +45,8 @@ __all__ = [
     "identified_runs",
 ]
 
-SAMPLES_PER_CHUNK = 2_000_000
-"""Bearings one chunk draws, about (16 MB of doubles; a few tenths of a second)."""
+SAMPLES_PER_CHUNK = 1_000_000
+"""Bearings one chunk draws, about (8 MB of doubles; a tenth of a second or two)."""
 
 
 @dataclass(frozen=True)
@@ -143,7 +143,7 @@ def chunk_runs(n: int, m: int) -> int:
     """Runs per chunk of an experiment of n passive and m active bearings a run.
 
     >>> chunk_runs(50, 5)
-    36363
+    18181
     """
     return max(1, SAMPLES_PER_CHUNK // (n + m))
 

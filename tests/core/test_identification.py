@@ -223,7 +223,7 @@ def _unchunked(n, m, sigma, separation, width, runs, seed, alpha=0.05, law="unif
 def test_an_experiment_of_one_chunk_keeps_its_unchunked_numbers(law):
     sigma, width = np.radians(1.0), np.radians(3.0)
     runs = chunk_runs(50, 5)
-    assert runs == 36363  # the default request's 10,000 runs are one chunk
+    assert runs == 18181  # the default request's 10,000 runs are one chunk
     got = experiment(50, 5, sigma, 0.01, width, runs, 8, law=law)
     assert got.identified == _unchunked(50, 5, sigma, 0.01, width, runs, 8, law=law)
 

@@ -34,7 +34,7 @@ JOBS = {
         "sweep": {"parameter": "confirm", "values": ["2/4", "3/4"]},
     },
     "solves.study": STUDY,
-    "identification.simulate": {"runs": 80_000, "seed": 5},  # three chunks of 50 + 5
+    "identification.simulate": {"runs": 50_000, "seed": 5},  # three chunks of 50 + 5
     "gates.probability_curve": {
         "gate": {"kind": "combined", "v_min": 100.0, "v_max": 500.0, "P_G": 0.9},
         "mark": {"r": 20_000.0, "az_deg": 0.0, "sigma_r": 200.0, "sigma_az_deg": 0.5},
