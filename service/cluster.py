@@ -48,6 +48,7 @@ __all__ = [
     "cancel_calls",
     "cluster",
     "configure",
+    "lazy_map",
     "mapper",
     "run_worker",
 ]
@@ -327,6 +328,20 @@ def mapper() -> Callable[..., Iterable[Any]] | None:
             )
 
     return mapped
+
+
+def lazy_map(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
+    """``function`` over ``items`` by :func:`mapper`'s map, asked for only now: an
+    operation hands this to core, which checks its input before it maps any work, so a
+    bad request is refused (422) before the cluster is even reached, and never answered
+    503 because the cluster is down.
+
+    Raises
+    ------
+    ClusterUnavailable
+        As :func:`mapper` and its map.
+    """
+    return list((mapper() or map)(function, items))
 
 
 async def _mapped(

@@ -9,7 +9,7 @@ request's fields.
 import numpy as np
 
 from plotgate.core.identification import experiment, identify_picture, sequential, z_test
-from plotgate.service.cluster import mapper
+from plotgate.service.cluster import lazy_map
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.schemas import (
@@ -118,8 +118,8 @@ def picture(request: IdentifyPictureRequest) -> IdentifyPictureResult:
 @checked
 def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
     """Kvasnov's experiment: realized alpha (separation 0) or beta. The runs go to the open
-    cluster (:func:`plotgate.service.cluster.mapper`) when there is one, with the same
-    numbers bit for bit."""
+    cluster, if any, once core has checked the request
+    (:func:`plotgate.service.cluster.lazy_map`), with the same numbers bit for bit."""
     r = request
     out = experiment(
         r.n,
@@ -132,7 +132,7 @@ def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
         r.alpha,
         r.law,
         r.estimate_sigma,
-        mapper=mapper(),
+        mapper=lazy_map,
     )
     return IdentifySimulateResult(
         runs=out.runs,

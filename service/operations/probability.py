@@ -6,7 +6,7 @@ cos course), course clockwise from north. A conditional curve is one vectorized 
 call: the geometry batched over the ranges, or one geometry repeated and the velocity
 batched over the speeds. An unconditional curve costs one quadrature of 0.1 s to minutes
 per range, so each of its points is a chunk of its own (:func:`unconditional_point`),
-mapped by the open cluster's ``map`` (:func:`plotgate.service.cluster.mapper`; in this
+mapped by the open cluster's ``map`` (:func:`plotgate.service.cluster.lazy_map`; in this
 process without one): core computes each problem alone, so the curve is the same bit for
 bit wherever its points run. Conditional curves cost milliseconds and stay in-process.
 
@@ -22,8 +22,7 @@ import numpy as np
 
 from plotgate import core
 from plotgate.core import PlotgateError
-from plotgate.core.chunks import mapped
-from plotgate.service.cluster import mapper
+from plotgate.service.cluster import lazy_map
 from plotgate.service.fields import FieldMap, resolve
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.gate_conversion import core_gate
@@ -140,7 +139,7 @@ def _unconditional_curve(
     """The unconditional probability of every problem, each one a chunk (its own
     :func:`unconditional_point`) mapped by the open cluster, if any."""
     points = [(i, gate, geometry.take(slice(i, i + 1)), prior) for i in range(geometry.n)]
-    parts = mapped(mapper(), unconditional_point, points)
+    parts = lazy_map(unconditional_point, points)
     return core.GateProbability(
         np.concatenate([p.probability for p in parts]), np.concatenate([p.error for p in parts])
     )

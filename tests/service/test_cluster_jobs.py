@@ -120,3 +120,19 @@ def test_a_worker_killed_mid_study_changes_nothing():
             return accuracy_study(*args, mapper=mapper())
 
     assert_identical(losing_a_worker(study, after=2.0), accuracy_study(*args))
+
+
+def test_bad_input_is_refused_before_an_unreachable_scheduler_is_tried(settings):
+    """422 naming the field, not 503: core checks the request before any work is mapped."""
+    from fastapi.testclient import TestClient
+
+    from plotgate.service.app import create_app
+
+    receiver = STUDY["receivers"][0]
+    on_a_receiver = {**STUDY, "target": {**receiver}}
+    unreachable = settings.model_copy(update={"dask_scheduler": "tcp://127.0.0.1:9"})
+    with TestClient(create_app(unreachable), raise_server_exceptions=False) as c:
+        r = c.post(OPERATIONS["solves.study"].path, json=on_a_receiver)
+        assert r.status_code == 422, r.text
+        assert r.json()["errors"][0]["field"].startswith("target")
+        assert c.post(OPERATIONS["solves.study"].path, json=STUDY).status_code == 503
