@@ -36,7 +36,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any, TypeVar
 
 from tqdm import tqdm
@@ -418,7 +418,7 @@ def cluster(
     global _progress
     _progress = progress
     try:
-        with _cluster(address, local_workers):
+        with _dask_quiet(logging.CRITICAL), _cluster(address, local_workers):
             yield
     finally:
         _progress = False
@@ -499,17 +499,25 @@ def _worker_processes() -> list[multiprocessing.process.BaseProcess]:
 
 
 @contextmanager
-def _dask_quiet() -> Iterator[None]:
-    """Dask's warnings off while a local cluster closes: on a loaded machine a worker
-    slow to stop drew "Worker process still alive after 4.0 seconds, killing" at the end
-    of a call that had answered; Dask kills it, as it says, and nothing is left to do."""
-    logger = logging.getLogger("distributed")
-    level = logger.level
-    logger.setLevel(logging.ERROR)
+def _dask_quiet(level: int = logging.ERROR) -> Iterator[None]:
+    """Dask's log lines below ``level`` off: its warnings while a local cluster closes (on
+    a loaded machine a worker slow to stop drew "Worker process still alive after 4.0
+    seconds, killing" at the end of a call that had answered; Dask kills it, as it says,
+    and nothing is left to do), and within :func:`cluster` its errors too: a scheduler
+    killed mid-run drew the client's reconnection traceback on the command's stderr before
+    the command's own one-line message (the 503), which says all there is to say."""
+    # Dask's import configures its loggers, its client's with a level of its own: first
+    with suppress(ImportError):
+        import distributed  # noqa: F401
+    loggers = [logging.getLogger(name) for name in ("distributed", "distributed.client")]
+    previous = [logger.level for logger in loggers]
+    for logger, was in zip(loggers, previous, strict=True):
+        logger.setLevel(max(level, was))  # never louder than an enclosing quiet
     try:
         yield
     finally:
-        logger.setLevel(level)
+        for logger, was in zip(loggers, previous, strict=True):
+            logger.setLevel(was)
 
 
 _QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"

@@ -484,6 +484,42 @@ def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
     assert exchange.response["status"] == 503
 
 
+def test_a_scheduler_killed_mid_study_ends_the_cli_with_one_message_and_exit_2(tmp_path):
+    """No traceback of Dask's client reconnecting: the command's own line says it all."""
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler = _scheduler(port)
+    worker = subprocess.Popen(
+        [sys.executable, "-m", "plotgate.clients.cli", "worker", address],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    study = None
+    try:
+        with Client(address, timeout="60s") as monitor:
+            monitor.wait_for_workers(1, timeout=120)
+            study = subprocess.Popen(
+                [sys.executable, "-m", "plotgate.clients.cli", "study", "--dask", address]
+                + ["--runs", "1000", "--no-png", "--table", str(tmp_path / "table.md")],
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            deadline = time.monotonic() + 120
+            while not any(monitor.processing().values()):  # the work has reached the worker
+                assert time.monotonic() < deadline and study.poll() is None
+                time.sleep(0.1)
+        scheduler.kill()
+        _, err = study.communicate(timeout=120)
+    finally:
+        for process in (scheduler, worker, study):
+            if process is not None:
+                process.kill()
+                process.wait(timeout=30)
+    assert study.returncode == 2
+    assert "Traceback" not in err and err.startswith("plotgate: 503 Cluster unavailable"), err
+
+
 def test_sigterm_answers_a_stuck_cluster_call_503_within_the_graceful_timeout(tmp_path):
     """The issue's shutdown, on a real server: a request whose work waits on a scheduler
     with no workers (PLOTGATE_DASK_TIMEOUT_S 600), then SIGTERM. The server stops within
