@@ -113,7 +113,7 @@ def on_cluster(workers: int, requests: dict[str, dict[str, Any]]) -> tuple[float
     """Start-up seconds of a LocalCluster of ``workers``, and each job's run on it."""
     from distributed import Client, LocalCluster
 
-    from plotgate.service.cluster import cluster
+    from plotgate.service.cluster import cluster, numba_threads
 
     t0 = time.perf_counter()
     with (
@@ -123,6 +123,7 @@ def on_cluster(workers: int, requests: dict[str, dict[str, Any]]) -> tuple[float
             processes=True,
             dashboard_address=":0",
             silence_logs=logging.ERROR,
+            env={"NUMBA_NUM_THREADS": str(numba_threads(workers))},  # as --local-workers
         ) as local,
         Client(local) as monitor,
         cluster(address=local.scheduler_address),

@@ -433,11 +433,11 @@ def _scheduler(port: int) -> subprocess.Popen:
     )
 
 
-def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
-    from fastapi.testclient import TestClient
-
-    from plotgate.service.app import create_app
-
+@contextlib.contextmanager
+def _scheduler_and_worker() -> Iterator[tuple[str, subprocess.Popen, Client]]:
+    """A ``dask scheduler`` on a free loopback port with one ``plotgate worker`` joined:
+    its address, the scheduler's process (to kill) and a client watching it; both
+    processes are killed after."""
     port = free_port()
     address = f"tcp://127.0.0.1:{port}"
     scheduler = _scheduler(port)
@@ -447,8 +447,22 @@ def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
         stderr=subprocess.DEVNULL,
     )
     try:
-        with Client(address, timeout="60s") as monitor:
-            monitor.wait_for_workers(1, timeout=120)
+        monitor = Client(address, timeout="60s")
+        monitor.wait_for_workers(1, timeout=120)
+        yield address, scheduler, monitor
+    finally:
+        for process in (scheduler, worker):
+            process.kill()
+            process.wait(timeout=30)
+
+
+def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
+    from fastapi.testclient import TestClient
+
+    from plotgate.service.app import create_app
+
+    with _scheduler_and_worker() as (address, scheduler, monitor):
+        with monitor:
             update = {"dask_scheduler": address, "dask_timeout_s": 120.0}
             app = create_app(settings.model_copy(update=update))
             outcome = {}
@@ -470,10 +484,6 @@ def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
                 assert not thread.is_alive()
                 answered = time.monotonic()
             closed = time.monotonic()
-    finally:
-        for process in (scheduler, worker):
-            process.kill()
-            process.wait(timeout=30)
     r = outcome["r"]
     assert r.status_code == 503, r.text
     assert r.headers["retry-after"] == "1"
@@ -486,18 +496,8 @@ def test_a_scheduler_killed_mid_request_answers_a_recorded_503(settings):
 
 def test_a_scheduler_killed_mid_study_ends_the_cli_with_one_message_and_exit_2(tmp_path):
     """No traceback of Dask's client reconnecting: the command's own line says it all."""
-    port = free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    scheduler = _scheduler(port)
-    worker = subprocess.Popen(
-        [sys.executable, "-m", "plotgate.clients.cli", "worker", address],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    study = None
-    try:
-        with Client(address, timeout="60s") as monitor:
-            monitor.wait_for_workers(1, timeout=120)
+    with _scheduler_and_worker() as (address, scheduler, monitor):
+        with monitor:
             study = subprocess.Popen(
                 [sys.executable, "-m", "plotgate.clients.cli", "study", "--dask", address]
                 + ["--runs", "1000", "--no-png", "--table", str(tmp_path / "table.md")],
@@ -510,12 +510,10 @@ def test_a_scheduler_killed_mid_study_ends_the_cli_with_one_message_and_exit_2(t
                 assert time.monotonic() < deadline and study.poll() is None
                 time.sleep(0.1)
         scheduler.kill()
-        _, err = study.communicate(timeout=120)
-    finally:
-        for process in (scheduler, worker, study):
-            if process is not None:
-                process.kill()
-                process.wait(timeout=30)
+        try:
+            _, err = study.communicate(timeout=120)
+        finally:
+            study.kill()
     assert study.returncode == 2
     assert "Traceback" not in err and err.startswith("plotgate: 503 Cluster unavailable"), err
 

@@ -7,6 +7,7 @@ bytes must be equal. ``tests/service/test_cluster.py`` holds the cluster's own b
 """
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ from distributed import Client, LocalCluster
 
 from plotgate.clients.cli import main
 from plotgate.core.multistatic.study import STUDY_CHUNK_RUNS, accuracy_study
-from plotgate.service.cluster import cluster, mapper
+from plotgate.service.cluster import cluster, mapper, numba_threads
 from plotgate.service.registry import OPERATIONS, execute
 from tests.identical import assert_identical
 from tests.servers import losing_a_worker
@@ -136,3 +137,10 @@ def test_bad_input_is_refused_before_an_unreachable_scheduler_is_tried(settings)
         assert r.status_code == 422, r.text
         assert r.json()["errors"][0]["field"].startswith("target")
         assert c.post(OPERATIONS["solves.study"].path, json=STUDY).status_code == 503
+
+
+def test_local_workers_share_the_cores_among_their_numba_threads():
+    with cluster(local_workers=2):
+        threads = mapper()(os.getenv, ["NUMBA_NUM_THREADS"] * 4)
+    assert threads == [str(numba_threads(2))] * 4
+    assert numba_threads(2) == max(1, (os.cpu_count() or 1) // 2) and numba_threads(64) == 1
