@@ -477,10 +477,10 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
 def numba_threads(local_workers: int) -> int:
     """Threads of each local worker's parallel numba kernels: the machine's cores shared
     among the workers, as Dask itself runs each worker's numpy, BLAS and OpenMP on one
-    thread (its ``pre-spawn-environ``). Two workers on two cores, each with numba's
-    default of a thread per core, ran four threads on two cores: the study's parallel
-    Gauss-Newton kernel doubled its CPU seconds. Per-problem results do not depend on the
-    threads, so neither do the numbers."""
+    thread (its ``pre-spawn-environ``): two workers on two cores, each with numba's
+    default of a thread per core, would run the study's parallel Gauss-Newton kernel on
+    four threads over two cores. Per-problem results do not depend on the threads, so
+    neither do the numbers."""
     return max(1, (os.cpu_count() or 1) // local_workers)
 
 
