@@ -25,7 +25,7 @@ import sys
 from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 from plotgate import __version__
 
@@ -33,6 +33,8 @@ if TYPE_CHECKING:
     from plotgate.clients.replay import ReplayReport
 
 __all__ = ["main"]
+
+_T = TypeVar("_T")
 
 IN_PROCESS = frozenset({"serve", "call", "replay", "plot", "study", "scenario"})
 """The commands that run operations in this process (unless given ``--server``), and so
@@ -217,8 +219,8 @@ def _call(args: argparse.Namespace) -> int:
     )
     if args.server is not None:
         return _call_server(args, body)
-    from plotgate.service.cluster import ClusterUnavailable, cluster
-    from plotgate.service.registry import OPERATIONS, execute, internal_error
+    from plotgate.service.cluster import ClusterUnavailable
+    from plotgate.service.registry import OPERATIONS, Outcome, execute, internal_error
 
     op = OPERATIONS[args.operation]
     try:
@@ -226,22 +228,43 @@ def _call(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"plotgate call: the service's settings: {exc}", file=sys.stderr)
         return 2
+
+    def answer() -> Outcome:
+        try:
+            return execute(op, body, limits=caps)
+        except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
+            print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
+            return internal_error(op, None)
+
     try:
-        with cluster(args.dask, args.local_workers, progress=sys.stderr.isatty()):
-            try:
-                outcome = execute(op, body, limits=caps)
-            except Exception as exc:  # noqa: BLE001 - a bug: the server's 500, and what raised
-                print(f"plotgate call: {type(exc).__name__}: {exc}", file=sys.stderr)
-                outcome = internal_error(op, None)
+        outcome = _on_cluster(args, answer)
     except ClusterUnavailable as exc:
         print(f"plotgate call: {exc}", file=sys.stderr)
         return 2
+    sys.stdout.write(json.dumps(json.loads(outcome.content), indent=2) + "\n")
+    return 0 if outcome.status < 400 else 1
+
+
+def _on_cluster(args: argparse.Namespace, work: Callable[[], _T]) -> _T:
+    """``work()`` with its Monte Carlo chunks on the cluster of ``--dask`` or
+    ``--local-workers`` (neither: in this process), the chunks done drawn as a bar when
+    stderr is a terminal. A Ctrl-C with a cluster ends the command at once
+    (:func:`_leave_the_cluster`).
+
+    Raises
+    ------
+    ClusterUnavailable
+        No cluster could be had (the caller ends with its message and exit 2).
+    """
+    from plotgate.service.cluster import cluster
+
+    try:
+        with cluster(args.dask, args.local_workers, progress=sys.stderr.isatty()):
+            return work()
     except KeyboardInterrupt:
         if args.dask is None and args.local_workers is None:
             raise
         _leave_the_cluster()
-    sys.stdout.write(json.dumps(json.loads(outcome.content), indent=2) + "\n")
-    return 0 if outcome.status < 400 else 1
 
 
 def _leave_the_cluster() -> NoReturn:
@@ -470,6 +493,7 @@ def _cat(args: argparse.Namespace) -> int:
 def _plot(args: argparse.Namespace) -> int:
     from plotgate.clients.errors import PlotgateClientError
     from plotgate.clients.plots import MissingMatplotlib, Setup, plot
+    from plotgate.service.cluster import ClusterUnavailable
 
     setup = Setup(
         tau=args.tau,
@@ -479,8 +503,13 @@ def _plot(args: argparse.Namespace) -> int:
         az_deg=args.az_deg,
     )
     try:
-        out = plot(args.figure, args.out, server=args.server, setup=setup, points=args.points)
-    except (MissingMatplotlib, PlotgateClientError) as exc:
+        out = _on_cluster(
+            args,
+            lambda: plot(
+                args.figure, args.out, server=args.server, setup=setup, points=args.points
+            ),
+        )
+    except (MissingMatplotlib, PlotgateClientError, ClusterUnavailable) as exc:
         print(f"plotgate: {exc}", file=sys.stderr)
         return 2
     print(out)
@@ -491,6 +520,7 @@ def _study(args: argparse.Namespace) -> int:
     from plotgate.clients.errors import PlotgateClientError
     from plotgate.clients.plots import MissingMatplotlib, matplotlib_classes
     from plotgate.clients.study import DEFAULT_REQUEST, NOT_MET, checks, draw, run_study, table
+    from plotgate.service.cluster import ClusterUnavailable
 
     request = dict(DEFAULT_REQUEST) if args.request is None else _json_object(args.request)
     if request is None:
@@ -503,8 +533,8 @@ def _study(args: argparse.Namespace) -> int:
     try:
         if args.png is not None:
             matplotlib_classes()  # fail before computing for minutes
-        answer = run_study(request, server=args.server)
-    except (MissingMatplotlib, PlotgateClientError) as exc:
+        answer = _on_cluster(args, lambda: run_study(request, server=args.server))
+    except (MissingMatplotlib, PlotgateClientError, ClusterUnavailable) as exc:
         print(f"plotgate: {exc}", file=sys.stderr)
         return 2
     args.table.parent.mkdir(parents=True, exist_ok=True)
@@ -619,20 +649,13 @@ def _add_replay(sub: Any, filters: argparse.ArgumentParser) -> None:
         epilog=REPLAY_EXIT_CODES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    where = rep.add_mutually_exclusive_group()
-    where.add_argument("--server", help="replay against this live server URL (default in-process)")
-    where.add_argument(
-        "--dask",
-        metavar="ADDRESS",
-        help="in-process on the workers of this Dask scheduler, files and chunk ranges "
+    _add_where(
+        rep,
+        "replay against this live server URL (default in-process)",
+        "in-process on the workers of this Dask scheduler, files and chunk ranges "
         "spread over them (the recording folder at the same path on every worker); the "
         "report and exit status are the serial run's",
-    )
-    where.add_argument(
-        "--local-workers",
-        type=_at_least(1),
-        metavar="N",
-        help="as --dask, on a local Dask cluster of N worker processes (started and stopped "
+        "as --dask, on a local Dask cluster of N worker processes (started and stopped "
         "by the command)",
     )
     rep.add_argument(
@@ -727,6 +750,21 @@ def _view(args: argparse.Namespace) -> int:
     return code
 
 
+def _add_where(
+    command: Any,
+    server_help: str,
+    dask_help: str = "in-process, with the Monte Carlo chunks on this Dask scheduler",
+    workers_help: str = "in-process, with the Monte Carlo chunks on a local Dask cluster of "
+    "N worker processes (started and stopped by the command)",
+) -> None:
+    """Where a command computes: ``--server URL``, or in-process with its chunks on
+    ``--dask ADDRESS`` or ``--local-workers N`` (or in this process); one of the three."""
+    where = command.add_mutually_exclusive_group()
+    where.add_argument("--server", help=server_help)
+    where.add_argument("--dask", metavar="ADDRESS", help=dask_help)
+    where.add_argument("--local-workers", type=_at_least(1), metavar="N", help=workers_help)
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="plotgate", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=f"plotgate {__version__}")
@@ -809,7 +847,9 @@ def _parser() -> argparse.ArgumentParser:
         description="Runs in-process through this build's registry (what the server would "
         "answer, its work caps included: --no-limits lifts them), or on a live server with "
         "--server (a 503 or a failed connection tried again, "
-        "--retries times). initiation.evaluate's runs go to a Dask "
+        "--retries times). The Monte Carlo chunks of initiation.evaluate, solves.study and "
+        "identification.simulate, and the points of an unconditional "
+        "gates.probability_curve, go to a Dask "
         "cluster with --dask or --local-workers, with the same numbers. Exit 0 on an answer, "
         "1 on a problem, 2 when the cluster cannot be had or no usable answer came from the "
         "server (unreachable, not the operation's answer, over 128 MiB).",
@@ -821,20 +861,7 @@ def _parser() -> argparse.ArgumentParser:
         help="operation name: %(choices)s",
     )
     call.add_argument("request", nargs="?", help="JSON request file (default: stdin)")
-    where = call.add_mutually_exclusive_group()
-    where.add_argument("--server", help="a live server URL (default in-process)")
-    where.add_argument(
-        "--dask",
-        metavar="ADDRESS",
-        help="in-process, with the Monte Carlo chunks on this Dask scheduler",
-    )
-    where.add_argument(
-        "--local-workers",
-        type=_at_least(1),
-        metavar="N",
-        help="in-process, with the Monte Carlo chunks on a local Dask cluster of N worker "
-        "processes (started and stopped by the command)",
-    )
+    _add_where(call, "a live server URL (default in-process)")
     call.add_argument(
         "--retries",
         type=_at_least(0),
@@ -897,13 +924,15 @@ def _parser() -> argparse.ArgumentParser:
         description="fig2: ring gate, conditional probability against speed (20, 50 km) and "
         "range (200, 300 m/s) for three sensor errors (Konovalov, Fig. 2); fig5: the same for "
         "the combined gate, P_G 0.9 (Fig. 5); compare: unconditional probability against "
-        "range for the ring, combined and expanded gates.",
+        "range for the ring, combined and expanded gates, whose points (seconds each) go to "
+        "a Dask cluster with --dask or --local-workers (the conditional figures' curves cost "
+        "milliseconds and stay in this process), with the same numbers.",
     )
     plo.add_argument("figure", choices=FIGURES, help="which figure")
     plo.add_argument(
         "--out", type=Path, help="PNG to write (default " + ", ".join(DEFAULT_FILES.values()) + ")"
     )
-    plo.add_argument("--server", help="compute on this live server URL (default in-process)")
+    _add_where(plo, "compute on this live server URL (default in-process)")
     plo.add_argument(
         "--course-deg",
         type=float,
@@ -936,7 +965,9 @@ def _parser() -> argparse.ArgumentParser:
         "docs/examples/study_scenario.json is a quick one to start from. Each verdict "
         "carries its Monte Carlo standard error: NOT MET only for a shortfall beyond the "
         "noise (more than 2 standard errors; more at the worst of many samples), within "
-        "noise when more runs would decide. Exit 0, or 1 when a requirement is NOT MET.",
+        "noise when more runs would decide. The runs' solves go to a Dask cluster with --dask "
+        "or --local-workers, with the same table. Exit 0, or 1 when a requirement is NOT MET "
+        "(2: no cluster or no answer).",
     )
     stu.add_argument(
         "request", nargs="?", help="a JSON solves.study request (default: the built-in scenario)"
@@ -963,7 +994,7 @@ def _parser() -> argparse.ArgumentParser:
     stu.add_argument(
         "--no-png", dest="png", action="store_const", const=None, help="write no figure"
     )
-    stu.add_argument("--server", help="compute on this live server URL (default in-process)")
+    _add_where(stu, "compute on this live server URL (default in-process)")
     stu.set_defaults(func=_study)
 
     sce = sub.add_parser(

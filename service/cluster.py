@@ -34,12 +34,13 @@ import concurrent.futures
 import contextvars
 import logging
 import multiprocessing
+import os
 import signal
 import sys
 import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any, TypeVar
 
 from tqdm import tqdm
@@ -53,7 +54,9 @@ __all__ = [
     "cancel_calls",
     "cluster",
     "configure",
+    "lazy_map",
     "mapper",
+    "numba_threads",
     "run_worker",
     "workers",
 ]
@@ -435,6 +438,20 @@ async def _threads(client: Any) -> int:
     return sum(nthreads.values())
 
 
+def lazy_map(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
+    """``function`` over ``items`` by :func:`mapper`'s map, asked for only now: an
+    operation hands this to core, which checks its input before it maps any work, so a
+    bad request is refused (422) before the cluster is even reached, and never answered
+    503 because the cluster is down.
+
+    Raises
+    ------
+    ClusterUnavailable
+        As :func:`mapper` and its map.
+    """
+    return list((mapper() or map)(function, items))
+
+
 async def _mapped(
     client: Any, function: Callable[..., Any], items: list[Any], bar: tqdm[Any]
 ) -> list[Any]:
@@ -513,7 +530,7 @@ def cluster(
     global _progress
     _progress = progress
     try:
-        with _cluster(address, local_workers):
+        with _dask_quiet(logging.CRITICAL), _cluster(address, local_workers):
             yield
     finally:
         _progress = False
@@ -547,6 +564,7 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
                 # machine a worker's heartbeat to the closed scheduler logged a traceback on
                 # the command's stderr; a task's error still comes back as it is raised
                 silence_logs=logging.CRITICAL,
+                env={"NUMBA_NUM_THREADS": str(numba_threads(local_workers))},
             )
             _start_workers(local, local_workers)
             address = local.scheduler_address
@@ -564,6 +582,16 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
         if local is not None:
             with _dask_quiet():
                 local.close()
+
+
+def numba_threads(local_workers: int) -> int:
+    """Threads of each local worker's parallel numba kernels: the machine's cores shared
+    among the workers, as Dask itself runs each worker's numpy, BLAS and OpenMP on one
+    thread (its ``pre-spawn-environ``): two workers on two cores, each with numba's
+    default of a thread per core, would run the study's parallel Gauss-Newton kernel on
+    four threads over two cores. Per-problem results do not depend on the threads, so
+    neither do the numbers."""
+    return max(1, (os.cpu_count() or 1) // local_workers)
 
 
 WORKERS_START_S = 120.0
@@ -594,17 +622,25 @@ def _worker_processes() -> list[multiprocessing.process.BaseProcess]:
 
 
 @contextmanager
-def _dask_quiet() -> Iterator[None]:
-    """Dask's warnings off while a local cluster closes: on a loaded machine a worker
-    slow to stop drew "Worker process still alive after 4.0 seconds, killing" at the end
-    of a call that had answered; Dask kills it, as it says, and nothing is left to do."""
-    logger = logging.getLogger("distributed")
-    level = logger.level
-    logger.setLevel(logging.ERROR)
+def _dask_quiet(level: int = logging.ERROR) -> Iterator[None]:
+    """Dask's log lines below ``level`` off: its warnings while a local cluster closes (on
+    a loaded machine a worker slow to stop drew "Worker process still alive after 4.0
+    seconds, killing" at the end of a call that had answered; Dask kills it, as it says,
+    and nothing is left to do), and within :func:`cluster` its errors too: a scheduler
+    killed mid-run drew the client's reconnection traceback on the command's stderr before
+    the command's own one-line message (the 503), which says all there is to say."""
+    # Dask's import configures its loggers, its client's with a level of its own: first
+    with suppress(ImportError):
+        import distributed  # noqa: F401
+    loggers = [logging.getLogger(name) for name in ("distributed", "distributed.client")]
+    previous = [logger.level for logger in loggers]
+    for logger, was in zip(loggers, previous, strict=True):
+        logger.setLevel(max(level, was))  # never louder than an enclosing quiet
     try:
         yield
     finally:
-        logger.setLevel(level)
+        for logger, was in zip(loggers, previous, strict=True):
+            logger.setLevel(was)
 
 
 _QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"

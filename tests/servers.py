@@ -1,5 +1,6 @@
 """Real servers for the tests and benchmarks that need one: ``plotgate serve`` in a
-subprocess, or any ASGI app under uvicorn in a thread."""
+subprocess, any ASGI app under uvicorn in a thread, or a Dask cluster that loses a
+worker."""
 
 import contextlib
 import json
@@ -16,7 +17,7 @@ from typing import Any
 import httpx
 import uvicorn
 
-__all__ = ["free_port", "health_watch", "serve", "serving"]
+__all__ = ["free_port", "health_watch", "losing_a_worker", "serve", "serving"]
 
 
 def free_port() -> int:
@@ -154,3 +155,31 @@ def health_watch(url: str, folder: Path) -> Iterator[list[float]]:
         stop.touch()
         out, _ = watcher.communicate(timeout=120)
         latencies += json.loads(out)
+
+
+def losing_a_worker(work: Callable[[str], Any], after: float = 1.5) -> Any:
+    """``work(scheduler_address)`` in a thread, on a LocalCluster of two single-threaded
+    worker processes (loopback), one of which is SIGKILLed ``after`` seconds in, while
+    ``work`` still runs (asserted); what ``work`` returned, within 300 s."""
+    import signal
+
+    from distributed import Client, LocalCluster
+
+    outcome = {}
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as local,
+        Client(local) as client,
+    ):
+        pids = list(client.run(os.getpid).values())
+        thread = threading.Thread(
+            target=lambda: outcome.setdefault("value", work(local.scheduler_address))
+        )
+        thread.start()
+        time.sleep(after)  # some chunks done, some running
+        assert thread.is_alive()  # killed mid-work, not after it
+        os.kill(pids[0], signal.SIGKILL)
+        thread.join(timeout=300)
+        assert not thread.is_alive()
+    return outcome["value"]

@@ -21,12 +21,13 @@ noise between different scans.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
+from plotgate.core.chunks import Mapper, mapped, spans
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.logic import initiate
@@ -52,9 +53,6 @@ K_OF_M = re.compile(r"([0-9]{1,3})/([0-9]{1,3})", re.ASCII)
 CHUNK_RUNS = 25
 """Runs per chunk of an evaluation: fixed, so the chunks (and the numbers) do not depend
 on how many workers run them."""
-Mapper = Callable[..., Iterable[Any]]
-"""A ``map``: (function, items) -> the function's results in the items' order (the
-builtin ``map``, or a cluster's, such as :func:`plotgate.service.cluster.mapper`)."""
 SWEEPABLE = ("confirm", *(f.name for f in fields(InitiationConfig)))
 """What :func:`sweep` may vary: any setting by its name, or ``"confirm"``, k/m as a
 string ``"k/m"`` (confirm_k and confirm_m together)."""
@@ -315,10 +313,10 @@ def _evaluations(
     if not distance > 0:
         raise ParameterError("distance", f"must be > 0, got {distance!r}")
     chunks = [
-        (scenario, tuple(configs), seed, start, min(start + CHUNK_RUNS, runs), distance)
-        for start in range(0, runs, CHUNK_RUNS)
+        (scenario, tuple(configs), seed, start, stop, distance)
+        for start, stop in spans(runs, CHUNK_RUNS)
     ]
-    parts = list((mapper or map)(run_chunk, chunks))
+    parts = mapped(mapper, run_chunk, chunks)
     scores: list[list[RunScore]] = [[] for _ in configs]
     ceiling: list[list[int]] = [[] for _ in configs]
     for part_scores, part_ceiling in parts:  # in run order, whatever ran them

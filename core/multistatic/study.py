@@ -20,7 +20,13 @@ moving platforms, with the diagnostics that say whether a solver is efficient:
 * ``full_track``: the trajectory fitted to all T samples, evaluated at every sample
   time, against its own bound ``full_track_crlb``.
 
-Every solver runs batched over the runs; the noise is the same for every method.
+Every solver runs batched over the runs; the noise is the same for every method. The
+noise is drawn once, in the caller, from one generator as it always was (so a seed gives
+the numbers it always gave), and the solves are cut into chunks of
+:data:`STUDY_CHUNK_RUNS` runs, each handed its slice of the noisy range sums
+(:func:`solve_runs`): every solver treats each run alone, so the chunks may run anywhere
+(a Dask cluster's workers) and the answer is the same bit for bit. What the chunks return
+is per run; every mean over the runs is taken here, over all of them at once.
 Curve 3 takes one batched :func:`plotgate.core.multistatic.trajectory.trajectory_solve` per prefix
 0..i, started from the information-weighted line through the consistent single-shot
 positions of that prefix (what ``trajectory_solve`` starts from itself, computed here
@@ -34,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.chunks import Mapper, mapped, spans
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.closed_form import difference_range_solve, sum_range_solve
 from plotgate.core.multistatic.crlb import crlb, difference_crlb
@@ -51,7 +58,16 @@ from plotgate.core.multistatic.track_start import line_terms
 from plotgate.core.multistatic.trajectory import trajectory_solve
 from plotgate.core.validation import as_array, require_positive
 
-__all__ = ["CURVES", "NOISE_WINDOW", "AccuracyStudy", "accuracy_study"]
+__all__ = [
+    "CURVES",
+    "NOISE_WINDOW",
+    "STUDY_CHUNK_RUNS",
+    "AccuracyStudy",
+    "RunSolves",
+    "StudyChunk",
+    "accuracy_study",
+    "solve_runs",
+]
 
 CURVES = ("ml_track", "ml_single", "sum_range", "difference_range")
 """The solver curves of Fadeev et al., Fig. 3: 3, 4, 5 and 6."""
@@ -59,6 +75,11 @@ CURVES = ("ml_track", "ml_single", "sum_range", "difference_range")
 NOISE_WINDOW = 50
 """Samples per window of the eq. 5 noise estimate (a quadratic fits a range-sum series
 over a few seconds, not over a whole baseline crossing)."""
+
+STUDY_CHUNK_RUNS = 100
+"""Runs per chunk of a study: fixed, whatever the number of workers. At the documented
+study's 200 samples a chunk is a few seconds of solves, and its 200 batched trajectory
+solves of 100 runs each still amortise numpy's per-call cost."""
 
 
 @dataclass(frozen=True)
@@ -162,6 +183,149 @@ def _prefix_lines(x: np.ndarray, W: np.ndarray, tau: np.ndarray, good: np.ndarra
     return lines
 
 
+@dataclass(frozen=True)
+class StudyChunk:
+    """What one chunk of runs needs: its noisy range sums and the scenario.
+
+    Attributes
+    ----------
+    L : (R, T, P) ndarray
+        The chunk's R runs of range sums, truth plus noise, m.
+    t : (T,) ndarray
+    tx, rx : (T, P, D) ndarray
+        The transmitter and the receivers per sample and pair, m.
+    x : (T, D) ndarray
+        True target positions, m.
+    sigma, alpha : float
+    tracks : bool
+    """
+
+    L: np.ndarray
+    t: np.ndarray
+    tx: np.ndarray
+    rx: np.ndarray
+    x: np.ndarray
+    sigma: float
+    alpha: float
+    tracks: bool
+
+
+@dataclass(frozen=True)
+class RunSolves:
+    """Every solver's answer for each run of a chunk (R runs, T samples, D coordinates).
+
+    Attributes
+    ----------
+    single, reference : (R, T, D) ndarray
+        ML single shot from the closed-form starts, and from the truth.
+    cost, reference_cost : (R, T) ndarray
+    consistent, converged : (R, T) ndarray of bool
+        The ML single shot's chi-square test and convergence.
+    sum_range, difference_range : (R, T, D) ndarray
+    sum_range_ok, difference_range_ok : (R, T) ndarray of bool
+        Whether each closed form had a consistent root.
+    state : (R, T, 2D) ndarray
+        The ML track (x0, v) fitted to samples 0..i (NaN at i = 0, and without tracks).
+    track_ok : (2, R, T) ndarray of bool
+        The tracks' chi-square test and convergence (True where not fitted).
+    """
+
+    single: np.ndarray
+    reference: np.ndarray
+    cost: np.ndarray
+    reference_cost: np.ndarray
+    consistent: np.ndarray
+    converged: np.ndarray
+    sum_range: np.ndarray
+    difference_range: np.ndarray
+    sum_range_ok: np.ndarray
+    difference_range_ok: np.ndarray
+    state: np.ndarray
+    track_ok: np.ndarray
+
+    @classmethod
+    def joined(cls, parts: list[RunSolves]) -> RunSolves:
+        """The chunks' answers as one, runs in order (``track_ok`` on its runs axis, 1)."""
+        runs_axis = {name: int(name == "track_ok") for name in cls.__dataclass_fields__}
+        return cls(
+            **{
+                name: np.concatenate([getattr(p, name) for p in parts], axis=axis)
+                for name, axis in runs_axis.items()
+            }
+        )
+
+
+def solve_runs(chunk: StudyChunk) -> RunSolves:
+    """Curves 3-6 and the reference minimum for the runs of one chunk.
+
+    Each solver is batched over the chunk's runs and samples and treats every problem
+    alone, so the answer for a run does not depend on which chunk carried it.
+    """
+    L, x, sigma, alpha = chunk.L, chunk.x, chunk.sigma, chunk.alpha
+    runs, n_t, p = L.shape
+    d = x.shape[-1]
+    flat = L.reshape(-1, p)
+    ftx = np.broadcast_to(chunk.tx, (runs, n_t, p, d)).reshape(-1, p, d)
+    frx = np.broadcast_to(chunk.rx, (runs, n_t, p, d)).reshape(-1, p, d)
+
+    # curves 4-6 and the reference minimum (Gauss-Newton from the truth)
+    ml = ml_solve(flat, ftx, frx, sigma, alpha=alpha)
+    truth = np.broadcast_to(x, (runs, n_t, d)).reshape(-1, d)
+    ref = ml_solve(flat, ftx, frx, sigma, x0=truth, alpha=alpha, closed_form_starts=False)
+    single = ml.x.reshape(runs, n_t, d)
+    closed = [
+        solver(flat, ftx, frx, baseline_tol=BASELINE_SIGMAS * sigma)
+        for solver in (sum_range_solve, difference_range_solve)
+    ]
+    consistent = ml.consistent.reshape(runs, n_t)
+    state, track_ok = _tracks(chunk, single, consistent)
+    return RunSolves(
+        single=single,
+        reference=ref.x.reshape(runs, n_t, d),
+        cost=ml.cost.reshape(runs, n_t),
+        reference_cost=ref.cost.reshape(runs, n_t),
+        consistent=consistent,
+        converged=ml.converged.reshape(runs, n_t),
+        sum_range=closed[0].x.reshape(runs, n_t, d),
+        difference_range=closed[1].x.reshape(runs, n_t, d),
+        sum_range_ok=closed[0].solvable.reshape(runs, n_t),
+        difference_range_ok=closed[1].solvable.reshape(runs, n_t),
+        state=state,
+        track_ok=track_ok,
+    )
+
+
+def _tracks(
+    chunk: StudyChunk, single: np.ndarray, consistent: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Curve 3: a batched trajectory solve per prefix 0..i of the chunk's runs, each
+    started from the information-weighted line through its consistent single shots."""
+    L, t, sigma = chunk.L, chunk.t, chunk.sigma
+    runs, n_t, _ = L.shape
+    d = single.shape[-1]
+    state = np.full((runs, n_t, 2 * d), np.nan)
+    track_ok = np.ones((2, runs, n_t), dtype=bool)  # consistent, converged
+    if not chunk.tracks:
+        return state, track_ok
+    tau = t - t[0]
+    Hx = range_sum_jacobian(single, chunk.tx, chunk.rx) / sigma  # at each run's position
+    W = np.einsum("rtpi,rtpj->rtij", Hx, Hx)
+    starts = _prefix_lines(single, W, tau, consistent)
+    for i in range(1, n_t):
+        fit = trajectory_solve(
+            L[:, : i + 1],
+            t[: i + 1],
+            chunk.tx[: i + 1],
+            chunk.rx[: i + 1],
+            sigma,
+            x0=starts[:, i],
+            alpha=chunk.alpha,
+        )
+        state[:, i] = fit.state
+        track_ok[:, :, i] = fit.consistent, fit.converged
+    return state, track_ok
+
+
 def accuracy_study(
     t: ArrayLike,
     tx: ArrayLike,
@@ -173,6 +337,7 @@ def accuracy_study(
     seed: int,
     alpha: float = 0.01,
     tracks: bool = True,
+    mapper: Mapper | None = None,
 ) -> AccuracyStudy:
     """Fadeev et al., Fig. 3 (curves 1-6) by Monte Carlo for one transmitter and its receivers.
 
@@ -199,6 +364,10 @@ def accuracy_study(
     tracks : bool, optional
         Compute curve 3 and the full track (T batched trajectory solves, most of the
         cost). Default True.
+    mapper : Mapper, optional
+        How the chunks of :data:`STUDY_CHUNK_RUNS` runs are solved: a ``map`` (default the
+        builtin, in this process; a cluster's to spread them). The result is the same bit
+        for bit.
 
     Returns
     -------
@@ -245,24 +414,22 @@ def accuracy_study(
     rxb = np.broadcast_to(np.asarray(rx, dtype=float), (n_t, p, d))
     noise = sigma * np.random.default_rng(seed).standard_normal((runs, n_t, p))
     L = clean + noise
-    flat = L.reshape(-1, p)
-    ftx = np.broadcast_to(txb, (runs, n_t, p, d)).reshape(-1, p, d)
-    frx = np.broadcast_to(rxb, (runs, n_t, p, d)).reshape(-1, p, d)
 
-    # curves 4-6 and the reference minimum (Gauss-Newton from the truth)
-    ml = ml_solve(flat, ftx, frx, sigma, alpha=alpha)
-    truth = np.broadcast_to(x, (runs, n_t, d)).reshape(-1, d)
-    ref = ml_solve(flat, ftx, frx, sigma, x0=truth, alpha=alpha, closed_form_starts=False)
-    single = ml.x.reshape(runs, n_t, d)
-    e = {"ml_single": single - x}
-    unsolvable = {}
-    for name, solver in (
-        ("sum_range", sum_range_solve),
-        ("difference_range", difference_range_solve),
-    ):
-        sol = solver(flat, ftx, frx, baseline_tol=BASELINE_SIGMAS * sigma)
-        e[name] = sol.x.reshape(runs, n_t, d) - x
-        unsolvable[name] = _count(~sol.solvable.reshape(runs, n_t))
+    chunks = [
+        StudyChunk(L[a:b], t, txb, rxb, x, sigma, alpha, tracks)
+        for a, b in spans(runs, STUDY_CHUNK_RUNS)
+    ]
+    solved = RunSolves.joined(mapped(mapper, solve_runs, chunks))
+    single = solved.single
+    e = {
+        "ml_single": single - x,
+        "sum_range": solved.sum_range - x,
+        "difference_range": solved.difference_range - x,
+    }
+    unsolvable = {
+        "sum_range": _count(~solved.sum_range_ok),
+        "difference_range": _count(~solved.difference_range_ok),
+    }
 
     H = range_sum_jacobian(x, txb, rxb)  # (T, P, D)
     Hw = H / sigma
@@ -280,26 +447,10 @@ def accuracy_study(
     )
     e["linearised_track"] = theta[..., :d] + tau[:, None] * theta[..., d:]
 
-    # curve 3: a batched trajectory solve per prefix, and the full track
-    state = np.full((runs, n_t, 2 * d), np.nan)
-    track_ok = np.ones((2, runs, n_t), dtype=bool)  # consistent, converged
+    # curve 3 (solved per chunk), and the full track
+    state, track_ok = solved.state, solved.track_ok
     full_track = full_crlb = np.full((n_t, d), np.nan)
     if tracks:
-        Hx = range_sum_jacobian(single, txb, rxb) / sigma  # at each run's position
-        W = np.einsum("rtpi,rtpj->rtij", Hx, Hx)
-        starts = _prefix_lines(single, W, tau, ml.consistent.reshape(runs, n_t))
-        for i in range(1, n_t):
-            fit = trajectory_solve(
-                L[:, : i + 1],
-                t[: i + 1],
-                txb[: i + 1],
-                rxb[: i + 1],
-                sigma,
-                x0=starts[:, i],
-                alpha=alpha,
-            )
-            state[:, i] = fit.state
-            track_ok[:, :, i] = fit.consistent, fit.converged
         full = state[:, -1]
         full_track = _rmse(full[:, None, :d] + tau[:, None] * full[:, None, d:] - x)
         full_crlb = np.sqrt(np.diagonal(position_covariance(cov[-1], tau), axis1=-2, axis2=-1))
@@ -309,10 +460,10 @@ def accuracy_study(
         e["linearised_track"][:] = np.nan
 
     J1 = b1.information
-    false_min = (_mahalanobis(single - ref.x.reshape(runs, n_t, d), J1) > 1.0) & (
-        ml.cost > ref.cost + 1e-9
-    ).reshape(runs, n_t)
-    inconsistent = ~ml.consistent.reshape(runs, n_t)
+    false_min = (_mahalanobis(single - solved.reference, J1) > 1.0) & (
+        solved.cost > solved.reference_cost + 1e-9
+    )
+    inconsistent = ~solved.consistent
     J_track = np.linalg.inv(A_cov[1:])
     track_distance = np.full(n_t, np.nan)
     if tracks:
@@ -343,7 +494,7 @@ def accuracy_study(
         max_track_distance=track_distance,
         gradient=np.linalg.norm(H, axis=-1),
         inconsistent=_count(inconsistent),
-        not_converged=_count(~ml.converged.reshape(runs, n_t)),
+        not_converged=_count(~solved.converged),
         false_minima=_count(false_min),
         false_unflagged=_count(false_min & ~inconsistent),
         track_inconsistent=_count(~track_ok[0]),

@@ -9,6 +9,7 @@ request's fields.
 import numpy as np
 
 from plotgate.core.identification import experiment, identify_picture, sequential, z_test
+from plotgate.service.cluster import lazy_map
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.schemas import (
@@ -116,7 +117,9 @@ def picture(request: IdentifyPictureRequest) -> IdentifyPictureResult:
 
 @checked
 def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
-    """Kvasnov's experiment: realized alpha (separation 0) or beta."""
+    """Kvasnov's experiment: realized alpha (separation 0) or beta. The runs go to the open
+    cluster, if any, once core has checked the request
+    (:func:`plotgate.service.cluster.lazy_map`), with the same numbers bit for bit."""
     r = request
     out = experiment(
         r.n,
@@ -129,6 +132,7 @@ def simulate(request: IdentifySimulateRequest) -> IdentifySimulateResult:
         r.alpha,
         r.law,
         r.estimate_sigma,
+        mapper=lazy_map,
     )
     return IdentifySimulateResult(
         runs=out.runs,

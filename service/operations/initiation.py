@@ -49,7 +49,7 @@ from plotgate.core.initiation.simulate import simulate as core_simulate
 from plotgate.core.initiation.state import PLOT_STRIDE
 from plotgate.core.initiation.state_json import PlotBounds
 from plotgate.core.validation import MAX_CONDITION
-from plotgate.service.cluster import mapper
+from plotgate.service.cluster import lazy_map
 from plotgate.service.fields import FieldMap
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.plots import plot_arrays
@@ -295,17 +295,17 @@ def _point(ev: Evaluation) -> dict[str, Any]:
 def evaluate(request: EvaluateRequest) -> EvaluateResult:
     """Monte Carlo of initiation on a scenario; with a sweep, on the same scans per value.
 
-    The runs go to the open cluster (:func:`plotgate.service.cluster.mapper`) when there
-    is one, with the same numbers bit for bit. A sweep's values reach core as sent: the
-    request's validator has already checked each one strictly as its setting
-    (``SweepIn.settings``: "0.9" is no number and 3.0 no integer), ``confirm`` as its k/m
-    string.
+    The runs go to the open cluster, if any, once core has checked the request
+    (:func:`plotgate.service.cluster.lazy_map`), with the same numbers bit for bit. A
+    sweep's values reach core as sent: the request's validator has already checked each
+    one strictly as its setting (``SweepIn.settings``: "0.9" is no number and 3.0 no
+    integer), ``confirm`` as its k/m string.
     """
     scenario, config = _scenario(request.scenario), _config(request.config)
     sweep = request.sweep
     if sweep is None:
         ev = core_evaluate(
-            scenario, config, request.runs, request.seed, request.distance, mapper=mapper()
+            scenario, config, request.runs, request.seed, request.distance, mapper=lazy_map
         )
         return EvaluateResult.model_validate(
             {"runs": ev.runs, "targets": ev.targets, **_point(ev)}
@@ -319,7 +319,7 @@ def evaluate(request: EvaluateRequest) -> EvaluateResult:
         request.seed,
         request.distance,
         baseline=True,
-        mapper=mapper(),
+        mapper=lazy_map,
     )
     return EvaluateResult.model_validate(
         {

@@ -2,9 +2,13 @@
 
 The wire's gate, mark and tau become core's gate region and :class:`plotgate.core.MarkGeometry`;
 angles arrive in degrees and go to core in radians. A velocity is speed (sin course,
-cos course), course clockwise from north. A curve is one vectorized core call: the
-geometry batched over the ranges, or one geometry repeated and the velocity batched over
-the speeds.
+cos course), course clockwise from north. A conditional curve is one vectorized core
+call: the geometry batched over the ranges, or one geometry repeated and the velocity
+batched over the speeds. An unconditional curve costs one quadrature of 0.1 s to minutes
+per range, so each of its points is a chunk of its own (:func:`unconditional_point`),
+mapped by the open cluster's ``map`` (:func:`plotgate.service.cluster.lazy_map`; in this
+process without one): core computes each problem alone, so the curve is the same bit for
+bit wherever its points run. Conditional curves cost milliseconds and stay in-process.
 
 Core errors name core arguments; :data:`PROBABILITY_FIELDS` and its variants map them to
 request paths.
@@ -18,6 +22,7 @@ import numpy as np
 
 from plotgate import core
 from plotgate.core import PlotgateError
+from plotgate.service.cluster import lazy_map
 from plotgate.service.fields import FieldMap, resolve
 from plotgate.service.operations.answers import checked
 from plotgate.service.operations.gate_conversion import core_gate
@@ -47,6 +52,7 @@ __all__ = [
     "curve",
     "design",
     "probability",
+    "unconditional_point",
 ]
 
 DESIGN_M_MAX = 5
@@ -113,6 +119,32 @@ def _unconditional(
     return core.unconditional_probability(gate, geometry, prior.v_min, prior.v_max, prior.kind)
 
 
+def unconditional_point(
+    point: tuple[int, core.Gate, core.MarkGeometry, SpeedPrior],
+) -> core.GateProbability:
+    """One point of an unconditional curve: (its index i, the gate, problem i's geometry,
+    the prior). A core error names problem i, as it would in the whole curve's call."""
+    i, gate, geometry, prior = point
+    try:
+        return _unconditional(gate, geometry, prior)
+    except PlotgateError as exc:
+        if exc.index is None:
+            raise
+        raise type(exc)(exc.field, exc.reason, i + exc.index) from exc
+
+
+def _unconditional_curve(
+    gate: core.Gate, geometry: core.MarkGeometry, prior: SpeedPrior
+) -> core.GateProbability:
+    """The unconditional probability of every problem, each one a chunk (its own
+    :func:`unconditional_point`) mapped by the open cluster, if any."""
+    points = [(i, gate, geometry.take(slice(i, i + 1)), prior) for i in range(geometry.n)]
+    parts = lazy_map(unconditional_point, points)
+    return core.GateProbability(
+        np.concatenate([p.probability for p in parts]), np.concatenate([p.error for p in parts])
+    )
+
+
 def _false_marks(
     area: np.ndarray, r: float, resolution: Resolution, F: float, m_max: int
 ) -> tuple[float, FalseMarks]:
@@ -146,7 +178,8 @@ def probability(request: GateProbabilityRequest) -> GateProbabilityResult:
 
 @checked
 def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
-    """The probability at every value, in one vectorized core call (Konovalov, Fig. 2 and 5)."""
+    """The probability at every value (Konovalov, Fig. 2 and 5): one vectorized core call,
+    or for an unconditional curve one chunk per value, on the open cluster if any."""
     gate = core_gate(request.gate)
     values = np.asarray(request.values, dtype=float)
     if request.against == "speed":
@@ -157,7 +190,7 @@ def curve(request: GateProbabilityCurveRequest) -> GateProbabilityCurve:
     else:
         geometry = _geometry(request.mark, request.tau, values, lambda i: f"values[{i}]")
         if request.prior is not None:
-            result = _unconditional(gate, geometry, request.prior)
+            result = _unconditional_curve(gate, geometry, request.prior)
         else:
             assert request.speed is not None  # the schema gives exactly one
             result = core.conditional_probability(

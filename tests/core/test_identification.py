@@ -6,6 +6,7 @@ import pytest
 from scipy import stats
 
 from plotgate.core.errors import NonFiniteError, ParameterError
+from plotgate.core.frames import wrap_finite
 from plotgate.core.identification import (
     experiment,
     identify_picture,
@@ -14,6 +15,8 @@ from plotgate.core.identification import (
     type_two_error,
     z_test,
 )
+from plotgate.core.identification.simulate import chunk_runs
+from plotgate.core.identification.ztest import circular_mean
 
 DEG = np.pi / 180.0
 
@@ -198,3 +201,43 @@ def test_a_ragged_picture_takes_memory_linear_in_its_samples():
     for i, track in enumerate(passive):
         padded[i, : track.size] = track
     np.testing.assert_allclose(pic.z, identify_picture(padded, active).z, rtol=1e-12)
+
+
+def _unchunked(n, m, sigma, separation, width, runs, seed, alpha=0.05, law="uniform"):
+    """Kvasnov's experiment as it was before chunks: every run from one default_rng(seed),
+    all passive bearings first (the numbers every experiment of one chunk keeps)."""
+    rng = np.random.default_rng(seed)
+    bearing = np.radians(1.5)
+    passive = bearing + sigma * rng.standard_normal((runs, n))
+    centre = bearing + separation
+    if law == "uniform":
+        active = rng.uniform(centre - width / 2, centre + width / 2, (runs, m))
+    else:
+        active = centre + sigma * rng.standard_normal((runs, m))
+    difference = wrap_finite(circular_mean(active, axis=1) - circular_mean(passive, axis=1))
+    z = difference * np.sqrt(m) / sigma
+    return float(np.mean(np.abs(z) <= stats.norm.ppf(1.0 - alpha / 2.0)))
+
+
+@pytest.mark.parametrize("law", ["uniform", "normal"])
+def test_an_experiment_of_one_chunk_keeps_its_unchunked_numbers(law):
+    sigma, width = np.radians(1.0), np.radians(3.0)
+    runs = chunk_runs(50, 5)
+    assert runs == 18181  # the default request's 10,000 runs are one chunk
+    got = experiment(50, 5, sigma, 0.01, width, runs, 8, law=law)
+    assert got.identified == _unchunked(50, 5, sigma, 0.01, width, runs, 8, law=law)
+
+
+def test_chunks_are_cut_by_n_plus_m_alone_and_run_in_any_order_alike(monkeypatch):
+    import plotgate.core.identification.simulate as module
+
+    def backwards(function, items):
+        return [function(x) for x in reversed(list(items))][::-1]
+
+    monkeypatch.setattr(module, "SAMPLES_PER_CHUNK", 55 * 1000)  # 1,000 runs a chunk
+    args = (50, 5, np.radians(1.0), 0.0, np.radians(3.0), 4321, 6)
+    spread = experiment(*args, mapper=backwards)
+    assert spread == experiment(*args)
+    monkeypatch.setattr(module, "SAMPLES_PER_CHUNK", 55 * 10_000)  # one chunk: another stream
+    assert experiment(*args).identified == _unchunked(*args)
+    assert experiment(*args) != spread

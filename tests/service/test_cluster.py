@@ -25,7 +25,7 @@ from plotgate.core.initiation import InitiationConfig
 from plotgate.core.initiation.evaluate import CHUNK_RUNS, evaluate, sweep
 from plotgate.core.initiation.simulate import mu_scenario
 from plotgate.service.cluster import CONNECT_S, ClusterUnavailable, cluster, configure, mapper
-from tests.servers import free_port, serve
+from tests.servers import free_port, losing_a_worker, serve
 
 SCORE = InitiationConfig(
     mode="polar", v_max=30.0, confirmation="score", P_D=0.8, surveillance_area=15000.0**2
@@ -111,28 +111,12 @@ def test_an_unreachable_scheduler_is_exit_2_with_a_message(tmp_path, capsys):
 def test_a_worker_killed_mid_evaluation_changes_nothing():
     scenario = mu_scenario(250.0)
     runs = 16 * CHUNK_RUNS
-    expected = evaluate(scenario, SCORE, runs, 11)
-    with (
-        LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
-        ) as local,
-        Client(local) as client,
-    ):
-        pids = list(client.run(os.getpid).values())
-        outcome = {}
 
-        def run():
-            with cluster(address=local.scheduler_address):
-                outcome["evaluation"] = evaluate(scenario, SCORE, runs, 11, mapper=mapper())
+    def evaluation(address: str):
+        with cluster(address=address):
+            return evaluate(scenario, SCORE, runs, 11, mapper=mapper())
 
-        thread = threading.Thread(target=run)
-        thread.start()
-        time.sleep(1.5)  # some chunks done, some running
-        assert thread.is_alive()  # killed mid-evaluation, not after it
-        os.kill(pids[0], signal.SIGKILL)
-        thread.join(timeout=300)
-        assert not thread.is_alive()
-    same(outcome["evaluation"], expected)
+    same(losing_a_worker(evaluation), evaluate(scenario, SCORE, runs, 11))
 
 
 def test_plotgate_worker_joins_a_scheduler_and_leaves_on_sigterm():
@@ -534,6 +518,48 @@ def test_a_scheduler_killed_mid_request_answers_a_recorded_503_and_is_used_once_
     assert executed == -(-BODY["runs"] // CHUNK_RUNS)  # every chunk, on the new scheduler
     assert closed - answered < 300  # a hang detector only
     assert [e.response["status"] for e in _exchanges(settings)] == [503, 200]
+
+
+@contextlib.contextmanager
+def _scheduler_and_worker() -> Iterator[tuple[str, subprocess.Popen, Client]]:
+    """A ``dask scheduler`` on a free loopback port with one ``plotgate worker`` joined:
+    its address, the scheduler's process (to kill) and a client watching it; both
+    processes are killed after."""
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler, worker = _scheduler(port), _worker(address)
+    try:
+        monitor = Client(address, timeout="60s")
+        monitor.wait_for_workers(1, timeout=120)
+        yield address, scheduler, monitor
+    finally:
+        for process in (scheduler, worker):
+            process.kill()
+            process.wait(timeout=30)
+
+
+def test_a_scheduler_killed_mid_study_ends_the_cli_with_one_message_and_exit_2(tmp_path):
+    """No traceback of Dask's client reconnecting: the command's own line says it all."""
+    with _scheduler_and_worker() as (address, scheduler, monitor):
+        with monitor:
+            study = subprocess.Popen(
+                [sys.executable, "-m", "plotgate.clients.cli", "study", "--dask", address]
+                + ["--runs", "1000", "--no-png", "--table", str(tmp_path / "table.md")],
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            deadline = time.monotonic() + 120
+            while not any(monitor.processing().values()):  # the work has reached the worker
+                assert time.monotonic() < deadline and study.poll() is None
+                time.sleep(0.1)
+        scheduler.kill()
+        try:
+            _, err = study.communicate(timeout=120)
+        finally:
+            study.kill()
+    assert study.returncode == 2
+    assert "Traceback" not in err and err.startswith("plotgate: 503 Cluster unavailable"), err
 
 
 def test_sigterm_answers_a_stuck_cluster_call_503_within_the_graceful_timeout(tmp_path):

@@ -21,6 +21,7 @@ from plotgate.core.multistatic import (
     trajectory_solve,
 )
 from plotgate.core.multistatic.study import CURVES
+from tests.identical import assert_identical
 
 SIGMA = 0.5
 T = 0.5 * np.arange(12)
@@ -127,3 +128,27 @@ def test_bad_input_is_refused(kwargs, error, field):
     with pytest.raises(error) as info:
         accuracy_study(**args)
     assert info.value.field == field
+
+
+def test_its_chunks_give_the_one_chunk_answer_bit_for_bit(study, monkeypatch):
+    """400 runs are 4 chunks (run backwards by a map of our own); one chunk of all the
+    runs is the study before it was chunked: the same noise, every solver on every run."""
+    import plotgate.core.multistatic.study as module
+
+    def backwards(function, items):
+        return [function(x) for x in reversed(list(items))][::-1]
+
+    assert RUNS // module.STUDY_CHUNK_RUNS == 4
+    spread = accuracy_study(T, TX, RX, X0, V, SIGMA, RUNS, SEED, mapper=backwards)
+    monkeypatch.setattr(module, "STUDY_CHUNK_RUNS", RUNS)
+    assert_identical(spread, study)
+    assert_identical(accuracy_study(T, TX, RX, X0, V, SIGMA, RUNS, SEED), study)
+
+
+def test_a_short_last_chunk_and_no_tracks_are_chunked_alike(monkeypatch):
+    import plotgate.core.multistatic.study as module
+
+    runs = module.STUDY_CHUNK_RUNS + 7
+    spread = accuracy_study(T, TX, RX, X0, V, SIGMA, runs, 3, tracks=False)
+    monkeypatch.setattr(module, "STUDY_CHUNK_RUNS", runs)
+    assert_identical(spread, accuracy_study(T, TX, RX, X0, V, SIGMA, runs, 3, tracks=False))
