@@ -139,7 +139,7 @@ ring far wider than B costs more grading levels)."""
 
 def _unconditional(name: str, kind: str, prior: str) -> Candidate:
     """The operation's example with ``kind``'s gate over ``prior``, sigma_r cut until B's
-    axis ratio reaches the cap (default: 22, the seconds of bench/README.md's axis-ratio
+    axis ratio reaches the cap (default: 30, the seconds of bench/README.md's axis-ratio
     table, when no cap is set)."""
 
     def build() -> tuple[str, Body]:
@@ -150,7 +150,7 @@ def _unconditional(name: str, kind: str, prior: str) -> Candidate:
         body["gate"] = {**GATES[kind], "v_max": v_max}
         if "v_min" in GATES[kind]:
             body["gate"]["v_min"] = v_min
-        ratio = _cap(name, "mark.axis_ratio", 22)
+        ratio = _cap(name, "mark.axis_ratio", 30)
         mark = body["mark"]
         cross = mark["r"] * math.radians(mark["sigma_az_deg"])  # m, across the line of sight
         mark["sigma_r"] = cross / ratio * (1 + 1e-9)  # the ratio is rounded up
@@ -175,7 +175,7 @@ def _unconditional_curve(kind: str, prior: str) -> Candidate:
 
     def body_of(n: int) -> Body:
         _, body = _unconditional("gates.probability", kind, prior)()
-        ratio = _cap(name, "mark.axis_ratio", 22)
+        ratio = _cap(name, "mark.axis_ratio", 30)
         far = ratio * 200.0 / math.radians(0.5) * (1 - 1e-9)
         body["mark"]["sigma_r"] = 200.0
         values = [10_000.0 + (far - 10_000.0) * i / max(n - 1, 1) for i in range(n)]
@@ -194,7 +194,7 @@ def _design(kind: str, capture: float) -> Candidate:
         body["gate"] = {"kind": kind, "v_max": 500.0}
         body["prior"] = ENDPOINTS["gates.design"].example["prior"] | {"v_max": 500.0}
         body["capture"] = capture
-        ratio = _cap("gates.design", "mark.axis_ratio", 22)
+        ratio = _cap("gates.design", "mark.axis_ratio", 30)
         return f"{kind}, capture {capture}, axis ratio {ratio}", body
 
     return build

@@ -140,24 +140,27 @@ class Endpoint:
         return copy.deepcopy(EXAMPLES[self.name])
 
 
-AXIS_RATIO_CAP = 9
+AXIS_RATIO_CAP = 26
 """Default cap of ``mark.axis_ratio`` for one unconditional probability (gates.probability,
-gates.analysis, each point of a curve). Its cost grows in steps with the ratio (the
-quadrature adds a grading level about B's thin features each time the ratio triples) and
-with the gate kind and the prior. CPU time of one request, measured by
-``bench/bench_worst_requests.py`` on a shared machine (the CPU time is what a quiet core's
-wall time would be): at ratio 6, at most 1.0 s (the first-association window; the ring,
-combined and expanded gates 0.2-0.5 s); at ratio 12, 1.6-3.6 s and 7.2 s for the
-first-association window. 9 is the last ratio before the next grading level."""
-DESIGN_AXIS_RATIO_CAP = 6
+gates.analysis). Its cost grows with the ratio, the gate kind and the prior; the slowest is
+the first-association window over a wide speed prior (10 km about the mark), whose
+heading density at an eccentric B is still integrated on graded panels. CPU time of one
+request on this tree (``bench/bench_worst_requests.py``; the CPU time is what a quiet
+core's wall time would be): at ratio 22, 5.1-5.2 s for that window, 1.4-1.7 s for the
+ring, combined and expanded gates, 0.2-0.4 s for the paper's ring prior. 26 takes the
+issue's eccentric gate (80 km, 20 m, 1 deg) with room under 10 s."""
+DESIGN_AXIS_RATIO_CAP = 26
 """Default cap of ``gates.design``'s ``mark.axis_ratio``: a design evaluates four to ten
-unconditional probabilities of the combined or expanded gate, each at most 0.5 s of CPU at
-ratio 6 (0.1-0.2 s for a whole design at ratio 3)."""
-CURVE_COST_CAP = 12
+unconditional probabilities of the combined or expanded gate, which share one density
+table; 0.3-0.4 s of CPU for a whole design at ratio 22."""
+CURVE_AXIS_RATIO_CAP = 9
+"""Default cap of an unconditional curve's ``mark.axis_ratio``: its points are many
+probabilities, so the ratio is held where one point costs a fraction of a second."""
+CURVE_COST_CAP = 16
 """Default cap of a curve's ``values x gate cost`` (:data:`~plotgate.service.schemas.
-probability.GATE_COST`): each unconditional point costs what one probability does. At
-ratio 9, 20 points of the expanded gate took 8.2-8.8 s of CPU and 6 of the
-first-association window 3.9-5.0 s (``bench/bench_worst_requests.py``): 12 is about 5 s."""
+probability.GATE_COST`): each unconditional point costs what one probability does, at
+most the ratio :data:`CURVE_AXIS_RATIO_CAP` (``bench/bench_worst_requests.py`` times the
+slowest curve it accepts; ``plotgate plot compare``'s 15 points fit)."""
 EVALUATION_WORK_CAP = 1_200_000
 """Default cap of ``initiation.evaluate``'s ``runs x scans x plots``, plot-equivalents
 (:meth:`~plotgate.service.schemas.EvaluateRequest.work`): about 6.5 s on one core."""
@@ -238,7 +241,7 @@ ENDPOINTS: dict[str, Endpoint] = {
                 "values x gate cost": unconditional_cost,
             },
             # each unconditional point costs what one gates.probability does
-            caps={"mark.axis_ratio": AXIS_RATIO_CAP, "values x gate cost": CURVE_COST_CAP},
+            caps={"mark.axis_ratio": CURVE_AXIS_RATIO_CAP, "values x gate cost": CURVE_COST_CAP},
         ),
         Endpoint(
             "gates.analysis",
