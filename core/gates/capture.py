@@ -25,8 +25,7 @@ from plotgate.core.gates.parameters import ring_radii, standard_deviation
 from plotgate.core.gates.regions import (
     MarkGeometry,
     StarRegion,
-    axes_metric,
-    chi_square_metric,
+    axes_covariance,
     no_kinks,
     radial_form,
     radial_region,
@@ -247,8 +246,8 @@ class ExpandedGate:
     def region(self, g: MarkGeometry) -> StarRegion:
         """Direction u: [0, the ellipse's radius], the ellipse about z1 on its line of sight."""
         a, b = self.semi_axes(g)
-        metric = axes_metric(a, b, 0.5 * np.pi - g.az)  # a along the line of sight
-        form = radial_form(g.n, (0.0, 0.0), (0.0, 1.0), metric)
+        S = axes_covariance(a, b, 0.5 * np.pi - g.az)  # a along the line of sight
+        form = radial_form(g.n, (0.0, 0.0), (0.0, 1.0), (S, 1.0))
         return radial_region(g.n, np.zeros(2), no_kinks(g.n), form)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
@@ -420,7 +419,7 @@ class CombinedGate:
         require_scalar("P_G", self.P_G)
         gamma = float(gate_threshold(self.P_G))
         n = g.n
-        form = radial_form(n, (R_min, R_max), (-1.0, 1.0), chi_square_metric(g.B, gamma))
+        form = radial_form(n, (R_min, R_max), (-1.0, 1.0), (g.B, gamma))
 
         # kinks where h = R_min: u^T B^-1 u = A0 + A1 cos(2 theta - 2 theta0) = gamma / R_min^2
         Bxx, Bxy, Byy, det = g.B

@@ -64,8 +64,7 @@ __all__ = [
     "inverse_form",
     "mark_geometry",
     "no_kinks",
-    "axes_metric",
-    "chi_square_metric",
+    "axes_covariance",
     "radial_form",
     "radial_radii",
     "radial_radii_reference",
@@ -213,10 +212,11 @@ class RadialForm(NamedTuple):
 
     lo = max(a_lo + k_lo h, 0), hi = a_hi + k_hi h, h = 1 / sqrt(u^T W u),
 
-    with W the metric of the gate's ellipse (gamma^-1 S^-1 for a chi-square ellipse of
-    S; diag(1 / a^2, 1 / b^2) in its own axes for an ellipse of semi-axes a, b), so h is
-    the ellipse's radius in direction u. The ring has k = 0, the combined gate
-    k_lo = -1, k_hi = 1, an ellipse a = 0, k_hi = 1, a polar sector k = 0 (about the radar).
+    W the adjugate of the covariance S of the gate's ellipse d^T S^-1 d <= gamma, whose
+    radius in direction u is sqrt(gamma |S|) h; that factor is folded into k, so W holds
+    S's own components and h rounds as the gate test's u^T S^-1 u does (at an axis ratio
+    of 279 a scaled S^-1 moved the ellipse's area by 1.6e-12). The ring has k = 0, the
+    combined gate k_lo = -k_hi, an ellipse a = 0, a polar sector k = 0 (about the radar).
     Stated once so that the compiled conditional probability evaluates the radii itself
     (:func:`radial_radii`) instead of calling back into numpy.
     """
@@ -238,29 +238,26 @@ def radial_form(
     n: int,
     a: tuple[float | np.ndarray, float | np.ndarray],
     k: tuple[float, float] = (0.0, 0.0),
-    metric: Sym2 | None = None,
+    ellipse: tuple[Sym2, float] | None = None,
 ) -> RadialForm:
-    """The :class:`RadialForm` of n problems: a = (a_lo, a_hi), k = (k_lo, k_hi) and the
-    ellipse's metric W (default the identity: unused when k = 0)."""
+    """The :class:`RadialForm` of n problems: a = (a_lo, a_hi), k = (k_lo, k_hi) in units
+    of the radius of ``ellipse`` = (S, gamma), the ellipse d^T S^-1 d <= gamma (none: the
+    identity, unused when k = 0)."""
     one, zero = np.ones(1), np.zeros(1)
-    W = Sym2(one, zero, one, one) if metric is None else metric
+    S, gamma = (Sym2(one, zero, one, one), 1.0) if ellipse is None else ellipse
+    scale = np.sqrt(gamma * S.det)
+    parts = (a[0], k[0] * scale, a[1], k[1] * scale, S.yy, -S.xy, S.xx)
     block = np.empty((7, n))  # one allocation: a request builds its record anew
-    for row, x in zip(block, (a[0], k[0], a[1], k[1], W.xx, W.xy, W.yy), strict=True):
+    for row, x in zip(block, parts, strict=True):
         row[:] = x
     return RadialForm(*block)
 
 
-def chi_square_metric(S: Sym2, gamma: float) -> Sym2:
-    """W = S^-1 / gamma: the metric of the ellipse d^T S^-1 d <= gamma."""
-    scale = gamma * S.det
-    return Sym2(S.yy / scale, -S.xy / scale, S.xx / scale, S.det / (scale * scale))
-
-
-def axes_metric(a: np.ndarray, b: np.ndarray, axis: np.ndarray) -> Sym2:
-    """The metric of an ellipse of semi-axes a (along the math angle ``axis``) and b."""
+def axes_covariance(a: np.ndarray, b: np.ndarray, axis: np.ndarray) -> Sym2:
+    """S of the ellipse d^T S^-1 d <= 1 of semi-axes a (along the math angle ``axis``) and b."""
     c, s = np.cos(axis), np.sin(axis)
-    pa, pb = 1.0 / (a * a), 1.0 / (b * b)
-    return Sym2(pa * c * c + pb * s * s, (pa - pb) * c * s, pa * s * s + pb * c * c, pa * pb)
+    aa, bb = a * a, b * b
+    return Sym2(aa * c * c + bb * s * s, (aa - bb) * c * s, aa * s * s + bb * c * c, aa * bb)
 
 
 def radial_radii_reference(

@@ -26,7 +26,6 @@ from plotgate.core.gates.regions import (
     MarkGeometry,
     Rows,
     StarRegion,
-    chi_square_metric,
     full_turn,
     no_kinks,
     radial_form,
@@ -169,7 +168,7 @@ class EllipseGate:
         """Direction u from z1 + offset: [0, sqrt(gamma / u^T S^-1 u)]."""
         require_scalar("P_G", self.P_G)
         gamma = float(gate_threshold(self.P_G))
-        form = radial_form(g.n, (0.0, 0.0), (0.0, 1.0), chi_square_metric(sym2(self._S(g)), gamma))
+        form = radial_form(g.n, (0.0, 0.0), (0.0, 1.0), (sym2(self._S(g)), gamma))
         return radial_region(g.n, as_points("offset", self.offset), no_kinks(g.n), form)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
