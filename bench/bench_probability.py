@@ -11,7 +11,9 @@ included) as the best of several runs with time.perf_counter.
 The first table holds the issue's aims: each unconditional probability (error estimate
 <= 1e-6) in units of C, the time of ``scipy.special.erf`` on 10^6 doubles measured in the
 same run (<= 0.75 C in Konovalov's example, <= 3 C at sigma_r 20 m, sigma_az 1 deg at
-80 km), with its gate node count, and the conditional probability (<= 0.1 ms). Each
+80 km), with its gate node count, and the conditional probability (<= 0.1 ms), whose
+compiled bisection is then timed against its numpy reference
+(``conditional_probability_reference``) in the same run. Each
 unconditional call there is cold: the density table a problem keeps for the next call on
 it (``heading.cached_table``) is forgotten first.
 
@@ -142,16 +144,31 @@ def aims() -> None:
                 f"| {'yes' if met else 'no'} | {p:.8f} | {err:.1e} | {count[0]} |",
                 flush=True,
             )
+    peers = []
     for name, gate in GATES.items():
         if name == "ellipse":
             continue
-        core.conditional_probability(gate, GEOMETRY, VELOCITY)
+        result = core.conditional_probability(gate, GEOMETRY, VELOCITY)
         seconds = best_time(
             lambda g=gate: core.conditional_probability(g, GEOMETRY, VELOCITY), repeats=200
         )
+        reference = best_time(
+            lambda g=gate: gp.conditional_probability_reference(g, GEOMETRY, VELOCITY),
+            repeats=200,
+        )
+        peers.append((name, seconds, reference))
         print(
             f"| conditional, v = 480 m/s | {name} | {seconds * 1e3:.3f} | | 0.1 ms "
-            f"| {'yes' if seconds <= 1e-4 else 'no'} | | | |"
+            f"| {'yes' if seconds <= 1e-4 else 'no'} | {float(result.probability[0]):.6f} "
+            f"| {float(result.error[0]):.1e} | |"
+        )
+    print(
+        "\n| conditional, v = 480 m/s | compiled bisection, ms | numpy reference, ms | ratio |"
+        "\n|---|---:|---:|---:|"
+    )
+    for name, seconds, reference in peers:
+        print(
+            f"| {name} | {seconds * 1e3:.3f} | {reference * 1e3:.3f} | {reference / seconds:.2f} |"
         )
 
 

@@ -23,15 +23,12 @@ from plotgate.core.errors import GeometryError, PlotgateError
 from plotgate.core.gates.kernels import as_rows, combined_gate_kernel
 from plotgate.core.gates.parameters import ring_radii, standard_deviation
 from plotgate.core.gates.regions import (
-    ALL_ROWS,
     MarkGeometry,
-    Rows,
     StarRegion,
-    column_sym2,
-    full_turn,
-    inverse_form,
+    axes_covariance,
     no_kinks,
-    rows_of,
+    radial_form,
+    radial_region,
 )
 from plotgate.core.gates.results import GateResult, GateStage, difference, gate_result
 from plotgate.core.gates.thresholds import expansion_coefficient, gate_threshold
@@ -117,11 +114,7 @@ class RingGate:
         """Every direction: [R_min, R_max] about z1."""
         R_min, R_max = ring_radii(g.tau, self.v_min, self.v_max)
         n = g.n
-
-        def radii(theta: np.ndarray, rows: Rows = ALL_ROWS) -> tuple[np.ndarray, np.ndarray]:
-            return np.full(theta.shape, R_min), np.full(theta.shape, R_max)
-
-        return full_turn(n, np.zeros(2), no_kinks(n), radii)
+        return radial_region(n, np.zeros(2), no_kinks(n), radial_form(n, (R_min, R_max)))
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
         """The test of second marks z2 (M, 2) in problem i of g: (M,) bool."""
@@ -252,15 +245,10 @@ class ExpandedGate:
 
     def region(self, g: MarkGeometry) -> StarRegion:
         """Direction u: [0, the ellipse's radius], the ellipse about z1 on its line of sight."""
-        a, b = (x[:, None] for x in self.semi_axes(g))
-        los = (0.5 * np.pi - g.az)[:, None]  # math angle of the line of sight
-
-        def radii(theta: np.ndarray, rows: Rows = ALL_ROWS) -> tuple[np.ndarray, np.ndarray]:
-            off = theta - los[rows]
-            along, across = np.cos(off) / a[rows], np.sin(off) / b[rows]
-            return np.zeros(theta.shape), 1.0 / np.sqrt(along * along + across * across)
-
-        return full_turn(g.n, np.zeros(2), no_kinks(g.n), radii)
+        a, b = self.semi_axes(g)
+        S = axes_covariance(a, b, 0.5 * np.pi - g.az)  # a along the line of sight
+        form = radial_form(g.n, (0.0, 0.0), (0.0, 1.0), (S, 1.0))
+        return radial_region(g.n, np.zeros(2), no_kinks(g.n), form)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
         """The test of second marks z2 (M, 2) in problem i of g: (M,) bool."""
@@ -431,11 +419,7 @@ class CombinedGate:
         require_scalar("P_G", self.P_G)
         gamma = float(gate_threshold(self.P_G))
         n = g.n
-        B = column_sym2(g.B)
-
-        def radii(theta: np.ndarray, rows: Rows = ALL_ROWS) -> tuple[np.ndarray, np.ndarray]:
-            h = np.sqrt(gamma / inverse_form(rows_of(B, rows), theta))
-            return np.maximum(R_min - h, 0.0), R_max + h
+        form = radial_form(n, (R_min, R_max), (-1.0, 1.0), (g.B, gamma))
 
         # kinks where h = R_min: u^T B^-1 u = A0 + A1 cos(2 theta - 2 theta0) = gamma / R_min^2
         Bxx, Bxy, Byy, det = g.B
@@ -447,7 +431,7 @@ class CombinedGate:
             ratio = np.divide(gamma, R_min * R_min) if R_min > 0 else np.nan
             half = 0.5 * np.arccos((ratio - A0) / A1)
         kinks = theta0[:, None] + np.stack([half, -half, np.pi + half, np.pi - half], axis=-1)
-        return full_turn(n, np.zeros(2), kinks, radii)
+        return radial_region(n, np.zeros(2), kinks, form)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
         """The test of second marks z2 (M, 2) in problem i of g: (M,) bool."""

@@ -37,6 +37,7 @@ themselves; it is for checking the quadrature, not for production use.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, NamedTuple, cast
@@ -44,6 +45,7 @@ from typing import Literal, NamedTuple, cast
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.gates.heading import (
     ECCENTRIC,
@@ -56,6 +58,7 @@ from plotgate.core.gates.heading import (
     prior_density,
     prior_density_reference,
     prior_ring,
+    ray_moments,
     ray_moments_reference,
     ring_features,
     table_size,
@@ -63,15 +66,24 @@ from plotgate.core.gates.heading import (
 )
 from plotgate.core.gates.kinds import Gate
 from plotgate.core.gates.parameters import ring_radii
-from plotgate.core.gates.quadrature import adaptive_panels, angle_breaks, breakpoints, panel_rule
-from plotgate.core.gates.regions import MarkGeometry, StarRegion
+from plotgate.core.gates.quadrature import (
+    adaptive_panels,
+    angle_breaks,
+    breakpoints,
+    gauss_legendre,
+    panel_rule,
+)
+from plotgate.core.gates.regions import RADIAL_FORM, MarkGeometry, StarRegion, radial_radii
 from plotgate.core.sym2 import Sym2, inverse
 from plotgate.core.validation import as_points, pair_count
 
 __all__ = [
     "GateProbability",
     "Prior",
+    "conditional_integral",
+    "conditional_integral_reference",
     "conditional_probability",
+    "conditional_probability_reference",
     "monte_carlo_probability",
     "unconditional_probability",
     "unconditional_quadrature",
@@ -118,6 +130,29 @@ class GateProbability:
     error: np.ndarray
 
 
+class ConditionalProblems(NamedTuple):
+    """N conditional problems as the compiled bisection reads them ((N,) each): the mean
+    of d relative to the region's origin, and B^-1 with its determinant."""
+
+    mx: np.ndarray
+    my: np.ndarray
+    qxx: np.ndarray
+    qxy: np.ndarray
+    qyy: np.ndarray
+    qdet: np.ndarray
+
+
+CONDITIONAL_PROBLEMS = "UniTuple(float64[:], 6)"
+"""numba type of :class:`ConditionalProblems`."""
+_PANEL_RULES = "UniTuple(float64[:], 4)"
+"""numba type of the two Gauss-Legendre rules (nodes, weights, nodes, weights)."""
+MAX_ROUNDS = 40
+"""Bisections of a starting panel at most (a panel this deep is accepted as it is)."""
+MAX_PANELS = 100_000
+"""Panels the bisection evaluates at most (per batch in the reference, per problem in the
+kernel); past it the open panels are accepted as they are, their differences counted."""
+
+
 def _conditional_integrand(
     region: StarRegion, Q: Sym2, rel: np.ndarray
 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -132,6 +167,140 @@ def _conditional_integrand(
         return M1
 
     return integrand
+
+
+@kernel(f"float64({CONDITIONAL_PROBLEMS}, {RADIAL_FORM}, int64, float64)")
+def _ray_integral(
+    problems: tuple[np.ndarray, ...], form: tuple[np.ndarray, ...], i: int, theta: float
+) -> float:
+    """M1 of problem i along direction theta, over the gate's radii."""
+    ux, uy = math.cos(theta), math.sin(theta)
+    lo, hi = radial_radii(form, i, theta)
+    gauss = (problems[2][i], problems[3][i], problems[4][i], problems[5][i], 0.0, 0.0, 0.0)
+    return ray_moments(ux, uy, problems[0][i], problems[1][i], gauss, lo, hi)[1]
+
+
+@kernel(
+    f"UniTuple(float64, 2)({CONDITIONAL_PROBLEMS}, {RADIAL_FORM}, int64, float64, float64, "
+    f"{_PANEL_RULES})"
+)
+def _panel_sums(
+    problems: tuple[np.ndarray, ...],
+    form: tuple[np.ndarray, ...],
+    i: int,
+    a: float,
+    b: float,
+    rules: tuple[np.ndarray, ...],
+) -> tuple[float, float]:
+    """The higher- and lower-order rules' integrals over the panel [a, b]."""
+    mid, half = 0.5 * (a + b), 0.5 * (b - a)
+    high, low = 0.0, 0.0
+    for j in range(rules[0].size):
+        high += rules[1][j] * _ray_integral(problems, form, i, mid + half * rules[0][j])
+    for j in range(rules[2].size):
+        low += rules[3][j] * _ray_integral(problems, form, i, mid + half * rules[2][j])
+    return half * high, half * low
+
+
+@kernel(
+    f"UniTuple(float64[:], 2)({CONDITIONAL_PROBLEMS}, {RADIAL_FORM}, float64[:, :], float64[:], "
+    f"{_PANEL_RULES})"
+)
+def conditional_integral(
+    problems: tuple[np.ndarray, ...],
+    form: tuple[np.ndarray, ...],
+    edges: np.ndarray,
+    tol: np.ndarray,
+    rules: tuple[np.ndarray, ...],
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`conditional_integral_reference` compiled, problem by problem: each starting
+    panel is bisected depth first (a stack of open panels, at most :data:`MAX_ROUNDS`
+    deep) rather than all panels round by round; the same panels are accepted unless
+    :data:`MAX_PANELS` is reached, so the sums agree to rounding."""
+    n, n_edges = edges.shape
+    integral, error = np.zeros(n), np.zeros(n)
+    stack_a = np.empty(n_edges + MAX_ROUNDS + 1)
+    stack_b = np.empty(n_edges + MAX_ROUNDS + 1)
+    depth = np.empty(n_edges + MAX_ROUNDS + 1, dtype=np.int64)
+    for i in range(n):
+        share = tol[i] / (edges[i, -1] - edges[i, 0])
+        top = 0
+        for e in range(n_edges - 2, -1, -1):  # pushed last to first: popped in order
+            if edges[i, e + 1] > edges[i, e]:
+                stack_a[top], stack_b[top], depth[top] = edges[i, e], edges[i, e + 1], 0
+                top += 1
+        evaluated = 0
+        while top > 0:
+            top -= 1
+            a, b, level = stack_a[top], stack_b[top], depth[top]
+            high, low = _panel_sums(problems, form, i, a, b, rules)
+            evaluated += 1
+            diff = abs(high - low)
+            if diff <= share * (b - a) or level == MAX_ROUNDS - 1 or evaluated >= MAX_PANELS:
+                integral[i] += high
+                error[i] += diff
+                continue
+            mid = 0.5 * (a + b)
+            stack_a[top], stack_b[top], depth[top] = mid, b, level + 1
+            stack_a[top + 1], stack_b[top + 1], depth[top + 1] = a, mid, level + 1
+            top += 2
+    return integral, error
+
+
+def conditional_integral_reference(
+    region: StarRegion, Q: Sym2, rel: np.ndarray, edges: np.ndarray, tol: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The integral over the gate of the unnormalized Gaussian of mean ``rel`` (relative
+    to the region's origin) and inverse covariance Q, and its error, with numpy: the
+    starting panels ``edges`` bisected round by round
+    (:func:`plotgate.core.gates.quadrature.adaptive_panels`) until the rules of
+    :data:`M_CONDITIONAL` agree within ``tol``."""
+    return adaptive_panels(
+        _conditional_integrand(region, Q, rel),
+        edges,
+        tol,
+        orders=M_CONDITIONAL,
+        max_rounds=MAX_ROUNDS,
+        max_panels=MAX_PANELS,
+    )
+
+
+def _conditional(
+    gate: Gate, geometry: MarkGeometry, velocity: ArrayLike, reference: bool
+) -> GateProbability:
+    """:func:`conditional_probability`, compiled or (``reference``, or a region without a
+    :class:`plotgate.core.gates.regions.RadialForm`: the rectangle) with numpy."""
+    v = as_points("velocity", velocity)
+    n = pair_count(geometry=(geometry.n,) if geometry.n > 1 else (), velocity=v.shape[:-1])
+    if geometry.n != n:  # one geometry, many velocities (a curve against speed)
+        geometry = geometry.take(np.zeros(n, dtype=int))
+    region = gate.region(geometry)
+    mean = np.broadcast_to(v * geometry.tau, (n, 2))
+    rel = mean - region.origin
+    lam_min, _, major = principal_axes(geometry.B)
+    centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
+    # starting panels: the Gaussian subtends about sigma / |m| seen from the origin, or
+    # sigma / lo where the inner edge lo of the gate cuts it (then about B's major axis);
+    # panels are then bisected until two rules agree
+    inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
+    reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
+    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
+        width = np.sqrt(lam_min) / reach
+    edges = angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
+    norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
+    tol = _CONDITIONAL_TOL * norm
+    Q = inverse(geometry.B)
+    if reference or region.form is None:
+        integral, error = conditional_integral_reference(region, Q, rel, edges, tol)
+    else:
+        problems = ConditionalProblems(
+            *(np.ascontiguousarray(x, dtype=float) for x in (rel[:, 0], rel[:, 1], *Q))
+        )
+        rules = tuple(x for m in M_CONDITIONAL for x in gauss_legendre(m))
+        integral, error = conditional_integral(
+            tuple(problems), tuple(region.form), np.ascontiguousarray(edges), tol, rules
+        )
+    return GateProbability(integral / norm, error / norm)
 
 
 def conditional_probability(
@@ -170,32 +339,21 @@ def conditional_probability(
     >>> res = conditional_probability(EllipseGate(0.9, offset=(800.0, 0.0)), g, [200.0, 0.0])
     >>> round(float(res.probability[0]), 10), bool(res.error[0] < 1e-6)
     (0.9, True)
+
+    The integral over direction is bisected by a compiled kernel
+    (:func:`conditional_integral`, with the gate's radii compiled from its
+    :class:`plotgate.core.gates.regions.RadialForm`); :func:`conditional_probability_reference`
+    computes the same with numpy.
     """
-    v = as_points("velocity", velocity)
-    n = pair_count(geometry=(geometry.n,) if geometry.n > 1 else (), velocity=v.shape[:-1])
-    if geometry.n != n:  # one geometry, many velocities (a curve against speed)
-        geometry = geometry.take(np.zeros(n, dtype=int))
-    region = gate.region(geometry)
-    mean = np.broadcast_to(v * geometry.tau, (n, 2))
-    rel = mean - region.origin
-    lam_min, _, major = principal_axes(geometry.B)
-    centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
-    # starting panels: the Gaussian subtends about sigma / |m| seen from the origin, or
-    # sigma / lo where the inner edge lo of the gate cuts it (then about B's major axis);
-    # panels are then bisected until two rules agree
-    inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
-    reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
-    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
-        width = np.sqrt(lam_min) / reach
-    edges = angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
-    norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
-    integral, error = adaptive_panels(
-        _conditional_integrand(region, inverse(geometry.B), rel),
-        edges,
-        _CONDITIONAL_TOL * norm,
-        orders=M_CONDITIONAL,
-    )
-    return GateProbability(integral / norm, error / norm)
+    return _conditional(gate, geometry, velocity, reference=False)
+
+
+def conditional_probability_reference(
+    gate: Gate, geometry: MarkGeometry, velocity: ArrayLike
+) -> GateProbability:
+    """:func:`conditional_probability` with numpy (the same starting panels, bisected
+    round by round): the reference the compiled bisection is tested against."""
+    return _conditional(gate, geometry, velocity, reference=True)
 
 
 class GateNodes(NamedTuple):
@@ -309,8 +467,7 @@ def _half_turn(region: StarRegion) -> tuple[StarRegion, float]:
     Gaussian even, so g(-d) = g(d). That halves the gate's nodes."""
     if not region.symmetric or region.origin.any():
         return region, 1.0
-    half = np.full(region.span.shape, np.pi)
-    return StarRegion(region.origin, region.start, half, region.kinks, region.radii), 2.0
+    return region._replace(span=np.full(region.span.shape, np.pi)), 2.0
 
 
 def _validate_prior(prior: str) -> None:

@@ -25,6 +25,8 @@ distribution exactly Gaussian, which the probabilities of Konovalov, eq. 1-2, as
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -32,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.compiled import kernel
 from plotgate.core.errors import GeometryError
 from plotgate.core.frames import (
     polar_covariance_to_cartesian,
@@ -51,7 +54,9 @@ from plotgate.core.validation import (
 
 __all__ = [
     "ALL_ROWS",
+    "RADIAL_FORM",
     "MarkGeometry",
+    "RadialForm",
     "Rows",
     "StarRegion",
     "column_sym2",
@@ -59,6 +64,11 @@ __all__ = [
     "inverse_form",
     "mark_geometry",
     "no_kinks",
+    "axes_covariance",
+    "radial_form",
+    "radial_radii",
+    "radial_radii_reference",
+    "radial_region",
     "rows_of",
     "sector_region",
 ]
@@ -197,6 +207,78 @@ def mark_geometry(
     )
 
 
+class RadialForm(NamedTuple):
+    """Radii of the form every gate but the rectangle has, for N problems ((N,) each):
+
+    lo = max(a_lo + k_lo h, 0), hi = a_hi + k_hi h, h = 1 / sqrt(u^T W u),
+
+    W the adjugate of the covariance S of the gate's ellipse d^T S^-1 d <= gamma, whose
+    radius in direction u is sqrt(gamma |S|) h; that factor is folded into k, so W holds
+    S's own components and h rounds as the gate test's u^T S^-1 u does (at an axis ratio
+    of 279 a scaled S^-1 moved the ellipse's area by 1.6e-12). The ring has k = 0, the
+    combined gate k_lo = -k_hi, an ellipse a = 0, a polar sector k = 0 (about the radar).
+    Stated once so that the compiled conditional probability evaluates the radii itself
+    (:func:`radial_radii`) instead of calling back into numpy.
+    """
+
+    a_lo: np.ndarray
+    k_lo: np.ndarray
+    a_hi: np.ndarray
+    k_hi: np.ndarray
+    wxx: np.ndarray
+    wxy: np.ndarray
+    wyy: np.ndarray
+
+
+RADIAL_FORM = "UniTuple(Array(float64, 1, 'C', readonly=True), 7)"
+"""numba type of a :class:`RadialForm`."""
+
+
+def radial_form(
+    n: int,
+    a: tuple[float | np.ndarray, float | np.ndarray],
+    k: tuple[float, float] = (0.0, 0.0),
+    ellipse: tuple[Sym2, float] | None = None,
+) -> RadialForm:
+    """The :class:`RadialForm` of n problems: a = (a_lo, a_hi), k = (k_lo, k_hi) in units
+    of the radius of ``ellipse`` = (S, gamma), the ellipse d^T S^-1 d <= gamma (none: the
+    identity, unused when k = 0)."""
+    one, zero = np.ones(1), np.zeros(1)
+    S, gamma = (Sym2(one, zero, one, one), 1.0) if ellipse is None else ellipse
+    scale = np.sqrt(gamma * S.det)
+    parts = (a[0], k[0] * scale, a[1], k[1] * scale, S.yy, -S.xy, S.xx)
+    block = np.empty((7, n))  # one allocation: a request builds its record anew
+    for row, x in zip(block, parts, strict=True):
+        row[:] = x
+    return RadialForm(*block)
+
+
+def axes_covariance(a: np.ndarray, b: np.ndarray, axis: np.ndarray) -> Sym2:
+    """S of the ellipse d^T S^-1 d <= 1 of semi-axes a (along the math angle ``axis``) and b."""
+    c, s = np.cos(axis), np.sin(axis)
+    aa, bb = a * a, b * b
+    return Sym2(aa * c * c + bb * s * s, (aa - bb) * c * s, aa * s * s + bb * c * c, aa * bb)
+
+
+def radial_radii_reference(
+    form: RadialForm, theta: np.ndarray, rows: Rows = ALL_ROWS
+) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of :class:`RadialForm` at directions theta, (N, T) or (P, T) with
+    ``rows`` (P,), with numpy: the reference of :func:`radial_radii`."""
+    a_lo, k_lo, a_hi, k_hi, wxx, wxy, wyy = (x[rows][:, None] for x in form)
+    c, s = np.cos(theta), np.sin(theta)
+    h = 1.0 / np.sqrt(wxx * c * c + 2.0 * wxy * c * s + wyy * s * s)
+    return np.maximum(a_lo + k_lo * h, 0.0), a_hi + k_hi * h
+
+
+@kernel(f"UniTuple(float64, 2)({RADIAL_FORM}, int64, float64)")
+def radial_radii(form: tuple[np.ndarray, ...], i: int, theta: float) -> tuple[float, float]:
+    """:func:`radial_radii_reference` of problem i at one direction, compiled: (lo, hi)."""
+    c, s = math.cos(theta), math.sin(theta)
+    h = 1.0 / math.sqrt(form[4][i] * c * c + 2.0 * form[5][i] * c * s + form[6][i] * s * s)
+    return max(form[0][i] + form[1][i] * h, 0.0), form[2][i] + form[3][i] * h
+
+
 class StarRegion(NamedTuple):
     """A gate as radial intervals about an origin, for N problems.
 
@@ -215,6 +297,9 @@ class StarRegion(NamedTuple):
         of each row.
     symmetric : bool
         The region is symmetric about its origin: radii(theta + pi) = radii(theta).
+    form : RadialForm or None
+        The radii as a :class:`RadialForm` (``radii`` is then its numpy reference), or
+        None for a region whose radii have no such form (the rectangle).
     """
 
     origin: np.ndarray
@@ -223,6 +308,7 @@ class StarRegion(NamedTuple):
     kinks: np.ndarray
     radii: Callable[..., tuple[np.ndarray, np.ndarray]]
     symmetric: bool = False
+    form: RadialForm | None = None
 
 
 def full_turn(
@@ -240,6 +326,12 @@ def full_turn(
     return StarRegion(
         np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI), kinks, radii, True
     )
+
+
+def radial_region(n: int, origin: np.ndarray, kinks: np.ndarray, form: RadialForm) -> StarRegion:
+    """:func:`full_turn` with the radii of ``form``."""
+    region = full_turn(n, origin, kinks, functools.partial(radial_radii_reference, form))
+    return region._replace(form=form)
 
 
 def no_kinks(n: int) -> np.ndarray:
@@ -272,12 +364,9 @@ def sector_region(
     The region of the polar gates (Mu et al., eq. 1-4): centre range r_c and azimuth
     az_c, windows W_R (m) and W_az (rad), each (N,).
     """
-    r_lo = np.maximum(r_c - W_R, 0.0)[:, None]
-    r_hi = (r_c + W_R)[:, None]
+    form = radial_form(g.n, (np.maximum(r_c - W_R, 0.0), r_c + W_R))
     W_az = np.minimum(W_az, np.pi)
-
-    def radii(theta: np.ndarray, rows: Rows = ALL_ROWS) -> tuple[np.ndarray, np.ndarray]:
-        return (np.broadcast_to(r_lo[rows], theta.shape), np.broadcast_to(r_hi[rows], theta.shape))
-
+    radii = functools.partial(radial_radii_reference, form)
     # azimuth az (clockwise from north) is the math angle pi/2 - az
-    return StarRegion(-g.z1, 0.5 * np.pi - az_c - W_az, 2.0 * W_az, no_kinks(g.n), radii)
+    start = 0.5 * np.pi - az_c - W_az
+    return StarRegion(-g.z1, start, 2.0 * W_az, no_kinks(g.n), radii, False, form)

@@ -26,11 +26,10 @@ from plotgate.core.gates.regions import (
     MarkGeometry,
     Rows,
     StarRegion,
-    column_sym2,
     full_turn,
-    inverse_form,
     no_kinks,
-    rows_of,
+    radial_form,
+    radial_region,
 )
 from plotgate.core.gates.results import GateResult, difference, gate_result, window_statistic
 from plotgate.core.gates.thresholds import gate_threshold
@@ -169,12 +168,8 @@ class EllipseGate:
         """Direction u from z1 + offset: [0, sqrt(gamma / u^T S^-1 u)]."""
         require_scalar("P_G", self.P_G)
         gamma = float(gate_threshold(self.P_G))
-        S = column_sym2(sym2(self._S(g)))
-
-        def radii(theta: np.ndarray, rows: Rows = ALL_ROWS) -> tuple[np.ndarray, np.ndarray]:
-            return np.zeros(theta.shape), np.sqrt(gamma / inverse_form(rows_of(S, rows), theta))
-
-        return full_turn(g.n, as_points("offset", self.offset), no_kinks(g.n), radii)
+        form = radial_form(g.n, (0.0, 0.0), (0.0, 1.0), (sym2(self._S(g)), gamma))
+        return radial_region(g.n, as_points("offset", self.offset), no_kinks(g.n), form)
 
     def contains(self, g: MarkGeometry, i: int, z2: np.ndarray) -> np.ndarray:
         """The test of second marks z2 (M, 2) in problem i of g: (M,) bool."""
