@@ -584,11 +584,11 @@ def _broadcast_problem(
 ) -> Problem:
     """New C-contiguous arrays of shapes (N, P), (N, P, D), (N, P, D) and (N, P)."""
     p, d = rx.shape[-2:]
-    return Problem(
-        np.array(np.broadcast_to(ls, (n, p))),
-        np.array(np.broadcast_to(tx, (n, p, d))),
-        np.array(np.broadcast_to(rx, (n, p, d))),
-        None if sig is None else np.array(np.broadcast_to(sig, (n, p))),
+    return Problem(  # C order: the compiled checks and solves read C-contiguous arrays
+        np.array(np.broadcast_to(ls, (n, p)), order="C"),
+        np.array(np.broadcast_to(tx, (n, p, d)), order="C"),
+        np.array(np.broadcast_to(rx, (n, p, d)), order="C"),
+        None if sig is None else np.array(np.broadcast_to(sig, (n, p)), order="C"),
     )
 
 

@@ -639,7 +639,7 @@ def ml_solve(
         Measurements(ls, 1.0 / sig, tx_, rx_, np.zeros(p)),
         sig,
         allow,
-        np.zeros((0, d)) if x0 is None else start_points(x0, n, d),
+        np.zeros((0, d)) if x0 is None else np.ascontiguousarray(start_points(x0, n, d)),
     )
     out = Solutions(
         np.empty((n, d)),
