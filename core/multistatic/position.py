@@ -635,8 +635,10 @@ def ml_solve(
     sig = cast(np.ndarray, checked_sigma)  # given, so checked: never None
     n, p, d = tx_.shape
     threshold = consistency_threshold(alpha, p - d)
+    with np.errstate(divide="ignore"):  # sigma = 0 is refused below, named by the reference
+        w = 1.0 / sig
     shots = Shots(
-        Measurements(ls, 1.0 / sig, tx_, rx_, np.zeros(p)),
+        Measurements(ls, w, tx_, rx_, np.zeros(p)),
         sig,
         allow,
         np.zeros((0, d)) if x0 is None else np.ascontiguousarray(start_points(x0, n, d)),

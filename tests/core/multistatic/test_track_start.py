@@ -43,8 +43,11 @@ def test_the_fixes_and_lines_agree_with_the_reference(receivers):
     np.testing.assert_array_equal(new.mirrored, ref.mirrored)
     scale = 1.0 + np.abs(ref.candidates).max()
     np.testing.assert_allclose(new.candidates, ref.candidates, rtol=0, atol=1e-6 * scale)
+    # the information moves with its candidate (which differs by the closed form's
+    # rounding, large near a baseline): 1e-6 of each matrix's largest entry
     big = np.abs(ref.information).max(axis=(-2, -1))[..., None, None]
-    np.testing.assert_allclose(new.information, ref.information, rtol=0, atol=1e-9 * big)
+    gap = np.abs(new.information - ref.information) / big
+    assert gap.max() <= 1e-6, gap.max()
     plain = ~new.mirrored.reshape(ls.shape[:2]).any(axis=1)  # the kernel's lines
     assert plain.any() == (receivers == 3)
     np.testing.assert_allclose(new.lines[plain], ref.lines[plain], rtol=1e-6, atol=1e-6)
