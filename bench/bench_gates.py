@@ -10,7 +10,7 @@ the ellipse gate's rho = nu^T S^-1 nu computed the naive vectorized way, with
 np.linalg.solve over the batch and no validation; the last column is each
 gate's throughput relative to it. The gates with a compiled kernel (ellipse,
 combined, sector, first association) are timed beside their numpy
-``reference_test``. Prints a markdown table, then the first-call cost of the kernels:
+``test_reference``. Prints a markdown table, then the first-call cost of the kernels:
 importing plotgate.core with an empty ``NUMBA_CACHE_DIR`` (compiling) and again with
 the cache that import wrote (loading).
 """
@@ -96,10 +96,10 @@ def main() -> None:
     ]
     cases: list[tuple[str, Callable[[], object]]] = [
         ("baseline: ellipse rho via np.linalg.solve", lambda: solve_baseline(z2, z1, S, 0.9)),
-        ("EllipseGate, numpy reference", lambda: ellipse.reference_test(z2, z1, S)),
-        ("CombinedGate, numpy reference", lambda: combined.reference_test(z1, P1, z2, P2, 5.0)),
-        ("SectorGate, numpy reference", lambda: sector.reference_test(*sector_args)),
-        ("FirstAssociationGate, numpy reference", lambda: first.reference_test(*first_args)),
+        ("EllipseGate, numpy reference", lambda: ellipse.test_reference(z2, z1, S)),
+        ("CombinedGate, numpy reference", lambda: combined.test_reference(z1, P1, z2, P2, 5.0)),
+        ("SectorGate, numpy reference", lambda: sector.test_reference(*sector_args)),
+        ("FirstAssociationGate, numpy reference", lambda: first.test_reference(*first_args)),
         ("RingGate", lambda: RingGate(100.0, 500.0).test(z1, z2, 5.0)),
         ("ExpandedGate", lambda: ExpandedGate(500.0, 0.9).test(z1, z2, 5.0, sigma_r, sigma_az)),
         ("RectangularGate", lambda: RectangularGate(2.0).test(z2, z1, sigma_r, sigma_r)),

@@ -15,8 +15,8 @@ better-conditioned geometry where Gauss-Newton needs fewer steps.
 
 * Single shot: ``ml_solve`` on the whole batch (validation and the closed-form start
   included), best of ``--repeats``. The Gauss-Newton iterations alone, from the closed
-  form's roots: the compiled engine (``range_sum_gauss_newton``, what ``ml_solve``
-  runs) against the numpy reference (``gauss_newton``) on the same starts. The
+  form's roots: the compiled engine (``gauss_newton``, what ``ml_solve``
+  runs) against the numpy reference (``gauss_newton_reference``) on the same starts. The
   baselines, in the same run on the same problems, are
   ``scipy.optimize.least_squares`` (``trf``, its default, and ``lm``, MINPACK) with the
   analytic Jacobian, one call per problem (scipy has no batch), each started from
@@ -55,6 +55,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 import scipy
 from scipy.optimize import least_squares
@@ -72,7 +73,7 @@ from plotgate.core.multistatic import (
 from plotgate.core.multistatic.gauss_newton import (
     consistency_threshold,
     gauss_newton,
-    range_sum_gauss_newton,
+    gauss_newton_reference,
 )
 from plotgate.core.multistatic.model import range_sum_jacobian_unchecked, range_sums_unchecked
 from plotgate.service.operations.solves import position
@@ -170,9 +171,17 @@ def single_shot(
     core_s = best_time(lambda: ml_solve(ls, tx, rx, SIGMA), repeats)
     cf_s = best_time(lambda: sum_range_solve(ls, tx, rx, baseline_tol=5 * SIGMA), repeats)
     starts = sum_range_solve(ls, tx, rx, baseline_tol=5 * SIGMA).x
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        one_s = best_time(lambda: ml_solve(ls, tx, rx, SIGMA), repeats)
+    finally:
+        numba.set_num_threads(threads)
     rows = [
-        f"| {name} | ml_solve (batch) | {core_s * 1e6 / size:.1f} | {size / core_s:,.0f} "
-        f"| 1.0x | {np.mean(sol.iterations):.1f} | — |"
+        f"| {name} | ml_solve (batch, {threads} threads) | {core_s * 1e6 / size:.2f} "
+        f"| {size / core_s:,.0f} | 1.0x | {np.mean(sol.iterations):.1f} | — |",
+        f"| {name} | ml_solve (batch, one thread) | {one_s * 1e6 / size:.2f} "
+        f"| {size / one_s:,.0f} | — | — | — |",
     ]
     sigma = np.full(ls.shape, SIGMA)
     row = np.arange(size)
@@ -185,13 +194,13 @@ def single_shot(
 
     tau = np.zeros(ls.shape[1])
     kernel_s = best_time(
-        lambda: range_sum_gauss_newton(ls, sigma, tx, rx, tau, row, starts, 50, 1e-9), repeats
+        lambda: gauss_newton(ls, sigma, tx, rx, tau, row, starts, 50, 1e-9), repeats
     )
     numpy_s = best_time(
-        lambda: gauss_newton(predict, jacobian, ls, sigma, starts, 50, 1e-9), repeats
+        lambda: gauss_newton_reference(predict, jacobian, ls, sigma, starts, 50, 1e-9), repeats
     )
-    fast = range_sum_gauss_newton(ls, sigma, tx, rx, tau, row, starts, 50, 1e-9)
-    ref = gauss_newton(predict, jacobian, ls, sigma, starts, 50, 1e-9)
+    fast = gauss_newton(ls, sigma, tx, rx, tau, row, starts, 50, 1e-9)
+    ref = gauss_newton_reference(predict, jacobian, ls, sigma, starts, 50, 1e-9)
     same = int((fast.iterations == ref.iterations).sum())
     gap = float(
         (np.abs(fast.theta - ref.theta).max(axis=1) / (1 + np.abs(ref.theta).max(axis=1))).max()
@@ -212,7 +221,8 @@ def single_shot(
         metres = np.linalg.norm(dx, axis=-1)
         rows.append(
             f"| {name} | least_squares {method} + closed-form start | "
-            f"{s * 1e6 / size:.1f} | {size / s:,.0f} | {s / core_s:.2f}x | — | "
+            f"{s * 1e6 / size:.1f} | {size / s:,.0f} | {s / core_s:.2f}x "
+            f"({s / one_s:.2f}x one thread) | — | "
             f"max {metres.max():.1g} m = {sigmas.max():.1g} sigma; "
             f"{(sigmas > 0.1).sum()} beyond 0.1 sigma |"
         )

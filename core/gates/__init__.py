@@ -26,7 +26,7 @@ probability, coefficients), with
   :class:`GateResult` (what initiation and the service's ``gates.test`` call); for the
   ellipse, combined, sector and first-association gates a compiled kernel
   (:mod:`plotgate.core.gates.kernels`) that checks and tests each pair in one pass, with
-  the numpy ``reference_test`` as its tested oracle and the path that names a bad input;
+  the numpy ``test_reference`` as its tested oracle and the path that names a bad input;
 - ``region(geometry)``: the gate as a plane region of a gating problem, for its
   probability, area and design;
 - ``contains(geometry, i, z2)``: the test on problem i of a gating problem, what the

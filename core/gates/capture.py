@@ -8,7 +8,7 @@ nearest circle). Each gate kind is a frozen dataclass of its parameters with its
 vectorized ``test``, its ``region`` for gating probabilities and areas, and
 ``contains``, the test on a gating problem (what the Monte Carlo check samples).
 The combined gate's ``test`` is a compiled kernel (:mod:`plotgate.core.gates.kernels`)
-beside its numpy ``reference_test``, the oracle the tests hold it to. Symbols and
+beside its numpy ``test_reference``, the oracle the tests hold it to. Symbols and
 batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import GeometryError, PlotgateError
-from plotgate.core.gates.kernels import as_rows, combined_gate_kernel
+from plotgate.core.gates.kernels import as_rows, combined_test
 from plotgate.core.gates.parameters import ring_radii, standard_deviation
 from plotgate.core.gates.regions import (
     MarkGeometry,
@@ -360,14 +360,14 @@ class CombinedGate:
                 z1=z1_k.shape[:-1], P1=P1_k.shape[:-2], z2=z2_k.shape[:-1], P2=P2_k.shape[:-2]
             )
         except PlotgateError:
-            return self.reference_test(z1, P1, z2, P2, tau)  # raises the reference's error
+            return self.test_reference(z1, P1, z2, P2, tau)  # raises the reference's error
         rho, inside, stage = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=np.int8)
         args = (as_rows(z1_k, 2), as_rows(P1_k, 4), as_rows(z2_k, 2), as_rows(P2_k, 4))
-        if combined_gate_kernel(*args, R_min, R_max, gamma, rho, inside, stage) >= 0:
-            return self.reference_test(z1, P1, z2, P2, tau)  # raises the reference's error
+        if combined_test(*args, R_min, R_max, gamma, rho, inside, stage) >= 0:
+            return self.test_reference(z1, P1, z2, P2, tau)  # raises the reference's error
         return GateResult(inside, rho, gamma, stage)
 
-    def reference_test(
+    def test_reference(
         self, z1: ArrayLike, P1: ArrayLike, z2: ArrayLike, P2: ArrayLike, tau: float
     ) -> GateResult:
         """:meth:`test` in numpy: the reference its compiled kernel is tested against.

@@ -1,6 +1,7 @@
 """Compiled per-pair gate tests: the input checks and the statistic fused in one pass.
 
-Each kernel tests N pairs the way its gate's numpy ``reference_test`` does, with the
+Each kernel is its gate's ``test`` (``ellipse_test`` is what ``EllipseGate.test`` runs,
+and so on) and tests N pairs the way the gate's numpy ``test_reference`` does, with the
 same arithmetic in the same order (so the statistic agrees to rounding), and checks the
 inputs the reference checks (finite values, signs, covariances as
 :func:`plotgate.core.validation.is_valid_covariance`) in the same pass. A kernel returns the
@@ -35,10 +36,10 @@ __all__ = [
     "ROWS",
     "VALUES",
     "as_rows",
-    "combined_gate_kernel",
-    "ellipse_gate_kernel",
-    "first_association_kernel",
-    "sector_gate_kernel",
+    "combined_test",
+    "ellipse_test",
+    "first_association_test",
+    "sector_test",
     "stride",
     "wrapped",
 ]
@@ -75,7 +76,7 @@ def stride(m: int, n: int) -> int:
 
 
 @kernel(f"int64({ROWS}, {ROWS}, {ROWS}, float64, float64[::1], boolean[::1])")
-def ellipse_gate_kernel(
+def ellipse_test(
     z: np.ndarray,
     z_pred: np.ndarray,
     S: np.ndarray,
@@ -110,7 +111,7 @@ def ellipse_gate_kernel(
     f"int64({ROWS}, {ROWS}, {ROWS}, {ROWS}, float64, float64, float64,"
     " float64[::1], boolean[::1], int8[::1])"
 )
-def combined_gate_kernel(
+def combined_test(
     z1: np.ndarray,
     P1: np.ndarray,
     z2: np.ndarray,
@@ -170,7 +171,7 @@ def combined_gate_kernel(
     f"int64({VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES}, {VALUES},"
     " float64, float64, float64[::1], boolean[::1])"
 )
-def sector_gate_kernel(
+def sector_test(
     r: np.ndarray,
     az: np.ndarray,
     r_pred: np.ndarray,
@@ -221,7 +222,7 @@ def sector_gate_kernel(
     f"int64({VALUES}, {VALUES}, {VALUES}, {VALUES}, float64, {VALUES}, {VALUES}, {VALUES},"
     f" {VALUES}, float64, float64, float64[::1], boolean[::1])"
 )
-def first_association_kernel(
+def first_association_test(
     r1: np.ndarray,
     az1: np.ndarray,
     r2: np.ndarray,

@@ -8,7 +8,7 @@ of the secondary-processing textbook, Fig. 3.6 a. Azimuth differences are wrappe
 (-pi, pi]. Each gate kind is a frozen dataclass of its parameters with its vectorized
 ``test``, its ``region`` and ``contains`` on a gating problem (as in
 :mod:`plotgate.core.gates.capture`). Both gates' ``test`` is a compiled kernel
-(:mod:`plotgate.core.gates.kernels`) beside its numpy ``reference_test``. Symbols and
+(:mod:`plotgate.core.gates.kernels`) beside its numpy ``test_reference``. Symbols and
 batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from plotgate.core.errors import PlotgateError
 from plotgate.core.frames import cartesian_to_polar, wrap_angle
-from plotgate.core.gates.kernels import as_rows, first_association_kernel, sector_gate_kernel
+from plotgate.core.gates.kernels import as_rows, first_association_test, sector_test
 from plotgate.core.gates.parameters import positive_coefficient, ring_radii, standard_deviation
 from plotgate.core.gates.regions import MarkGeometry, StarRegion, sector_region
 from plotgate.core.gates.results import GateResult, gate_result, window_statistic
@@ -157,16 +157,16 @@ class SectorGate:
             K_az = positive_coefficient("K_az", self.K_az)
             n = pair_count(**{name: x.shape for name, x in arrays.items()})
         except PlotgateError:
-            return self.reference_test(**inputs)  # raises the reference's error
+            return self.test_reference(**inputs)  # raises the reference's error
         statistic, inside = np.empty(n), np.empty(n, dtype=bool)
         a = {name: as_rows(x) for name, x in arrays.items()}
         marks = (a["r"], a["az"], a["r_pred"], a["az_pred"])
         sigmas = (a["sigma_r"], a["sigma_az"], a["sigma_r_pred"], a["sigma_az_pred"])
-        if sector_gate_kernel(*marks, *sigmas, K_R, K_az, statistic, inside) >= 0:
-            return self.reference_test(**inputs)  # raises the reference's error
+        if sector_test(*marks, *sigmas, K_R, K_az, statistic, inside) >= 0:
+            return self.test_reference(**inputs)  # raises the reference's error
         return GateResult(inside, statistic, 1.0)
 
-    def reference_test(
+    def test_reference(
         self,
         r: ArrayLike,
         az: ArrayLike,
@@ -337,16 +337,16 @@ class FirstAssociationGate:
             K_az = positive_coefficient("K_az", self.K_az)
             n = pair_count(**{name: x.shape for name, x in (m | s).items()})
         except PlotgateError:
-            return self.reference_test(tau=tau, **marks, **sigmas)  # raises its error
+            return self.test_reference(tau=tau, **marks, **sigmas)  # raises its error
         statistic, inside = np.empty(n), np.empty(n, dtype=bool)
         a = {name: as_rows(x) for name, x in (m | s).items()}
         first = (a["r1"], a["az1"], a["r2"], a["az2"])
         sigma = (a["sigma_r1"], a["sigma_az1"], a["sigma_r2"], a["sigma_az2"])
-        if first_association_kernel(*first, R_max, *sigma, K_R, K_az, statistic, inside) >= 0:
-            return self.reference_test(tau=tau, **marks, **sigmas)  # raises its error
+        if first_association_test(*first, R_max, *sigma, K_R, K_az, statistic, inside) >= 0:
+            return self.test_reference(tau=tau, **marks, **sigmas)  # raises its error
         return GateResult(inside, statistic, 1.0)
 
-    def reference_test(
+    def test_reference(
         self,
         r1: ArrayLike,
         az1: ArrayLike,

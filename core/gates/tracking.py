@@ -7,7 +7,7 @@ the rectangular gate |d_i| <= k sigma_i of the secondary-processing textbook
 (Fig. 3.6 b). Each gate kind is a frozen dataclass of its parameters with its
 vectorized ``test``, its ``region`` and ``contains`` on a gating problem (as in
 :mod:`plotgate.core.gates.capture`). The ellipse gate's ``test`` is a compiled kernel
-(:mod:`plotgate.core.gates.kernels`) beside its numpy ``reference_test``. Symbols and
+(:mod:`plotgate.core.gates.kernels`) beside its numpy ``test_reference``. Symbols and
 batching as in :mod:`plotgate.core.gates` and :mod:`plotgate.core.gates.results`.
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from plotgate.core.errors import ParameterError, PlotgateError
-from plotgate.core.gates.kernels import as_rows, ellipse_gate_kernel
+from plotgate.core.gates.kernels import as_rows, ellipse_test
 from plotgate.core.gates.parameters import positive_coefficient, standard_deviation
 from plotgate.core.gates.regions import (
     ALL_ROWS,
@@ -117,14 +117,14 @@ class EllipseGate:
             gamma = self.threshold
             n = pair_count(z=z_k.shape[:-1], z_pred=z_pred_k.shape[:-1], S=S_k.shape[:-2])
         except PlotgateError:
-            return self.reference_test(z, z_pred, S)  # raises the reference's error
+            return self.test_reference(z, z_pred, S)  # raises the reference's error
         rho, inside = np.empty(n), np.empty(n, dtype=bool)
         args = (as_rows(z_k, 2), as_rows(z_pred_k, 2), as_rows(S_k, 4))
-        if ellipse_gate_kernel(*args, gamma, rho, inside) >= 0:
-            return self.reference_test(z, z_pred, S)  # raises the reference's error
+        if ellipse_test(*args, gamma, rho, inside) >= 0:
+            return self.test_reference(z, z_pred, S)  # raises the reference's error
         return GateResult(inside, rho, gamma)
 
-    def reference_test(self, z: ArrayLike, z_pred: ArrayLike, S: ArrayLike) -> GateResult:
+    def test_reference(self, z: ArrayLike, z_pred: ArrayLike, S: ArrayLike) -> GateResult:
         """:meth:`test` in numpy: the reference its compiled kernel is tested against.
 
         Same parameters, result and errors as :meth:`test`; each check and each step of

@@ -50,25 +50,32 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plotgate.core.compiled import kernel
+from plotgate.core.compiled import ARRAY_1D, ARRAY_2D, ARRAY_3D, kernel, record
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
     coordinate_scale,
     range_sums,
+    scale_of,
     validate_problem,
 )
 
 __all__ = [
     "RANK_RTOL",
     "ROOT_RTOL",
+    "ROOT_WORK",
     "ClosedFormSolution",
+    "RootWork",
     "difference_range_solve",
+    "root_work",
     "sum_range_roots",
+    "sum_range_roots_into",
     "sum_range_roots_reference",
     "sum_range_solve",
 ]
@@ -407,176 +414,230 @@ def _range_sum_residual(
     return math.sqrt(total)
 
 
-@kernel(
-    "void(float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], "
-    "boolean[:, ::1], float64[:, ::1])"
+class RootWork(NamedTuple):
+    """Scratch space of :func:`sum_range_roots_into` for P pairs in D dimensions.
+
+    M, U (P, D) and V (D, D), S (D,) the SVD; h (P,); a, c (D,) the line s = a + R c;
+    s, x (2, D) the two roots; R, residual (2,); consistent (2,); fallback (D,).
+    """
+
+    M: np.ndarray
+    U: np.ndarray
+    V: np.ndarray
+    S: np.ndarray
+    h: np.ndarray
+    a: np.ndarray
+    c: np.ndarray
+    s: np.ndarray
+    x: np.ndarray
+    R: np.ndarray
+    consistent: np.ndarray
+    residual: np.ndarray
+    fallback: np.ndarray
+
+
+ROOT_WORK = record(
+    RootWork,
+    *(ARRAY_2D, ARRAY_2D, ARRAY_2D, ARRAY_1D, ARRAY_1D, ARRAY_1D, ARRAY_1D),
+    *(ARRAY_2D, ARRAY_2D, ARRAY_1D, numba.boolean[::1], ARRAY_1D, ARRAY_1D),
 )
+"""numba type of :class:`RootWork`."""
+
+
+@kernel(ROOT_WORK(numba.int64, numba.int64))
+def root_work(p: int, d: int) -> RootWork:  # pragma: no cover (compiled)
+    """:class:`RootWork` for problems of p pairs in d dimensions."""
+    return RootWork(
+        np.empty((p, d)),
+        np.empty((p, d)),
+        np.empty((d, d)),
+        np.empty(d),
+        np.empty(p),
+        np.empty(d),
+        np.empty(d),
+        np.empty((2, d)),
+        np.empty((2, d)),
+        np.empty(2),
+        np.empty(2, dtype=np.bool_),
+        np.empty(2),
+        np.empty(d),
+    )
+
+
+@kernel(
+    numba.void(ARRAY_1D, ARRAY_2D, ARRAY_2D, ROOT_WORK, ARRAY_2D, ARRAY_1D, numba.boolean[::1]),
+    inline=True,
+)
+def sum_range_roots_into(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: np.ndarray,
+    rx: np.ndarray,
+    work: RootWork,
+    out: np.ndarray,
+    res: np.ndarray,
+    flags: np.ndarray,
+) -> None:  # pragma: no cover (compiled)
+    """The sum-range roots of one problem (P pairs of one transmitter, tx[0]), compiled.
+
+    Into out (x, alternative) (2, D), res (their residuals) (2,) and flags
+    (solvable, has_alternative) (2,): :func:`sum_range_roots_reference`'s arithmetic.
+    """
+    p, d = tx.shape
+    M, U, V, S, h = work.M, work.U, work.V, work.S, work.h
+    a, c, s, x, R = work.a, work.c, work.s, work.x, work.R
+    consistent, residual, fallback = work.consistent, work.residual, work.fallback
+    tol = ROOT_RTOL * scale_of(tx, rx)
+    for k in range(p):
+        nb = 0.0
+        for i in range(d):
+            M[k, i] = rx[k, i] - tx[0, i]
+            nb += M[k, i] * M[k, i]
+        nb = np.sqrt(nb)
+        h[k] = 0.5 * (nb - l[k]) * (nb + l[k])
+    _svd(M, U, V, S)
+    full_rank = S[d - 1] > RANK_RTOL * S[0]
+    rank = 0
+    for i in range(d):
+        if S[i] > RANK_RTOL * S[0]:
+            rank += 1
+    # a = V S^-1 U^T h, c = V S^-1 U^T g (g = l)
+    for i in range(d):
+        ai = 0.0
+        ci = 0.0
+        for j in range(rank):
+            uh = 0.0
+            ug = 0.0
+            for k in range(p):
+                uh += U[k, j] * h[k]
+                ug += U[k, j] * l[k]
+            ai += V[i, j] / S[j] * uh
+            ci += V[i, j] / S[j] * ug
+        a[i] = ai
+        c[i] = ci
+    alpha = -1.0
+    beta = 0.0
+    gamma = 0.0
+    for i in range(d):
+        alpha += c[i] * c[i]
+        beta += a[i] * c[i]
+        gamma += a[i] * a[i]
+    wedge2 = 0.0
+    for i in range(d):
+        for j in range(d):
+            w = a[i] * c[j] - a[j] * c[i]
+            wedge2 += w * w
+    wedge2 *= 0.5
+    norm_a = np.sqrt(gamma)
+    norm_w = np.sqrt(wedge2)
+    disc = (norm_a - norm_w) * (norm_a + norm_w)
+    real = disc >= -1e-12 * (gamma + wedge2)
+    root = np.sqrt(max(disc, 0.0))
+    q = -(beta + (root if beta >= 0 else -root))
+    R[0] = q / alpha
+    R[1] = gamma / q
+    for j in range(2):
+        for i in range(d):
+            s[j, i] = a[i] + R[j] * c[i]
+    # rank D - 1: the mirror images +-t along the null direction
+    gg = 0.0
+    g2 = 0.0
+    hg = 0.0
+    for k in range(p):
+        go = l[k]
+        ho = h[k]
+        for j in range(rank):
+            ug = 0.0
+            uh = 0.0
+            for m in range(p):
+                ug += U[m, j] * l[m]
+                uh += U[m, j] * h[m]
+            go -= U[k, j] * ug
+            ho -= U[k, j] * uh
+        gg += go * go
+        g2 += l[k] * l[k]
+        hg += ho * go
+    mirror = rank == d - 1 and gg > 1e-16 * g2
+    R_m = -hg / gg if mirror else 0.0
+    if mirror:
+        t2 = R_m * R_m
+        for i in range(d):
+            sm = a[i] + R_m * c[i]
+            t2 -= sm * sm
+        t = np.sqrt(max(t2, 0.0))
+        for j in range(2):
+            sign = 1.0 if j == 0 else -1.0
+            for i in range(d):
+                s[j, i] = a[i] + R_m * c[i] + sign * t * V[i, d - 1]
+            R[j] = R_m
+        real = t2 >= -1e-12 * R_m * R_m
+    solvable_rank = full_rank or mirror
+    for j in range(2):
+        finite = math.isfinite(R[j])
+        for i in range(d):
+            finite = finite and math.isfinite(s[j, i])
+        if not finite:
+            R[j] = 0.0
+            for i in range(d):
+                s[j, i] = 0.0
+        for i in range(d):
+            x[j, i] = tx[0, i] + s[j, i]
+        ok = finite and real and solvable_rank and R[j] >= -tol
+        for k in range(p):
+            ok = ok and l[k] - R[j] >= -tol
+        consistent[j] = ok
+        residual[j] = _range_sum_residual(x[j], l, tx, rx)
+    tie = abs(residual[0] - residual[1]) <= tol
+    if tie:
+        if abs(R[0] - R[1]) <= tol:
+            first = x[0, d - 1] >= x[1, d - 1]
+        else:
+            first = R[0] < R[1]
+    else:
+        first = residual[0] < residual[1]
+    best = 0 if consistent[0] and (first or not consistent[1]) else 1
+    other = 1 - best
+    solvable = consistent[best]
+    dist = 0.0
+    for i in range(d):
+        dist += (x[best, i] - x[other, i]) ** 2
+    has_alt = solvable and consistent[other] and np.sqrt(dist) > tol
+    if solvable:
+        out[0] = x[best]
+        res[0] = residual[best]
+    else:
+        vertex = R_m if mirror else -beta / alpha
+        if vertex == vertex:  # np.maximum keeps a NaN
+            vertex = max(vertex, 0.0)
+        if not math.isfinite(vertex):
+            vertex = 0.0
+        for i in range(d):
+            fallback[i] = tx[0, i] + a[i] + vertex * c[i]
+        out[0] = fallback
+        res[0] = _range_sum_residual(fallback, l, tx, rx)
+    if has_alt:
+        out[1] = x[other]
+        res[1] = residual[other]
+    else:
+        out[1] = out[0]
+        res[1] = res[0]
+    flags[0] = solvable
+    flags[1] = has_alt
+
+
+@kernel(numba.void(ARRAY_2D, ARRAY_3D, ARRAY_3D, ARRAY_3D, ARRAY_2D, numba.boolean[:, ::1]))
 def _sum_range_kernel(
     ls: np.ndarray,
     tx: np.ndarray,
     rx: np.ndarray,
     out: np.ndarray,
-    flags: np.ndarray,
     res: np.ndarray,
+    flags: np.ndarray,
 ) -> None:  # pragma: no cover (compiled)
-    """Per problem: out (x, alternative), flags (solvable, has_alternative), res (residuals)."""
+    """Per problem: out (x, alternative), res (residuals), flags (solvable, has_alternative)."""
     n, p, d = tx.shape
-    M = np.empty((p, d))
-    U = np.empty((p, d))
-    V = np.empty((d, d))
-    S = np.empty(d)
-    h = np.empty(p)
-    a = np.empty(d)
-    c = np.empty(d)
-    s = np.empty((2, d))
-    x = np.empty((2, d))
-    R = np.empty(2)
-    consistent = np.empty(2, dtype=np.bool_)
-    residual = np.empty(2)
-    fallback = np.empty(d)
-    for q_ in range(n):
-        l = ls[q_]  # noqa: E741
-        t_, r_ = tx[q_], rx[q_]
-        big = 1.0
-        for k in range(p):
-            for i in range(d):
-                big = max(big, abs(t_[k, i]), abs(r_[k, i]))
-        tol = ROOT_RTOL * big
-        for k in range(p):
-            nb = 0.0
-            for i in range(d):
-                M[k, i] = r_[k, i] - t_[0, i]
-                nb += M[k, i] * M[k, i]
-            nb = np.sqrt(nb)
-            h[k] = 0.5 * (nb - l[k]) * (nb + l[k])
-        _svd(M, U, V, S)
-        full_rank = S[d - 1] > RANK_RTOL * S[0]
-        rank = 0
-        for i in range(d):
-            if S[i] > RANK_RTOL * S[0]:
-                rank += 1
-        # a = V S^-1 U^T h, c = V S^-1 U^T g (g = l)
-        for i in range(d):
-            ai = 0.0
-            ci = 0.0
-            for j in range(rank):
-                uh = 0.0
-                ug = 0.0
-                for k in range(p):
-                    uh += U[k, j] * h[k]
-                    ug += U[k, j] * l[k]
-                ai += V[i, j] / S[j] * uh
-                ci += V[i, j] / S[j] * ug
-            a[i] = ai
-            c[i] = ci
-        alpha = -1.0
-        beta = 0.0
-        gamma = 0.0
-        for i in range(d):
-            alpha += c[i] * c[i]
-            beta += a[i] * c[i]
-            gamma += a[i] * a[i]
-        wedge2 = 0.0
-        for i in range(d):
-            for j in range(d):
-                w = a[i] * c[j] - a[j] * c[i]
-                wedge2 += w * w
-        wedge2 *= 0.5
-        norm_a = np.sqrt(gamma)
-        norm_w = np.sqrt(wedge2)
-        disc = (norm_a - norm_w) * (norm_a + norm_w)
-        real = disc >= -1e-12 * (gamma + wedge2)
-        root = np.sqrt(max(disc, 0.0))
-        q = -(beta + (root if beta >= 0 else -root))
-        R[0] = q / alpha
-        R[1] = gamma / q
-        for j in range(2):
-            for i in range(d):
-                s[j, i] = a[i] + R[j] * c[i]
-        # rank D - 1: the mirror images +-t along the null direction
-        gg = 0.0
-        g2 = 0.0
-        hg = 0.0
-        for k in range(p):
-            go = l[k]
-            ho = h[k]
-            for j in range(rank):
-                ug = 0.0
-                uh = 0.0
-                for m in range(p):
-                    ug += U[m, j] * l[m]
-                    uh += U[m, j] * h[m]
-                go -= U[k, j] * ug
-                ho -= U[k, j] * uh
-            gg += go * go
-            g2 += l[k] * l[k]
-            hg += ho * go
-        mirror = rank == d - 1 and gg > 1e-16 * g2
-        R_m = -hg / gg if mirror else 0.0
-        if mirror:
-            t2 = R_m * R_m
-            for i in range(d):
-                sm = a[i] + R_m * c[i]
-                t2 -= sm * sm
-            t = np.sqrt(max(t2, 0.0))
-            for j in range(2):
-                sign = 1.0 if j == 0 else -1.0
-                for i in range(d):
-                    s[j, i] = a[i] + R_m * c[i] + sign * t * V[i, d - 1]
-                R[j] = R_m
-            real = t2 >= -1e-12 * R_m * R_m
-        solvable_rank = full_rank or mirror
-        for j in range(2):
-            finite = math.isfinite(R[j])
-            for i in range(d):
-                finite = finite and math.isfinite(s[j, i])
-            if not finite:
-                R[j] = 0.0
-                for i in range(d):
-                    s[j, i] = 0.0
-            for i in range(d):
-                x[j, i] = t_[0, i] + s[j, i]
-            ok = finite and real and solvable_rank and R[j] >= -tol
-            for k in range(p):
-                ok = ok and l[k] - R[j] >= -tol
-            consistent[j] = ok
-            residual[j] = _range_sum_residual(x[j], l, t_, r_)
-        tie = abs(residual[0] - residual[1]) <= tol
-        if tie:
-            if abs(R[0] - R[1]) <= tol:
-                first = x[0, d - 1] >= x[1, d - 1]
-            else:
-                first = R[0] < R[1]
-        else:
-            first = residual[0] < residual[1]
-        best = 0 if consistent[0] and (first or not consistent[1]) else 1
-        other = 1 - best
-        solvable = consistent[best]
-        dist = 0.0
-        for i in range(d):
-            dist += (x[best, i] - x[other, i]) ** 2
-        has_alt = solvable and consistent[other] and np.sqrt(dist) > tol
-        if solvable:
-            out[q_, 0] = x[best]
-            res[q_, 0] = residual[best]
-        else:
-            vertex = R_m if mirror else -beta / alpha
-            if vertex == vertex:  # np.maximum keeps a NaN
-                vertex = max(vertex, 0.0)
-            if not math.isfinite(vertex):
-                vertex = 0.0
-            for i in range(d):
-                fallback[i] = t_[0, i] + a[i] + vertex * c[i]
-            out[q_, 0] = fallback
-            res[q_, 0] = _range_sum_residual(fallback, l, t_, r_)
-        if has_alt:
-            out[q_, 1] = x[other]
-            res[q_, 1] = residual[other]
-        else:
-            out[q_, 1] = out[q_, 0]
-            res[q_, 1] = res[q_, 0]
-        flags[q_, 0] = solvable
-        flags[q_, 1] = has_alt
+    work = root_work(p, d)
+    for q in range(n):
+        sum_range_roots_into(ls[q], tx[q], rx[q], work, out[q], res[q], flags[q])
 
 
 def sum_range_roots(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> ClosedFormSolution:
@@ -596,8 +657,8 @@ def sum_range_roots(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> ClosedFor
         np.ascontiguousarray(tx, dtype=float),
         np.ascontiguousarray(rx, dtype=float),
         out,
-        flags,
         res,
+        flags,
     )
     return ClosedFormSolution(out[:, 0], out[:, 1], flags[:, 1], flags[:, 0], res[:, 0], res[:, 1])
 

@@ -13,8 +13,8 @@ by Gauss-Newton iterations (eq. 6)
           \\mathbf{H})^{-1}\\mathbf{H}^T\\mathbf{G}[\\mathbf{l} -
           \\mathbf{h}(\\theta^{(i)})].
 
-:func:`gauss_newton` runs them for n problems at once, whatever the model: a position
-(:mod:`plotgate.core.multistatic.position`) or a constant-velocity track
+:func:`gauss_newton` runs them for n problems at once, for the range-sum model of a
+position (:mod:`plotgate.core.multistatic.position`) or of a constant-velocity track
 (:mod:`plotgate.core.multistatic.trajectory`).
 
 Step control (the paper's k; not specified there)
@@ -28,17 +28,23 @@ worked) that lowers the cost. A problem has converged when its Gauss-Newton step
 below ``tol (1 + |x|)`` or would lower the cost by less than 1e-14 (1 + L) (a step in
 a direction the data hardly determine, such as across a baseline); or when no damped
 step lowers its cost any more (rounding) and the Gauss-Newton step promised less than
-1e-6 (1 + L) there. Problems are iterated together with per-problem masks; only the
-iterations loop in Python.
+1e-6 (1 + L) there.
 
-Compiled engine
----------------
-:func:`gauss_newton` takes any model and is the reference. The solves use
-:func:`range_sum_gauss_newton`, the same iteration and step control for the range-sum
-model of a position or of a constant-velocity track, compiled (numba) and fused per
-problem: each problem iterates alone to its convergence, the batch runs on every core.
-The two agree to rounding (the tests hold them together on random batches and on the
-degenerate cases).
+Compiled engine and reference
+-----------------------------
+:func:`gauss_newton` is compiled (numba) and fused per run: each run iterates alone to
+its convergence through :func:`iterate`, the one compiled copy of the step control,
+which the fused single shot and the track start call as well; a large batch runs on
+every core. :func:`gauss_newton_reference` takes any model in numpy, iterating the
+problems together with per-problem masks, and is the oracle the tests hold the engine
+to: the two agree to rounding, with the same iterations on the study's problems. The
+rules the two share (step lengths, dampings, the convergence and stall tests, which
+eigenvalues a step uses) are written once, as numba ufuncs (:func:`converged_step`,
+:func:`stalled_at_minimum`, :func:`resolved`, :func:`first_damping`) and constants
+(``STEP_LENGTHS``, ``DAMPINGS``) that the kernel calls on scalars and the reference on
+arrays; only the loop around them differs (one run against a masked batch). The
+kernels take their arrays as records (:class:`Measurements`, :class:`Fits`,
+:class:`Work`), so each signature is stated once.
 
 Consistency
 -----------
@@ -51,12 +57,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plotgate.core.compiled import kernel
+from plotgate.core.compiled import ARRAY_1D, ARRAY_2D, ARRAY_3D, kernel, record, rule, tuple_of
 from plotgate.core.errors import ParameterError
 from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.multistatic.information import (
@@ -65,29 +72,95 @@ from plotgate.core.multistatic.information import (
     symmetric_eigh,
     symmetric_eigh_into,
 )
-from plotgate.core.multistatic.model import vector_norm
+from plotgate.core.multistatic.model import (
+    range_sum_jacobian_unchecked,
+    range_sums_unchecked,
+    vector_norm,
+)
 from plotgate.core.validation import as_array, as_probability, as_scalar, require_positive
 
 __all__ = [
+    "CHUNK",
+    "DAMPINGS",
+    "FITS",
     "HALVINGS",
+    "MEASUREMENTS",
+    "PARALLEL_MIN",
+    "ROW",
+    "STEP_LENGTHS",
+    "WORK",
+    "Fits",
     "GaussNewtonFit",
+    "Measurements",
     "Predict",
+    "Work",
     "consistency_threshold",
+    "converged_step",
+    "first_damping",
     "gauss_newton",
-    "range_sum_gauss_newton",
+    "gauss_newton_reference",
+    "information_into",
+    "iterate",
+    "measurements",
+    "position_model",
+    "resolved",
     "solver_options",
+    "stalled_at_minimum",
     "start_points",
+    "weighted_jacobian",
+    "weighted_residuals",
+    "work_space",
 ]
 
 HALVINGS = 12
 """Step lengths tried per Gauss-Newton iteration: k = 1, 1/2, ..., 2^-(HALVINGS-1)."""
 
-_DAMPING_DECADES = 14  # Levenberg-Marquardt damping values tried per iteration
+STEP_LENGTHS = 0.5 ** np.arange(HALVINGS)
+"""The step factors k of eq. 6, in the order they are tried."""
+
+DAMPINGS = 10.0 ** np.arange(14)
+"""Levenberg-Marquardt dampings tried per iteration, times the first one."""
+
 _DAMPING_START = 1e-3  # first damping, relative to the largest eigenvalue of H^T G H
 _DECREASE_TOL = 1e-14  # converged: the Gauss-Newton step would lower the cost by less
 _STALL_TOL = 1e-6  # a stalled problem converged if its GN step promised less than this
-_CHUNK = 64  # problems per task of the compiled engine's parallel loop
-_PARALLEL_MIN = 2048  # fewer problems run on one thread (waking the others costs more)
+_RESOLVED_RTOL = 1e-12  # eigenvalues of H^T G H below this times the largest are dropped
+CHUNK = 64
+"""Problems per task of a compiled solve's parallel loop."""
+PARALLEL_MIN = 2048
+"""Fewer problems than this run on one thread (waking the others costs more)."""
+
+
+# The rules of the step control, written once: the compiled engine calls them on the
+# scalars of one run, the numpy reference on the arrays of its batch.
+
+
+@rule("boolean(float64, float64, float64, float64, float64)")
+def converged_step(
+    step_norm: float, theta_norm: float, promised: float, cost: float, tol: float
+) -> bool:  # pragma: no cover (compiled)
+    """The run has converged: its Gauss-Newton step is below tol (1 + |theta|), or it
+    would lower the cost by less than 1e-14 (1 + L)."""
+    return step_norm <= tol * (1.0 + theta_norm) or promised <= _DECREASE_TOL * (1.0 + cost)
+
+
+@rule("boolean(float64, float64)")
+def stalled_at_minimum(promised: float, cost: float) -> bool:  # pragma: no cover (compiled)
+    """A run no damped step improves is at a minimum if Gauss-Newton promised little there."""
+    return promised <= _STALL_TOL * (1.0 + cost)
+
+
+@rule("boolean(float64, float64)")
+def resolved(eigenvalue: float, largest: float) -> bool:  # pragma: no cover (compiled)
+    """An eigenvalue of H^T G H the step uses: above 1e-12 times the largest."""
+    return eigenvalue > _RESOLVED_RTOL * largest
+
+
+@rule("float64(float64)")
+def first_damping(mu: float) -> float:  # pragma: no cover (compiled)
+    """The first Levenberg-Marquardt damping (relative) tried: a decade below the last one
+    that worked, or 1e-3 when none has yet."""
+    return mu / 10.0 if mu > 0.0 else _DAMPING_START
 
 
 @dataclass
@@ -125,7 +198,23 @@ Predict = Callable[[np.ndarray, np.ndarray], np.ndarray]
 """(theta (m, K), problem index (m,)) -> model range sums (m, M)."""
 
 
-def gauss_newton(
+def position_model(tx: np.ndarray, rx: np.ndarray, row: np.ndarray) -> tuple[Predict, Predict]:
+    """The range sums of positions and their Jacobian, for :func:`gauss_newton_reference`.
+
+    Problem n has the platforms tx[row[n]], rx[row[n]] (R, P, D) (several starts of one
+    problem share its row).
+    """
+
+    def predict(theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        return range_sums_unchecked(theta, tx[row[idx]], rx[row[idx]])
+
+    def jacobian(theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        return range_sum_jacobian_unchecked(theta, tx[row[idx]], rx[row[idx]])
+
+    return predict, jacobian
+
+
+def gauss_newton_reference(
     predict: Predict,
     jacobian: Predict,
     ls: np.ndarray,
@@ -167,8 +256,6 @@ def gauss_newton(
     iterations = np.zeros(n, dtype=int)
     converged = np.zeros(n, dtype=bool)
     active = np.ones(n, dtype=bool)
-    halving = 0.5 ** np.arange(HALVINGS)
-    decades = 10.0 ** np.arange(_DAMPING_DECADES)
 
     def try_steps(idx: np.ndarray, trials: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Take, per problem idx, the first of the trials (m, J, K) that lowers its cost.
@@ -202,20 +289,18 @@ def gauss_newton(
         g = np.einsum("mpk,mp->mk", Hs, rw)
         ev, V = symmetric_eigh(np.einsum("mpi,mpj->mij", Hs, Hs))
         gv = np.einsum("mki,mk->mi", V, g)
-        keep = ev > 1e-12 * ev[:, -1:]
+        keep = resolved(ev, ev[:, -1:])
         gv_ev = np.divide(gv, ev, out=np.zeros_like(gv), where=keep)
         step = np.einsum("mik,mk->mi", V, gv_ev) / col
         # the cost decrease the Gauss-Newton model promises: g^T (H^T G H)^+ g
         promised = np.einsum("mk,mk->m", gv, gv_ev)
-        small = (vector_norm(step) <= tol * (1.0 + vector_norm(th))) | (
-            promised <= _DECREASE_TOL * (1.0 + cost[idx])
-        )
+        small = converged_step(vector_norm(step), vector_norm(th), promised, cost[idx], tol)
         # Fadeev et al., eq. 6 with k = 1, 1/2, 1/4, ...; a converged problem still takes its
         # last (small) step when that lowers the cost
         ok, _ = try_steps(idx, th[:, None, :] + step[:, None, :])  # k = 1 first
         if not ok.all():
             bad = np.flatnonzero(~ok)
-            trials = th[bad, None, :] + halving[None, 1:, None] * step[bad, None, :]
+            trials = th[bad, None, :] + STEP_LENGTHS[None, 1:, None] * step[bad, None, :]
             ok[bad], _ = try_steps(idx[bad], trials)
         converged[idx[small]] = True
         active[idx[small]] = False
@@ -227,16 +312,16 @@ def gauss_newton(
         idx, th, promised = idx[fail], th[fail], promised[fail]
         ev, V, gv, col = ev[fail], V[fail], gv[fail], col[fail]
         top = np.maximum(ev[:, -1], np.finfo(float).tiny)
-        start = np.where(mu[idx] > 0.0, mu[idx] / 10.0, _DAMPING_START)
-        damp = (start[:, None] * decades[None, :]) * top[:, None]  # (m, J)
+        start = first_damping(mu[idx])
+        damp = (start[:, None] * DAMPINGS[None, :]) * top[:, None]  # (m, J)
         steps = np.einsum("mik,mjk->mji", V, gv[:, None, :] / (ev[:, None, :] + damp[..., None]))
         trials = th[:, None, :] + steps / col[:, None, :]
         ok, pick = try_steps(idx, trials)
-        mu[idx[ok]] = start[ok] * decades[pick[ok]]
+        mu[idx[ok]] = start[ok] * DAMPINGS[pick[ok]]
         # stalled: no step lowers the cost (rounding); a minimum if GN promised little
         stalled = idx[~ok]
         active[stalled] = False
-        converged[stalled] = promised[~ok] <= _STALL_TOL * (1.0 + cost[stalled])
+        converged[stalled] = stalled_at_minimum(promised[~ok], cost[stalled])
 
     Hw = jacobian(theta, everyone) * w[:, :, None]
     information = np.einsum("npi,npj->nij", Hw, Hw)
@@ -251,23 +336,88 @@ def gauss_newton(
     )
 
 
-@kernel(
-    "float64(float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1], "
-    "float64[::1], float64[::1])"
+class Measurements(NamedTuple):
+    """Range sums as the compiled engine reads them: C-contiguous float64 arrays.
+
+    A batch has R data rows: ls, w (R, M), tx, rx (R, M, D); one problem's row has
+    ls, w (M,), tx, rx (M, D). ``w`` is 1 / sigma; ``tau`` (M,) is each measurement's
+    time after the track's reference time (zeros for a position).
+    """
+
+    ls: np.ndarray
+    w: np.ndarray
+    tx: np.ndarray
+    rx: np.ndarray
+    tau: np.ndarray
+
+
+MEASUREMENTS = record(Measurements, ARRAY_2D, ARRAY_2D, ARRAY_3D, ARRAY_3D, ARRAY_1D)
+"""numba type of a batch of :class:`Measurements`."""
+ROW = record(Measurements, ARRAY_1D, ARRAY_1D, ARRAY_2D, ARRAY_2D, ARRAY_1D)
+"""numba type of one problem's :class:`Measurements`."""
+
+
+class Fits(NamedTuple):
+    """The compiled engine's output arrays of n runs (the fields of :class:`GaussNewtonFit`).
+
+    theta (n, K), r (n, M) weighted residuals (l - h) w, cost (n,), iterations (n,)
+    int64, converged (n,) bool, information and covariance (n, K, K).
+    """
+
+    theta: np.ndarray
+    r: np.ndarray
+    cost: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    information: np.ndarray
+    covariance: np.ndarray
+
+
+FITS = record(
+    Fits,
+    ARRAY_2D,
+    ARRAY_2D,
+    ARRAY_1D,
+    numba.int64[::1],
+    numba.boolean[::1],
+    ARRAY_3D,
+    ARRAY_3D,
 )
-def _weighted_residuals(
-    theta: np.ndarray,
-    ls: np.ndarray,
-    w: np.ndarray,
-    tx: np.ndarray,
-    rx: np.ndarray,
-    tau: np.ndarray,
-    r: np.ndarray,
+"""numba type of :class:`Fits`."""
+
+
+class Work(NamedTuple):
+    """Scratch space of one run of M measurements and K parameters.
+
+    Hw (M, K) the weighted Jacobian, rt (M,) a trial's residuals, square (2, K, K) and
+    vec (7, K) the normal equations, their eigen-decomposition and the steps.
+    """
+
+    Hw: np.ndarray
+    rt: np.ndarray
+    square: np.ndarray
+    vec: np.ndarray
+
+
+WORK = record(Work, ARRAY_2D, ARRAY_1D, ARRAY_3D, ARRAY_2D)
+"""numba type of :class:`Work`."""
+
+
+@kernel(WORK(numba.int64, numba.int64))
+def work_space(m: int, k: int) -> Work:  # pragma: no cover (compiled)
+    """:class:`Work` for runs of m measurements and k parameters."""
+    return Work(np.empty((m, k)), np.empty(m), np.empty((2, k, k)), np.empty((7, k)))
+
+
+@kernel(numba.float64(ARRAY_1D, ROW, ARRAY_1D), inline=True)
+def weighted_residuals(
+    theta: np.ndarray, row: Measurements, r: np.ndarray
 ) -> float:  # pragma: no cover (compiled)
     """r = (l - h(theta)) w of one problem; returns the cost r^T r.
 
     theta is a position (K = D) or a track (x0, v) (K = 2D, x = x0 + tau v).
     """
+    ls, w, tx, rx, tau = row  # fields read once: each read of a record's field counts a reference
     m, d = tx.shape
     moving = theta.size != d
     cost = 0.0
@@ -283,19 +433,12 @@ def _weighted_residuals(
     return cost
 
 
-@kernel(
-    "void(float64[::1], float64[::1], float64[:, ::1], float64[:, ::1], float64[::1], "
-    "float64[:, ::1])"
-)
-def _weighted_jacobian(
-    theta: np.ndarray,
-    w: np.ndarray,
-    tx: np.ndarray,
-    rx: np.ndarray,
-    tau: np.ndarray,
-    Hw: np.ndarray,
+@kernel(numba.void(ARRAY_1D, ROW, ARRAY_2D), inline=True)
+def weighted_jacobian(
+    theta: np.ndarray, row: Measurements, Hw: np.ndarray
 ) -> None:  # pragma: no cover (compiled)
     """Hw = dh/dtheta w (M, K) of one problem: unit vectors from the two foci (0 on one)."""
+    _, w, tx, rx, tau = row
     m, d = tx.shape
     moving = theta.size != d
     for p in range(m):
@@ -315,72 +458,82 @@ def _weighted_jacobian(
                 Hw[p, d + i] = (tau[p] * (u + v)) * w[p]
 
 
-@kernel(
-    "void(int64, float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
-    "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
-    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64, float64[:, ::1], "
-    "float64[::1], float64[:, :, ::1], float64[:, ::1])"
-)
-def _solve_one(
-    n: int,
-    ls: np.ndarray,
-    w: np.ndarray,
-    tx: np.ndarray,
-    rx: np.ndarray,
-    tau: np.ndarray,
-    row: np.ndarray,
-    theta: np.ndarray,
-    r: np.ndarray,
-    cost: np.ndarray,
-    iterations: np.ndarray,
-    converged: np.ndarray,
-    information: np.ndarray,
-    covariance: np.ndarray,
-    max_iter: int,
-    tol: float,
-    Hw: np.ndarray,
-    rt: np.ndarray,
-    square: np.ndarray,
-    vec: np.ndarray,
+@kernel(numba.void(ARRAY_1D, ROW, ARRAY_1D, WORK), inline=True)
+def _scaled_normal_equations(
+    theta: np.ndarray, row: Measurements, r: np.ndarray, work: Work
 ) -> None:  # pragma: no cover (compiled)
-    """Problem n of :func:`range_sum_gauss_newton`, the step control of :func:`gauss_newton`.
+    """A = Hs^T Hs and g = Hs^T r of the column-scaled Jacobian Hs = Hw / col.
 
-    Hw (M, K), rt (M,), square (2, K, K) and vec (7, K) are scratch space.
+    Into work.square[0] (A), work.vec[1] (col) and work.vec[2] (g). Each sum runs over
+    the measurements in order, in a scalar (a register: accumulating into the work
+    arrays, which may alias, was a third slower).
     """
-    k = theta.shape[1]
-    m = ls.shape[1]
-    j = row[n]
-    lj, wj, txj, rxj = ls[j], w[j], tx[j], rx[j]
-    th = theta[n]
-    rn = r[n]
-    c = _weighted_residuals(th, lj, wj, txj, rxj, tau, rn)
+    Hw, A, col, g = work.Hw, work.square[0], work.vec[1], work.vec[2]
+    m, k = Hw.shape
+    weighted_jacobian(theta, row, Hw)
+    for a in range(k):
+        s = 0.0
+        for p in range(m):
+            s += Hw[p, a] * Hw[p, a]
+        s = np.sqrt(s)
+        col[a] = s if s > 0.0 else 1.0
+    for p in range(m):
+        for a in range(k):
+            Hw[p, a] /= col[a]
+    for a in range(k):
+        s = 0.0
+        for p in range(m):
+            s += Hw[p, a] * r[p]
+        g[a] = s
+        for b in range(k):
+            s = 0.0
+            for p in range(m):
+                s += Hw[p, a] * Hw[p, b]
+            A[a, b] = s
+
+
+@kernel(
+    tuple_of(numba.boolean, numba.float64)(ARRAY_1D, ROW, ARRAY_1D, ARRAY_1D, numba.float64, WORK),
+    inline=True,
+)
+def _lower(
+    trial: np.ndarray, row: Measurements, theta: np.ndarray, r: np.ndarray, cost: float, work: Work
+) -> tuple[bool, float]:  # pragma: no cover (compiled)
+    """Move theta (and its residuals r) to the trial if it lowers the cost: (moved, cost)."""
+    rt = work.rt
+    trial_cost = weighted_residuals(trial, row, rt)
+    if trial_cost < cost:
+        theta[:] = trial
+        r[:] = rt
+        return True, trial_cost
+    return False, cost
+
+
+@kernel(
+    tuple_of(numba.float64, numba.int64, numba.boolean)(
+        ARRAY_1D, ROW, ARRAY_1D, WORK, numba.int64, numba.float64
+    ),
+    inline=True,
+)
+def iterate(
+    theta: np.ndarray, row: Measurements, r: np.ndarray, work: Work, max_iter: int, tol: float
+) -> tuple[float, int, bool]:  # pragma: no cover (compiled)
+    """One run of the step control of the module notes, in place: (cost, iterations, converged).
+
+    The only compiled copy of the step control: every compiled solve (a batch of
+    positions or tracks, the fused single shot, the track start) iterates through it.
+    theta (K,) is the start and becomes the minimum, r (M,) its weighted residuals.
+    """
+    k = theta.size
+    A, V = work.square[0], work.square[1]
+    vec = work.vec
+    ev, col, g, gv, gv_ev, step, trial = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
+    cost = weighted_residuals(theta, row, r)
     mu = 0.0
     it = 0
-    conv = False
-    A, V = square[0], square[1]
-    ev, col, g, gv, gv_ev, step, trial = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
     for _ in range(max_iter):
         it += 1
-        _weighted_jacobian(th, wj, txj, rxj, tau, Hw)
-        for a in range(k):
-            s = 0.0
-            for p in range(m):
-                s += Hw[p, a] * Hw[p, a]
-            s = np.sqrt(s)
-            col[a] = s if s > 0.0 else 1.0
-        for p in range(m):
-            for a in range(k):
-                Hw[p, a] /= col[a]
-        for a in range(k):
-            s = 0.0
-            for p in range(m):
-                s += Hw[p, a] * rn[p]
-            g[a] = s
-            for b in range(k):
-                s = 0.0
-                for p in range(m):
-                    s += Hw[p, a] * Hw[p, b]
-                A[a, b] = s
+        _scaled_normal_equations(theta, row, r, work)
         symmetric_eigh_into(A, ev, V)
         promised = 0.0
         for a in range(k):
@@ -388,176 +541,113 @@ def _solve_one(
             for b in range(k):
                 s += V[b, a] * g[b]
             gv[a] = s
-            gv_ev[a] = s / ev[a] if ev[a] > 1e-12 * ev[k - 1] else 0.0
+            gv_ev[a] = s / ev[a] if resolved(ev[a], ev[k - 1]) else 0.0
             promised += gv[a] * gv_ev[a]
         step_norm = 0.0
-        th_norm = 0.0
+        theta_norm = 0.0
         for a in range(k):
             s = 0.0
             for b in range(k):
                 s += V[a, b] * gv_ev[b]
             step[a] = s / col[a]
             step_norm += step[a] * step[a]
-            th_norm += th[a] * th[a]
-        small = np.sqrt(step_norm) <= tol * (
-            1.0 + np.sqrt(th_norm)
-        ) or promised <= _DECREASE_TOL * (1.0 + c)
-        ok = False
-        for h in range(HALVINGS):
+            theta_norm += theta[a] * theta[a]
+        small = converged_step(np.sqrt(step_norm), np.sqrt(theta_norm), promised, cost, tol)
+        moved = False
+        for h in range(HALVINGS):  # Fadeev et al., eq. 6 with k = 1, 1/2, 1/4, ...
             for a in range(k):
-                trial[a] = th[a] + step[a] if h == 0 else th[a] + 0.5**h * step[a]
-            ct = _weighted_residuals(trial, lj, wj, txj, rxj, tau, rt)
-            if ct < c:
-                th[:] = trial
-                rn[:] = rt
-                c = ct
-                ok = True
+                trial[a] = theta[a] + STEP_LENGTHS[h] * step[a]
+            moved, cost = _lower(trial, row, theta, r, cost, work)
+            if moved:
                 break
         if small:
-            conv = True
-            break
-        if ok:
+            return cost, it, True
+        if moved:
             continue
         # Levenberg-Marquardt: the smallest damping (in decades) that lowers the cost
         top = max(ev[k - 1], np.finfo(np.float64).tiny)
-        start = mu / 10.0 if mu > 0.0 else _DAMPING_START
-        for h in range(_DAMPING_DECADES):
-            damp = (start * 10.0**h) * top
+        start = first_damping(mu)
+        for h in range(DAMPINGS.size):
+            damp = (start * DAMPINGS[h]) * top
             for a in range(k):
                 s = 0.0
                 for b in range(k):
                     s += V[a, b] * (gv[b] / (ev[b] + damp))
-                trial[a] = th[a] + s / col[a]
-            ct = _weighted_residuals(trial, lj, wj, txj, rxj, tau, rt)
-            if ct < c:
-                th[:] = trial
-                rn[:] = rt
-                c = ct
-                mu = start * 10.0**h
-                ok = True
+                trial[a] = theta[a] + s / col[a]
+            moved, cost = _lower(trial, row, theta, r, cost, work)
+            if moved:
+                mu = start * DAMPINGS[h]
                 break
-        if not ok:  # stalled: a minimum if Gauss-Newton promised little
-            conv = promised <= _STALL_TOL * (1.0 + c)
-            break
-    cost[n] = c
-    iterations[n] = it
-    converged[n] = conv
-    _weighted_jacobian(th, wj, txj, rxj, tau, Hw)
+        if not moved:  # stalled: a minimum if Gauss-Newton promised little
+            return cost, it, stalled_at_minimum(promised, cost)
+    return cost, it, False
+
+
+@kernel(numba.void(ARRAY_1D, ROW, ARRAY_2D, ARRAY_2D), inline=True)
+def information_into(
+    theta: np.ndarray, row: Measurements, Hw: np.ndarray, J: np.ndarray
+) -> None:  # pragma: no cover (compiled)
+    """J = Hw^T Hw (K, K), the information H^T G H at theta; Hw (M, K) is scratch."""
+    weighted_jacobian(theta, row, Hw)
+    m, k = Hw.shape
     for a in range(k):
         for b in range(k):
             s = 0.0
             for p in range(m):
                 s += Hw[p, a] * Hw[p, b]
-            information[n, a, b] = s
-    inverse_information_into(information[n], covariance[n], A, ev, V)
+            J[a, b] = s
 
 
 @kernel(
-    "void(int64, int64, "
-    "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
-    "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
-    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64)"
+    numba.void(
+        numba.int64, numba.int64, MEASUREMENTS, numba.int64[::1], FITS, numba.int64, numba.float64
+    )
 )
-def _solve_range(
-    lo: int,
-    hi: int,
-    ls: np.ndarray,
-    w: np.ndarray,
-    tx: np.ndarray,
-    rx: np.ndarray,
-    tau: np.ndarray,
-    row: np.ndarray,
-    theta: np.ndarray,
-    r: np.ndarray,
-    cost: np.ndarray,
-    iterations: np.ndarray,
-    converged: np.ndarray,
-    information: np.ndarray,
-    covariance: np.ndarray,
-    max_iter: int,
-    tol: float,
+def _fit_range(
+    lo: int, hi: int, data: Measurements, row: np.ndarray, fits: Fits, max_iter: int, tol: float
 ) -> None:  # pragma: no cover (compiled)
-    """Problems lo to hi - 1 of :func:`range_sum_gauss_newton`, one after the other."""
-    k = theta.shape[1]
-    m = ls.shape[1]
-    Hw = np.empty((m, k))
-    rt = np.empty(m)
-    square = np.empty((2, k, k))
-    vec = np.empty((7, k))
-    for i in range(lo, hi):
-        _solve_one(
-            i,
-            ls,
-            w,
-            tx,
-            rx,
-            tau,
-            row,
-            theta,
-            r,
-            cost,
-            iterations,
-            converged,
-            information,
-            covariance,
-            max_iter,
-            tol,
-            Hw,
-            rt,
-            square,
-            vec,
-        )
+    """Runs lo to hi - 1 of :func:`gauss_newton`, one after the other."""
+    k = fits.theta.shape[1]
+    work = work_space(data.ls.shape[1], k)
+    A, ev, V = work.square[0], work.vec[0], work.square[1]
+    for n in range(lo, hi):
+        j = row[n]
+        one = Measurements(data.ls[j], data.w[j], data.tx[j], data.rx[j], data.tau)
+        theta = fits.theta[n]
+        cost, it, conv = iterate(theta, one, fits.r[n], work, max_iter, tol)
+        fits.cost[n] = cost
+        fits.iterations[n] = it
+        fits.converged[n] = conv
+        information_into(theta, one, work.Hw, fits.information[n])
+        inverse_information_into(fits.information[n], fits.covariance[n], A, ev, V)
 
 
 @kernel(
-    "void("
-    "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], "
-    "float64[::1], int64[::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], "
-    "boolean[::1], float64[:, :, ::1], float64[:, :, ::1], int64, float64)",
-    parallel=True,
+    numba.void(MEASUREMENTS, numba.int64[::1], FITS, numba.int64, numba.float64), parallel=True
 )
-def _solve_parallel(
-    ls: np.ndarray,
-    w: np.ndarray,
-    tx: np.ndarray,
-    rx: np.ndarray,
-    tau: np.ndarray,
-    row: np.ndarray,
-    theta: np.ndarray,
-    r: np.ndarray,
-    cost: np.ndarray,
-    iterations: np.ndarray,
-    converged: np.ndarray,
-    information: np.ndarray,
-    covariance: np.ndarray,
-    max_iter: int,
-    tol: float,
+def _fit_parallel(
+    data: Measurements, row: np.ndarray, fits: Fits, max_iter: int, tol: float
 ) -> None:  # pragma: no cover (compiled)
-    """Every problem of :func:`range_sum_gauss_newton`, in chunks over a parallel loop."""
-    n = theta.shape[0]
-    for c in numba.prange((n + _CHUNK - 1) // _CHUNK):
-        _solve_range(
-            c * _CHUNK,
-            min(n, (c + 1) * _CHUNK),
-            ls,
-            w,
-            tx,
-            rx,
-            tau,
-            row,
-            theta,
-            r,
-            cost,
-            iterations,
-            converged,
-            information,
-            covariance,
-            max_iter,
-            tol,
-        )
+    """Every run of :func:`gauss_newton`, in chunks over a parallel loop."""
+    n = fits.theta.shape[0]
+    for c in numba.prange((n + CHUNK - 1) // CHUNK):
+        _fit_range(c * CHUNK, min(n, (c + 1) * CHUNK), data, row, fits, max_iter, tol)
 
 
-def range_sum_gauss_newton(
+def measurements(
+    ls: np.ndarray, sigma: np.ndarray, tx: np.ndarray, rx: np.ndarray, tau: np.ndarray
+) -> Measurements:
+    """Checked range sums as the kernels read them (w = 1 / sigma)."""
+    return Measurements(
+        np.ascontiguousarray(ls, dtype=float),
+        1.0 / np.ascontiguousarray(sigma, dtype=float),
+        np.ascontiguousarray(tx, dtype=float),
+        np.ascontiguousarray(rx, dtype=float),
+        np.ascontiguousarray(tau, dtype=float),
+    )
+
+
+def gauss_newton(
     ls: np.ndarray,
     sigma: np.ndarray,
     tx: np.ndarray,
@@ -568,13 +658,13 @@ def range_sum_gauss_newton(
     max_iter: int,
     tol: float,
 ) -> GaussNewtonFit:
-    """:func:`gauss_newton` of the range-sum model, compiled: positions or tracks.
+    """:func:`gauss_newton_reference` of the range-sum model, compiled: positions or tracks.
 
-    Problem n fits the M range sums of data row ``row[n]`` from ``theta0[n]``: a
+    Run n fits the M range sums of data row ``row[n]`` from ``theta0[n]``: a
     position x (K = D), h_m = |x - rx_m| + |x - tx_m| (Fadeev et al., eq. 1), or a
-    constant-velocity track (x0, v) (K = 2D), x = x0 + tau_m v. Several problems may
+    constant-velocity track (x0, v) (K = 2D), x = x0 + tau_m v. Several runs may
     share a data row (several starts of one problem). The iteration and its step
-    control are those of :func:`gauss_newton`, per problem.
+    control are those of :func:`gauss_newton_reference`, per run.
 
     Parameters
     ----------
@@ -585,11 +675,11 @@ def range_sum_gauss_newton(
     tau : (M,) ndarray
         Time of each measurement after the track's reference time (unused for K = D).
     row : (n,) ndarray of int
-        Data row of each problem.
+        Data row of each run.
     theta0 : (n, K) ndarray
         Starts.
     max_iter, tol :
-        As :func:`gauss_newton`.
+        As :func:`gauss_newton_reference`.
 
     Returns
     -------
@@ -597,43 +687,29 @@ def range_sum_gauss_newton(
     """
     n, k = theta0.shape
     m = ls.shape[1]
-    theta = np.array(theta0, dtype=float, order="C")
-    r = np.empty((n, m))
-    cost = np.empty(n)
-    iterations = np.empty(n, dtype=np.int64)
-    converged = np.empty(n, dtype=bool)
-    information = np.empty((n, k, k))
-    covariance = np.empty((n, k, k))
-    sigma = np.ascontiguousarray(sigma, dtype=float)
-    data = (
-        np.ascontiguousarray(ls, dtype=float),
-        1.0 / sigma,
-        np.ascontiguousarray(tx, dtype=float),
-        np.ascontiguousarray(rx, dtype=float),
-        np.ascontiguousarray(tau, dtype=float),
-        np.ascontiguousarray(row, dtype=np.int64),
-        theta,
-        r,
-        cost,
-        iterations,
-        converged,
-        information,
-        covariance,
-        max_iter,
-        tol,
+    fits = Fits(
+        np.array(theta0, dtype=float, order="C"),
+        np.empty((n, m)),
+        np.empty(n),
+        np.empty(n, dtype=np.int64),
+        np.empty(n, dtype=bool),
+        np.empty((n, k, k)),
+        np.empty((n, k, k)),
     )
-    if n >= _PARALLEL_MIN:
-        _solve_parallel(*data)
+    data = measurements(ls, sigma, tx, rx, tau)
+    row = np.ascontiguousarray(row, dtype=np.int64)
+    if n >= PARALLEL_MIN:
+        _fit_parallel(data, row, fits, max_iter, tol)
     else:
-        _solve_range(0, n, *data)
+        _fit_range(0, n, data, row, fits, max_iter, tol)
     return GaussNewtonFit(
-        theta,
-        cost,
-        r * sigma[row],
-        information,
-        covariance,
-        iterations,
-        converged,
+        fits.theta,
+        fits.cost,
+        fits.r * np.asarray(sigma)[row],
+        fits.information,
+        fits.covariance,
+        fits.iterations,
+        fits.converged,
     )
 
 

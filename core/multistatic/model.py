@@ -26,9 +26,11 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.compiled import ARRAY_1D, ARRAY_2D, ARRAY_3D, kernel
 from plotgate.core.errors import GeometryError, ParameterError
 from plotgate.core.validation import as_array, first_index
 
@@ -37,13 +39,18 @@ __all__ = [
     "BASELINE_SIGMAS",
     "Problem",
     "array_shape",
+    "coerce_problem",
     "coordinate_scale",
+    "first_invalid_problem",
     "platform_positions",
     "range_sum_jacobian",
     "range_sum_jacobian_unchecked",
     "range_sums",
     "range_sums_unchecked",
+    "scale_of",
+    "valid_geometry",
     "validate_problem",
+    "validate_problem_reference",
     "validate_track",
     "vector_norm",
     "with_tx_axis",
@@ -439,6 +446,107 @@ def validate_problem(
     >>> p.l.shape, p.tx.shape, p.rx.shape, p.sigma
     ((1, 2), (1, 2, 2), (1, 2, 2), None)
     """
+    problem, allow = coerce_problem(l, tx, rx, sigma, baseline_tol=baseline_tol)
+    sig = problem.sigma if problem.sigma is not None else np.ones_like(problem.l)
+    if first_invalid_problem(problem.l, sig, problem.tx, problem.rx, allow) >= 0:
+        validate_problem_reference(l, tx, rx, sigma, baseline_tol=baseline_tol)  # names it
+    return problem
+
+
+def validate_problem_reference(
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: ArrayLike,
+    rx: ArrayLike,
+    sigma: ArrayLike | None = None,
+    *,
+    baseline_tol: ArrayLike | None = None,
+) -> Problem:
+    """:func:`validate_problem` in numpy: the reference of its compiled check.
+
+    The same checks, each a vectorized pass that raises the error naming the field and
+    the first bad problem; :func:`validate_problem` runs it only when its compiled
+    check (:func:`first_invalid_problem`) has found a bad problem, to name it.
+    """
+    ls, tx, rx, sig, n = _shaped_problem(l, tx, rx, sigma)
+    p = rx.shape[-2]
+    negative: np.ndarray = ls < 0
+    if negative.any():
+        index = first_index(np.asarray(negative.any(axis=-1)))
+        row = ls[index] if index is not None else ls
+        raise ParameterError("l", f"must be non-negative, got {row.tolist()}", index)
+    if sig is not None and not (sig > 0).all():
+        bad = ~(sig > 0)
+        index = first_index(np.asarray(bad.any(axis=-1))) if sig.ndim == 2 else None
+        row = sig[index] if index is not None else sig
+        raise ParameterError("sigma", f"must be positive, got {row.tolist()}", index)
+    problem = _broadcast_problem(ls, tx, rx, sig, n)
+    ls, tx, rx, sig = problem
+    tol = COINCIDENT_RTOL * coordinate_scale(tx, rx)  # (N,)
+
+    baseline = np.linalg.norm(rx - tx, axis=-1)  # (N, P)
+    coincident = baseline <= tol[:, None]
+    if coincident.any():
+        index = int(np.argmax(coincident.any(axis=-1)))
+        k = int(np.argmax(coincident[index]))
+        raise GeometryError(
+            "rx", f"receiver {k} coincides with its transmitter at {tx[index, k].tolist()}", index
+        )
+    if p > 1:
+        # (N, P, P) pair distances: a pair repeated has equal tx and equal rx.
+        same_rx = np.linalg.norm(rx[:, :, None] - rx[:, None], axis=-1) <= tol[:, None, None]
+        same_tx = np.linalg.norm(tx[:, :, None] - tx[:, None], axis=-1) <= tol[:, None, None]
+        dup = np.triu(same_rx & same_tx, k=1)
+        if dup.any():
+            index = int(np.argmax(dup.any(axis=(-2, -1))))
+            i, j = np.unravel_index(int(np.argmax(dup[index])), (p, p))
+            raise GeometryError(
+                "rx",
+                f"receivers {i} and {j} are at the same position "
+                f"{rx[index, i].tolist()} with the same transmitter",
+                index,
+            )
+    allow = _baseline_allowance(baseline_tol, sig, n, p)
+    short = ls < baseline - allow - tol[:, None]
+    if short.any():
+        index = int(np.argmax(short.any(axis=-1)))
+        k = int(np.argmax(short[index]))
+        raise GeometryError(
+            "l",
+            f"range sum {k} = {float(ls[index, k])} m is shorter than its baseline "
+            f"|tx - rx| = {float(baseline[index, k])} m; no target position gives it",
+            index,
+        )
+    return problem
+
+
+def coerce_problem(
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: ArrayLike,
+    rx: ArrayLike,
+    sigma: ArrayLike | None = None,
+    *,
+    baseline_tol: ArrayLike | None = None,
+) -> tuple[Problem, np.ndarray]:
+    """:func:`validate_problem`'s shapes without its value checks: (problem, allowance).
+
+    Shapes, finiteness and the broadcast to (N, P, ...) are checked (their errors name
+    the field); the values (signs, platforms, baselines) are not: a solver that fuses
+    :func:`valid_geometry` into its kernel runs :func:`validate_problem_reference` when
+    that fails. The allowance (N, P) is how far each range sum may fall below its
+    baseline (``baseline_tol``'s default: BASELINE_SIGMAS sigma, else 0).
+    """
+    ls, tx, rx, sig, n = _shaped_problem(l, tx, rx, sigma)
+    problem = _broadcast_problem(ls, tx, rx, sig, n)
+    return problem, _baseline_allowance(baseline_tol, problem.sigma, n, rx.shape[-2])
+
+
+def _shaped_problem(
+    l: ArrayLike,  # noqa: E741
+    tx: ArrayLike,
+    rx: ArrayLike,
+    sigma: ArrayLike | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, int]:
+    """Coerce l, tx, rx and sigma and check their shapes; (l, tx, rx, sigma, N) unbroadcast."""
     tx = _platforms("tx", with_tx_axis(tx))
     rx = _platforms("rx", rx)
     if rx.shape[-1] != tx.shape[-1]:
@@ -468,67 +576,92 @@ def validate_problem(
         raise ParameterError(
             "l", f"has {p} measurements but the position has {d} unknowns; at least {d} are needed"
         )
-    negative: np.ndarray = ls < 0
-    if negative.any():
-        index = first_index(np.asarray(negative.any(axis=-1)))
-        row = ls[index] if index is not None else ls
-        raise ParameterError("l", f"must be non-negative, got {row.tolist()}", index)
-    if sig is not None and not (sig > 0).all():
-        bad = ~(sig > 0)
-        index = first_index(np.asarray(bad.any(axis=-1))) if sig.ndim == 2 else None
-        row = sig[index] if index is not None else sig
-        raise ParameterError("sigma", f"must be positive, got {row.tolist()}", index)
+    return ls, tx, rx, sig, n
 
-    ls = np.array(np.broadcast_to(ls, (n, p)))
-    tx = np.array(np.broadcast_to(tx, (n, p, d)))
-    rx = np.array(np.broadcast_to(rx, (n, p, d)))
-    if sig is not None:
-        sig = np.array(np.broadcast_to(sig, (n, p)))
-    tol = COINCIDENT_RTOL * coordinate_scale(tx, rx)  # (N,)
 
-    baseline = np.linalg.norm(rx - tx, axis=-1)  # (N, P)
-    coincident = baseline <= tol[:, None]
-    if coincident.any():
-        index = int(np.argmax(coincident.any(axis=-1)))
-        k = int(np.argmax(coincident[index]))
-        raise GeometryError(
-            "rx", f"receiver {k} coincides with its transmitter at {tx[index, k].tolist()}", index
-        )
-    if p > 1:
-        # (N, P, P) pair distances: a pair repeated has equal tx and equal rx.
-        same_rx = np.linalg.norm(rx[:, :, None] - rx[:, None], axis=-1) <= tol[:, None, None]
-        same_tx = np.linalg.norm(tx[:, :, None] - tx[:, None], axis=-1) <= tol[:, None, None]
-        dup = np.triu(same_rx & same_tx, k=1)
-        if dup.any():
-            index = int(np.argmax(dup.any(axis=(-2, -1))))
-            i, j = np.unravel_index(int(np.argmax(dup[index])), (p, p))
-            raise GeometryError(
-                "rx",
-                f"receivers {i} and {j} are at the same position "
-                f"{rx[index, i].tolist()} with the same transmitter",
-                index,
-            )
+def _broadcast_problem(
+    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray, sig: np.ndarray | None, n: int
+) -> Problem:
+    """New C-contiguous arrays of shapes (N, P), (N, P, D), (N, P, D) and (N, P)."""
+    p, d = rx.shape[-2:]
+    return Problem(  # C order: the compiled checks and solves read C-contiguous arrays
+        np.array(np.broadcast_to(ls, (n, p)), order="C"),
+        np.array(np.broadcast_to(tx, (n, p, d)), order="C"),
+        np.array(np.broadcast_to(rx, (n, p, d)), order="C"),
+        None if sig is None else np.array(np.broadcast_to(sig, (n, p)), order="C"),
+    )
 
+
+def _baseline_allowance(
+    baseline_tol: ArrayLike | None, sig: np.ndarray | None, n: int, p: int
+) -> np.ndarray:
+    """(N, P) metres each range sum may fall below its baseline; checks baseline_tol."""
     if baseline_tol is None:
-        allow = BASELINE_SIGMAS * sig if sig is not None else np.zeros((n, p))
-    else:
-        allow = as_array("baseline_tol", baseline_tol)
-        if not (allow >= 0).all():
-            raise ParameterError("baseline_tol", f"must be non-negative, got {allow.tolist()}")
-        try:
-            allow = np.broadcast_to(allow, (n, p))
-        except ValueError:
-            raise ParameterError(
-                "baseline_tol", f"shape {allow.shape} does not broadcast with (N, P) = {(n, p)}"
-            ) from None
-    short = ls < baseline - allow - tol[:, None]
-    if short.any():
-        index = int(np.argmax(short.any(axis=-1)))
-        k = int(np.argmax(short[index]))
-        raise GeometryError(
-            "l",
-            f"range sum {k} = {float(ls[index, k])} m is shorter than its baseline "
-            f"|tx - rx| = {float(baseline[index, k])} m; no target position gives it",
-            index,
-        )
-    return Problem(ls, tx, rx, sig)
+        return BASELINE_SIGMAS * sig if sig is not None else np.zeros((n, p))
+    allow = as_array("baseline_tol", baseline_tol)
+    if not (allow >= 0).all():
+        raise ParameterError("baseline_tol", f"must be non-negative, got {allow.tolist()}")
+    try:
+        return np.ascontiguousarray(np.broadcast_to(allow, (n, p)))
+    except ValueError:
+        raise ParameterError(
+            "baseline_tol", f"shape {allow.shape} does not broadcast with (N, P) = {(n, p)}"
+        ) from None
+
+
+@kernel(numba.float64(ARRAY_2D, ARRAY_2D), inline=True)
+def scale_of(tx: np.ndarray, rx: np.ndarray) -> float:  # pragma: no cover (compiled)
+    """:func:`coordinate_scale` of one problem's platforms tx, rx (P, D), compiled."""
+    p, d = tx.shape
+    big = 1.0
+    for k in range(p):
+        for i in range(d):
+            big = max(big, abs(tx[k, i]), abs(rx[k, i]))
+    return big
+
+
+@kernel(numba.boolean(ARRAY_1D, ARRAY_1D, ARRAY_2D, ARRAY_2D, ARRAY_1D), inline=True)
+def valid_geometry(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    sigma: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    allow: np.ndarray,
+) -> bool:  # pragma: no cover (compiled)
+    """:func:`validate_problem_reference`'s value checks of one problem, compiled: pass/fail.
+
+    l, sigma, allow (P,) and tx, rx (P, D) finite. Fails on a negative range sum, sigma
+    <= 0, a receiver on its transmitter, a repeated pair, or a range sum more than its
+    allowance (and rounding) below its baseline, with the reference's arithmetic.
+    """
+    p, d = tx.shape
+    tol = COINCIDENT_RTOL * scale_of(tx, rx)
+    for k in range(p):
+        baseline = 0.0
+        for i in range(d):
+            baseline += (rx[k, i] - tx[k, i]) * (rx[k, i] - tx[k, i])
+        baseline = np.sqrt(baseline)
+        if not (l[k] >= 0.0 and sigma[k] > 0.0 and baseline > tol):
+            return False
+        if l[k] < baseline - allow[k] - tol:
+            return False
+        for j in range(k):
+            same_rx = 0.0
+            same_tx = 0.0
+            for i in range(d):
+                same_rx += (rx[k, i] - rx[j, i]) * (rx[k, i] - rx[j, i])
+                same_tx += (tx[k, i] - tx[j, i]) * (tx[k, i] - tx[j, i])
+            if np.sqrt(same_rx) <= tol and np.sqrt(same_tx) <= tol:
+                return False
+    return True
+
+
+@kernel(numba.int64(ARRAY_2D, ARRAY_2D, ARRAY_3D, ARRAY_3D, ARRAY_2D))
+def first_invalid_problem(
+    ls: np.ndarray, sigma: np.ndarray, tx: np.ndarray, rx: np.ndarray, allow: np.ndarray
+) -> int:  # pragma: no cover (compiled)
+    """The first of N problems :func:`valid_geometry` fails, or -1."""
+    for n in range(ls.shape[0]):
+        if not valid_geometry(ls[n], sigma[n], tx[n], rx[n], allow[n]):
+            return n
+    return -1

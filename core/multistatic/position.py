@@ -44,29 +44,64 @@ nothing to test: consistent is True (as are all P <= D).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import cast
+from typing import NamedTuple, cast
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
+from plotgate.core.compiled import ARRAY_1D, ARRAY_2D, ARRAY_3D, kernel, record, tuple_of
 from plotgate.core.errors import ParameterError
-from plotgate.core.multistatic.closed_form import sum_range_roots
+from plotgate.core.multistatic.closed_form import (
+    ROOT_WORK,
+    ClosedFormSolution,
+    RootWork,
+    root_work,
+    sum_range_roots,
+    sum_range_roots_into,
+    sum_range_roots_reference,
+)
 from plotgate.core.multistatic.gauss_newton import (
+    CHUNK,
+    MEASUREMENTS,
+    PARALLEL_MIN,
+    WORK,
     GaussNewtonFit,
+    Measurements,
+    Work,
     consistency_threshold,
-    range_sum_gauss_newton,
+    gauss_newton_reference,
+    information_into,
+    iterate,
+    position_model,
     solver_options,
     start_points,
+    work_space,
 )
+from plotgate.core.multistatic.information import inverse_information_into
 from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
+    coerce_problem,
     coordinate_scale,
     range_sums_unchecked,
-    validate_problem,
+    scale_of,
+    valid_geometry,
+    validate_problem_reference,
 )
 
-__all__ = ["SECOND_ROOT_COST", "MLSolution", "ml_solve", "sum_range_starts"]
+__all__ = [
+    "RUNS",
+    "SECOND_ROOT_COST",
+    "MLSolution",
+    "Runs",
+    "closed_form_roots",
+    "ml_solve",
+    "ml_solve_reference",
+    "run_space",
+    "sum_range_starts",
+]
 
 SECOND_ROOT_COST = 100.0
 """A second closed-form root is not followed when its chi-square cost is above this
@@ -121,7 +156,10 @@ class MLSolution:
 
 
 def sum_range_starts(
-    ls: np.ndarray, tx: np.ndarray, rx: np.ndarray
+    ls: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    roots: Callable[[np.ndarray, np.ndarray, np.ndarray], ClosedFormSolution] = sum_range_roots,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sum-range closed-form starts: (x (N, D), alternative (N, D), has_alternative (N,)).
 
@@ -130,7 +168,8 @@ def sum_range_starts(
     first transmitter (:func:`plotgate.core.multistatic.closed_form.sum_range_roots`);
     problems are grouped by which pairs those are (one group when every problem has a
     single transmitter). Problems whose first transmitter has fewer than D pairs start
-    at the centroid of their platforms.
+    at the centroid of their platforms. ``roots`` is the closed form (the compiled one,
+    or :func:`plotgate.core.multistatic.closed_form.sum_range_roots_reference`).
     """
     n, p, d = tx.shape
     tol = COINCIDENT_RTOL * coordinate_scale(tx, rx)
@@ -149,9 +188,7 @@ def sum_range_starts(
             x[rows] = alternative[rows] = centroid
             continue
         m = int(pattern.sum())
-        sol = sum_range_roots(
-            ls[rows][:, pattern], np.repeat(tx[rows, :1], m, axis=1), rx[rows][:, pattern]
-        )
+        sol = roots(ls[rows][:, pattern], np.repeat(tx[rows, :1], m, axis=1), rx[rows][:, pattern])
         x[rows] = sol.x
         alternative[rows] = sol.alternative
         has_alternative[rows] = sol.has_alternative
@@ -208,6 +245,292 @@ def _best_and_alternative(
     eligible = distinct & fit.converged[runs] & (cost <= threshold)
     pick = np.argmin(np.where(eligible, cost, np.inf), axis=1)
     return chosen, runs[rows, pick], eligible.any(axis=1)
+
+
+class Shots(NamedTuple):
+    """N single-shot problems as the fused kernel reads them (coerced, not yet checked).
+
+    data (N rows, tau zeros), sigma and allow (N, P) (metres a range sum may fall below
+    its baseline), x0 (N, D) the user's starts or (0, D) without.
+    """
+
+    data: Measurements
+    sigma: np.ndarray
+    allow: np.ndarray
+    x0: np.ndarray
+
+
+SHOTS = record(Shots, MEASUREMENTS, ARRAY_2D, ARRAY_2D, ARRAY_2D)
+
+
+class Settings(NamedTuple):
+    """The options of a solve: iterations, tolerance, chi-square threshold, closed-form starts."""
+
+    max_iter: int
+    tol: float
+    threshold: float
+    closed_form_starts: bool
+
+
+SETTINGS = record(Settings, numba.int64, numba.float64, numba.float64, numba.boolean)
+
+
+class Solutions(NamedTuple):
+    """The fused kernel's output: :class:`MLSolution`'s arrays, and which problems are valid."""
+
+    x: np.ndarray
+    covariance: np.ndarray
+    residuals: np.ndarray
+    cost: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    alternative: np.ndarray
+    has_alternative: np.ndarray
+    valid: np.ndarray
+
+
+SOLUTIONS = record(
+    Solutions,
+    *(ARRAY_2D, ARRAY_3D, ARRAY_2D, ARRAY_1D, numba.int64[::1], numba.boolean[::1]),
+    *(ARRAY_2D, numba.boolean[::1], numba.boolean[::1]),
+)
+
+
+class Runs(NamedTuple):
+    """Scratch space of one problem: its (at most 3) Gauss-Newton runs and its roots.
+
+    theta (3, D), r (3, P), information (3, D, D), cost (3,), iterations (3,),
+    converged (3,); l, tx, rx (P,), (P, D) the first transmitter's pairs; roots (2, D),
+    root_residuals (2,) and root_flags (2,) of the closed form.
+    """
+
+    theta: np.ndarray
+    r: np.ndarray
+    information: np.ndarray
+    cost: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    l: np.ndarray  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: np.ndarray
+    rx: np.ndarray
+    roots: np.ndarray
+    root_residuals: np.ndarray
+    root_flags: np.ndarray
+
+
+RUNS = record(
+    Runs,
+    *(ARRAY_2D, ARRAY_2D, ARRAY_3D, ARRAY_1D, numba.int64[::1], numba.boolean[::1]),
+    *(ARRAY_1D, ARRAY_2D, ARRAY_2D, ARRAY_2D, ARRAY_1D, numba.boolean[::1]),
+)
+
+
+@kernel(RUNS(numba.int64, numba.int64))
+def run_space(p: int, d: int) -> Runs:  # pragma: no cover (compiled)
+    """:class:`Runs` of problems of p pairs in d dimensions."""
+    return Runs(
+        np.empty((3, d)),
+        np.empty((3, p)),
+        np.empty((3, d, d)),
+        np.empty(3),
+        np.empty(3, dtype=np.int64),
+        np.empty(3, dtype=np.bool_),
+        np.empty(p),
+        np.empty((p, d)),
+        np.empty((p, d)),
+        np.empty((2, d)),
+        np.empty(2),
+        np.empty(2, dtype=np.bool_),
+    )
+
+
+@kernel(numba.float64(ARRAY_1D, ARRAY_1D, ARRAY_2D, ARRAY_2D, ARRAY_1D), inline=True)
+def _chi_square(
+    x: np.ndarray,
+    l: np.ndarray,  # noqa: E741
+    tx: np.ndarray,
+    rx: np.ndarray,
+    sigma: np.ndarray,
+) -> float:  # pragma: no cover (compiled)
+    """sum_p ((l_p - h_p(x)) / sigma_p)^2 of one problem, as :func:`_worth_following`."""
+    p, d = tx.shape
+    total = 0.0
+    for k in range(p):
+        a = 0.0
+        b = 0.0
+        for i in range(d):
+            a += (x[i] - rx[k, i]) * (x[i] - rx[k, i])
+            b += (x[i] - tx[k, i]) * (x[i] - tx[k, i])
+        e = (l[k] - (np.sqrt(a) + np.sqrt(b))) / sigma[k]
+        total += e * e
+    return total
+
+
+@kernel(numba.boolean(ARRAY_1D, ARRAY_2D, ARRAY_2D, RUNS, ROOT_WORK), inline=True)
+def closed_form_roots(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: np.ndarray,
+    rx: np.ndarray,
+    runs: Runs,
+    work: RootWork,
+) -> bool:  # pragma: no cover (compiled)
+    """A problem's closed-form roots into runs.roots, as :func:`sum_range_starts`: a second?
+
+    The roots of its first transmitter's pairs; the centroid of its platforms when that
+    transmitter has fewer than D pairs.
+    """
+    pair_l, pair_tx, pair_rx, roots = runs.l, runs.tx, runs.rx, runs.roots
+    p, d = tx.shape
+    tol = COINCIDENT_RTOL * scale_of(tx, rx)
+    m = 0
+    for k in range(p):
+        dist = 0.0
+        for j in range(d):
+            dist += (tx[k, j] - tx[0, j]) * (tx[k, j] - tx[0, j])
+        if np.sqrt(dist) <= tol:
+            pair_l[m] = l[k]
+            pair_tx[m] = tx[0]
+            pair_rx[m] = rx[k]
+            m += 1
+    if m < d:
+        for j in range(d):
+            st = 0.0
+            sr = 0.0
+            for k in range(p):
+                st += tx[k, j]
+                sr += rx[k, j]
+            roots[0, j] = roots[1, j] = 0.5 * (st / p + sr / p)
+        return False
+    if m == p:
+        sum_range_roots_into(
+            pair_l, pair_tx, pair_rx, work, roots, runs.root_residuals, runs.root_flags
+        )
+    else:  # several transmitters: the first one's pairs, in arrays of their own
+        sum_range_roots_into(
+            pair_l[:m].copy(),
+            pair_tx[:m].copy(),
+            pair_rx[:m].copy(),
+            root_work(m, d),
+            roots,
+            runs.root_residuals,
+            runs.root_flags,
+        )
+    return bool(runs.root_flags[1])
+
+
+@kernel(numba.int64(numba.int64, SHOTS, SETTINGS, RUNS, ROOT_WORK), inline=True)
+def _starts(
+    i: int, shots: Shots, settings: Settings, runs: Runs, work: RootWork
+) -> int:  # pragma: no cover (compiled)
+    """Problem i's starts into runs.theta, in order of preference on a tie: how many.
+
+    x0, the closed form's primary root, then its second root where it is worth
+    following (:func:`_worth_following`).
+    """
+    k = 0
+    if shots.x0.shape[0] > 0:
+        runs.theta[k] = shots.x0[i]
+        k += 1
+    if not settings.closed_form_starts:
+        return k
+    ls, tx, rx = shots.data.ls[i], shots.data.tx[i], shots.data.rx[i]
+    second = closed_form_roots(ls, tx, rx, runs, work)
+    runs.theta[k] = runs.roots[0]
+    k += 1
+    if second:
+        sigma = shots.sigma[i]
+        threshold = settings.threshold
+        if _chi_square(runs.roots[0], ls, tx, rx, sigma) > threshold or (
+            _chi_square(runs.roots[1], ls, tx, rx, sigma) <= SECOND_ROOT_COST * threshold
+        ):
+            runs.theta[k] = runs.roots[1]
+            k += 1
+    return k
+
+
+@kernel(tuple_of(numba.int64, numba.int64)(numba.int64, RUNS, numba.float64), inline=True)
+def _choice(k: int, runs: Runs, threshold: float) -> tuple[int, int]:  # pragma: no cover
+    """The reported run and the alternative's (-1 for none), as :func:`_best_and_alternative`."""
+    cost, theta, converged = runs.cost, runs.theta, runs.converged
+    best = 0
+    for j in range(1, k):
+        if cost[j] + _TIE * (1.0 + cost[best]) < cost[best]:
+            best = j
+    d = theta.shape[1]
+    J = runs.information[best]
+    other = -1
+    for j in range(k):
+        q = 0.0
+        for b in range(d):
+            s = 0.0
+            for a in range(d):
+                s += (theta[j, a] - theta[best, a]) * J[a, b]
+            q += s * (theta[j, b] - theta[best, b])
+        if q > 1.0 and converged[j] and cost[j] <= threshold:
+            if other < 0 or cost[j] < cost[other]:
+                other = j
+    return best, other
+
+
+@kernel(numba.void(numba.int64, SHOTS, SETTINGS, SOLUTIONS, RUNS, WORK, ROOT_WORK), inline=True)
+def _solve_one(
+    i: int,
+    shots: Shots,
+    settings: Settings,
+    out: Solutions,
+    runs: Runs,
+    work: Work,
+    roots: RootWork,
+) -> None:  # pragma: no cover (compiled)
+    """Problem i of :func:`ml_solve`: its check, starts, runs and the choice among them."""
+    ls, w, tx, rx, tau = shots.data
+    sigma = shots.sigma[i]
+    one = Measurements(ls[i], w[i], tx[i], rx[i], tau)
+    out.valid[i] = valid_geometry(ls[i], sigma, tx[i], rx[i], shots.allow[i])
+    k = _starts(i, shots, settings, runs, roots)
+    theta, r, information = runs.theta, runs.r, runs.information
+    for j in range(k):
+        cost, it, conv = iterate(theta[j], one, r[j], work, settings.max_iter, settings.tol)
+        runs.cost[j], runs.iterations[j], runs.converged[j] = cost, it, conv
+        information_into(theta[j], one, work.Hw, information[j])
+    best, other = _choice(k, runs, settings.threshold)
+    out.x[i] = theta[best]
+    out.cost[i] = runs.cost[best]
+    out.iterations[i] = runs.iterations[best]
+    out.converged[i] = runs.converged[best]
+    residuals = out.residuals[i]
+    for p in range(sigma.size):
+        residuals[p] = r[best, p] * sigma[p]
+    out.has_alternative[i] = other >= 0
+    out.alternative[i] = theta[other] if other >= 0 else theta[best]
+    inverse_information_into(
+        information[best], out.covariance[i], work.square[0], work.vec[0], work.square[1]
+    )
+
+
+@kernel(numba.void(numba.int64, numba.int64, SHOTS, SETTINGS, SOLUTIONS))
+def _solve_range(
+    lo: int, hi: int, shots: Shots, settings: Settings, out: Solutions
+) -> None:  # pragma: no cover (compiled)
+    """Problems lo to hi - 1 of :func:`ml_solve`, one after the other."""
+    p, d = shots.data.tx.shape[1:]
+    runs, work, roots = run_space(p, d), work_space(p, d), root_work(p, d)
+    for i in range(lo, hi):
+        _solve_one(i, shots, settings, out, runs, work, roots)
+
+
+@kernel(numba.void(SHOTS, SETTINGS, SOLUTIONS), parallel=True)
+def _solve_parallel(
+    shots: Shots, settings: Settings, out: Solutions
+) -> None:  # pragma: no cover (compiled)
+    """Every problem of :func:`ml_solve`, in chunks over a parallel loop."""
+    n = out.x.shape[0]
+    # a parallel loop takes flat records only: the nested one is rebuilt in each task
+    ls, w, tx, rx, tau = shots.data
+    sigma, allow, x0 = shots.sigma, shots.allow, shots.x0
+    for c in numba.prange((n + CHUNK - 1) // CHUNK):
+        chunk = Shots(Measurements(ls, w, tx, rx, tau), sigma, allow, x0)
+        _solve_range(c * CHUNK, min(n, (c + 1) * CHUNK), chunk, settings, out)
 
 
 def ml_solve(
@@ -307,6 +630,55 @@ def ml_solve(
     >>> sol.x.round(3) + 0.0, sol.alternative.round(1), sol.has_alternative
     (array([[3000., 4000.]]), array([[-1530.4,   -60.8]]), array([ True]))
     """
+    alpha, max_iter, tol = _options(alpha, max_iter, tol, x0, closed_form_starts)
+    (ls, tx_, rx_, checked_sigma), allow = coerce_problem(l, tx, rx, sigma)
+    sig = cast(np.ndarray, checked_sigma)  # given, so checked: never None
+    n, p, d = tx_.shape
+    threshold = consistency_threshold(alpha, p - d)
+    with np.errstate(divide="ignore"):  # sigma = 0 is refused below, named by the reference
+        w = 1.0 / sig
+    shots = Shots(
+        Measurements(ls, w, tx_, rx_, np.zeros(p)),
+        sig,
+        allow,
+        np.zeros((0, d)) if x0 is None else np.ascontiguousarray(start_points(x0, n, d)),
+    )
+    out = Solutions(
+        np.empty((n, d)),
+        np.empty((n, d, d)),
+        np.empty((n, p)),
+        np.empty(n),
+        np.empty(n, dtype=np.int64),
+        np.empty(n, dtype=bool),
+        np.empty((n, d)),
+        np.empty(n, dtype=bool),
+        np.empty(n, dtype=bool),
+    )
+    settings = Settings(max_iter, tol, threshold, bool(closed_form_starts))
+    if n >= PARALLEL_MIN:
+        _solve_parallel(shots, settings, out)
+    else:
+        _solve_range(0, n, shots, settings, out)
+    if not out.valid.all():  # the numpy checks name the field and the problem
+        validate_problem_reference(l, tx, rx, sigma)
+    return MLSolution(
+        x=out.x,
+        covariance=out.covariance,
+        residuals=out.residuals,
+        cost=out.cost,
+        normalized_cost=out.cost / max(p - d, 1),
+        consistent=out.cost <= threshold,
+        iterations=out.iterations,
+        converged=out.converged,
+        alternative=out.alternative,
+        has_alternative=out.has_alternative,
+    )
+
+
+def _options(
+    alpha: float, max_iter: int, tol: float, x0: ArrayLike | None, closed_form_starts: bool
+) -> tuple[float, int, float]:
+    """Check ml_solve's options: (alpha, max_iter, tol)."""
     alpha, max_iter, tol = solver_options(alpha, max_iter, tol)
     if not isinstance(closed_form_starts, (bool, np.bool_)):
         raise ParameterError(
@@ -316,7 +688,32 @@ def ml_solve(
         raise ParameterError(
             "closed_form_starts", "False needs x0: without a start the closed form is the only one"
         )
-    ls, tx, rx, checked_sigma = validate_problem(l, tx, rx, sigma)
+    return alpha, max_iter, tol
+
+
+def ml_solve_reference(
+    l: ArrayLike,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: ArrayLike,
+    rx: ArrayLike,
+    sigma: ArrayLike,
+    x0: ArrayLike | None = None,
+    alpha: float = 0.01,
+    max_iter: int = 50,
+    tol: float = 1e-9,
+    *,
+    closed_form_starts: bool = True,
+) -> MLSolution:
+    """:func:`ml_solve` in numpy: the reference of its fused kernel.
+
+    The same solve, each stage a batched numpy pass: the checks
+    (:func:`plotgate.core.multistatic.model.validate_problem_reference`), the closed
+    form's roots (:func:`plotgate.core.multistatic.closed_form.sum_range_roots_reference`),
+    the second roots worth following, Gauss-Newton from every start
+    (:func:`plotgate.core.multistatic.gauss_newton.gauss_newton_reference`) and the choice
+    of the solution and its alternative.
+    """
+    alpha, max_iter, tol = _options(alpha, max_iter, tol, x0, closed_form_starts)
+    ls, tx, rx, checked_sigma = validate_problem_reference(l, tx, rx, sigma)
     sigma = cast(np.ndarray, checked_sigma)  # given, so checked: never None
     n, p, d = tx.shape
     threshold = consistency_threshold(alpha, p - d)
@@ -325,7 +722,7 @@ def ml_solve(
     starts = [] if x0 is None else [start_points(x0, n, d)]
     second, seconds = np.zeros(0, dtype=int), np.zeros((0, d))
     if closed_form_starts:
-        start, alt_start, has_alt_start = sum_range_starts(ls, tx, rx)
+        start, alt_start, has_alt_start = sum_range_starts(ls, tx, rx, sum_range_roots_reference)
         starts.append(start)
         second = np.flatnonzero(
             has_alt_start & _worth_following(ls, tx, rx, sigma, start, alt_start, threshold)
@@ -333,10 +730,14 @@ def ml_solve(
         seconds = alt_start[second]
     k = len(starts)
     problem = np.concatenate([np.tile(np.arange(n), k), second])
-    fit = range_sum_gauss_newton(
-        ls, sigma, tx, rx, np.zeros(p), problem, np.concatenate([*starts, seconds]), max_iter, tol
+    fit = gauss_newton_reference(
+        *position_model(tx, rx, problem),
+        ls[problem],
+        sigma[problem],
+        np.concatenate([*starts, seconds]),
+        max_iter,
+        tol,
     )
-
     # runs (N, k + 1): run r = j n + i is problem i's start j; the last column is the
     # second root's run, or the problem's first run where there is none
     runs = np.arange(n)[:, None] + n * np.arange(k + 1)

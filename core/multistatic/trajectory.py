@@ -1,7 +1,7 @@
 """Maximum-likelihood constant-velocity tracks from samples of range sums (Fadeev et al.).
 
 The same compiled Gauss-Newton engine as the single-shot position
-(:func:`plotgate.core.multistatic.gauss_newton.range_sum_gauss_newton`, Fadeev et al.,
+(:func:`plotgate.core.multistatic.gauss_newton.gauss_newton`, Fadeev et al.,
 eq. 6) fits a constant-velocity track to T samples (the paper's accumulated measurement vector,
 eq. 2): parameters (x0, v) with x(t) = x0 + v (t - t_ref). Its default start is
 :func:`plotgate.core.multistatic.track_start.track_starts`.
@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.gauss_newton import (
     consistency_threshold,
-    range_sum_gauss_newton,
+    gauss_newton,
     solver_options,
     start_points,
 )
@@ -239,7 +239,7 @@ def trajectory_solve(
     else:
         starts, owner = start_points(x0, n, 2 * d), np.arange(n)
 
-    fit = range_sum_gauss_newton(
+    fit = gauss_newton(
         ls.reshape(n, n_t * p),
         sigma.reshape(n, n_t * p),
         tx.reshape(n, n_t * p, d),

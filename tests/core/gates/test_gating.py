@@ -357,24 +357,24 @@ def ellipse_inputs(rng, n):
 
 def ellipse_calls(z, z_pred, S):
     gate = EllipseGate(0.9)
-    return gate.test(z, z_pred, S), gate.reference_test(z, z_pred, S)
+    return gate.test(z, z_pred, S), gate.test_reference(z, z_pred, S)
 
 
 def combined_calls(z1, P1, z2, P2):
     gate = CombinedGate(10.0, 50.0, 0.9)
-    return gate.test(z1, P1, z2, P2, 5.0), gate.reference_test(z1, P1, z2, P2, 5.0)
+    return gate.test(z1, P1, z2, P2, 5.0), gate.test_reference(z1, P1, z2, P2, 5.0)
 
 
 def sector_calls(r, az, r_pred, az_pred, sigmas):
     gate = SectorGate(3.0, 2.5)
     args = (r, az, r_pred, az_pred, *sigmas)
-    return gate.test(*args), gate.reference_test(*args)
+    return gate.test(*args), gate.test_reference(*args)
 
 
 def first_association_calls(r1, az1, r2, az2, sigmas):
     gate = FirstAssociationGate(10.0, 3.0, 2.5)
     args = (r1, az1, r2, az2, 5.0, *sigmas)
-    return gate.test(*args), gate.reference_test(*args)
+    return gate.test(*args), gate.test_reference(*args)
 
 
 def all_kernel_calls(rng, n):
@@ -459,7 +459,7 @@ def bad_row(x, row, value):
 def test_ellipse_kernel_errors_are_the_references(gate, args, field):
     inputs = args(*ellipse_inputs(np.random.default_rng(6), 20))
     with pytest.raises(Exception) as expected:
-        gate.reference_test(*inputs)
+        gate.test_reference(*inputs)
     with pytest.raises(type(expected.value)) as raised:
         gate.test(*inputs)
     assert raised.value.field == expected.value.field == field
@@ -479,7 +479,7 @@ def test_combined_kernel_errors_are_the_references(change, field):
     gate = CombinedGate(10.0, 50.0, 0.9)
     inputs = change(*combined_inputs(np.random.default_rng(7), 20))
     with pytest.raises(Exception) as expected:
-        gate.reference_test(*inputs, 5.0)
+        gate.test_reference(*inputs, 5.0)
     with pytest.raises(type(expected.value)) as raised:
         gate.test(*inputs, 5.0)
     assert raised.value.field == expected.value.field == field
@@ -498,7 +498,7 @@ def test_polar_kernel_errors_are_the_references(position, value, field):
     gate = FirstAssociationGate(10.0, 3.0, 2.5)
     args = (r1, az1, r2, az2, 5.0, *sigmas)
     with pytest.raises(Exception) as expected:
-        gate.reference_test(*args)
+        gate.test_reference(*args)
     with pytest.raises(type(expected.value)) as raised:
         gate.test(*args)
     assert raised.value.field == expected.value.field == field
@@ -509,7 +509,7 @@ def test_polar_kernel_errors_are_the_references(position, value, field):
         values[2] = bad_row(values[2], 11, np.nan)
     args = (values[0], values[1], values[2], values[3], *values[4:])
     with pytest.raises(Exception) as expected:
-        sector.reference_test(*args)
+        sector.test_reference(*args)
     with pytest.raises(type(expected.value)) as raised:
         sector.test(*args)
     assert raised.value.field == expected.value.field == sector_field

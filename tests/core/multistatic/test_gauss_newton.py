@@ -1,6 +1,6 @@
 """The compiled range-sum Gauss-Newton engine against the numpy reference (Fadeev et al., eq. 6).
 
-:func:`range_sum_gauss_newton` fuses the iteration of :func:`gauss_newton` per problem;
+:func:`gauss_newton` fuses the iteration of :func:`gauss_newton_reference` per problem;
 both must take the same steps: the same iteration counts and convergence flags, and the
 same minima to rounding (1e-12 relative), or within the solver's tolerance where the cost
 is flat along a direction (a minimum the data hardly determine). Every draw is seeded.
@@ -12,7 +12,7 @@ import pytest
 from plotgate.core.multistatic.gauss_newton import (
     GaussNewtonFit,
     gauss_newton,
-    range_sum_gauss_newton,
+    gauss_newton_reference,
 )
 from plotgate.core.multistatic.model import (
     platform_positions,
@@ -46,7 +46,7 @@ def reference(ls, sigma, tx, rx, tau, row, theta0, max_iter=MAX_ITER):
         ]
         return np.concatenate([H, tau[:, None] * H], axis=-1)
 
-    return gauss_newton(predict, jacobian, ls[row], sigma[row], theta0, max_iter, TOL)
+    return gauss_newton_reference(predict, jacobian, ls[row], sigma[row], theta0, max_iter, TOL)
 
 
 def assert_agree(
@@ -102,7 +102,7 @@ def single_shot(ls, sigma, tx, rx, theta0, row=None):
     tau = np.zeros(ls.shape[1])
     return (
         reference(ls, sigma, tx, rx, tau, row, theta0),
-        range_sum_gauss_newton(ls, sigma, tx, rx, tau, row, theta0, MAX_ITER, TOL),
+        gauss_newton(ls, sigma, tx, rx, tau, row, theta0, MAX_ITER, TOL),
     )
 
 
@@ -165,7 +165,7 @@ def test_degenerate_geometry_a_target_on_a_sensor_one_problem_and_an_empty_batch
     one_ref, one_new = single_shot(ls[1:], np.ones((1, 3)), tx[1:], rx[1:], starts[1:])
     assert_agree(one_ref, one_new)
     np.testing.assert_array_equal(one_new.theta, new.theta[1:])
-    empty = range_sum_gauss_newton(
+    empty = gauss_newton(
         np.zeros((0, 3)),
         np.ones((0, 3)),
         np.zeros((0, 3, 2)),
@@ -189,7 +189,7 @@ def test_max_iter_stops_both_engines_alike():
     tau = np.zeros(3)
     for max_iter in (1, 2, 8):
         ref = reference(ls, sigma, tx, rx, tau, row, starts, max_iter)
-        new = range_sum_gauss_newton(ls, sigma, tx, rx, tau, row, starts, max_iter, TOL)
+        new = gauss_newton(ls, sigma, tx, rx, tau, row, starts, max_iter, TOL)
         assert_agree(ref, new)
 
 
@@ -215,5 +215,5 @@ def test_tracks_from_several_starts(receivers):
         starts,
     )
     ref = reference(*args)
-    new = range_sum_gauss_newton(*args, MAX_ITER, TOL)
+    new = gauss_newton(*args, MAX_ITER, TOL)
     assert_agree(ref, new, flips=0.2, exact_share=0.25)
