@@ -17,6 +17,7 @@ from plotgate.service.schemas.descriptions import DESCRIPTIONS
 from plotgate.service.schemas.examples import EXAMPLES
 from plotgate.service.schemas.gates import GatePairsRequest, GateResults, GateTestRequest
 from plotgate.service.schemas.identification import (
+    MAX_SIMULATED_SAMPLES,
     IdentifyPairRequest,
     IdentifyPairResult,
     IdentifyPictureRequest,
@@ -409,9 +410,11 @@ ENDPOINTS: dict[str, Endpoint] = {
             IdentifySimulateResult,
             slow=True,
             work={"runs": lambda r: r.runs, "runs x (n + m)": lambda r: r.runs * (r.n + r.m)},
-            # the (runs, n) and (runs, m) draws and their temporaries: 50,000,000 bearings
-            # took 991 MiB of RSS, 25,000,000 take 627 MiB
+            # drawn in chunks of 10^6 bearings, so time, not memory, bounds it: 25,000,000
+            # bearings take under 1 s of CPU on one core; a cluster gathers one count a
+            # chunk, so it may take up to the schema's bound (500 chunks)
             caps={"runs x (n + m)": 25_000_000},
+            cluster_caps={"runs x (n + m)": MAX_SIMULATED_SAMPLES},
         ),
     )
 }

@@ -41,8 +41,11 @@ MAX_TRACK_SAMPLES = 100_000
 """Most samples of one track."""
 MAX_PICTURE_SAMPLES = 1_000_000
 """Most samples of one picture, passive and active together."""
-MAX_SIMULATED_SAMPLES = 50_000_000
-"""Most bearings one simulation may draw: runs x (n + m)."""
+MAX_SIMULATED_SAMPLES = 500_000_000
+"""Most bearings one simulation may draw: runs x (n + m). The draws are made in chunks of
+10^6 bearings (``core.identification.simulate``), so memory does not grow with it; the
+default cap (``Endpoint.caps``) holds one process to about a second, and a Dask cluster
+takes up to this bound (``Endpoint.cluster_caps``)."""
 
 Angle = Annotated[float, Field(ge=-720, le=720)]
 Samples = Annotated[list[Angle], Field(min_length=2, max_length=MAX_TRACK_SAMPLES)]

@@ -25,6 +25,8 @@ from plotgate.service.schemas import (
     TIME_BUDGET_S,
     EvaluateRequest,
     EvaluateResult,
+    IdentifySimulateRequest,
+    IdentifySimulateResult,
 )
 from tests.conftest import answer, invalid_input
 
@@ -176,3 +178,31 @@ def test_the_command_lines_cluster_reports_its_threads(scheduler):
         request = EvaluateRequest.model_validate(MUST_SHOW)
         assert over_caps(OPERATIONS["initiation.evaluate"], request, caps) is None
     assert workers() is None
+
+
+SIMULATE = ENDPOINTS["identification.simulate"]
+BEARINGS = "runs x (n + m)"
+LARGE_EXPERIMENT = {"n": 50, "m": 5, "runs": 4_545_454, "seed": 2026}
+"""250 million bearings: ten times the one-core cap, 250 chunks on a cluster."""
+
+
+def _cut_short_experiment(request: IdentifySimulateRequest) -> IdentifySimulateResult:
+    """An answer without the draws: the acceptance, not the experiment."""
+    return IdentifySimulateResult(runs=request.runs, identified=0, rejected=0, standard_error=0)
+
+
+def test_an_experiment_past_the_one_core_cap_is_refused_without_a_cluster_and_taken_by_one(
+    settings, swap_handler, scheduler
+):
+    """The experiment draws its bearings in chunks and the service gathers one count a
+    chunk, so a cluster widens its cap as it does evaluate's, up to the schema's bound."""
+    swap_handler("identification.simulate", _cut_short_experiment)
+    assert SIMULATE.caps[BEARINGS] < 250_000_000 <= SIMULATE.cluster_cap(BEARINGS, 2)
+    assert SIMULATE.cluster_cap(BEARINGS, 10**6) == SIMULATE.cluster_caps[BEARINGS]
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        r = c.post("/v1/identification/simulate", json=LARGE_EXPERIMENT)
+    assert "a Dask cluster (PLOTGATE_DASK_SCHEDULER" in invalid_input(r, BEARINGS)["detail"]
+    clustered = settings.model_copy(update={"dask_scheduler": scheduler})
+    with TestClient(create_app(clustered), raise_server_exceptions=False) as c:
+        r = c.post("/v1/identification/simulate", json=LARGE_EXPERIMENT)
+    assert r.status_code == 200, r.text
