@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 import pytest
+from initiation_helpers import pscan
 from scipy import stats
 
 from plotgate.core.errors import ParameterError
@@ -22,7 +23,6 @@ from plotgate.core.initiation import (
     InitiationConfig,
     cartesian_scan,
     initiate,
-    polar_scan,
     state_from_json,
 )
 from plotgate.core.initiation.score import log_clutter_density, wald_thresholds
@@ -243,14 +243,6 @@ def test_an_initiators_score_in_a_state_is_a_single_plots():
 
 # ---------------------------------------------------------------- polar capture over a gap
 
-SR, SAZ = 5.0, math.radians(0.2)
-
-
-def pscan(t, *ra):
-    r = np.array([p[0] for p in ra], dtype=float)
-    az = np.radians([p[1] for p in ra])
-    return polar_scan(t, r, az, np.full(r.size, SR), np.full(r.size, SAZ))
-
 
 @pytest.mark.parametrize("confirmation", ["k_of_m", "score"])
 def test_polar_capture_over_a_missed_scan_scales_the_windows_with_the_gap(confirmation):
@@ -278,47 +270,3 @@ def test_scores_survive_the_state_round_trip():
     back = state_from_json(state.to_json(), cfg)
     assert back.tracks.score.tolist() == state.tracks.score.tolist() != [0.0]
     assert back.initiators.score.tolist() == state.initiators.score.tolist()
-
-
-# ---------------------------------------------------------------- operating curves
-
-
-def test_each_point_of_a_sweep_is_the_evaluation_of_its_config_on_the_same_scans():
-    from plotgate.core.initiation.evaluate import evaluate, sweep, swept
-    from plotgate.core.initiation.simulate import mu_scenario
-
-    scenario = mu_scenario(100.0)
-    base = config(mode="polar", clutter_density=None, surveillance_area=15000.0**2)
-    values = [0.01, 0.3]
-    first, *curve = sweep(scenario, base, "false_confirmation", values, 6, 11, baseline=True)
-    for value, point in zip(values, curve, strict=True):
-        alone = evaluate(scenario, swept(base, "false_confirmation", value), 6, 11)
-        assert point.true.tolist() == alone.true.tolist()
-        assert point.false.tolist() == alone.false.tolist()
-        assert (point.mean_true, point.se_true) == (alone.mean_true, alone.se_true)
-    assert first.true.tolist() == evaluate(scenario, base, 6, 11).true.tolist()
-    # a looser threshold confirms at least as many tracks on the same scans
-    assert (curve[1].true + curve[1].false >= curve[0].true + curve[0].false).all()
-    k_of_m = sweep(scenario, InitiationConfig(v_max=30.0), "confirm", ["2/4", "4/4"], 4, 1)
-    assert k_of_m[0].mean_true >= k_of_m[1].mean_true
-
-
-@pytest.mark.parametrize(
-    ("parameter", "values", "field", "index"),
-    [
-        ("confirm", ["3/4", "three"], "values", 1),
-        ("confirm", ["5/4"], "values", 0),
-        ("gate_P_G", [0.9, 1.0], "values", 1),
-        ("confirm", ["\u00b2/4"], "values", 0),
-        ("confirm", ["3/4/5"], "values", 0),
-        ("nonsense", [1.0], "parameter", None),
-        ("gate_P_G", [], "values", None),
-    ],
-)
-def test_sweep_values_are_checked_and_named(parameter, values, field, index):
-    from plotgate.core.initiation.evaluate import sweep
-    from plotgate.core.initiation.simulate import mu_scenario
-
-    with pytest.raises(ParameterError) as err:
-        sweep(mu_scenario(20.0), InitiationConfig(), parameter, values, 2, 0)
-    assert (err.value.field, err.value.index) == (field, index)
