@@ -38,7 +38,14 @@ Each scan, in this order:
    it may confirm; a clutter track the filter has run away with, or a target faster
    than the settings describe).
 7. Plots of the scan used by no track and captured by no initiator become initiators;
-   initiators past their window expire.
+   initiators past their window expire, and captured ones at once. Under score
+   confirmation every plot no confirmed track holds becomes an initiator, and an
+   initiator lives out its window captured or not, until a confirmed track holds its
+   plot: a plot a clutter initiator captured or a tentative track took may still be
+   the first of its own target's track (a target seen in scans 2, 3 and 4 whose scan-2
+   plot a clutter plot of scan 1 captured), and an initiator whose capture took a
+   clutter plot may still capture its target's plot a scan later; tracks sharing plots
+   are resolved by their scores at confirmation (step 5).
 
 The filter is :mod:`plotgate.core.initiation.filter`, the candidate search
 :mod:`plotgate.core.initiation.search` and the gates on its candidates
@@ -352,8 +359,13 @@ def _step(
         alive = (k - ini.scan) < config.capture_scans - 1
     else:
         alive = scan.t - ini.t < config.capture_time
-    alive[rows] = False  # captured initiators are consumed
-    fresh = ~used & ~captured & (by_track < 0)
+    if config.confirmation == "score":  # every hypothesis stays open: the score decides
+        held = tracks.plots[confirmed]  # but a confirmed track's plots are its own
+        alive &= ~np.isin(ini.plot, held)
+        fresh = ~np.isin(ids, held)
+    else:  # the textbook's: captured initiators and used plots are consumed
+        alive[rows] = False
+        fresh = ~used & ~captured & (by_track < 0)
     new_ini = Initiators(
         plot=ids[fresh],
         scan=np.full(fresh.sum(), k, dtype=np.int64),

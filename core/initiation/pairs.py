@@ -8,6 +8,11 @@ window of the tangential speed bound, eq. 4); gamma (or K^2) grows by
 gate_widening[misses] after misses in a row (the secondary-processing textbook's narrow,
 medium and wide gates). An initiator's gate is its capture gate (Konovalov's ring,
 expanded or combined gate; Mu et al.'s first-association windows, eq. 3-4).
+
+Under score confirmation, Cartesian gates also let in every plot inside Blackman's
+maximum-likelihood gate (:func:`plotgate.core.initiation.score.ml_gate`), where the plot
+scores above a miss: the score, not a fixed gating probability, decides which plots a
+track may take.
 """
 
 from __future__ import annotations
@@ -21,12 +26,22 @@ from plotgate.core.gates.results import window_statistic
 from plotgate.core.gates.thresholds import expansion_coefficient, gate_threshold
 from plotgate.core.gates.tracking import EllipseGate
 from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.filter import one_point, predict
 from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.score import log_clutter_density, ml_gate
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.state import Initiators, Tracks
 from plotgate.core.sym2 import sym2
 
-__all__ = ["capture_pairs", "nearest", "track_pairs", "widening", "window_coefficients"]
+__all__ = [
+    "capture_pairs",
+    "likelihood_gate_bound",
+    "likely_captures",
+    "nearest",
+    "track_pairs",
+    "widening",
+    "window_coefficients",
+]
 
 
 def window_coefficients(config: InitiationConfig) -> tuple[float, float]:
@@ -71,17 +86,30 @@ def track_pairs(
     at most 1). Their centre and widths are the extrapolation's, which no wire gate
     kind has: the sector gate's azimuth window is K_az sigma alone (Mu et al., eq. 2).
     Plots inside one gate are ranked by (d_r / W_R)^2 + (d_az / W_az)^2.
+
+    Cartesian under score confirmation: gamma is, per pair, the larger of that threshold
+    and the maximum-likelihood gate of the pair's S (:func:`likelihood_gate_bound`
+    bounds the search).
     """
     w = widening(tracks.misses, config)
     if config.mode == "cartesian":
         gate = EllipseGate(config.gate_P_G)
         gamma = gate.threshold * w
+        P_xy = Pp[:, :2, :2]
+        widest = gamma
+        if config.confirmation == "score":
+            widest = np.fmax(gamma, likelihood_gate_bound(P_xy, scan, config))
         r_max = np.trace(scan.R, axis1=1, axis2=2).max() if scan.size else 0.0
-        radius = np.sqrt(gamma * (np.trace(Pp[:, :2, :2], axis1=1, axis2=2) + r_max))
+        radius = np.sqrt(widest * (np.trace(P_xy, axis1=1, axis2=2) + r_max))
         rows, cols = index.ball(xp[:, :2], radius)
         nu = scan.z[cols] - xp[rows, :2]
-        s = gate.statistic(nu[:, 0], nu[:, 1], sym2(Pp[rows, :2, :2] + scan.R[cols]))
-        keep = s <= gamma[rows]
+        S = sym2(P_xy[rows] + scan.R[cols])
+        s = gate.statistic(nu[:, 0], nu[:, 1], S)
+        threshold = gamma[rows]
+        if config.confirmation == "score":
+            density = log_clutter_density(config, scan.size)
+            threshold = np.fmax(threshold, ml_gate(S.det, config, density))
+        keep = s <= threshold
         return rows[keep], cols[keep], s[keep]
     K_R, K_az = window_coefficients(config)
     r_last, r_prev = tracks.ranges[:, -1], tracks.ranges[:, -2]
@@ -184,7 +212,61 @@ def capture_pairs(
             )
         inside[g] = res.inside
     rows, cols = rows[inside], cols[inside]
+    if config.confirmation == "score" and config.mode == "cartesian":
+        more_rows, more_cols = likely_captures(ini, scan, index, config, allowed, later)
+        key = np.unique(np.concatenate([rows, more_rows]) * scan.size + np.r_[cols, more_cols])
+        rows, cols = key // scan.size, key % scan.size
     return rows, cols, np.linalg.norm(scan.z[cols] - ini.z[rows], axis=1)
+
+
+def likely_captures(
+    ini: Initiators,
+    scan: Scan,
+    index: PlotIndex,
+    config: InitiationConfig,
+    allowed: np.ndarray,
+    later: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(initiator, plot) pairs, initiators among ``later``, inside the maximum-likelihood
+    gate of the capture score.
+
+    The pair's S is the capture score's (:func:`plotgate.core.initiation.score.capture_score`):
+    the initiator's one-point state with its velocity prior
+    (:func:`~plotgate.core.initiation.filter.one_point`), predicted to the scan, plus the
+    plot's R. A target's pair lies inside with the probability of the gate, which grows
+    as clutter thins: the configured capture gate alone (the combined gate's ellipse at
+    capture_P_G 0.99) loses about 1% of them per capture.
+    """
+    x1, P1 = one_point(ini.z[later], ini.R[later], config.v_max)
+    xp, Pp = predict(x1, P1, scan.t - ini.t[later], config.q)
+    P_xy = Pp[:, :2, :2]
+    bound = likelihood_gate_bound(P_xy, scan, config)
+    r_max = np.trace(scan.R, axis1=1, axis2=2).max(initial=0.0)
+    radius = np.sqrt(np.fmax(bound, 0.0) * (np.trace(P_xy, axis1=1, axis2=2) + r_max))
+    rows, cols = index.ball(xp[:, :2], radius)
+    keep = allowed[cols]
+    rows, cols = rows[keep], cols[keep]
+    nu = scan.z[cols] - xp[rows, :2]
+    S = sym2(P_xy[rows] + scan.R[cols])
+    density = log_clutter_density(config, scan.size)
+    inside = EllipseGate.statistic(nu[:, 0], nu[:, 1], S) <= ml_gate(S.det, config, density)
+    return later[rows[inside]], cols[inside]
+
+
+def likelihood_gate_bound(P_xy: np.ndarray, scan: Scan, config: InitiationConfig) -> np.ndarray:
+    """Per row of P_xy (k, 2, 2): the widest maximum-likelihood gate any plot of the scan
+    can have, S = P_xy + R.
+
+    The gate shrinks as |S| grows, and for 2x2 positive semi-definite matrices
+    |P + R| >= |P| + |R| (Minkowski's determinant inequality), so |P| plus the smallest
+    |R| of the scan bounds every pair's |S| from below and the gate from above. Empty
+    scan: no plot, no gate (-inf).
+    """
+    if scan.size == 0:
+        return np.full(P_xy.shape[0], -np.inf)
+    det_R = np.linalg.det(scan.R).min()
+    density = log_clutter_density(config, scan.size)
+    return ml_gate(np.linalg.det(P_xy) + det_R, config, density)
 
 
 def nearest(
