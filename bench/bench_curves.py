@@ -65,7 +65,7 @@ TUNING = (2026, 1, 2, 3)
 HELD_OUT = (11, 12, 13, 14)
 """The report seeds, fixed before any figure on them was taken: 4 x 500 runs a point."""
 GATES = [0.9, 0.95, 0.99, 0.995, 0.999]
-ALPHAS = [1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 5e-3, 0.01, 0.03, 0.1, 0.15, 0.2, 0.3, 0.5, 0.9]
+ALPHAS = [1e-3, 0.05, 0.15, 0.2, 0.9]
 CURVES: list[tuple[str, dict[str, Any], str, list[Any]]] = [
     ("logic 2/2, 3/4", {"mode": "cartesian", "capture_gate": "combined"}, "gate_P_G", GATES),
     ("polar (Mu et al.) 2/2, 3/4", {"mode": "polar"}, "gate_P_G", GATES),
@@ -259,13 +259,19 @@ def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -
                 (r for r in rows if r["clutter"] == level and r["curve"] == name),
                 key=lambda r: r["mean_false"],
             )
+            if not pts:  # a curve not traced on these seeds
+                continue
             _points(ax, pts, marker="o", ms=3, label=f"{name}: {parameter}")
             _values(ax, pts)
         ss = [s for s in stone if s["clutter"] == level]
         if ss:
             _points(ax, ss, fmt="k*", ms=9, label="Stone Soup (min_points 3, P_G 0.95-0.999)")
-        paper = CURVES[1][0]  # the paper's method, 3/4: its confirmable targets
-        ceiling = [r["confirmable"] for r in rows if r["clutter"] == level and r["curve"] == paper]
+        # targets detected in 3 of 4 scans (every curve but the k/m sweep counts 3/4)
+        ceiling = [
+            r["confirmable"]
+            for r in rows
+            if r["clutter"] == level and r["curve"] != "logic 2/4, k/m"
+        ]
         ax.axhline(ceiling[0], color="grey", lw=0.8, ls=":", label="detected in 3 of 4 scans")
         ax.set_xscale("symlog", linthresh=0.01, linscale=0.5)
         widest = [r["mean_false"] + r["se_false"] for r in rows if r["clutter"] == level]

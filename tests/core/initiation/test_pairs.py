@@ -4,9 +4,10 @@ import numpy as np
 from initiation_helpers import CONFIG, POLAR, R4, SAZ, SR, pscan, run, scan, target
 from scipy import stats
 
-from plotgate.core.initiation import cartesian_scan, polar_scan
+from plotgate.core.initiation import InitiationConfig, cartesian_scan, polar_scan
 from plotgate.core.initiation.filter import predict
-from plotgate.core.initiation.pairs import track_pairs, window_coefficients
+from plotgate.core.initiation.pairs import likelihood_gate_bound, track_pairs, window_coefficients
+from plotgate.core.initiation.score import log_clutter_density, ml_gate
 from plotgate.core.initiation.search import PlotIndex
 
 
@@ -49,3 +50,21 @@ def test_polar_candidate_search_finds_exactly_the_window_members_across_north():
     brute = np.flatnonzero((np.abs(r - r_pred) <= W_R) & (d_az <= W_az))
     assert brute.size > 20 and (az[brute] < 0).any() and (az[brute] > 0).any()
     np.testing.assert_array_equal(np.sort(cols), brute)
+
+
+def test_the_likelihood_gate_bound_is_at_least_every_pairs_gate():
+    """Minkowski's |P + R| >= |P| + |R|: the bound that sizes the candidate search."""
+    rng = np.random.default_rng(28)
+    A = rng.normal(size=(50, 2, 2)) * 30.0
+    P = A @ A.transpose(0, 2, 1)
+    B = rng.normal(size=(40, 2, 2)) * 10.0
+    R = B @ B.transpose(0, 2, 1) + np.eye(2)
+    z = rng.uniform(0.0, 1e4, size=(40, 2))
+    cfg = InitiationConfig(confirmation="score", surveillance_area=1e8)
+    plots = cartesian_scan(1.0, z, R)
+    bound = likelihood_gate_bound(P, plots, cfg)
+    density = log_clutter_density(cfg, plots.size)
+    every = ml_gate(np.linalg.det(P[:, None] + R[None]), cfg, density)
+    assert (bound[:, None] >= every - 1e-9).all()
+    empty = cartesian_scan(1.0, np.empty((0, 2)), np.empty((0, 2, 2)))
+    assert np.isfinite(bound).all() and (likelihood_gate_bound(P, empty, cfg) == -np.inf).all()
