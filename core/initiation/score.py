@@ -47,12 +47,17 @@ __all__ = [
     "first_plot_score",
     "log_gaussian",
     "miss_score",
+    "ML_GATE_CEILING",
     "ml_gate",
     "update_score",
     "wald_thresholds",
 ]
 
 _LN_2PI = math.log(2.0 * math.pi)
+ML_GATE_CEILING = -2.0 * math.log(1e-9)
+"""The widest :func:`ml_gate`, rho <= 41.4: the 2-D chi-square gate of P_G 1 - 10^-9. A
+target's plot lies beyond it once in 10^9 scans, and without a ceiling a clutter density
+of 10^-300 (which the settings accept) would put every plot of a scan in every gate."""
 
 
 def wald_thresholds(config: InitiationConfig) -> tuple[float, float]:
@@ -105,15 +110,17 @@ def ml_gate(det_S: np.ndarray, config: InitiationConfig, log_density: float) -> 
     scenario a scan after their start (|S| about (25 m)^4, the documented score
     configuration) it is a 99.99% gate at 20 clutter plots per scan and 99.8% at 250
     and 500, wider than the 99% chi-square gate throughout. det_S is |S| (m^4, per
-    pair); log_density is ln beta_FT. Negative where no plot can beat a miss.
+    pair); log_density is ln beta_FT. Negative where no plot can beat a miss; at most
+    :data:`ML_GATE_CEILING`.
 
     >>> cfg = InitiationConfig(P_D=0.8, clutter_density=1e-6)
     >>> round(float(ml_gate(np.array([1e6]), cfg, math.log(1e-6))[0]), 4)
     12.9123
     """
-    gate: np.ndarray = 2.0 * (
-        math.log(config.P_D) - math.log1p(-config.P_D) - log_density - _LN_2PI
-    ) - np.log(det_S)
+    log_odds = math.log(config.P_D) - math.log1p(-config.P_D)
+    gate: np.ndarray = np.minimum(
+        2.0 * (log_odds - log_density - _LN_2PI) - np.log(det_S), ML_GATE_CEILING
+    )
     return gate
 
 

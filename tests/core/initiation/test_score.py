@@ -29,6 +29,7 @@ from plotgate.core.initiation import (
 )
 from plotgate.core.initiation.evaluate import score_run
 from plotgate.core.initiation.score import (
+    ML_GATE_CEILING,
     log_clutter_density,
     miss_score,
     ml_gate,
@@ -298,6 +299,7 @@ def test_a_plot_on_the_maximum_likelihood_gate_scores_exactly_a_miss():
     assert on_edge == pytest.approx(miss_score(cfg), abs=1e-9)
     hand = 2 * math.log(P_D / ((1 - P_D) * BETA_FT * 2 * math.pi * math.sqrt(np.linalg.det(S[0]))))
     assert gate == pytest.approx(hand, rel=1e-12)
+    assert ml_gate(np.array([1.0]), config(clutter_density=1e-300), -690.8)[0] == ML_GATE_CEILING
 
 
 def test_a_target_seen_in_three_of_four_scans_of_a_nearly_empty_scene_is_confirmed():
