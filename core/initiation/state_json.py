@@ -16,7 +16,8 @@ positive definite):
   are, finite floats (null only in the histories, exactly where no plot is yet);
 - ids in range: an initiator's plot id is ``scan * PLOT_STRIDE + index`` for its own
   scan, scans before the state's counter, no plot twice and none both an initiator and a
-  track's plot; track ids increasing and below ``next_track``;
+  track's plot (under score confirmation, a confirmed track's); track ids increasing and
+  below ``next_track``;
 - a track's history: its plots a suffix of its row (-1 before the first) from
   increasing scans before the counter, as many as it took (``n``, at most the history's
   width), its first scan that of its first plot, ``misses`` the scans since its last
@@ -829,13 +830,15 @@ def check_state(
     _check_track_values(state, config)
     _check_scores(state, config)
     _check_track_histories(state)
-    taken = np.isin(state.initiators.plot, state.tracks.plots)
+    score = config.confirmation == "score"  # there only confirmed tracks consume plots
+    holders = state.tracks.plots[state.tracks.confirmed] if score else state.tracks.plots
+    taken = np.isin(state.initiators.plot, holders)
     _require(
         "state.initiators.plot",
         ~taken,
         lambda i: (
-            f"is {state.initiators.plot[i]}, a plot a track holds; an initiator "
-            "is a plot no track took"
+            f"is {state.initiators.plot[i]}, a plot a {'confirmed ' if score else ''}track "
+            f"holds; an initiator is a plot no {'confirmed ' if score else ''}track took"
         ),
     )
     _check_against(state, config, bounds)
