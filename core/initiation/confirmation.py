@@ -78,6 +78,15 @@ class Confirmation(Protocol):
         """The rule's drop reason, and the tentative tracks it drops."""
         ...
 
+    @property
+    def holders(self) -> str:
+        """Which tracks' plots no initiator may be: "track" or "confirmed track"."""
+        ...
+
+    def held(self, tracks: Tracks) -> np.ndarray:
+        """The plot ids (-1 where a history has none yet) no initiator may be."""
+        ...
+
     def consumed(self, ini: Initiators, captured: Pairs, tracks: Tracks) -> np.ndarray:
         """Initiators (i,) the scan ends before their window does; ``tracks`` are the
         scan's tracks after confirmation, before any is dropped."""
@@ -94,12 +103,6 @@ class Confirmation(Protocol):
         ...
 
 
-def _held(tracks: Tracks) -> np.ndarray:
-    """The plot ids the confirmed tracks hold (-1 where a history has none yet)."""
-    held: np.ndarray = tracks.plots[tracks.confirmed]
-    return held
-
-
 def _age(tracks: Tracks, k: int) -> np.ndarray:
     """Scans since each track's first plot, scan k included."""
     age: np.ndarray = k - tracks.first_scan + 1
@@ -111,6 +114,14 @@ class KOfM:
     """Confirmation k/m: confirm_k plots within the first confirm_m scans."""
 
     config: InitiationConfig
+
+    @property
+    def holders(self) -> str:
+        return "track"
+
+    def held(self, tracks: Tracks) -> np.ndarray:
+        """Every track's plots: a plot a track took or started is spent."""
+        return tracks.plots
 
     def start(
         self, ini: Initiators, captured: Pairs, scan: Scan, k: int
@@ -162,6 +173,15 @@ class ScoreRule:
 
     config: InitiationConfig
 
+    @property
+    def holders(self) -> str:
+        return "confirmed track"
+
+    def held(self, tracks: Tracks) -> np.ndarray:
+        """The confirmed tracks' plots: only a confirmed track owns its plots."""
+        confirmed: np.ndarray = tracks.plots[tracks.confirmed]
+        return confirmed
+
     def start(
         self, ini: Initiators, captured: Pairs, scan: Scan, k: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -207,12 +227,12 @@ class ScoreRule:
 
     def consumed(self, ini: Initiators, captured: Pairs, tracks: Tracks) -> np.ndarray:
         """Only a confirmed track's plot ends its initiator: the score decides."""
-        held: np.ndarray = np.isin(ini.plot, _held(tracks))
-        return held
+        spent: np.ndarray = np.isin(ini.plot, self.held(tracks))
+        return spent
 
     def seeds(self, ids: np.ndarray, owners: np.ndarray, tracks: Tracks) -> np.ndarray:
         """Every plot no confirmed track holds."""
-        free: np.ndarray = ~np.isin(ids, _held(tracks))
+        free: np.ndarray = ~np.isin(ids, self.held(tracks))
         return free
 
     def initiator_score(self, plots: int) -> float:

@@ -62,6 +62,7 @@ import numpy as np
 from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
 from plotgate.core.frames import wrap_angle
 from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.confirmation import confirmation_rule
 from plotgate.core.initiation.filter import SPEED_SIGMAS, speed_excess
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
 from plotgate.core.initiation.score import first_plot_score, log_clutter_density, wald_thresholds
@@ -830,15 +831,14 @@ def check_state(
     _check_track_values(state, config)
     _check_scores(state, config)
     _check_track_histories(state)
-    score = config.confirmation == "score"  # there only confirmed tracks consume plots
-    holders = state.tracks.plots[state.tracks.confirmed] if score else state.tracks.plots
-    taken = np.isin(state.initiators.plot, holders)
+    rule = confirmation_rule(config)  # under the score only confirmed tracks own plots
+    taken = np.isin(state.initiators.plot, rule.held(state.tracks))
     _require(
         "state.initiators.plot",
         ~taken,
         lambda i: (
-            f"is {state.initiators.plot[i]}, a plot a {'confirmed ' if score else ''}track "
-            f"holds; an initiator is a plot no {'confirmed ' if score else ''}track took"
+            f"is {state.initiators.plot[i]}, a plot a {rule.holders} holds; an initiator "
+            f"is a plot no {rule.holders} took"
         ),
     )
     _check_against(state, config, bounds)

@@ -325,3 +325,15 @@ def test_under_score_confirmation_a_captured_plot_and_its_initiator_stay_initiat
     state, (_, second) = initiate(None, scans, config(confirmation="k_of_m"))
     assert second.started.size == 1 and second.initiators == 0
     assert state.initiators.plot.size == 0
+
+
+def test_a_state_may_hold_a_tentative_tracks_plot_as_an_initiator_under_the_score():
+    """The state check follows the confirmation rule: under the score only a confirmed
+    track owns its plots, so a tentative track's plot stays an initiator and the state
+    reads back (under k/m any track owns them: tests/service/test_initiation_state.py,
+    "initiator plot a track holds")."""
+    scans = [scan(0.0, (1000.0, 2000.0)), scan(1.0, (1020.0, 2000.0))]
+    state, _ = initiate(None, scans, config())
+    assert np.isin(state.initiators.plot, state.tracks.plots).any()
+    back = state_from_json(state.to_json(), config())
+    assert back.initiators.plot.tolist() == state.initiators.plot.tolist()
