@@ -103,7 +103,7 @@ def _curves(out: Path) -> Any:
     from bench.bench_curves import RESULTS, figure, stonesoup_points
 
     rows = json.loads((RESULTS / "curves.json").read_text())
-    stone = [s for s in stonesoup_points() if s["runs"] == rows[0]["runs"]]
+    stone = stonesoup_points(tuple(rows[0]["seeds"]))
     return figure(rows, stone, out)
 
 
@@ -150,7 +150,7 @@ FIGURES: dict[str, Recipe] = {
         (
             "bench/bench_curves.py",
             "bench/results/curves.json",
-            "bench/results/stonesoup_points.jsonl",
+            "bench/results/stonesoup_heldout.jsonl",
         ),
         _curves,
     ),

@@ -10,6 +10,12 @@ expanded or combined gate (Cartesian) or Mu et al.'s first-association windows (
 then tests the candidates with the gate of :mod:`plotgate.core.gates`, once per
 initiator time on all its candidate pairs (the gates take one tau).
 
+The capture stage (:class:`GateCapture`) takes the pairs inside the configured gate;
+under score confirmation in Cartesian mode (:class:`LikelyCapture`) also every pair
+inside Blackman's maximum-likelihood gate of the capture score
+(:func:`likely_captures`), where the score has a use for the plot that the configured
+gate at its fixed gating probability would throw away.
+
 Every function here takes a scan of at least one plot: initiation handles an empty scan
 before it looks for captures.
 """
@@ -25,25 +31,35 @@ import numpy as np
 from plotgate.core.gates.capture import CombinedGate, ExpandedGate, RingGate
 from plotgate.core.gates.polar import FirstAssociationGate, bearing_turn
 from plotgate.core.gates.thresholds import expansion_coefficient, gate_threshold
+from plotgate.core.gates.tracking import EllipseGate
 from plotgate.core.initiation.config import InitiationConfig
-from plotgate.core.initiation.pairs import Pairs, window_coefficients
+from plotgate.core.initiation.filter import one_point, predict
+from plotgate.core.initiation.pairs import Pairs, likelihood_gate_bound, window_coefficients
 from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.score import log_clutter_density, ml_gate
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.state import Initiators
+from plotgate.core.sym2 import sym2
 
 __all__ = [
+    "Capture",
     "CaptureGate",
     "CaptureWindow",
     "CombinedCapture",
     "DiscCapture",
     "ExpandedCapture",
     "FirstAssociationCapture",
+    "GateCapture",
+    "LikelyCapture",
     "RingCapture",
     "ScansWindow",
     "TimeWindow",
     "capture_gate",
     "capture_pairs",
+    "capture_stage",
     "capture_window",
+    "likely_captures",
+    "waiting",
 ]
 
 
@@ -235,6 +251,13 @@ def capture_gate(config: InitiationConfig) -> CaptureGate:
     return _CARTESIAN[config.capture_gate](config)
 
 
+def waiting(ini: Initiators, scan: Scan, k: int, window: CaptureWindow) -> np.ndarray:
+    """Indices of the initiators scan number k may capture: within their window, and
+    from an earlier time."""
+    tau = scan.t - ini.t
+    return np.flatnonzero((tau > 0) & window.reaches(ini, k, scan.t))
+
+
 def capture_pairs(
     ini: Initiators,
     scan: Scan,
@@ -246,18 +269,103 @@ def capture_pairs(
 ) -> Pairs:
     """(initiator, plot, distance) of the allowed plots inside each initiator's gate.
 
-    Only initiators within their window at scan number k, and from an earlier time,
-    take part; ``allowed`` (n,) marks the plots that may be captured (those no confirmed
-    track took).
+    Only the :func:`waiting` initiators take part; ``allowed`` (n,) marks the plots that
+    may be captured (those no confirmed track took).
     """
     tau = scan.t - ini.t
-    waiting = np.flatnonzero((tau > 0) & window.reaches(ini, k, scan.t))
-    found_row, found_plot = gate.candidates(ini.take(waiting), tau[waiting], scan, index)
+    later = waiting(ini, scan, k, window)
+    found_row, found_plot = gate.candidates(ini.take(later), tau[later], scan, index)
     free = allowed[found_plot]
-    row, plot = waiting[found_row[free]], found_plot[free]
+    row, plot = later[found_row[free]], found_plot[free]
     inside = np.zeros(row.size, dtype=bool)
     for t in np.unique(tau[row]):  # a few initiator times
         same = np.flatnonzero(tau[row] == t)
         inside[same] = gate.inside(ini, row[same], scan, plot[same], t)
     distance = np.linalg.norm(scan.z[plot[inside]] - ini.z[row[inside]], axis=1)
     return Pairs(row[inside], plot[inside], distance)
+
+
+def likely_captures(
+    ini: Initiators,
+    scan: Scan,
+    index: PlotIndex,
+    config: InitiationConfig,
+    allowed: np.ndarray,
+    later: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(initiator, plot) pairs, initiators among ``later``, allowed plots, inside the
+    maximum-likelihood gate of the capture score.
+
+    The pair's S is the capture score's (:func:`plotgate.core.initiation.score.capture_score`):
+    the initiator's one-point state with its velocity prior
+    (:func:`~plotgate.core.initiation.filter.one_point`), predicted to the scan, plus the
+    plot's R. A target's pair lies inside with the probability of the gate, which grows
+    as clutter thins: the configured capture gate alone (the combined gate's ellipse at
+    capture_P_G 0.99) loses about 1% of them per capture.
+    """
+    x1, P1 = one_point(ini.z[later], ini.R[later], config.v_max)
+    xp, Pp = predict(x1, P1, scan.t - ini.t[later], config.q)
+    P_xy = Pp[:, :2, :2]
+    bound = likelihood_gate_bound(P_xy, scan, config)
+    r_max = np.trace(scan.R, axis1=1, axis2=2).max(initial=0.0)
+    radius = np.sqrt(np.fmax(bound, 0.0) * (np.trace(P_xy, axis1=1, axis2=2) + r_max))
+    rows, cols = index.ball(xp[:, :2], radius)
+    keep = allowed[cols]
+    rows, cols = rows[keep], cols[keep]
+    nu = scan.z[cols] - xp[rows, :2]
+    S = sym2(P_xy[rows] + scan.R[cols])
+    density = log_clutter_density(config, scan.size)
+    inside = EllipseGate.statistic(nu[:, 0], nu[:, 1], S) <= ml_gate(S.det, config, density)
+    return later[rows[inside]], cols[inside]
+
+
+Capture = Callable[[Initiators, Scan, PlotIndex, np.ndarray, int], Pairs]
+"""The capture stage: (initiators, scan, index, allowed plots, scan number k) -> the
+(initiator, plot, distance) pairs captured, before the association's choice."""
+
+
+@dataclass(frozen=True)
+class GateCapture:
+    """The pairs inside the configured capture gate (:func:`capture_pairs`)."""
+
+    gate: CaptureGate
+    window: CaptureWindow
+
+    def __call__(
+        self, ini: Initiators, scan: Scan, index: PlotIndex, allowed: np.ndarray, k: int
+    ) -> Pairs:
+        return capture_pairs(ini, scan, index, allowed, k, self.gate, self.window)
+
+
+@dataclass(frozen=True)
+class LikelyCapture:
+    """Score confirmation, Cartesian: the pairs inside the configured capture gate or
+    the capture score's maximum-likelihood gate (:func:`likely_captures`), ordered by
+    initiator, then plot."""
+
+    config: InitiationConfig
+    gate: CaptureGate
+    window: CaptureWindow
+
+    def __call__(
+        self, ini: Initiators, scan: Scan, index: PlotIndex, allowed: np.ndarray, k: int
+    ) -> Pairs:
+        gated = capture_pairs(ini, scan, index, allowed, k, self.gate, self.window)
+        later = waiting(ini, scan, k, self.window)
+        likely_row, likely_plot = likely_captures(ini, scan, index, self.config, allowed, later)
+        n = scan.size
+        key = np.unique(
+            np.concatenate([gated.row, likely_row]) * n + np.r_[gated.plot, likely_plot]
+        )
+        row, plot = key // n, key % n
+        return Pairs(row, plot, np.linalg.norm(scan.z[plot] - ini.z[row], axis=1))
+
+
+def capture_stage(config: InitiationConfig) -> Capture:
+    """The capture stage the settings name: the capture gate's pairs, widened by the
+    maximum-likelihood gate under score confirmation in Cartesian mode (polar mode's
+    windows keep the paper's first association)."""
+    gate, window = capture_gate(config), capture_window(config)
+    if config.mode == "cartesian" and config.confirmation == "score":
+        return LikelyCapture(config, gate, window)
+    return GateCapture(gate, window)

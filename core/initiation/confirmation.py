@@ -3,8 +3,8 @@
 The rule the settings name (``confirmation``) decides, for initiation's scan step
 (:mod:`plotgate.core.initiation.logic`): the state a captured pair starts a track with,
 how an association changes a track's score, which tentative tracks are ready to confirm,
-which of the ready tracks win a clash, which tentative tracks lapse, and the score of a
-new initiator.
+which of the ready tracks win a clash, which tentative tracks lapse, which initiators a
+scan consumes, which of its plots become initiators, and the score of a new initiator.
 
 - :class:`KOfM` (the secondary-processing textbook; Mu et al.'s 3/4): the two-point
   state, no score, ready with k plots within the first m scans, the smaller mean gate
@@ -13,6 +13,15 @@ new initiator.
   the first plot with the velocity prior updated with the second, the sequential
   log-likelihood ratio, ready at ln((1 - beta) / alpha) with at least k plots, the
   higher score first, lapsed (``"score"``) at ln(beta / (1 - alpha)).
+
+The initiators: under k/m (the textbook's) a capture consumes its initiator and every
+plot a track took or started is spent. Under the score, every plot no confirmed track
+holds becomes an initiator, and an initiator lives out its window, captured or not,
+until a confirmed track holds its plot (issue 28): a plot a clutter initiator captured
+or a tentative track took may still be the first of its own target's track (a target
+seen in scans 2, 3 and 4 whose scan-2 plot a clutter plot of scan 1 captured), and an
+initiator whose capture took a clutter plot may still capture its target's plot a scan
+later; tracks sharing plots are resolved by their scores at confirmation.
 """
 
 from __future__ import annotations
@@ -69,6 +78,26 @@ class Confirmation(Protocol):
         """The rule's drop reason, and the tentative tracks it drops."""
         ...
 
+    @property
+    def holders(self) -> str:
+        """Which tracks' plots no initiator may be: "track" or "confirmed track"."""
+        ...
+
+    def held(self, tracks: Tracks) -> np.ndarray:
+        """The plot ids (-1 where a history has none yet) no initiator may be."""
+        ...
+
+    def consumed(self, ini: Initiators, captured: Pairs, tracks: Tracks) -> np.ndarray:
+        """Initiators (i,) the scan ends before their window does; ``tracks`` are the
+        scan's tracks after confirmation, before any is dropped."""
+        ...
+
+    def seeds(self, ids: np.ndarray, owners: np.ndarray, tracks: Tracks) -> np.ndarray:
+        """Plots (n,) of the scan, ids ``ids``, that become initiators; ``owners`` is
+        each plot's track (updated or started, -1 for none), ``tracks`` as in
+        :meth:`consumed`."""
+        ...
+
     def initiator_score(self, plots: int) -> float:
         """Score of a new initiator in a scan of ``plots`` plots."""
         ...
@@ -85,6 +114,14 @@ class KOfM:
     """Confirmation k/m: confirm_k plots within the first confirm_m scans."""
 
     config: InitiationConfig
+
+    @property
+    def holders(self) -> str:
+        return "track"
+
+    def held(self, tracks: Tracks) -> np.ndarray:
+        """Every track's plots: a plot a track took or started is spent."""
+        return tracks.plots
 
     def start(
         self, ini: Initiators, captured: Pairs, scan: Scan, k: int
@@ -115,6 +152,17 @@ class KOfM:
         reachable = tracks.n + (c.confirm_m - _age(tracks, k)) >= c.confirm_k
         return "window", ~tracks.confirmed & ~reachable
 
+    def consumed(self, ini: Initiators, captured: Pairs, tracks: Tracks) -> np.ndarray:
+        """A captured initiator is spent."""
+        spent = np.zeros(ini.size, dtype=bool)
+        spent[captured.row] = True
+        return spent
+
+    def seeds(self, ids: np.ndarray, owners: np.ndarray, tracks: Tracks) -> np.ndarray:
+        """The plots no track took or started."""
+        unused: np.ndarray = owners < 0
+        return unused
+
     def initiator_score(self, plots: int) -> float:
         return 0.0
 
@@ -124,6 +172,15 @@ class ScoreRule:
     """Score confirmation: the sequential track score against Wald's thresholds."""
 
     config: InitiationConfig
+
+    @property
+    def holders(self) -> str:
+        return "confirmed track"
+
+    def held(self, tracks: Tracks) -> np.ndarray:
+        """The confirmed tracks' plots: only a confirmed track owns its plots."""
+        confirmed: np.ndarray = tracks.plots[tracks.confirmed]
+        return confirmed
 
     def start(
         self, ini: Initiators, captured: Pairs, scan: Scan, k: int
@@ -167,6 +224,16 @@ class ScoreRule:
     def lapsed(self, tracks: Tracks, k: int) -> tuple[str, np.ndarray]:
         _, delete_at = wald_thresholds(self.config)
         return "score", ~tracks.confirmed & (tracks.score <= delete_at)
+
+    def consumed(self, ini: Initiators, captured: Pairs, tracks: Tracks) -> np.ndarray:
+        """Only a confirmed track's plot ends its initiator: the score decides."""
+        spent: np.ndarray = np.isin(ini.plot, self.held(tracks))
+        return spent
+
+    def seeds(self, ids: np.ndarray, owners: np.ndarray, tracks: Tracks) -> np.ndarray:
+        """Every plot no confirmed track holds."""
+        free: np.ndarray = ~np.isin(ids, self.held(tracks))
+        return free
 
     def initiator_score(self, plots: int) -> float:
         return first_plot_score(self.config, log_clutter_density(self.config, plots))

@@ -38,7 +38,14 @@ Each scan, in this order:
    it may confirm; a clutter track the filter has run away with, or a target faster
    than the settings describe).
 7. Plots of the scan used by no track and captured by no initiator become initiators;
-   initiators past their window expire.
+   initiators past their window expire, and captured ones at once. Under score
+   confirmation every plot no confirmed track holds becomes an initiator, and an
+   initiator lives out its window captured or not, until a confirmed track holds its
+   plot: a plot a clutter initiator captured or a tentative track took may still be
+   the first of its own target's track (a target seen in scans 2, 3 and 4 whose scan-2
+   plot a clutter plot of scan 1 captured), and an initiator whose capture took a
+   clutter plot may still capture its target's plot a scan later; tracks sharing plots
+   are resolved by their scores at confirmation (step 5).
 
 Each stage is one function below (:func:`_predicted`, :func:`_associate` and
 :func:`_updated` for 1-3, :func:`_capture` and :func:`_born` for 4, :func:`_confirm` for
@@ -67,7 +74,6 @@ import numpy as np
 
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.assignment import one_to_one
-from plotgate.core.initiation.capture import capture_pairs
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.filter import SPEED_SIGMAS, predict, speed_excess, update
 from plotgate.core.initiation.pairs import Pairs, Prediction, nearest
@@ -236,7 +242,7 @@ def _capture(
     (branch) or each initiator's nearest."""
     if scan.size == 0:
         return _no_pairs()
-    return rules.choose(capture_pairs(ini, scan, index, ~taken, k, rules.capture, rules.window))
+    return rules.choose(rules.capture(ini, scan, index, ~taken, k))
 
 
 def _history(first: np.ndarray, second: np.ndarray, fill: float, width: int) -> np.ndarray:
@@ -331,29 +337,30 @@ def _dropped(tracks: Tracks, checks: dict[str, np.ndarray], k: int, rules: Rules
 
 def _initiators(
     ini: Initiators,
-    captured: Pairs,
+    spent: np.ndarray,
     scan: Scan,
     ids: np.ndarray,
-    unused: np.ndarray,
+    seeds: np.ndarray,
     k: int,
     rules: Rules,
 ) -> Initiators:
-    """Stage 7: the initiators still within their window and not captured, then the
-    unused plots of scan number k, each a new initiator."""
-    alive = rules.window.outlives(ini, k, scan.t)
-    alive[captured.row] = False
-    n = int(unused.sum())
+    """Stage 7: the initiators still within their window and not ``spent``, then the
+    ``seeds`` of scan number k, each a new initiator (the confirmation rule decides
+    both: :meth:`~plotgate.core.initiation.confirmation.Confirmation.consumed` and
+    :meth:`~plotgate.core.initiation.confirmation.Confirmation.seeds`)."""
+    alive = rules.window.outlives(ini, k, scan.t) & ~spent
+    n = int(seeds.sum())
     new = Initiators(
-        plot=ids[unused],
+        plot=ids[seeds],
         scan=np.full(n, k, dtype=np.int64),
         t=np.full(n, scan.t),
-        z=scan.z[unused],
-        R=scan.R[unused],
-        sensor=scan.sensor[unused],
-        r=scan.r[unused],
-        az=scan.az[unused],
-        sigma_r=scan.sigma_r[unused],
-        sigma_az=scan.sigma_az[unused],
+        z=scan.z[seeds],
+        R=scan.R[seeds],
+        sensor=scan.sensor[seeds],
+        r=scan.r[seeds],
+        az=scan.az[seeds],
+        sigma_r=scan.sigma_r[seeds],
+        sigma_az=scan.sigma_az[seeds],
         score=np.full(n, rules.confirmation.initiator_score(scan.size)),
     )
     return ini.take(alive).join(new)
@@ -393,13 +400,14 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
     confirmed, newly, checks = _confirm(updated.join(born), k, rules)
     why = _dropped(confirmed, checks, k, rules)
     gone = why < len(DROP_REASONS)
-    unused = owners < 0
+    seeds = rules.confirmation.seeds(ids, owners, confirmed)
+    spent = rules.confirmation.consumed(state.initiators, captured, confirmed)
     report = ScanReport(
         scan=k,
         t=scan.t,
         plots=n,
         associated=owners,
-        initiators=int(unused.sum()),
+        initiators=int(seeds.sum()),
         started=born.id,
         confirmed=confirmed.id[newly],
         dropped=confirmed.id[gone],
@@ -411,7 +419,7 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
         scans=k + 1,
         t=scan.t,
         next_track=state.next_track + born.size,
-        initiators=_initiators(state.initiators, captured, scan, ids, unused, k, rules),
+        initiators=_initiators(state.initiators, spent, scan, ids, seeds, k, rules),
         tracks=confirmed.take(~gone),
     ), report
 

@@ -9,12 +9,18 @@ gamma (or K^2) grows by gate_widening[misses] after misses in a row (the
 secondary-processing textbook's narrow, medium and wide gates). The initiators' capture
 gates are :mod:`plotgate.core.initiation.capture`'s.
 
+Under score confirmation, a Cartesian track's gate also lets in every plot inside
+Blackman's maximum-likelihood gate (:func:`likelihood_pairs`, with
+:func:`plotgate.core.initiation.score.ml_gate`), where the plot scores above a miss: the
+score, not a fixed gating probability, decides which plots a track may take.
+
 Every function here takes a scan of at least one plot: initiation handles an empty scan
 before it looks for pairs.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -26,14 +32,17 @@ from plotgate.core.gates.thresholds import gate_threshold
 from plotgate.core.gates.tracking import EllipseGate
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.scan import Scan
+from plotgate.core.initiation.score import log_clutter_density, ml_gate
 from plotgate.core.initiation.search import PlotIndex
 from plotgate.core.initiation.state import Tracks
-from plotgate.core.sym2 import sym2
+from plotgate.core.sym2 import Sym2, sym2
 
 __all__ = [
     "Pairs",
     "Prediction",
     "ellipse_pairs",
+    "likelihood_gate_bound",
+    "likelihood_pairs",
     "nearest",
     "widening",
     "window_coefficients",
@@ -79,26 +88,75 @@ def widening(misses: np.ndarray, config: InitiationConfig) -> np.ndarray:
     return factor
 
 
-def ellipse_pairs(
-    tracks: Tracks, prediction: Prediction, scan: Scan, index: PlotIndex, config: InitiationConfig
+def _ellipse_members(
+    prediction: Prediction,
+    scan: Scan,
+    index: PlotIndex,
+    reach: np.ndarray,
+    threshold: Callable[[np.ndarray, Sym2], np.ndarray],
 ) -> Pairs:
-    """(track, plot, rho) of the plots inside each track's chi-square gate (Cartesian).
+    """(track, plot, rho) of the plots with rho = nu^T S^-1 nu <= threshold(track, S),
+    S = P_xy + R, searched in the discs a threshold of ``reach`` (m,) per track bounds.
 
-    The ellipse of :class:`~plotgate.core.gates.tracking.EllipseGate`, rho = nu^T S^-1 nu
-    with S = P_xy + R, against the gate's threshold times the track's widening. Its
     :meth:`~plotgate.core.gates.tracking.EllipseGate.statistic` is called without the
     gate's input checks: those refuse an S whose condition number passes 10^12, and a
     session's state may hold covariances (up to 1e100) that initiation gates and answers.
     """
-    gate = EllipseGate(config.gate_P_G)
-    gamma = gate.threshold * widening(tracks.misses, config)
     xy, P_xy = prediction.x[:, :2], prediction.P[:, :2, :2]
     r_max = np.trace(scan.R, axis1=1, axis2=2).max()
-    radius = np.sqrt(gamma * (np.trace(P_xy, axis1=1, axis2=2) + r_max))
+    radius = np.sqrt(reach * (np.trace(P_xy, axis1=1, axis2=2) + r_max))
     track, plot = index.ball(xy, radius)
     nu = scan.z[plot] - xy[track]
-    rho = gate.statistic(nu[:, 0], nu[:, 1], sym2(P_xy[track] + scan.R[plot]))
-    return Pairs(track, plot, rho).take(rho <= gamma[track])
+    S = sym2(P_xy[track] + scan.R[plot])
+    rho = EllipseGate.statistic(nu[:, 0], nu[:, 1], S)
+    return Pairs(track, plot, rho).take(rho <= threshold(track, S))
+
+
+def ellipse_pairs(
+    tracks: Tracks, prediction: Prediction, scan: Scan, index: PlotIndex, config: InitiationConfig
+) -> Pairs:
+    """(track, plot, rho) of the plots inside each track's chi-square gate (Cartesian):
+    the ellipse of :class:`~plotgate.core.gates.tracking.EllipseGate` against the gate's
+    threshold times the track's widening."""
+    gamma = EllipseGate(config.gate_P_G).threshold * widening(tracks.misses, config)
+    return _ellipse_members(prediction, scan, index, gamma, lambda track, S: gamma[track])
+
+
+def likelihood_pairs(
+    tracks: Tracks, prediction: Prediction, scan: Scan, index: PlotIndex, config: InitiationConfig
+) -> Pairs:
+    """(track, plot, rho) of the plots inside each track's chi-square gate or Blackman's
+    maximum-likelihood gate, whichever is wider (Cartesian, score confirmation).
+
+    Per pair, rho is held to the larger of :func:`ellipse_pairs`' threshold and the
+    maximum-likelihood gate of the pair's S; :func:`likelihood_gate_bound` bounds the
+    search.
+    """
+    gamma = EllipseGate(config.gate_P_G).threshold * widening(tracks.misses, config)
+    density = log_clutter_density(config, scan.size)
+    reach = np.fmax(gamma, likelihood_gate_bound(prediction.P[:, :2, :2], scan, config))
+
+    def threshold(track: np.ndarray, S: Sym2) -> np.ndarray:
+        wider: np.ndarray = np.fmax(gamma[track], ml_gate(S.det, config, density))
+        return wider
+
+    return _ellipse_members(prediction, scan, index, reach, threshold)
+
+
+def likelihood_gate_bound(P_xy: np.ndarray, scan: Scan, config: InitiationConfig) -> np.ndarray:
+    """Per row of P_xy (k, 2, 2): the widest maximum-likelihood gate any plot of the scan
+    can have, S = P_xy + R.
+
+    The gate shrinks as |S| grows, and for 2x2 positive semi-definite matrices
+    |P + R| >= |P| + |R| (Minkowski's determinant inequality), so |P| plus the smallest
+    |R| of the scan bounds every pair's |S| from below and the gate from above. Empty
+    scan: no plot, no gate (-inf).
+    """
+    if scan.size == 0:
+        return np.full(P_xy.shape[0], -np.inf)
+    det_R = np.linalg.det(scan.R).min()
+    density = log_clutter_density(config, scan.size)
+    return ml_gate(np.linalg.det(P_xy) + det_R, config, density)
 
 
 def window_pairs(

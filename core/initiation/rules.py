@@ -11,11 +11,16 @@ the step itself asks no question of the settings.
   :func:`~plotgate.core.initiation.pairs.window_pairs`), the capture gate (polar mode's
   first-association windows) and the plausibility check before confirmation (Mu et al.'s
   radial acceleration check in polar mode, none in Cartesian mode).
+- ``mode`` and ``confirmation`` together: under the score, Cartesian gates also let in
+  every plot inside Blackman's maximum-likelihood gate (the tracks':
+  :func:`~plotgate.core.initiation.pairs.likelihood_pairs`; the initiators':
+  :class:`~plotgate.core.initiation.capture.LikelyCapture`).
 - ``capture_gate``, and 2/N or 2/T: :mod:`plotgate.core.initiation.capture`.
 - ``association``: every captured plot starts a track (branch), or only each
   initiator's nearest.
 - ``filter``: the Kalman gain or the alpha-beta smoother's.
-- ``confirmation``: :mod:`plotgate.core.initiation.confirmation`.
+- ``confirmation``: :mod:`plotgate.core.initiation.confirmation` (which also decides
+  which initiators a scan consumes and which plots become initiators).
 """
 
 from __future__ import annotations
@@ -26,12 +31,7 @@ from functools import partial
 
 import numpy as np
 
-from plotgate.core.initiation.capture import (
-    CaptureGate,
-    CaptureWindow,
-    capture_gate,
-    capture_window,
-)
+from plotgate.core.initiation.capture import Capture, CaptureWindow, capture_stage, capture_window
 from plotgate.core.initiation.checks import acceleration_ok, every_track
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.confirmation import Confirmation, confirmation_rule
@@ -40,6 +40,7 @@ from plotgate.core.initiation.pairs import (
     Pairs,
     Prediction,
     ellipse_pairs,
+    likelihood_pairs,
     nearest,
     window_coefficients,
     window_pairs,
@@ -66,7 +67,8 @@ class Rules:
         The candidate search over a scan's plots.
     track_pairs : (tracks, prediction, scan, index) -> Pairs
         The plots inside each track's gate.
-    capture : CaptureGate
+    capture : Capture
+        The capture stage: the pairs inside the initiators' capture gates.
     window : CaptureWindow
     choose : (Pairs) -> Pairs
         Which captured pairs start tracks: all (branch) or each initiator's nearest.
@@ -79,7 +81,7 @@ class Rules:
     config: InitiationConfig
     index: Callable[[Scan], PlotIndex]
     track_pairs: Callable[[Tracks, Prediction, Scan, PlotIndex], Pairs]
-    capture: CaptureGate
+    capture: Capture
     window: CaptureWindow
     choose: Callable[[Pairs], Pairs]
     gain: Gain
@@ -112,14 +114,20 @@ def _cartesian_index(scan: Scan) -> PlotIndex:
     return PlotIndex(scan, None)
 
 
+_CARTESIAN_TRACK_GATES = {"k_of_m": ellipse_pairs, "score": likelihood_pairs}
+"""A Cartesian track's gate by confirmation rule: the chi-square ellipse, or under the
+score the ellipse or the maximum-likelihood gate, whichever is wider."""
+
+
 def select_rules(config: InitiationConfig) -> Rules:
     """The stage functions of ``config``'s choices."""
     polar = config.mode == "polar"
+    track_gate = window_pairs if polar else _CARTESIAN_TRACK_GATES[config.confirmation]
     return Rules(
         config=config,
         index=partial(_polar_index, config=config) if polar else _cartesian_index,
-        track_pairs=partial(window_pairs if polar else ellipse_pairs, config=config),
-        capture=capture_gate(config),
+        track_pairs=partial(track_gate, config=config),
+        capture=capture_stage(config),
         window=capture_window(config),
         choose={"branch": _branch, "nearest": nearest}[config.association],
         gain=partial({"kalman": _kalman, "alpha_beta": _alpha_beta}[config.filter], config=config),

@@ -16,7 +16,8 @@ positive definite):
   are, finite floats (null only in the histories, exactly where no plot is yet);
 - ids in range: an initiator's plot id is ``scan * PLOT_STRIDE + index`` for its own
   scan, scans before the state's counter, no plot twice and none both an initiator and a
-  track's plot; track ids increasing and below ``next_track``;
+  track's plot (under score confirmation, a confirmed track's); track ids increasing and
+  below ``next_track``;
 - a track's history: its plots a suffix of its row (-1 before the first) from
   increasing scans before the counter, as many as it took (``n``, at most the history's
   width), its first scan that of its first plot, ``misses`` the scans since its last
@@ -61,6 +62,7 @@ import numpy as np
 from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
 from plotgate.core.frames import wrap_angle
 from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.confirmation import confirmation_rule
 from plotgate.core.initiation.filter import SPEED_SIGMAS, speed_excess
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
 from plotgate.core.initiation.score import first_plot_score, log_clutter_density, wald_thresholds
@@ -829,13 +831,14 @@ def check_state(
     _check_track_values(state, config)
     _check_scores(state, config)
     _check_track_histories(state)
-    taken = np.isin(state.initiators.plot, state.tracks.plots)
+    rule = confirmation_rule(config)  # under the score only confirmed tracks own plots
+    taken = np.isin(state.initiators.plot, rule.held(state.tracks))
     _require(
         "state.initiators.plot",
         ~taken,
         lambda i: (
-            f"is {state.initiators.plot[i]}, a plot a track holds; an initiator "
-            "is a plot no track took"
+            f"is {state.initiators.plot[i]}, a plot a {rule.holders} holds; an initiator "
+            f"is a plot no {rule.holders} took"
         ),
     )
     _check_against(state, config, bounds)

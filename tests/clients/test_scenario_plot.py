@@ -133,7 +133,7 @@ def test_the_title_names_the_method_the_settings_give():
     score = (Path(__file__).parents[2] / "docs/examples/score_initiation.json").read_text()
     assert title(json.loads(score)) == (
         "Cartesian initiation, 2/3 capture in the combined gate, score confirmation "
-        "(false_confirmation 0.2, at least 3 plots)"
+        "(false_confirmation 0.15, at least 3 plots)"
     )
     assert title(default_settings()) == (
         "polar (Mu et al.) initiation, 2/2 capture in the combined gate, 3/4 confirmation"

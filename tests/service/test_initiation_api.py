@@ -462,5 +462,5 @@ def test_the_documented_score_configuration_is_a_valid_config():
 
     text = (Path(__file__).parents[2] / "docs/examples/score_initiation.json").read_text()
     settings = InitiationSettings.model_validate_json(text)
-    assert settings.confirmation == "score" and settings.false_confirmation == 0.2
+    assert settings.confirmation == "score" and settings.false_confirmation == 0.15
     InitiationConfig(**{**settings.model_dump(), "gate_widening": tuple(settings.gate_widening)})

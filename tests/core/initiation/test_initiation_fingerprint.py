@@ -172,19 +172,24 @@ FINGERPRINTS = {
     "polar-2/3-nearest-cartesian-c1000-s2": "4630eed674b4d68a",
 }
 SCORE_FINGERPRINTS = {
-    "score-logic-polar-c20-s1": "fab108e471fb9dec",
-    "score-logic-polar-c20-s2": "6a302fa63293b1ab",
-    "score-logic-polar-c250-s1": "b3fc227c9d42c09b",
-    "score-logic-polar-c250-s2": "600b9572d636ab3c",
-    "score-logic-polar-c1000-s1": "0bc35593dbf0bbd3",
-    "score-logic-polar-c1000-s2": "807c97c7073017c7",
-    "score-polar-polar-c20-s1": "c072b03392fea949",
-    "score-polar-polar-c20-s2": "6732e59f322efa5c",
-    "score-polar-polar-c250-s1": "e5c37e2eda5850e3",
-    "score-polar-polar-c250-s2": "11cf88ee5590f72f",
-    "score-polar-polar-c1000-s1": "1d3cec62387c30b7",
-    "score-polar-polar-c1000-s2": "452ebfd92238f9a4",
+    "score-logic-polar-c20-s1": "4696c427fdadd690",
+    "score-logic-polar-c20-s2": "995bc196a6a93dfa",
+    "score-logic-polar-c250-s1": "a22c17f2ca2c778c",
+    "score-logic-polar-c250-s2": "aa7c5ef20217de9d",
+    "score-logic-polar-c1000-s1": "3aafff00d0661756",
+    "score-logic-polar-c1000-s2": "ae18b1f36dee46ec",
+    "score-polar-polar-c20-s1": "3878d4954c62b608",
+    "score-polar-polar-c20-s2": "067c68639f7342ce",
+    "score-polar-polar-c250-s1": "ae32e150c988b951",
+    "score-polar-polar-c250-s2": "85183235fe458f23",
+    "score-polar-polar-c1000-s1": "537b68f5be897e07",
+    "score-polar-polar-c1000-s2": "f0c94f5ab89a6c7d",
 }
+"""Taken after issue 28's removal of the score path's structural loss: Cartesian score
+gates let in every plot inside Blackman's maximum-likelihood gate, and under score
+confirmation every plot no confirmed track holds becomes an initiator, which lives out
+its window captured or not (both modes: the polar score's fingerprints move with the
+initiators)."""
 
 
 def _case_id(case):
