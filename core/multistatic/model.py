@@ -595,14 +595,17 @@ def _broadcast_problem(
 def _baseline_allowance(
     baseline_tol: ArrayLike | None, sig: np.ndarray | None, n: int, p: int
 ) -> np.ndarray:
-    """(N, P) metres each range sum may fall below its baseline; checks baseline_tol."""
+    """(N, P) metres each range sum may fall below its baseline; checks baseline_tol.
+
+    Always a writable C-ordered copy: the compiled check takes writable arrays, and a
+    broadcast view of an (N, P) tolerance is read-only though already contiguous."""
     if baseline_tol is None:
         return BASELINE_SIGMAS * sig if sig is not None else np.zeros((n, p))
     allow = as_array("baseline_tol", baseline_tol)
     if not (allow >= 0).all():
         raise ParameterError("baseline_tol", f"must be non-negative, got {allow.tolist()}")
     try:
-        return np.ascontiguousarray(np.broadcast_to(allow, (n, p)))
+        return np.array(np.broadcast_to(allow, (n, p)), order="C")
     except ValueError:
         raise ParameterError(
             "baseline_tol", f"shape {allow.shape} does not broadcast with (N, P) = {(n, p)}"

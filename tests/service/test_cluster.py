@@ -675,6 +675,9 @@ LONG_WORK = {**BODY, "runs": 1500, "scenario": {"clutter": 250}}
 """60 chunks, about a minute on this machine in-process or on one worker: work still
 running after the client left is seen (answered 200, tasks left on the scheduler)."""
 
+LONG_WORK_LIMITS = '{"initiation.evaluate": {"runs x scans x plots": 100000000}}'
+"""An operator's cap that takes LONG_WORK in one process."""
+
 
 def _given_up(url: str) -> None:
     """Post LONG_WORK and go away 2 s later (the read timeout closes the connection)."""
@@ -717,7 +720,8 @@ def test_an_in_process_evaluate_stops_when_its_client_goes_away_and_is_recorded_
     import httpx
 
     recordings = tmp_path / "recordings"
-    with serve(recordings, log=tmp_path / "serve.log") as (proc, url):
+    env = {"PLOTGATE_LIMITS": LONG_WORK_LIMITS}  # in one process, past the default cap
+    with serve(recordings, env=env, log=tmp_path / "serve.log") as (proc, url):
         _given_up(url)
         assert _recorded_statuses(recordings, 1) == [499]
         time.sleep(5.0)  # the chunk running when the client left finishes

@@ -179,7 +179,10 @@ def test_work_past_the_graceful_timeout_is_answered_503_and_recorded(tmp_path):
     # a long in-process Monte Carlo (a worker thread: initiation.evaluate is slow)
     body = {"scenario": {"clutter": 250}, "runs": 4_000, "seed": 1}
     outcome: dict[str, httpx.Response] = {}
-    env = {"PLOTGATE_GRACEFUL_SHUTDOWN_S": "3"}
+    env = {  # past the one-core default cap on purpose: this is work that outlives the grace
+        "PLOTGATE_GRACEFUL_SHUTDOWN_S": "3",
+        "PLOTGATE_LIMITS": '{"initiation.evaluate": {"runs x scans x plots": 10000000}}',
+    }
     log = tmp_path / "serve.log"
 
     def post(url: str) -> None:

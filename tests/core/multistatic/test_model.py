@@ -301,3 +301,14 @@ def test_validate_problem_rejects_ragged(args, field):
     with pytest.raises(ParameterError, match="regular array") as info:
         validate_problem(*args)
     assert info.value.field == field
+
+
+def test_a_read_only_tolerance_of_every_range_sum_is_taken():
+    """A per-range-sum baseline_tol arrives as a read-only array (a broadcast, or a frozen
+    request's); the compiled check takes it as numpy does (it once raised a TypeError)."""
+    range_sums = np.array([[10000.0, 9000.0]])
+    tol = np.broadcast_to(np.array([[1.0, 2.0]]), (1, 2))
+    assert not tol.flags.writeable
+    rx = [[6000.0, 0.0], [0.0, 6000.0]]
+    p = validate_problem(range_sums, [0.0, 0.0], rx, baseline_tol=tol)
+    assert p.l.shape == (1, 2)
