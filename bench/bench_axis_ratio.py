@@ -30,8 +30,8 @@ import time
 
 import numpy as np
 import scipy
+from bench_probability import gate_nodes
 
-import plotgate.core.gates.probability as gp
 from plotgate.core.gates import heading
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import ENDPOINTS, Mark
@@ -44,22 +44,6 @@ REQUESTS = [
     ("gates.analysis", FIRST_ASSOCIATION),
     ("gates.design", None),
 ]
-
-
-def nodes_counted() -> list[int]:
-    """Patch the panel rule to count the gate's (direction x radius) nodes; returns the
-    counter. The heading nodes of each are built inside the compiled kernels."""
-    count = [0]
-    rule = gp.panel_rule
-
-    def counting(edges: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-        x, w = rule(edges, m)
-        if x.ndim == 3:
-            count[0] += x.size
-        return x, w
-
-    gp.panel_rule = counting
-    return count
 
 
 def at_ratio(name: str, gate: dict | None, ratio: float) -> dict:
@@ -90,23 +74,23 @@ def main() -> None:
         f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
         f"{scipy.__version__}, {platform.machine()}\n"
     )
-    count = nodes_counted()
-    print("| operation | gate | sigma_r m | axis ratio | seconds | gate nodes | status |")
-    print("|---|---|---:|---:|---:|---:|---|")
-    for name, gate in REQUESTS:
-        timed(name, ENDPOINTS[name].example)  # untimed: the operation's lazy imports
-        for ratio in args.ratios:
-            body = at_ratio(name, gate, ratio)
-            count[0] = 0
-            seconds, status = timed(name, body)
-            print(
-                f"| {name} | {body['gate']['kind']} | {body['mark']['sigma_r']:.3g} "
-                f"| {Mark(**body['mark']).axis_ratio():.3g} | {seconds:.2f} | {count[0]:.3g} "
-                f"| {status} |",
-                flush=True,
-            )
-            if seconds > args.budget:
-                break
+    with gate_nodes() as count:
+        print("| operation | gate | sigma_r m | axis ratio | seconds | gate nodes | status |")
+        print("|---|---|---:|---:|---:|---:|---|")
+        for name, gate in REQUESTS:
+            timed(name, ENDPOINTS[name].example)  # untimed: the operation's lazy imports
+            for ratio in args.ratios:
+                body = at_ratio(name, gate, ratio)
+                count[0] = 0
+                seconds, status = timed(name, body)
+                print(
+                    f"| {name} | {body['gate']['kind']} | {body['mark']['sigma_r']:.3g} "
+                    f"| {Mark(**body['mark']).axis_ratio():.3g} | {seconds:.2f} | {count[0]:.3g} "
+                    f"| {status} |",
+                    flush=True,
+                )
+                if seconds > args.budget:
+                    break
 
 
 if __name__ == "__main__":
