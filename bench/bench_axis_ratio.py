@@ -34,7 +34,8 @@ from bench_probability import gate_nodes
 
 from plotgate.core.gates import heading
 from plotgate.service.registry import OPERATIONS, execute
-from plotgate.service.schemas import ENDPOINTS, Mark
+from plotgate.service.schemas import Mark
+from plotgate.service.table import ENDPOINTS
 
 FIRST_ASSOCIATION = {"kind": "first_association", "v_max": 500.0, "K_R": 3.0, "K_az": 3.0}
 REQUESTS = [

@@ -24,7 +24,7 @@ from fastapi.testclient import TestClient
 
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 
 TIMED = """
 import sys, time

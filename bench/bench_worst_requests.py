@@ -39,7 +39,8 @@ from typing import Any
 
 from plotgate.service.config import Settings
 from plotgate.service.registry import OPERATIONS, over_caps, parse
-from plotgate.service.schemas import ENDPOINTS, MEMORY_BUDGET_MIB, TIME_BUDGET_S
+from plotgate.service.schemas import MEMORY_BUDGET_MIB, TIME_BUDGET_S
+from plotgate.service.table import ENDPOINTS
 
 Body = dict[str, Any]
 Candidate = Callable[[], tuple[str, Body]]

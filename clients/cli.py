@@ -626,7 +626,7 @@ class _OperationNames:
     costs more than the rest of ``plotgate --help``."""
 
     def _names(self) -> list[str]:
-        from plotgate.service.schemas import ENDPOINTS
+        from plotgate.service.table import ENDPOINTS
 
         return sorted(ENDPOINTS)
 

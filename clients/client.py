@@ -1,13 +1,12 @@
 """Typed HTTP clients of plotgate, sync and async, built on httpx and the shared schemas.
 
-Each operation of :data:`plotgate.service.schemas.ENDPOINTS` is reachable through ``call(name,
-request)``; the common ones also have a typed method (``test_gate``, ``gate_probability``
-...). The gating-probability and multistatic-solve methods (``solve_position``,
-``solve_trajectory``, ``crlb``, ``estimate_noise``, ``accuracy_study``) and the
-initiation methods (``initiate``, ``simulate_scans``, ``evaluate_initiation``) and the
-identification methods (``identify_pair``, ``identify_picture``, ``simulate_identification``)
-take their request model or the same as a dict (validated here, so a bad dict raises pydantic's
-``ValidationError`` before any call).
+Each operation of the table (:data:`plotgate.service.table.ENDPOINTS`) is reachable through
+``call(name, request)``, and through the typed method its declaration names
+(``client_method``: ``test_gate``, ``gate_probability``, ``solve_position``, ``initiate``,
+``identify_pair`` ...), written once for both clients (:class:`_Method`). Every typed method
+but the gate tests' (``test_gate(gate, first, candidates)``, ``test_gate_pairs(gate,
+pairs)``) takes its request model or the same as a dict (validated here, so a bad dict raises
+pydantic's ``ValidationError`` before any call).
 Errors are the exceptions of :mod:`plotgate.clients.errors`. The README shows a full example.
 
 Both clients retry a 503 and a failed connection, with jittered exponential backoff (see
@@ -27,11 +26,11 @@ import math
 import re
 import uuid
 from asyncio import sleep as async_sleep
-from collections.abc import Mapping, Sequence
+from collections.abc import Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass
 from random import uniform
 from time import monotonic, sleep
-from typing import Any, TypeVar
+from typing import Any, Generic, ParamSpec, Protocol, TypeVar, overload
 
 import httpx
 from pydantic import BaseModel, ValidationError
@@ -44,9 +43,9 @@ from plotgate.clients.errors import (
     raise_for_problem,
 )
 from plotgate.service.schemas import (
-    ENDPOINTS,
     CrlbRequest,
     CrlbResult,
+    Endpoint,
     EvaluateRequest,
     EvaluateResult,
     Gate,
@@ -82,6 +81,7 @@ from plotgate.service.schemas import (
     TrajectorySolveRequest,
     TrajectorySolveResult,
 )
+from plotgate.service.table import ENDPOINTS
 
 __all__ = [
     "DEFAULT_BACKOFF",
@@ -134,13 +134,11 @@ long Monte Carlo say, and a second copy would double its load; nor a WriteTimeou
 too slow to take the body is overloaded already."""
 _DELTA_SECONDS = re.compile(r"[0-9]+")
 _Invalid = TypeVar("_Invalid", bound=InvalidResponseError)
-
-
-def _model(operation: str, request: BaseModel | Mapping[str, Any]) -> BaseModel:
-    """The request model of ``operation``: ``request`` itself, or validated from a dict."""
-    if isinstance(request, Mapping):
-        return ENDPOINTS[operation].request.model_validate(request)
-    return request
+_P = ParamSpec("_P")
+_Req = TypeVar("_Req", bound=BaseModel)
+_Res = TypeVar("_Res", bound=BaseModel)
+_BY_METHOD = {e.client_method: e for e in ENDPOINTS.values()}
+"""Each operation's declaration, by the name of its typed method."""
 
 
 def _check_type(operation: str, request: BaseModel) -> None:
@@ -327,7 +325,107 @@ def _unreachable(
     return TransportError(f"{operation} at {where}: {str(exc) or type(exc).__name__}{tries}")
 
 
-class Client:
+class _Builds(Protocol[_Req]):
+    """How a typed method builds its request: from the model itself or the same as a dict."""
+
+    def __call__(self, request: _Req | Mapping[str, Any]) -> _Req: ...
+
+
+def _given(model: type[_Req]) -> _Builds[_Req]:
+    """The request ``model`` itself, or validated from a dict (a bad dict raises pydantic's
+    ``ValidationError`` before any call)."""
+
+    def validated(request: _Req | Mapping[str, Any]) -> _Req:
+        return model.model_validate(request) if isinstance(request, Mapping) else request
+
+    return validated
+
+
+def _gate_test(gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateTestRequest:
+    return GateTestRequest(gate=gate, first=first, candidates=list(candidates))
+
+
+def _gate_pairs(gate: Gate, pairs: Sequence[GatePair]) -> GatePairsRequest:
+    return GatePairsRequest(gate=gate, pairs=list(pairs))
+
+
+class _Method(Generic[_P, _Req, _Res]):
+    """One typed method of both clients, written once: it builds its operation's request
+    from its arguments and calls the operation the table names for this method
+    (:attr:`plotgate.service.schemas.Endpoint.client_method`). On a :class:`Client` it
+    returns the response model; on an :class:`AsyncClient`, an awaitable of it.
+    ``tests/clients/test_client_table.py`` holds the methods to the table: names, request
+    and response types."""
+
+    def __init__(self, request: type[_Req], response: type[_Res], build: Callable[_P, _Req]):
+        self.request = request
+        self.response = response
+        self.build = build
+        self.endpoint: Endpoint | None = None
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.endpoint = _BY_METHOD[name]
+        self.__doc__ = f"{self.endpoint.summary} (operation ``{self.endpoint.name}``)."
+
+    @overload
+    def __get__(self, client: None, owner: type) -> "_Method[_P, _Req, _Res]": ...
+
+    @overload
+    def __get__(self, client: "Client", owner: type) -> Callable[_P, _Res]: ...
+
+    @overload
+    def __get__(self, client: "AsyncClient", owner: type) -> Callable[_P, Awaitable[_Res]]: ...
+
+    def __get__(self, client: "Client | AsyncClient | None", owner: type) -> Any:
+        if client is None:
+            return self
+        assert self.endpoint is not None
+        name = self.endpoint.name
+
+        def method(*args: _P.args, **kwargs: _P.kwargs) -> Any:
+            return client.call(name, self.build(*args, **kwargs))
+
+        method.__doc__ = self.__doc__
+        method.__name__ = self.endpoint.client_method
+        return method
+
+
+class _Operations:
+    """The typed method of every operation, shared by :class:`Client` and
+    :class:`AsyncClient` (the common ones; :meth:`Client.call` runs any by name)."""
+
+    test_gate = _Method(GateTestRequest, GateResults, _gate_test)
+    test_gate_pairs = _Method(GatePairsRequest, GateResults, _gate_pairs)
+    gate_probability = _Method(
+        GateProbabilityRequest, GateProbabilityResult, _given(GateProbabilityRequest)
+    )
+    gate_probability_curve = _Method(
+        GateProbabilityCurveRequest, GateProbabilityCurve, _given(GateProbabilityCurveRequest)
+    )
+    gate_analysis = _Method(GateAnalysisRequest, GateAnalysisResult, _given(GateAnalysisRequest))
+    gate_design = _Method(GateDesignRequest, GateDesignResult, _given(GateDesignRequest))
+    solve_position = _Method(
+        PositionSolveRequest, PositionSolveResult, _given(PositionSolveRequest)
+    )
+    solve_trajectory = _Method(
+        TrajectorySolveRequest, TrajectorySolveResult, _given(TrajectorySolveRequest)
+    )
+    crlb = _Method(CrlbRequest, CrlbResult, _given(CrlbRequest))
+    estimate_noise = _Method(NoiseRequest, NoiseResult, _given(NoiseRequest))
+    accuracy_study = _Method(StudyRequest, StudyResult, _given(StudyRequest))
+    initiate = _Method(InitiateRequest, InitiateResult, _given(InitiateRequest))
+    simulate_scans = _Method(SimulateRequest, SimulateResult, _given(SimulateRequest))
+    evaluate_initiation = _Method(EvaluateRequest, EvaluateResult, _given(EvaluateRequest))
+    identify_pair = _Method(IdentifyPairRequest, IdentifyPairResult, _given(IdentifyPairRequest))
+    identify_picture = _Method(
+        IdentifyPictureRequest, IdentifyPictureResult, _given(IdentifyPictureRequest)
+    )
+    simulate_identification = _Method(
+        IdentifySimulateRequest, IdentifySimulateResult, _given(IdentifySimulateRequest)
+    )
+
+
+class Client(_Operations):
     """Blocking client. Use as a context manager, or call :meth:`close`.
 
     A call is retried when it may well get through later: on a 503 answer (the service
@@ -437,91 +535,6 @@ class Client:
             response.close()
         return body.whole()
 
-    def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
-        """Test ``first`` against every candidate (operation ``gates.test``)."""
-        request = GateTestRequest(gate=gate, first=first, candidates=list(candidates))
-        return self.call("gates.test", request)
-
-    def test_gate_pairs(self, gate: Gate, pairs: Sequence[GatePair]) -> GateResults:
-        """Test independent (first, second) pairs (operation ``gates.pairs``)."""
-        return self.call("gates.pairs", GatePairsRequest(gate=gate, pairs=list(pairs)))
-
-    def gate_probability(
-        self, request: GateProbabilityRequest | Mapping[str, Any]
-    ) -> GateProbabilityResult:
-        """Conditional or unconditional gating probability (operation ``gates.probability``)."""
-        return self.call("gates.probability", _model("gates.probability", request))
-
-    def gate_probability_curve(
-        self, request: GateProbabilityCurveRequest | Mapping[str, Any]
-    ) -> GateProbabilityCurve:
-        """Gating probability against speed or range (``gates.probability_curve``)."""
-        return self.call("gates.probability_curve", _model("gates.probability_curve", request))
-
-    def gate_analysis(
-        self, request: GateAnalysisRequest | Mapping[str, Any]
-    ) -> GateAnalysisResult:
-        """Area, cells, false marks and capture probability (operation ``gates.analysis``)."""
-        return self.call("gates.analysis", _model("gates.analysis", request))
-
-    def gate_design(self, request: GateDesignRequest | Mapping[str, Any]) -> GateDesignResult:
-        """P_G or p reaching a wanted capture probability (operation ``gates.design``)."""
-        return self.call("gates.design", _model("gates.design", request))
-
-    def solve_position(
-        self, request: PositionSolveRequest | Mapping[str, Any]
-    ) -> PositionSolveResult:
-        """Maximum-likelihood positions of a batch of range-sum problems (``solves.position``)."""
-        return self.call("solves.position", _model("solves.position", request))
-
-    def solve_trajectory(
-        self, request: TrajectorySolveRequest | Mapping[str, Any]
-    ) -> TrajectorySolveResult:
-        """Constant-velocity track from range sums over samples (``solves.trajectory``)."""
-        return self.call("solves.trajectory", _model("solves.trajectory", request))
-
-    def crlb(self, request: CrlbRequest | Mapping[str, Any]) -> CrlbResult:
-        """Cramer-Rao bound, single shot or along a track (operation ``solves.crlb``)."""
-        return self.call("solves.crlb", _model("solves.crlb", request))
-
-    def estimate_noise(self, request: NoiseRequest | Mapping[str, Any]) -> NoiseResult:
-        """Range-sum noise and smoothed coordinates (operation ``solves.noise``)."""
-        return self.call("solves.noise", _model("solves.noise", request))
-
-    def accuracy_study(self, request: StudyRequest | Mapping[str, Any]) -> StudyResult:
-        """Monte Carlo accuracy of the solvers along a track (operation ``solves.study``)."""
-        return self.call("solves.study", _model("solves.study", request))
-
-    def initiate(self, request: InitiateRequest | Mapping[str, Any]) -> InitiateResult:
-        """Scans through track initiation, continuing a state (``initiation.initiate``)."""
-        return self.call("initiation.initiate", _model("initiation.initiate", request))
-
-    def simulate_scans(self, request: SimulateRequest | Mapping[str, Any]) -> SimulateResult:
-        """Seeded scans of targets in clutter (operation ``initiation.simulate``)."""
-        return self.call("initiation.simulate", _model("initiation.simulate", request))
-
-    def evaluate_initiation(self, request: EvaluateRequest | Mapping[str, Any]) -> EvaluateResult:
-        """Monte Carlo of track initiation (operation ``initiation.evaluate``)."""
-        return self.call("initiation.evaluate", _model("initiation.evaluate", request))
-
-    def identify_pair(
-        self, request: IdentifyPairRequest | Mapping[str, Any]
-    ) -> IdentifyPairResult:
-        """Z-test of one passive against one active track (``identification.pair``)."""
-        return self.call("identification.pair", _model("identification.pair", request))
-
-    def identify_picture(
-        self, request: IdentifyPictureRequest | Mapping[str, Any]
-    ) -> IdentifyPictureResult:
-        """Z matrix and identification of many tracks (``identification.picture``)."""
-        return self.call("identification.picture", _model("identification.picture", request))
-
-    def simulate_identification(
-        self, request: IdentifySimulateRequest | Mapping[str, Any]
-    ) -> IdentifySimulateResult:
-        """Kvasnov's experiment by Monte Carlo (``identification.simulate``)."""
-        return self.call("identification.simulate", _model("identification.simulate", request))
-
     def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""
         try:
@@ -531,7 +544,7 @@ class Client:
             return False
 
 
-class AsyncClient:
+class AsyncClient(_Operations):
     """Asynchronous twin of :class:`Client`, same parameters and methods (its waits between
     attempts are ``asyncio.sleep``)."""
 
@@ -611,99 +624,6 @@ class AsyncClient:
         finally:
             await response.aclose()
         return body.whole()
-
-    async def test_gate(self, gate: Gate, first: Plot, candidates: Sequence[Plot]) -> GateResults:
-        """Test ``first`` against every candidate (operation ``gates.test``)."""
-        request = GateTestRequest(gate=gate, first=first, candidates=list(candidates))
-        return await self.call("gates.test", request)
-
-    async def test_gate_pairs(self, gate: Gate, pairs: Sequence[GatePair]) -> GateResults:
-        """Test independent (first, second) pairs (operation ``gates.pairs``)."""
-        return await self.call("gates.pairs", GatePairsRequest(gate=gate, pairs=list(pairs)))
-
-    async def gate_probability(
-        self, request: GateProbabilityRequest | Mapping[str, Any]
-    ) -> GateProbabilityResult:
-        """Conditional or unconditional gating probability (operation ``gates.probability``)."""
-        return await self.call("gates.probability", _model("gates.probability", request))
-
-    async def gate_probability_curve(
-        self, request: GateProbabilityCurveRequest | Mapping[str, Any]
-    ) -> GateProbabilityCurve:
-        """Gating probability against speed or range (``gates.probability_curve``)."""
-        return await self.call(
-            "gates.probability_curve", _model("gates.probability_curve", request)
-        )
-
-    async def gate_analysis(
-        self, request: GateAnalysisRequest | Mapping[str, Any]
-    ) -> GateAnalysisResult:
-        """Area, cells, false marks and capture probability (operation ``gates.analysis``)."""
-        return await self.call("gates.analysis", _model("gates.analysis", request))
-
-    async def gate_design(
-        self, request: GateDesignRequest | Mapping[str, Any]
-    ) -> GateDesignResult:
-        """P_G or p reaching a wanted capture probability (operation ``gates.design``)."""
-        return await self.call("gates.design", _model("gates.design", request))
-
-    async def solve_position(
-        self, request: PositionSolveRequest | Mapping[str, Any]
-    ) -> PositionSolveResult:
-        """Maximum-likelihood positions of a batch of range-sum problems (``solves.position``)."""
-        return await self.call("solves.position", _model("solves.position", request))
-
-    async def solve_trajectory(
-        self, request: TrajectorySolveRequest | Mapping[str, Any]
-    ) -> TrajectorySolveResult:
-        """Constant-velocity track from range sums over samples (``solves.trajectory``)."""
-        return await self.call("solves.trajectory", _model("solves.trajectory", request))
-
-    async def crlb(self, request: CrlbRequest | Mapping[str, Any]) -> CrlbResult:
-        """Cramer-Rao bound, single shot or along a track (operation ``solves.crlb``)."""
-        return await self.call("solves.crlb", _model("solves.crlb", request))
-
-    async def estimate_noise(self, request: NoiseRequest | Mapping[str, Any]) -> NoiseResult:
-        """Range-sum noise and smoothed coordinates (operation ``solves.noise``)."""
-        return await self.call("solves.noise", _model("solves.noise", request))
-
-    async def accuracy_study(self, request: StudyRequest | Mapping[str, Any]) -> StudyResult:
-        """Monte Carlo accuracy of the solvers along a track (operation ``solves.study``)."""
-        return await self.call("solves.study", _model("solves.study", request))
-
-    async def initiate(self, request: InitiateRequest | Mapping[str, Any]) -> InitiateResult:
-        """Scans through track initiation, continuing a state (``initiation.initiate``)."""
-        return await self.call("initiation.initiate", _model("initiation.initiate", request))
-
-    async def simulate_scans(self, request: SimulateRequest | Mapping[str, Any]) -> SimulateResult:
-        """Seeded scans of targets in clutter (operation ``initiation.simulate``)."""
-        return await self.call("initiation.simulate", _model("initiation.simulate", request))
-
-    async def evaluate_initiation(
-        self, request: EvaluateRequest | Mapping[str, Any]
-    ) -> EvaluateResult:
-        """Monte Carlo of track initiation (operation ``initiation.evaluate``)."""
-        return await self.call("initiation.evaluate", _model("initiation.evaluate", request))
-
-    async def identify_pair(
-        self, request: IdentifyPairRequest | Mapping[str, Any]
-    ) -> IdentifyPairResult:
-        """Z-test of one passive against one active track (``identification.pair``)."""
-        return await self.call("identification.pair", _model("identification.pair", request))
-
-    async def identify_picture(
-        self, request: IdentifyPictureRequest | Mapping[str, Any]
-    ) -> IdentifyPictureResult:
-        """Z matrix and identification of many tracks (``identification.picture``)."""
-        return await self.call("identification.picture", _model("identification.picture", request))
-
-    async def simulate_identification(
-        self, request: IdentifySimulateRequest | Mapping[str, Any]
-    ) -> IdentifySimulateResult:
-        """Kvasnov's experiment by Monte Carlo (``identification.simulate``)."""
-        return await self.call(
-            "identification.simulate", _model("identification.simulate", request)
-        )
 
     async def ready(self) -> bool:
         """True when the service answers ``/readyz`` with 200 (it can record)."""

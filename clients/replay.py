@@ -66,7 +66,7 @@ from plotgate.clients.recordings import (
     file_state,
     iso_time,
 )
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 
 if TYPE_CHECKING:
     import httpx

@@ -37,7 +37,7 @@ def in_process_runner(operation: str) -> Runner:
 def http_runner(client: Any, operation: str) -> Runner:
     """Run requests through a :class:`plotgate.clients.Client` (validated against the wire
     model)."""
-    from plotgate.service.schemas import ENDPOINTS
+    from plotgate.service.table import ENDPOINTS
 
     model = ENDPOINTS[operation].request
 

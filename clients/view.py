@@ -30,7 +30,8 @@ from typing import Any, BinaryIO, Protocol
 from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.recordings import Exchange, Filters, Reader
-from plotgate.service.schemas import ENDPOINTS, request_schema, response_schema
+from plotgate.service.schemas import request_schema, response_schema
+from plotgate.service.table import ENDPOINTS
 
 __all__ = ["Scenes", "ViewReport", "view"]
 

@@ -6,7 +6,8 @@ from pathlib import Path
 from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from plotgate.service.schemas import MEMORY_BUDGET_MIB, TIME_BUDGET_S, work_caps
+from plotgate.service.schemas import MEMORY_BUDGET_MIB, TIME_BUDGET_S
+from plotgate.service.table import work_caps
 
 __all__ = ["Settings", "get_settings"]
 

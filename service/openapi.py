@@ -4,7 +4,7 @@
   (health, metrics), plus one path per registry operation, built from the same registry
   that serves them (:class:`plotgate.service.routes.Operations` answers them as pure ASGI,
   not as FastAPI routes). Each operation has its request model with its example body
-  (:data:`plotgate.service.schemas.examples.EXAMPLES`), its result model, problem+json for
+  (its declaration's, :mod:`plotgate.service.table`), its result model, problem+json for
   every error status, and ``x-plotgate-limits``: the sizes a server may cap and this
   server's caps (null: only the schema's own bounds).
 * When a key or a token is set, the document declares the schemes with FastAPI's own

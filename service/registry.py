@@ -1,12 +1,9 @@
-"""The operation registry: the one table that routes, recorder and replay all read.
+"""The operations as the service runs them, from the table of declarations.
 
-Each :class:`Operation` binds a wire contract (:class:`~plotgate.service.schemas.Endpoint`: name
-such
-as ``gates.test``, HTTP path, request and response models) to a pure handler
-``(request) -> response`` that calls core. Adding a capability means declaring its endpoint
-in :mod:`plotgate.service.schemas.endpoints` and adding one line to :data:`HANDLERS`.
-Handlers are imported when first used (:class:`Operation`); the service imports them all
-before it answers (:func:`load_all`).
+Each :class:`Operation` is one declaration of :data:`plotgate.service.table.ENDPOINTS`
+(name, HTTP path, request and response models) with its pure handler ``(request) ->
+response`` that calls core, and its field map. Handlers are imported when first used
+(:class:`Operation`); the service imports them all before it answers (:func:`load_all`).
 
 :func:`execute` runs an operation on a raw request body exactly as the HTTP route does,
 so an in-process replay answers byte for byte what the server would.
@@ -26,18 +23,11 @@ from plotgate.service.bodies import is_strict_json, shape_problem, value_ceiling
 from plotgate.service.cluster import ClusterTimeout, ClusterUnavailable, workers
 from plotgate.service.fields import FieldMap, resolve
 from plotgate.service.problems import ProblemError, from_core, from_validation, problem_json
-from plotgate.service.schemas import (
-    ENDPOINTS,
-    MEMORY_BUDGET_MIB,
-    TIME_BUDGET_S,
-    Endpoint,
-    FieldError,
-)
+from plotgate.service.schemas import MEMORY_BUDGET_MIB, TIME_BUDGET_S, Endpoint, FieldError
+from plotgate.service.table import ENDPOINTS
 
 __all__ = [
-    "HANDLERS",
     "OPERATIONS",
-    "OPERATIONS_PACKAGE",
     "Operation",
     "Outcome",
     "Parsed",
@@ -52,15 +42,13 @@ __all__ = [
     "run",
 ]
 
-OPERATIONS_PACKAGE = "plotgate.service.operations"
-
 Handler = Callable[[Any], BaseModel]
 """A pure function from a validated request model to a response model."""
 
 
 @dataclass(frozen=True)
 class Operation:
-    """One capability: its wire contract, handler and error-field mapping.
+    """One declaration as the service runs it: its handler and error-field mapping.
 
     The handler's module, and with it the part of core it calls (its kernels, scipy), is
     imported when the handler or its field map is first asked for, so a process that runs
@@ -68,22 +56,23 @@ class Operation:
     """
 
     endpoint: Endpoint
-    module: str
-    """The module of :mod:`plotgate.service.operations` holding the handler."""
-    handler_name: str
-    fields_name: str
 
     @functools.cached_property
     def handler(self) -> Handler:
         """The pure function answering the operation (importing its module)."""
-        handler: Handler = getattr(importlib.import_module(self.module), self.handler_name)
+        handler: Handler = self.endpoint.handler.load()
         return handler
 
     @functools.cached_property
     def fields(self) -> FieldMap:
         """Where core's errors point in the request (:mod:`plotgate.service.fields`)."""
-        fields: FieldMap = getattr(importlib.import_module(self.module), self.fields_name)
+        fields: FieldMap = self.endpoint.fields.load()
         return fields
+
+    @property
+    def module(self) -> str:
+        """The module of :mod:`plotgate.service.operations` holding the handler."""
+        return self.endpoint.handler.module
 
     @property
     def name(self) -> str:
@@ -102,32 +91,8 @@ class Operation:
         return self.endpoint.response
 
 
-HANDLERS: dict[str, tuple[str, str, str]] = {
-    "gates.test": ("gates", "test", "TEST_FIELDS"),
-    "gates.pairs": ("gates", "pairs", "PAIRS_FIELDS"),
-    "gates.probability": ("probability", "probability", "PROBABILITY_FIELDS"),
-    "gates.probability_curve": ("probability", "curve", "CURVE_FIELDS"),
-    "gates.analysis": ("probability", "analysis", "ANALYSIS_FIELDS"),
-    "gates.design": ("probability", "design", "DESIGN_FIELDS"),
-    "solves.position": ("solves", "position", "POSITION_FIELDS"),
-    "solves.trajectory": ("solves", "trajectory", "TRAJECTORY_FIELDS"),
-    "solves.crlb": ("solves", "crlb", "CRLB_FIELDS"),
-    "solves.noise": ("solves", "noise", "NOISE_FIELDS"),
-    "solves.study": ("study", "study", "STUDY_FIELDS"),
-    "initiation.initiate": ("initiation", "initiate", "INITIATE_FIELDS"),
-    "initiation.simulate": ("initiation", "simulate", "SIMULATE_FIELDS"),
-    "initiation.evaluate": ("initiation", "evaluate", "EVALUATE_FIELDS"),
-    "identification.pair": ("identification", "pair", "PAIR_FIELDS"),
-    "identification.picture": ("identification", "picture", "PICTURE_FIELDS"),
-    "identification.simulate": ("identification", "simulate", "SIMULATE_FIELDS"),
-}
-"""Where each operation's handler lives: its module in :mod:`plotgate.service.operations`,
-the handler's name and the name of its :data:`~plotgate.service.fields.FieldMap`."""
-
-OPERATIONS: dict[str, Operation] = {
-    name: Operation(ENDPOINTS[name], f"{OPERATIONS_PACKAGE}.{module}", handler, fields)
-    for name, (module, handler, fields) in HANDLERS.items()
-}
+OPERATIONS: dict[str, Operation] = {name: Operation(e) for name, e in ENDPOINTS.items()}
+"""Every operation of the table, by name."""
 
 
 def load_all() -> None:

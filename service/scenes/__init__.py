@@ -30,8 +30,8 @@ from typing import Any
 
 import foxglove.messages as fm
 
-from plotgate.service.scenes import gates, identification, initiation, solves
 from plotgate.service.scenes.draw import FRAME, Canvas, colors, timestamp
+from plotgate.service.table import ENDPOINTS
 
 __all__ = [
     "DRAWERS",
@@ -63,13 +63,8 @@ exchange stamped later (a damaged or hostile file's) is not drawn."""
 Message = fm.SceneUpdate | fm.FrameTransform | fm.Log
 Drawer = Callable[[Canvas, dict[str, Any], dict[str, Any]], None]
 
-DRAWERS: dict[str, Drawer] = {
-    **gates.DRAWERS,
-    **solves.DRAWERS,
-    **initiation.DRAWERS,
-    **identification.DRAWERS,
-}
-"""Every operation's drawing, by operation name."""
+DRAWERS: dict[str, Drawer] = {name: e.drawer.load() for name, e in ENDPOINTS.items()}
+"""Every operation's drawing (its declaration's ``drawer``), by operation name."""
 
 _CANNOT_DRAW = (KeyError, TypeError, IndexError, ValueError, AttributeError, OverflowError)
 """What a record of an unexpected shape raises while drawn (geometry's docstring)."""

@@ -25,7 +25,7 @@ import numpy as np
 from plotgate.service.scenes.draw import MAX_MARKS, Canvas, colors
 from plotgate.service.scenes.geometry import mark_position, plot_position, plot_positions
 
-__all__ = ["DRAWERS"]
+__all__ = ["analysis", "curve", "design", "pairs", "probability", "test"]
 
 MAX_GATES = 50
 """Gate outlines drawn by one ``gates.pairs`` exchange (one per pair): more hide the plots."""
@@ -71,7 +71,7 @@ def _verdicts(canvas: Canvas, positions: np.ndarray, inside: list[bool]) -> None
     canvas.plots(positions[~verdict], colors.OUTSIDE)
 
 
-def _test(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def test(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     first = request["first"]
     _outline(canvas, request["gate"], first, result.get("threshold"))
     canvas.plots(plot_position(first)[0], colors.MARK, size=1.5)
@@ -82,7 +82,7 @@ def _test(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> No
     canvas.text(plot_position(first)[0], label)
 
 
-def _pairs(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def pairs(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     pairs = request["pairs"][:MAX_MARKS]
     canvas.left_out += max(0, len(request["pairs"]) - MAX_MARKS)
     for pair in pairs[:MAX_GATES]:
@@ -109,18 +109,18 @@ def _mark(canvas: Canvas, request: dict[str, Any], label: str) -> None:
     canvas.text(centre, label)
 
 
-def _probability(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def probability(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     kind = "P(in gate | in region)" if result.get("conditional") else "P(in gate)"
     _mark(canvas, request, f"{kind} = {result['probability']:.4f}")
 
 
-def _curve(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def curve(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     p = result["probability"]
     label = f"P against {result['against']}: {min(p):.4f} to {max(p):.4f}" if p else "no points"
     _mark(canvas, request, label)
 
 
-def _analysis(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def analysis(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     label = (
         f"area {result['area'] / 1e6:.3g} km^2, {result['cells']:.3g} cells, "
         f"false marks {result['false_marks']['mean']:.3g}"
@@ -128,17 +128,6 @@ def _analysis(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -
     _mark(canvas, request, label)
 
 
-def _design(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def design(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     label = f"{result['parameter']} = {result['value']:.4g}, capture {result['capture']:.3f}"
     _mark(canvas, request, label)
-
-
-DRAWERS = {
-    "gates.test": _test,
-    "gates.pairs": _pairs,
-    "gates.probability": _probability,
-    "gates.probability_curve": _curve,
-    "gates.analysis": _analysis,
-    "gates.design": _design,
-}
-"""Each gate operation's drawing: ``(canvas, request body, result)``."""

@@ -16,7 +16,7 @@ import numpy as np
 
 from plotgate.service.scenes.draw import Canvas, as_points, colors
 
-__all__ = ["BEARING_M", "DRAWERS"]
+__all__ = ["BEARING_M", "pair", "picture", "simulate"]
 
 BEARING_M = 50_000.0
 """Length of a bearing line, m (bearings carry no range)."""
@@ -34,7 +34,7 @@ def _mean_bearing(bearings_deg: list[float]) -> float:
     return float(np.degrees(np.arctan2(np.sin(az).mean(), np.cos(az).mean())))
 
 
-def _pair(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def pair(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     canvas.plots(as_points(ORIGIN), colors.TRANSMITTER, size=2.0)
     canvas.bearings(ORIGIN, request["passive_bearings_deg"], BEARING_M, colors.PASSIVE)
     canvas.bearings(ORIGIN, request["active_bearings_deg"], 0.8 * BEARING_M, colors.ACTIVE)
@@ -45,7 +45,7 @@ def _pair(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> No
     canvas.text(_end(mean, 1.1 * BEARING_M), f"{word} (n {result['n']}, m {result['m']})", verdict)
 
 
-def _picture(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def picture(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     canvas.plots(as_points(ORIGIN), colors.TRANSMITTER, size=2.0)
     passive = [_mean_bearing(b) for b in request["passive_deg"]]
     active = [_mean_bearing(b) for b in request["active_deg"]]
@@ -61,18 +61,10 @@ def _picture(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) ->
             canvas.text(_end(active[j], 1.1 * BEARING_M), f"P{i}=A{j}", colors.INSIDE)
 
 
-def _simulate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def simulate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     canvas.plots(as_points(ORIGIN), colors.TRANSMITTER, size=2.0)
     canvas.text(
         ORIGIN,
         f"{result['runs']} runs: identified {result['identified']:.3f} "
         f"+- {result['standard_error']:.3f}",
     )
-
-
-DRAWERS = {
-    "identification.pair": _pair,
-    "identification.picture": _picture,
-    "identification.simulate": _simulate,
-}
-"""Each identification operation's drawing: ``(canvas, request body, result)``."""

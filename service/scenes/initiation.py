@@ -17,7 +17,7 @@ import numpy as np
 from plotgate.service.scenes.draw import Canvas, as_points, colors
 from plotgate.service.scenes.geometry import plot_positions
 
-__all__ = ["DRAWERS"]
+__all__ = ["evaluate", "initiate", "simulate"]
 
 VELOCITY_SECONDS = 60.0
 
@@ -26,7 +26,7 @@ def _scan_plots(scans: list[dict[str, Any]]) -> list[np.ndarray]:
     return [plot_positions(scan["plots"]) for scan in scans]
 
 
-def _initiate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def initiate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     plots = _scan_plots(request["scans"])
     for xy, outcome in zip(plots, result["scans"], strict=False):
         taken = np.asarray(outcome["associated"][: len(xy)], dtype=int) >= 0
@@ -49,7 +49,7 @@ def _initiate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -
         canvas.text(position, f"T{track['id']} {track['status']}", color)
 
 
-def _simulate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def simulate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     for xy, labels in zip(_scan_plots(result["scans"]), result["labels"], strict=False):
         target = np.pad(
             np.asarray(labels[: len(xy)], dtype=int) >= 0, (0, max(0, len(xy) - len(labels)))
@@ -64,7 +64,7 @@ def _simulate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -
     canvas.plots(as_points([0.0, 0.0]), colors.TRANSMITTER, size=2.0)
 
 
-def _evaluate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def evaluate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     canvas.plots(as_points([0.0, 0.0]), colors.TRANSMITTER, size=2.0)
     canvas.text(
         [0.0, 0.0],
@@ -72,11 +72,3 @@ def _evaluate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -
         f"{result['mean_false']:.2f} +- {result['se_false']:.2f} false tracks "
         f"of {result['targets']} targets",
     )
-
-
-DRAWERS = {
-    "initiation.initiate": _initiate,
-    "initiation.simulate": _simulate,
-    "initiation.evaluate": _evaluate,
-}
-"""Each initiation operation's drawing: ``(canvas, request body, result)``."""

@@ -20,7 +20,7 @@ import numpy as np
 from plotgate.service.scenes.draw import Canvas, as_points, colors
 from plotgate.service.scenes.geometry import position_of
 
-__all__ = ["DRAWERS"]
+__all__ = ["crlb", "noise", "position", "study", "trajectory"]
 
 VELOCITY_SECONDS = 60.0
 """A velocity is drawn as the distance it covers in this time."""
@@ -37,7 +37,7 @@ def _platforms(canvas: Canvas, transmitter: Any, receivers: list[Any]) -> None:
     canvas.segments(np.broadcast_to(tx, rx.shape), rx, colors.TRANSMITTER)
 
 
-def _position(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def position(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     problems, solutions = request["problems"], result["solutions"]
     canvas.left_out += max(0, len(problems) - MAX_PROBLEMS)
     for problem, solution in zip(problems[:MAX_PROBLEMS], solutions, strict=False):
@@ -55,7 +55,7 @@ def _position(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -
     canvas.text([0.0, 0.0], f"{result['count_solvable']} of {len(problems)} solved")
 
 
-def _trajectory(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def trajectory(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     _platforms(canvas, request["transmitter"], request["receivers"])
     positions = as_points(result.get("positions") or [])
     canvas.line(positions, colors.SOLUTION)
@@ -71,7 +71,7 @@ def _trajectory(canvas: Canvas, request: dict[str, Any], result: dict[str, Any])
     canvas.text(start, f"t_ref {result['t_ref']:g} s, {speed:.1f} m/s")
 
 
-def _crlb(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def crlb(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     _platforms(canvas, request["transmitter"], request["receivers"])
     shot = result["single_shot"]
     for at, cov, gdop in zip(result["positions"], shot["covariance"], shot["gdop"], strict=False):
@@ -80,7 +80,7 @@ def _crlb(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> No
         canvas.text(at, f"GDOP {gdop:.3g}")
 
 
-def _noise(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def noise(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     if request.get("positions") is not None:
         canvas.plots(request["positions"], colors.MARK)
     smoothed = as_points(result.get("smoothed_positions") or [])
@@ -89,7 +89,7 @@ def _noise(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> N
     canvas.text(smoothed[0] if len(smoothed) else [0.0, 0.0], f"noise sigma {sigma} m")
 
 
-def _study(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
+def study(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:
     _platforms(canvas, request["transmitter"], request["receivers"])
     samples = result["samples"]
     track = as_points([s["position"] for s in samples])
@@ -102,13 +102,3 @@ def _study(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> N
         track[0] if len(track) else [0.0, 0.0],
         f"{result['runs']} runs, noise sigma {result['noise_sigma']:.3g} m",
     )
-
-
-DRAWERS = {
-    "solves.position": _position,
-    "solves.trajectory": _trajectory,
-    "solves.crlb": _crlb,
-    "solves.noise": _noise,
-    "solves.study": _study,
-}
-"""Each solve's drawing: ``(canvas, request body, result)``."""

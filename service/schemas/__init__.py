@@ -20,11 +20,10 @@ from plotgate.service.schemas.crlb import (
 )
 from plotgate.service.schemas.endpoints import (
     CLUSTER_BUDGET_S,
-    ENDPOINTS,
     MEMORY_BUDGET_MIB,
     TIME_BUDGET_S,
     Endpoint,
-    work_caps,
+    Reference,
 )
 from plotgate.service.schemas.gates import (
     CombinedGate,
@@ -140,7 +139,6 @@ from plotgate.service.schemas.study import (
 from plotgate.service.schemas.trajectory import TrajectorySolveRequest, TrajectorySolveResult
 
 __all__ = [
-    "ENDPOINTS",
     "MAX_CURVE_POINTS",
     "MAX_DISTANCE",
     "MAX_EVALUATION_PLOTS",
@@ -178,6 +176,7 @@ __all__ = [
     "EllipseGate",
     "EllipseRegion",
     "Endpoint",
+    "Reference",
     "EvaluateRequest",
     "EvaluateResult",
     "ExpandedGate",
@@ -255,5 +254,4 @@ __all__ = [
     "Velocity",
     "request_schema",
     "response_schema",
-    "work_caps",
 ]

@@ -18,7 +18,7 @@ from plotgate.clients.plots import (
     plot,
 )
 from plotgate.clients.runners import http_runner, in_process_runner
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 from tests.servers import serve
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

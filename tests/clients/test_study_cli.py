@@ -17,7 +17,8 @@ from plotgate.clients.study import (
     table,
     verdict,
 )
-from plotgate.service.schemas import ENDPOINTS, StudyRequest
+from plotgate.service.schemas import StudyRequest
+from plotgate.service.table import ENDPOINTS
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "study_scenario.json"
 

@@ -13,7 +13,9 @@ from plotgate.clients.view import view
 from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.scenes import LOG_TOPIC, SCENE_PREFIX, TRANSFORM_TOPIC, Encoded
-from plotgate.service.schemas.examples import EXAMPLES
+from plotgate.service.table import ENDPOINTS
+
+EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 
 
 @pytest.fixture(scope="module")

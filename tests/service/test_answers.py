@@ -8,7 +8,9 @@ import pytest
 from plotgate.service.operations.answers import checked
 from plotgate.service.registry import OPERATIONS
 from plotgate.service.schemas import GateProbabilityRequest, GateProbabilityResult
-from plotgate.service.schemas.examples import EXAMPLES
+from plotgate.service.table import ENDPOINTS
+
+EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 
 
 def test_an_invalid_answer_is_a_runtime_error_not_a_validation_error():

@@ -7,9 +7,10 @@ import json
 import pytest
 
 from plotgate.service.registry import OPERATIONS
-from plotgate.service.schemas import ENDPOINTS
-from plotgate.service.schemas.examples import EXAMPLES
+from plotgate.service.table import ENDPOINTS
 from tests.conftest import answer
+
+EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 
 
 def test_every_operation_has_an_example():

@@ -8,7 +8,7 @@ from fastapi.testclient import TestClient
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.registry import OPERATIONS
-from plotgate.service.schemas import work_caps
+from plotgate.service.table import work_caps
 
 KEY, TOKEN = "k3y-0f-the-day", "t0ken-0f-the-day"
 

@@ -14,7 +14,7 @@ from plotgate.clients.cli import main
 from plotgate.clients.recordings import read_recording
 from plotgate.core.identification import experiment, identify_picture, z_test
 from plotgate.service.app import create_app
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 from tests.conftest import answer, invalid_input
 
 RNG = np.random.default_rng(7)

@@ -19,8 +19,9 @@ from plotgate.core.initiation.config import CHOICES
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
 from plotgate.core.initiation.simulate import Scenario, mu_scenario, simulate
 from plotgate.service.app import create_app
-from plotgate.service.schemas import ENDPOINTS, MAX_PLOTS, InitiationSettings
+from plotgate.service.schemas import MAX_PLOTS, InitiationSettings
 from plotgate.service.schemas.common import MIN_RANGE
+from plotgate.service.table import ENDPOINTS
 from tests.conftest import answer, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0, "a_max": 10.0, "K_A": 3.0}

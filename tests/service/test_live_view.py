@@ -15,8 +15,10 @@ import httpx
 
 from plotgate.clients.cli import main
 from plotgate.service.scenes.live import QUEUE_EXCHANGES, LiveView
-from plotgate.service.schemas.examples import EXAMPLES
+from plotgate.service.table import ENDPOINTS
 from tests.servers import free_port, serve
+
+EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 
 LIVE = Path(__file__).resolve().parents[1] / "interop" / "live.mjs"
 

@@ -18,7 +18,9 @@ from plotgate.service.scenes import (
 )
 from plotgate.service.scenes.draw import MAX_MARKS, Canvas
 from plotgate.service.scenes.geometry import plot_position, plot_positions
-from plotgate.service.schemas.examples import EXAMPLES
+from plotgate.service.table import ENDPOINTS
+
+EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 
 T = 1_764_000_000_123_456_789
 

@@ -36,7 +36,8 @@ from plotgate.core.multistatic import (
 )
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
-from plotgate.service.schemas import ENDPOINTS, MAX_PROBLEMS
+from plotgate.service.schemas import MAX_PROBLEMS
+from plotgate.service.table import ENDPOINTS
 from tests.conftest import answer, invalid_input
 
 SIGMA = 0.5

@@ -7,7 +7,7 @@ anything else) into an ``Any`` field, and an untyped object or array carries the
 
 import pytest
 
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 
 TYPING = {"type", "$ref", "anyOf", "oneOf", "allOf", "enum", "const"}
 
