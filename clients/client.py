@@ -137,7 +137,7 @@ _Invalid = TypeVar("_Invalid", bound=InvalidResponseError)
 _P = ParamSpec("_P")
 _Req = TypeVar("_Req", bound=BaseModel)
 _Res = TypeVar("_Res", bound=BaseModel)
-_BY_METHOD = {e.client_method: e for e in ENDPOINTS.values()}
+_BY_METHOD = {e.client_method: e for e in ENDPOINTS.values() if e.client_method is not None}
 """Each operation's declaration, by the name of its typed method."""
 
 
@@ -386,7 +386,7 @@ class _Method(Generic[_P, _Req, _Res]):
             return client.call(name, self.build(*args, **kwargs))
 
         method.__doc__ = self.__doc__
-        method.__name__ = self.endpoint.client_method
+        method.__name__ = self.endpoint.client_method or name
         return method
 
 

@@ -63,7 +63,9 @@ exchange stamped later (a damaged or hostile file's) is not drawn."""
 Message = fm.SceneUpdate | fm.FrameTransform | fm.Log
 Drawer = Callable[[Canvas, dict[str, Any], dict[str, Any]], None]
 
-DRAWERS: dict[str, Drawer] = {name: e.drawer.load() for name, e in ENDPOINTS.items()}
+DRAWERS: dict[str, Drawer] = {
+    name: e.drawer.load() for name, e in ENDPOINTS.items() if e.drawer is not None
+}
 """Every operation's drawing (its declaration's ``drawer``), by operation name."""
 
 _CANNOT_DRAW = (KeyError, TypeError, IndexError, ValueError, AttributeError, OverflowError)

@@ -83,10 +83,12 @@ class Endpoint:
     :mod:`plotgate.service.operations`."""
     fields: Reference = field(kw_only=True)
     """Where core's errors point in the request (a :data:`plotgate.service.fields.FieldMap`)."""
-    drawer: Reference = field(kw_only=True)
-    """The scene drawing ``(canvas, request body, result)`` of :mod:`plotgate.service.scenes`."""
-    client_method: str = field(kw_only=True)
-    """The typed method of :class:`plotgate.clients.client.Client` that calls it."""
+    drawer: Reference | None = field(default=None, kw_only=True)
+    """The scene drawing ``(canvas, request body, result)`` of :mod:`plotgate.service.scenes`
+    (without one, ``view`` logs that it cannot draw the operation's exchanges)."""
+    client_method: str | None = field(default=None, kw_only=True)
+    """The typed method of :class:`plotgate.clients.client.Client` that calls it (without
+    one, ``Client.call`` runs the operation by name)."""
     description: str = field(kw_only=True)
     """What the operation computes, its paper and equation, its units (markdown; the OpenAPI
     document adds the example after it)."""

@@ -60,5 +60,6 @@ def test_the_table_imports_no_handler_core_fastapi_nor_foxglove():
 def test_every_declaration_names_what_exists():
     for name, op in OPERATIONS.items():
         assert callable(op.handler) and isinstance(op.fields, dict), name
-        assert op.endpoint.drawer.module.startswith("plotgate.service.scenes."), name
+        drawer = op.endpoint.drawer
+        assert drawer is not None and drawer.module.startswith("plotgate.service.scenes."), name
         assert op.endpoint.description and op.endpoint.example, name
