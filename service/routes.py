@@ -28,6 +28,7 @@ import logging
 import math
 import time
 from collections.abc import Awaitable
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from fastapi import APIRouter, Request, Response
@@ -109,6 +110,23 @@ def _timed_out(exc: BodyTimeout) -> Parsed:
     return Parsed(None, err, json=False)
 
 
+@dataclass
+class _Received:
+    """A request's body as it arrived, with the problem refusing it when it could not be
+    read whole or its shape is refused, and whether to close the connection after
+    answering (the body was not read to its end)."""
+
+    body: bytes
+    refused: Parsed | None
+    close: bool
+    large: bool = field(init=False)
+    """Over ``INLINE_BODY_BYTES``: parsed in the worker process, its record copied in a
+    thread."""
+
+    def __post_init__(self) -> None:
+        self.large = len(self.body) > INLINE_BODY_BYTES
+
+
 class Operations:
     """The operations, as pure ASGI: ``POST`` on a registry path is answered here.
 
@@ -152,89 +170,139 @@ class Operations:
     ) -> tuple[int, bytes, list[Header]]:
         """One exchange, the steps of this module's docstring: status, body, headers."""
         rid = request_id(scope)
-        replay = replay_of(scope)
-        recorder: Recorder | None = self.state.recorder
         settings: Settings = self.state.settings
-        metrics = self.state.metrics
         started = time.perf_counter()
         arrived = time.time_ns()  # the live view's stamp of the exchange
-        exchange: Exchange | None = None
-        close = False  # the connection, after answering: the body was not read to its end
-        try:
-            body = await read_body(
-                receive, settings.body_timeout_s, ShapeScan(value_ceiling(op.request))
-            )
-            refused: Parsed | None = None
-        except ClientGone:
+        received = await self._receive_body(op, receive)
+        if received is None:
             return 499, b"", []  # nobody to answer, nothing acknowledged
-        except BodyTimeout as exc:
-            body, refused, close = exc.received, _timed_out(exc), True
-        except BodyRefused as exc:
-            body, refused, close = exc.received, misshapen(exc.reason), not exc.drained
         limits = settings.limits.get(op.name)
-        large = len(body) > INLINE_BODY_BYTES
-        answer: Outcome | None = None  # the answer, once known
-        if refused is None and large:
-            answered = await self._before_stopping(self.large_bodies.answer(op, body, rid, limits))
-            # cut off by the shutdown: recorded as text, as its parse never came back
-            strict, answer = answered or (False, _stopping(op, rid))
-            parsed = None
-        else:
-            # a small body, or a refused one (nothing to parse)
-            parsed = refused or parse(op, body, sized_up=True)
-            strict = parsed.json
-        live: LiveView | None = self.state.live
-        if recorder is None and live is None:
-            record = b""
-        elif large:  # a copy of every byte: tens of milliseconds for the largest
-            record = await run_in_threadpool(request_record, rid, op.name, body, strict, replay)
-        else:
-            record = request_record(rid, op.name, body, strict, replay)
-        del body  # the record holds it from here on
+        parsed, answer, strict = await self._parse(op, received, rid, limits)
+        asked = await self._request_record(op, received, strict, rid, replay_of(scope))
+        received.body = b""  # the record holds it from here on
         try:
-            if recorder is not None:
-                try:
-                    exchange = await recorder.arequest(op.name, record)
-                except RecordingError:
-                    if not settings.record_best_effort:
-                        raise
-                    recorder = None  # best effort: answer this exchange unrecorded
-                    metrics.unrecorded(op.name)
-            if answer is None:
-                assert parsed is not None
-                answer = await self._answer_small(op, parsed, rid, limits, receive)
-            asked = record  # the request's record, for the live view
-            if (recorder is not None and exchange is not None) or live is not None:
-                record = response_record(
-                    rid,
-                    op.name,
-                    answer.status,
-                    time.perf_counter() - started,
-                    answer.content,
-                )
-            if recorder is not None and exchange is not None:
-                try:
-                    await recorder.aresponse(exchange, record)
-                except RecordingError:
-                    if not settings.record_best_effort:
-                        raise
-                    metrics.unrecorded(op.name)
+            answer, told = await self._answer_recorded(
+                op, asked, parsed, answer, rid, limits, receive, started
+            )
         except RecordingError as exc:
-            metrics.observe(op.name, 503, time.perf_counter() - started)
+            self.state.metrics.observe(op.name, 503, time.perf_counter() - started)
             err = ProblemError(
                 "recording-unavailable", 503, f"the exchange was not recorded: {exc}"
             )
             return 503, problem_json(err, op.path, rid), [self._retry_after()]
-        finally:
-            if recorder is not None and exchange is not None:
-                recorder.forget(exchange)
-        metrics.observe(op.name, answer.status, time.perf_counter() - started)
+        self.state.metrics.observe(op.name, answer.status, time.perf_counter() - started)
+        live: LiveView | None = self.state.live
         if live is not None:  # after the records are flushed: the picture never delays them
-            live.offer(op.name, arrived, asked, record)
-        headers = [(b"connection", b"close")] if close else []
+            live.offer(op.name, arrived, asked, told)
+        headers = [(b"connection", b"close")] if received.close else []
         if answer.status == 503:  # the cluster: try again after the recorder's probe
             headers.append(self._retry_after())
         return answer.status, answer.content, headers
+
+    async def _receive_body(self, op: Operation, receive: Receive) -> "_Received | None":
+        """Step 2: the body within ``PLOTGATE_BODY_TIMEOUT_S``, sized up as it arrives; a
+        body cut off by its deadline or refused by its shape comes with its problem, and
+        None when the client went away (nobody to answer)."""
+        settings: Settings = self.state.settings
+        try:
+            body = await read_body(
+                receive, settings.body_timeout_s, ShapeScan(value_ceiling(op.request))
+            )
+        except ClientGone:
+            return None
+        except BodyTimeout as exc:
+            return _Received(exc.received, _timed_out(exc), close=True)
+        except BodyRefused as exc:
+            return _Received(exc.received, misshapen(exc.reason), close=not exc.drained)
+        return _Received(body, None, close=False)
+
+    async def _parse(
+        self, op: Operation, received: "_Received", rid: str, limits: dict[str, int] | None
+    ) -> tuple[Parsed | None, Outcome | None, bool]:
+        """Step 3's parse: a small body (or a refused one: nothing to parse) parsed here, a
+        large one parsed, run and answered in the worker process. The parsed request, the
+        answer when it is known already, and whether the body is strict JSON."""
+        if received.refused is None and received.large:
+            work = self.large_bodies.answer(op, received.body, rid, limits)
+            answered = await self._before_stopping(work)
+            # cut off by the shutdown: recorded as text, as its parse never came back
+            strict, answer = answered or (False, _stopping(op, rid))
+            return None, answer, strict
+        parsed = received.refused or parse(op, received.body, sized_up=True)
+        return parsed, None, parsed.json
+
+    async def _request_record(
+        self, op: Operation, received: "_Received", strict: bool, rid: str, replay: str | None
+    ) -> bytes:
+        """Step 4's record of the request (empty when nothing records nor shows it)."""
+        if self.state.recorder is None and self.state.live is None:
+            return b""
+        if received.large:  # a copy of every byte: tens of milliseconds for the largest
+            return await run_in_threadpool(
+                request_record, rid, op.name, received.body, strict, replay
+            )
+        return request_record(rid, op.name, received.body, strict, replay)
+
+    async def _answer_recorded(
+        self,
+        op: Operation,
+        asked: bytes,
+        parsed: Parsed | None,
+        answer: Outcome | None,
+        rid: str,
+        limits: dict[str, int] | None,
+        receive: Receive,
+        started: float,
+    ) -> tuple[Outcome, bytes]:
+        """Steps 4 and 5: add the request record, run a small body's operation, add the
+        response record and wait for both to be flushed. The answer and the response's
+        record (empty when nothing records nor shows it).
+
+        Raises
+        ------
+        RecordingError
+            A record could not be written (and ``PLOTGATE_RECORD_BEST_EFFORT`` is off).
+        """
+        recorder: Recorder | None = self.state.recorder
+        exchange = None if recorder is None else await self._record_request(op, recorder, asked)
+        try:
+            if answer is None:
+                assert parsed is not None
+                answer = await self._answer_small(op, parsed, rid, limits, receive)
+            told = b""
+            if exchange is not None or self.state.live is not None:
+                elapsed = time.perf_counter() - started
+                told = response_record(rid, op.name, answer.status, elapsed, answer.content)
+            if recorder is not None and exchange is not None:
+                await self._record_response(op, recorder, exchange, told)
+        finally:
+            if recorder is not None and exchange is not None:
+                recorder.forget(exchange)
+        return answer, told
+
+    async def _record_request(
+        self, op: Operation, recorder: Recorder, record: bytes
+    ) -> Exchange | None:
+        """Step 4: the request's record added; None when best effort answers this exchange
+        unrecorded (counted)."""
+        try:
+            return await recorder.arequest(op.name, record)
+        except RecordingError:
+            if not self.state.settings.record_best_effort:
+                raise
+            self.state.metrics.unrecorded(op.name)  # best effort: answered unrecorded
+            return None
+
+    async def _record_response(
+        self, op: Operation, recorder: Recorder, exchange: Exchange, record: bytes
+    ) -> None:
+        """Step 5: the response's record added and both flushed to the operating system."""
+        try:
+            await recorder.aresponse(exchange, record)
+        except RecordingError:
+            if not self.state.settings.record_best_effort:
+                raise
+            self.state.metrics.unrecorded(op.name)
 
     async def _answer_small(
         self,

@@ -11,18 +11,20 @@ from pydantic import Field, model_validator
 
 from plotgate.service.schemas.common import Loc, Schema
 from plotgate.service.schemas.solves import (
-    MAX_MEASUREMENTS,
     MAX_PROBLEMS,
     MAX_RANGE_SUMS,
     MAX_SAMPLES,
+    ONE_SIGMA,
     Platform,
     Point,
     Sigma,
     TargetState,
     Time,
+    per_pair,
     platform_rules,
     platform_sizes,
     platform_vectors,
+    shared,
 )
 from plotgate.service.schemas.validation import dimension, length, one_of, raise_errors
 
@@ -67,26 +69,14 @@ class CrlbRequest(Schema):
         description="Sample times, s: required with track or moving platforms; with "
         "targets one per target.",
     )
-    transmitter: Platform | None = Field(
-        default=None, description="The one transmitter of every pair."
+    transmitter: Platform | None = shared("The one transmitter of every pair.")
+    transmitters: list[Platform] | None = per_pair(
+        "Transmitter of each pair (several transmitters)."
     )
-    transmitters: list[Platform] | None = Field(
-        default=None,
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Transmitter of each pair (several transmitters).",
-    )
-    receivers: list[Platform] = Field(
-        min_length=1, max_length=MAX_MEASUREMENTS, description="Receiver of each pair."
-    )
-    sigma: Sigma | None = Field(
-        default=None, description="One noise standard deviation for every range sum, m."
-    )
-    sigmas: list[Sigma] | None = Field(
-        default=None,
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Noise standard deviation of each pair's range sum, m, one per pair.",
+    receivers: list[Platform] = per_pair("Receiver of each pair.", optional=False)
+    sigma: Sigma | None = shared(ONE_SIGMA)
+    sigmas: list[Sigma] | None = per_pair(
+        "Noise standard deviation of each pair's range sum, m, one per pair."
     )
 
     @model_validator(mode="after")

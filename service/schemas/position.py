@@ -15,11 +15,14 @@ from plotgate.service.schemas.solves import (
     MAX_MEASUREMENTS,
     MAX_PROBLEMS,
     MAX_RANGE_SUMS,
+    ONE_SIGMA,
     Alpha,
     MaxIter,
     Point,
     RangeSum,
     Sigma,
+    per_pair,
+    shared,
 )
 from plotgate.service.schemas.validation import dimension, length, one_of, raise_errors
 
@@ -44,28 +47,16 @@ class PositionProblem(Schema):
         max_length=MAX_MEASUREMENTS,
         description="Measured range sums l_p = |x - rx_p| + |x - tx_p|, m, one per pair.",
     )
-    transmitter: Point | None = Field(
-        default=None, description="The one transmitter of every pair, m."
+    transmitter: Point | None = shared("The one transmitter of every pair, m.")
+    transmitters: list[Point] | None = per_pair(
+        "Transmitter of each pair, m, one per range sum (several transmitters)."
     )
-    transmitters: list[Point] | None = Field(
-        default=None,
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Transmitter of each pair, m, one per range sum (several transmitters).",
+    receivers: list[Point] = per_pair(
+        "Receiver of each pair, m, one per range sum.", optional=False
     )
-    receivers: list[Point] = Field(
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Receiver of each pair, m, one per range sum.",
-    )
-    sigma: Sigma | None = Field(
-        default=None, description="One noise standard deviation for every range sum, m."
-    )
-    sigmas: list[Sigma] | None = Field(
-        default=None,
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Noise standard deviation of each range sum, m, one per range sum.",
+    sigma: Sigma | None = shared(ONE_SIGMA)
+    sigmas: list[Sigma] | None = per_pair(
+        "Noise standard deviation of each range sum, m, one per range sum."
     )
     initial: Point | None = Field(
         default=None,

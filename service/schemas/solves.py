@@ -64,10 +64,13 @@ __all__ = [
     "Sigma",
     "TargetState",
     "Time",
+    "ONE_SIGMA",
     "VelocityVector",
+    "per_pair",
     "platform_rules",
     "platform_sizes",
     "platform_vectors",
+    "shared",
 ]
 
 
@@ -78,6 +81,8 @@ MAX_SAMPLES = 10_000
 ``times`` of a trajectory solve."""
 MAX_MEASUREMENTS = 64
 """Most (transmitter, receiver) pairs of one problem or one sample."""
+ONE_SIGMA = "One noise standard deviation for every range sum, m."
+"""The ``sigma`` field's description in every multistatic request."""
 MAX_RANGE_SUMS = 100_000
 """Most range sums in one request (problems x pairs, or samples x pairs)."""
 MAX_RANGE_SUM = 1e10
@@ -273,3 +278,23 @@ def platform_vectors(request: Any) -> Iterator[tuple[Loc, Sequence[float]]]:
         yield from p.vectors(("transmitters", k))
     for k, p in enumerate(request.receivers):
         yield from p.vectors(("receivers", k))
+
+
+def shared(description: str) -> Any:
+    """The field of a multistatic request that one value serves for every pair (the
+    ``transmitter``, the ``sigma``): optional, its per-pair list being the other choice."""
+    return Field(default=None, description=description)
+
+
+def per_pair(description: str, *, optional: bool = True) -> Any:
+    """The field of a multistatic request that holds one entry per (transmitter, receiver)
+    pair (``transmitters``, ``receivers``, ``sigmas``): 1 to :data:`MAX_MEASUREMENTS`
+    entries. The block of pairs (``transmitter``/``transmitters``, ``receivers``,
+    ``sigma``/``sigmas``) of ``solves.position``, ``solves.trajectory`` and ``solves.crlb``
+    is declared with these two, each model saying only its platform type and what a pair's
+    entry is one of (a range sum, a column, a pair)."""
+    if optional:
+        return Field(
+            default=None, min_length=1, max_length=MAX_MEASUREMENTS, description=description
+        )
+    return Field(min_length=1, max_length=MAX_MEASUREMENTS, description=description)

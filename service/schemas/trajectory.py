@@ -9,9 +9,9 @@ from pydantic import Field, model_validator
 
 from plotgate.service.schemas.common import Schema
 from plotgate.service.schemas.solves import (
-    MAX_MEASUREMENTS,
     MAX_RANGE_SUMS,
     MAX_SAMPLES,
+    ONE_SIGMA,
     Alpha,
     FittedState,
     MaxIter,
@@ -20,9 +20,11 @@ from plotgate.service.schemas.solves import (
     Sigma,
     TargetState,
     Time,
+    per_pair,
     platform_rules,
     platform_sizes,
     platform_vectors,
+    shared,
 )
 from plotgate.service.schemas.validation import dimension, length, one_of, raise_errors
 
@@ -49,28 +51,16 @@ class TrajectorySolveRequest(Schema):
         max_length=MAX_SAMPLES,
         description="Range sums, m: one row per sample, one column per pair (T x P).",
     )
-    transmitter: Platform | None = Field(
-        default=None, description="The one transmitter of every pair."
+    transmitter: Platform | None = shared("The one transmitter of every pair.")
+    transmitters: list[Platform] | None = per_pair(
+        "Transmitter of each pair (several transmitters), one per column."
     )
-    transmitters: list[Platform] | None = Field(
-        default=None,
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Transmitter of each pair (several transmitters), one per column.",
+    receivers: list[Platform] = per_pair(
+        "Receiver of each pair, one per column of range_sums.", optional=False
     )
-    receivers: list[Platform] = Field(
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Receiver of each pair, one per column of range_sums.",
-    )
-    sigma: Sigma | None = Field(
-        default=None, description="One noise standard deviation for every range sum, m."
-    )
-    sigmas: list[Sigma] | None = Field(
-        default=None,
-        min_length=1,
-        max_length=MAX_MEASUREMENTS,
-        description="Noise standard deviation of each pair's range sums, m, one per pair.",
+    sigma: Sigma | None = shared(ONE_SIGMA)
+    sigmas: list[Sigma] | None = per_pair(
+        "Noise standard deviation of each pair's range sums, m, one per pair."
     )
     initial: TargetState | None = Field(
         default=None,
