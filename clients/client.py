@@ -3,7 +3,7 @@
 Each operation of the table (:data:`plotgate.service.table.ENDPOINTS`) is reachable through
 ``call(name, request)``, and through the typed method its declaration names
 (``client_method``: ``test_gate``, ``gate_probability``, ``solve_position``, ``initiate``,
-``identify_pair`` ...), written once for both clients (:class:`_Method`). Every typed method
+``identify_pair`` ...), written once for both clients (:class:`TypedMethod`). Every typed method
 but the gate tests' (``test_gate(gate, first, candidates)``, ``test_gate_pairs(gate,
 pairs)``) takes its request model or the same as a dict (validated here, so a bad dict raises
 pydantic's ``ValidationError`` before any call).
@@ -349,7 +349,7 @@ def _gate_pairs(gate: Gate, pairs: Sequence[GatePair]) -> GatePairsRequest:
     return GatePairsRequest(gate=gate, pairs=list(pairs))
 
 
-class _Method(Generic[_P, _Req, _Res]):
+class TypedMethod(Generic[_P, _Req, _Res]):
     """One typed method of both clients, written once: it builds its operation's request
     from its arguments and calls the operation the table names for this method
     (:attr:`plotgate.service.schemas.Endpoint.client_method`). On a :class:`Client` it
@@ -368,7 +368,7 @@ class _Method(Generic[_P, _Req, _Res]):
         self.__doc__ = f"{self.endpoint.summary} (operation ``{self.endpoint.name}``)."
 
     @overload
-    def __get__(self, client: None, owner: type) -> "_Method[_P, _Req, _Res]": ...
+    def __get__(self, client: None, owner: type) -> "TypedMethod[_P, _Req, _Res]": ...
 
     @overload
     def __get__(self, client: "Client", owner: type) -> Callable[_P, _Res]: ...
@@ -390,42 +390,46 @@ class _Method(Generic[_P, _Req, _Res]):
         return method
 
 
-class _Operations:
+class OperationMethods:
     """The typed method of every operation, shared by :class:`Client` and
     :class:`AsyncClient` (the common ones; :meth:`Client.call` runs any by name)."""
 
-    test_gate = _Method(GateTestRequest, GateResults, _gate_test)
-    test_gate_pairs = _Method(GatePairsRequest, GateResults, _gate_pairs)
-    gate_probability = _Method(
+    test_gate = TypedMethod(GateTestRequest, GateResults, _gate_test)
+    test_gate_pairs = TypedMethod(GatePairsRequest, GateResults, _gate_pairs)
+    gate_probability = TypedMethod(
         GateProbabilityRequest, GateProbabilityResult, _given(GateProbabilityRequest)
     )
-    gate_probability_curve = _Method(
+    gate_probability_curve = TypedMethod(
         GateProbabilityCurveRequest, GateProbabilityCurve, _given(GateProbabilityCurveRequest)
     )
-    gate_analysis = _Method(GateAnalysisRequest, GateAnalysisResult, _given(GateAnalysisRequest))
-    gate_design = _Method(GateDesignRequest, GateDesignResult, _given(GateDesignRequest))
-    solve_position = _Method(
+    gate_analysis = TypedMethod(
+        GateAnalysisRequest, GateAnalysisResult, _given(GateAnalysisRequest)
+    )
+    gate_design = TypedMethod(GateDesignRequest, GateDesignResult, _given(GateDesignRequest))
+    solve_position = TypedMethod(
         PositionSolveRequest, PositionSolveResult, _given(PositionSolveRequest)
     )
-    solve_trajectory = _Method(
+    solve_trajectory = TypedMethod(
         TrajectorySolveRequest, TrajectorySolveResult, _given(TrajectorySolveRequest)
     )
-    crlb = _Method(CrlbRequest, CrlbResult, _given(CrlbRequest))
-    estimate_noise = _Method(NoiseRequest, NoiseResult, _given(NoiseRequest))
-    accuracy_study = _Method(StudyRequest, StudyResult, _given(StudyRequest))
-    initiate = _Method(InitiateRequest, InitiateResult, _given(InitiateRequest))
-    simulate_scans = _Method(SimulateRequest, SimulateResult, _given(SimulateRequest))
-    evaluate_initiation = _Method(EvaluateRequest, EvaluateResult, _given(EvaluateRequest))
-    identify_pair = _Method(IdentifyPairRequest, IdentifyPairResult, _given(IdentifyPairRequest))
-    identify_picture = _Method(
+    crlb = TypedMethod(CrlbRequest, CrlbResult, _given(CrlbRequest))
+    estimate_noise = TypedMethod(NoiseRequest, NoiseResult, _given(NoiseRequest))
+    accuracy_study = TypedMethod(StudyRequest, StudyResult, _given(StudyRequest))
+    initiate = TypedMethod(InitiateRequest, InitiateResult, _given(InitiateRequest))
+    simulate_scans = TypedMethod(SimulateRequest, SimulateResult, _given(SimulateRequest))
+    evaluate_initiation = TypedMethod(EvaluateRequest, EvaluateResult, _given(EvaluateRequest))
+    identify_pair = TypedMethod(
+        IdentifyPairRequest, IdentifyPairResult, _given(IdentifyPairRequest)
+    )
+    identify_picture = TypedMethod(
         IdentifyPictureRequest, IdentifyPictureResult, _given(IdentifyPictureRequest)
     )
-    simulate_identification = _Method(
+    simulate_identification = TypedMethod(
         IdentifySimulateRequest, IdentifySimulateResult, _given(IdentifySimulateRequest)
     )
 
 
-class Client(_Operations):
+class Client(OperationMethods):
     """Blocking client. Use as a context manager, or call :meth:`close`.
 
     A call is retried when it may well get through later: on a 503 answer (the service
@@ -544,7 +548,7 @@ class Client(_Operations):
             return False
 
 
-class AsyncClient(_Operations):
+class AsyncClient(OperationMethods):
     """Asynchronous twin of :class:`Client`, same parameters and methods (its waits between
     attempts are ``asyncio.sleep``)."""
 

@@ -9,8 +9,10 @@ from plotgate.clients.client import AsyncClient, Client
 from plotgate.service.table import ENDPOINTS
 
 
-def _methods() -> dict[str, client._Method]:  # type: ignore[type-arg]
-    return {n: m for n, m in vars(client._Operations).items() if isinstance(m, client._Method)}
+def _methods() -> dict[str, client.TypedMethod]:  # type: ignore[type-arg]
+    return {
+        n: m for n, m in vars(client.OperationMethods).items() if isinstance(m, client.TypedMethod)
+    }
 
 
 def test_one_typed_method_per_operation():
