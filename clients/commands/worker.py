@@ -1,0 +1,32 @@
+"""``plotgate worker``: a Dask worker for Monte Carlo chunks."""
+
+import argparse
+import sys
+from typing import Any
+
+from plotgate.clients.commands.arguments import at_least
+
+
+def add_command(sub: Any) -> None:
+    wrk = sub.add_parser(
+        "worker",
+        help="join a Dask scheduler as a worker for Monte Carlo chunks",
+        description='Joins the Dask scheduler at ADDRESS (pip install "plotgate[cluster]") '
+        "and runs the chunks it is given until the scheduler goes away or SIGTERM/SIGINT "
+        "(exit 0). Exit 2 when Dask is missing or no scheduler answers within 10 s.",
+    )
+    wrk.add_argument("address", help="the scheduler, e.g. tcp://scheduler:8786")
+    wrk.add_argument("--nthreads", type=at_least(1), default=1, help="threads (1)")
+    wrk.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from plotgate.service.cluster import ClusterUnavailable, run_worker
+
+    try:
+        run_worker(args.address, args.nthreads)
+    except ClusterUnavailable as exc:
+        print(f"plotgate worker: {exc}", file=sys.stderr)
+        return 2
+    print(f"plotgate worker: left {args.address}", file=sys.stderr)
+    return 0
