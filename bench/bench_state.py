@@ -39,6 +39,7 @@ import platform
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -46,8 +47,9 @@ import scipy
 from fastapi.testclient import TestClient
 
 from plotgate.core.initiation import PLOT_STRIDE, InitiationConfig, Initiators, Tracks
+from plotgate.core.initiation.held_checks import remade_tracks
 from plotgate.core.initiation.sharing import keep_greedy
-from plotgate.core.initiation.state import STATE_VERSION, InitiationState
+from plotgate.core.initiation.state import STATE_VERSION, HeldPlots, InitiationState
 from plotgate.core.initiation.state_json import check_state
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
@@ -122,10 +124,33 @@ def _empty_initiators() -> Initiators:
     return _initiators(0, 0, 0, np.zeros((0, 2)))
 
 
+def _held(tracks: Tracks) -> HeldPlots:
+    """The tentative tracks' plots, each where its track stands (the last holder's)."""
+    tentative = tracks.plots[~tracks.confirmed]
+    rows = np.repeat(np.flatnonzero(~tracks.confirmed), tracks.plots.shape[1])
+    ids, first = np.unique(tentative.ravel(), return_index=True)
+    keep = ids >= 0
+    z = tracks.x[rows[first[keep]], :2]
+    return HeldPlots(ids[keep], z, np.tile(np.eye(2) * R, (int(keep.sum()), 1, 1)))
+
+
 def _state(config: InitiationConfig, scans: int, tracks: Tracks, initiators: Initiators) -> dict:
+    """The state, its tentative tracks made again from their plots (as the service checks
+    them: core.initiation.held_checks)."""
     state = InitiationState(
-        STATE_VERSION, config.digest(), scans, scans - 1.0, tracks.size, initiators, tracks
+        STATE_VERSION,
+        config.digest(),
+        scans,
+        scans - 1.0,
+        tracks.size,
+        initiators,
+        tracks,
+        _held(tracks),
     )
+    rows, x, P = remade_tracks(state, config)
+    xs, Ps = tracks.x.copy(), tracks.P.copy()
+    xs[rows], Ps[rows] = x, P
+    state = state.replace(tracks=replace(tracks, x=xs, P=Ps))
     check_state(state, config)
     return state.to_json()
 

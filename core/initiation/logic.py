@@ -76,6 +76,7 @@ from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.assignment import one_to_one
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.filter import SPEED_SIGMAS, predict, speed_excess, update
+from plotgate.core.initiation.held import held_plots
 from plotgate.core.initiation.pairs import Pairs, Prediction, nearest
 from plotgate.core.initiation.rules import Rules, select_rules
 from plotgate.core.initiation.scan import Scan
@@ -413,6 +414,7 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
         dropped=confirmed.id[gone],
         reasons=np.array(DROP_REASONS)[why[gone]],
     )
+    live = confirmed.take(~gone)
     return InitiationState(
         version=state.version,
         config_digest=state.config_digest,
@@ -420,7 +422,8 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
         t=scan.t,
         next_track=state.next_track + born.size,
         initiators=_initiators(state.initiators, spent, scan, ids, seeds, k, rules),
-        tracks=confirmed.take(~gone),
+        tracks=live,
+        plots=held_plots(state.plots, state.initiators, scan, ids, live),
     ), report
 
 

@@ -11,13 +11,22 @@ A state is bound to the settings that made it: it carries ``config_digest``, and
 :func:`~plotgate.core.initiation.state_json.state_from_json` refuses a state of another version,
 of other settings, or any field that breaks an invariant (naming the field).
 
+A state carries the plots its tentative tracks were made of (:class:`HeldPlots`), so a
+tentative track's state and covariance can be made again from them and compared
+(:mod:`plotgate.core.initiation.held_checks`). Its JSON form carries a ``seal``
+(:func:`seal`), a fingerprint of the settings' digest and every other value, so a digest
+moved from another state, or any value changed alone, no longer matches it; like the
+digest, anyone can recompute it, so it is a check of integrity, not a signature.
+
 Plots are identified across calls by ``scan * PLOT_STRIDE + index``, the scan's number
 in the session (0, 1, ...) and the plot's index in that scan.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+import hashlib
+import json
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Self
 
 import numpy as np
@@ -30,16 +39,20 @@ __all__ = [
     "NULLABLE",
     "PLOT_STRIDE",
     "STATE_VERSION",
+    "HeldPlots",
     "Rows",
     "InitiationState",
     "Initiators",
     "Tracks",
     "empty_state",
     "layout",
+    "no_held_plots",
+    "seal",
 ]
 
-STATE_VERSION = 2
-"""Version 2 added the track score (``score`` of initiators and tracks)."""
+STATE_VERSION = 3
+"""Version 2 added the track score (``score`` of initiators and tracks); version 3 the
+plots the tentative tracks hold (``plots``) and the ``seal``."""
 PLOT_STRIDE = 1 << 20
 """Plot id = scan * PLOT_STRIDE + index (at most PLOT_STRIDE plots per scan)."""
 MAX_SESSION_SCANS = 1 << 32
@@ -134,6 +147,24 @@ class Tracks(Rows):
     score: np.ndarray
 
 
+@dataclass(frozen=True)
+class HeldPlots(Rows):
+    """The plots the tentative tracks hold (k of them, ids increasing): what each
+    tentative track was made of, so it can be made again and compared.
+
+    plot (k,) ids; z (k, 2) the plots, m; R (k, 2, 2) their covariances, m^2.
+    """
+
+    plot: np.ndarray
+    z: np.ndarray
+    R: np.ndarray
+
+
+def no_held_plots() -> HeldPlots:
+    """The held plots of a state without tentative tracks."""
+    return HeldPlots(np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros((0, 2, 2)))
+
+
 _DTYPES: dict[str, type] = {
     "plot": np.int64,
     "scan": np.int64,
@@ -147,6 +178,7 @@ _DTYPES: dict[str, type] = {
 }
 _SHAPES: dict[str, dict[str, tuple[int | str, ...]]] = {  # "H" is config.history
     "initiators": {"z": (2,), "R": (2, 2), "sensor": (2,)},
+    "plots": {"z": (2,), "R": (2, 2)},
     "tracks": {
         "x": (4,),
         "P": (4, 4),
@@ -162,8 +194,8 @@ NULLABLE = frozenset({"ranges", "times", "sigma_r"})
 
 
 def layout(part: str, name: str, history: int) -> tuple[type, tuple[int, ...]]:
-    """dtype and trailing shape of the array ``name`` of ``part`` ("initiators" or
-    "tracks"); ``history`` is config.history, the width H of the tracks' histories."""
+    """dtype and trailing shape of the array ``name`` of ``part`` ("initiators",
+    "tracks" or "plots"); ``history`` is config.history, the width H of the tracks' histories."""
     shape = tuple(history if s == "H" else int(s) for s in _SHAPES[part].get(name, ()))
     return _DTYPES.get(name, float), shape
 
@@ -186,6 +218,8 @@ class InitiationState:
         The next track id.
     initiators : Initiators
     tracks : Tracks
+    plots : HeldPlots
+        The plots the tentative tracks hold.
     """
 
     version: int
@@ -195,9 +229,11 @@ class InitiationState:
     next_track: int
     initiators: Initiators
     tracks: Tracks
+    plots: HeldPlots = field(default_factory=no_held_plots)
 
     def to_json(self) -> dict[str, Any]:
-        """Plain lists, numbers and strings (NaN as None); ``state_from_json`` inverts it."""
+        """Plain lists, numbers and strings (NaN as None), sealed (:func:`seal`);
+        ``state_from_json`` inverts it."""
 
         def part(obj: Any) -> dict[str, Any]:
             out = {}
@@ -208,7 +244,7 @@ class InitiationState:
                 out[f.name] = a.tolist()
             return out
 
-        return {
+        data = {
             "version": self.version,
             "config_digest": self.config_digest,
             "scans": self.scans,
@@ -216,10 +252,21 @@ class InitiationState:
             "next_track": self.next_track,
             "initiators": part(self.initiators),
             "tracks": part(self.tracks),
+            "plots": part(self.plots),
         }
+        return {**data, "seal": seal(data)}
 
     def replace(self, **changes: Any) -> InitiationState:
         return replace(self, **changes)
+
+
+def seal(data: dict[str, Any]) -> str:
+    """A short fingerprint (sha256, 16 hex digits) of a state's JSON form but its ``seal``:
+    its settings' digest bound to every value it holds. Python's JSON writes each float
+    with the digits that read back to it, so a state read back seals the same."""
+    body = {key: value for key, value in data.items() if key != "seal"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def _empty(cls: type, where: str, history: int) -> Any:

@@ -41,6 +41,12 @@ positive definite):
   that neither confirms nor drops; no track twice and none sharing two plots with a
   confirmed one; one time a scan, the last the state's, later scans not earlier.
 
+- the plots the tentative tracks hold (``state.plots``): each tentative track's ``x``
+  and ``P`` those its plots make again (:mod:`plotgate.core.initiation.held_checks`);
+- last, the seal (:func:`~plotgate.core.initiation.state.seal`): a state whose every
+  value passes but whose digest was moved from another state, or whose values were
+  changed alone, is refused naming ``state.config_digest``.
+
 Not checked, because a state does not carry what it would take: whether a plot index is
 below its scan's real plot count (the wire refuses an index no scan reaches, a request's
 MAX_PLOTS or more); whether a state of other settings that is consistent with these was
@@ -64,6 +70,7 @@ from plotgate.core.frames import wrap_angle
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.confirmation import confirmation_rule
 from plotgate.core.initiation.filter import SPEED_SIGMAS, speed_excess
+from plotgate.core.initiation.held_checks import check_held_plots
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
 from plotgate.core.initiation.score import first_plot_score, log_clutter_density, wald_thresholds
 from plotgate.core.initiation.sharing import keep_greedy, shares_two
@@ -73,10 +80,12 @@ from plotgate.core.initiation.state import (
     NULLABLE,
     PLOT_STRIDE,
     STATE_VERSION,
+    HeldPlots,
     InitiationState,
     Initiators,
     Tracks,
     layout,
+    seal,
 )
 from plotgate.core.validation import as_covariance, first_index
 
@@ -114,7 +123,17 @@ class PlotBounds:
 ROUNDING = 1e-12
 """How far below zero, relative to its trace, a track covariance's smallest computed
 eigenvalue may lie (rounding of an exactly singular one is about 1e-16)."""
-_KEYS = ("version", "config_digest", "scans", "t", "next_track", "initiators", "tracks")
+_KEYS = (
+    "version",
+    "config_digest",
+    "scans",
+    "t",
+    "next_track",
+    "initiators",
+    "tracks",
+    "plots",
+    "seal",
+)
 _KINDS: dict[type, str] = {
     np.int64: "i",
     float: "if",
@@ -842,6 +861,21 @@ def check_state(
         ),
     )
     _check_against(state, config, bounds)
+    check_held_plots(state, config)
+
+
+def _check_seal(data: dict[str, Any]) -> None:
+    """The seal of what was read: a state whose values all pass but whose digest came
+    from another state (or any value changed alone) no longer matches its seal."""
+    if not isinstance(data["seal"], str):
+        raise ParameterError("state.seal", f"must be a string, got {data['seal']!r}")
+    if data["seal"] != seal(data):
+        raise ParameterError(
+            "state.config_digest",
+            f"is {data['config_digest']!r}, but the state's seal {data['seal']!r} is not "
+            "that of its digest and values: the state was made under other settings, or "
+            "changed since it was answered",
+        )
 
 
 def state_from_json(
@@ -901,6 +935,8 @@ def state_from_json(
         _integer("state.next_track", data["next_track"], MAX_TRACK_ID),
         _part(Initiators, "initiators", data["initiators"], h),
         _part(Tracks, "tracks", data["tracks"], h),
+        _part(HeldPlots, "plots", data["plots"], h),
     )
     check_state(state, config, bounds)
+    _check_seal(data)
     return state

@@ -206,7 +206,12 @@ def initiate(request: InitiateRequest) -> InitiateResult:
     if request.state is not None:  # the validated lists as they are: no copy of the state
         wire = request.state
         state = state_from_json(
-            {**dict(wire), "initiators": dict(wire.initiators), "tracks": dict(wire.tracks)},
+            {
+                **dict(wire),
+                "initiators": dict(wire.initiators),
+                "tracks": dict(wire.tracks),
+                "plots": dict(wire.plots),
+            },
             config,
             PLOT_BOUNDS,
         )

@@ -1,7 +1,7 @@
 """The wire form of a track-initiation state: what ``initiation.initiate`` returns and takes.
 
 A client sends the state back unchanged with its next scans. It is typed field by field
-(STATE_VERSION 1, the object a call has always returned): the schema refuses wrong types,
+(STATE_VERSION 3: version 2 had no held plots and no seal): the schema refuses wrong types,
 unknown or missing keys, a foreign version, and every number beyond its magnitude
 before anything runs, and the service then holds every field to its invariants (array
 lengths, ids, histories, covariances: ``core.initiation.state_json``). Each refusal
@@ -43,6 +43,7 @@ __all__ = [
     "MAX_TRACK_VALUE",
     "PLOT_STRIDE",
     "STATE_DISTANCE",
+    "SessionHeldPlots",
     "SessionInitiators",
     "SessionState",
     "SessionTracks",
@@ -217,10 +218,22 @@ class SessionTracks(Schema):
         return self
 
 
-class SessionState(Schema):
-    """Everything initiation remembers between calls (version 2: version 1 had no scores)."""
+class SessionHeldPlots(Schema):
+    """The plots the tentative tracks hold, one row each, ids increasing: what each
+    tentative track was made of (the service makes it again from them and compares)."""
 
-    version: Literal[2] = Field(description="State format version.")
+    plot: list[PlotId] = Field(max_length=MAX_HISTORY_CELLS, description="Plot id.")
+    z: list[Point] = Field(max_length=MAX_HISTORY_CELLS, description="Its [x, y], m.")
+    R: list[Covariance2] = Field(
+        max_length=MAX_HISTORY_CELLS, description="Its 2 x 2 covariance, m^2."
+    )
+
+
+class SessionState(Schema):
+    """Everything initiation remembers between calls (version 3: version 2 had no held
+    plots and no seal, version 1 no scores)."""
+
+    version: Literal[3] = Field(description="State format version.")
     config_digest: str = Field(
         pattern=r"^[0-9a-f]{16}$", description="Fingerprint of the settings that made it."
     )
@@ -231,6 +244,11 @@ class SessionState(Schema):
     next_track: int = Field(ge=0, le=MAX_TRACK_ID, description="The next track id.")
     initiators: SessionInitiators = Field(description="Plots waiting for a second plot.")
     tracks: SessionTracks = Field(description="The live tracks.")
+    plots: SessionHeldPlots = Field(description="The plots the tentative tracks hold.")
+    seal: str = Field(
+        pattern=r"^[0-9a-f]{16}$",
+        description="Fingerprint of the settings' digest and every other value of the state.",
+    )
 
     def size(self) -> int:
         """Tracks and initiators carried: the rows every scan of the next call works on."""

@@ -20,6 +20,8 @@ from plotgate.core.initiation import (
     initiate,
 )
 from plotgate.core.initiation import state as core_state
+from plotgate.core.initiation.filter import SPEED_SIGMAS
+from plotgate.core.initiation.filter import speed_excess as core_speed_excess
 from plotgate.core.initiation.simulate import mu_scenario, simulate
 from plotgate.core.initiation.state_json import state_from_json
 from plotgate.service.app import create_app
@@ -799,3 +801,99 @@ def test_a_two_point_start_from_a_thin_plot_is_taken_back(client):
             json={"config": config, "state": first["state"], "scans": [{"t": 2.0, "plots": []}]},
         )
     )
+
+
+# ---------------------------------------------------------------- issue 35, defect 7
+# A tentative track moved, sped up or widened, and a digest moved from a state of other
+# settings: each was answered 200 by the landed main (the moved track silently dropped).
+
+
+def _tentative_velocity(delta: float) -> callable:
+    def change(s: dict) -> None:
+        s["tracks"]["x"][TRACK][2] += delta
+
+    return change
+
+
+def _moved(metres: float) -> callable:
+    def change(s: dict) -> None:
+        s["tracks"]["x"][TRACK][0] += metres
+
+    return change
+
+
+def _widened(s: dict) -> None:
+    s["tracks"]["P"][TRACK] = [[100.0 * v for v in row] for row in s["tracks"]["P"][TRACK]]
+
+
+@pytest.mark.parametrize("metres", [1e4, 1e6, 1e10, 1e15])
+def test_a_tentative_track_moved_off_its_plots_is_refused(client, session, metres):
+    state, scans = session
+    hostile = copy.deepcopy(state)
+    _moved(metres)(hostile)
+    body = invalid_input(_post(client, hostile, scans), f"state.tracks.x[{TRACK}]")
+    assert "its plots" in body["detail"]
+
+
+def test_a_tentative_track_sped_up_within_six_sigma_is_refused(client, session):
+    """45 m/s more: within v_max = 30 m/s but for 6 of the track's own velocity sigmas,
+    so the speed check alone lets it through."""
+    state, scans = session
+    P = np.array(state["tracks"]["P"][TRACK])
+    x = np.array(state["tracks"]["x"][TRACK]) + [0.0, 0.0, 45.0, 0.0]
+    assert core_speed_excess(x[None], P[None], POLAR["v_max"])[0] <= SPEED_SIGMAS
+    hostile = copy.deepcopy(state)
+    _tentative_velocity(45.0)(hostile)
+    invalid_input(_post(client, hostile, scans), f"state.tracks.x[{TRACK}]")
+
+
+def test_a_tentative_track_s_covariance_times_100_is_refused(client, session):
+    state, scans = session
+    hostile = copy.deepcopy(state)
+    _widened(hostile)
+    invalid_input(_post(client, hostile, scans), f"state.tracks.P[{TRACK}]")
+
+
+def test_a_digest_moved_from_a_state_of_other_settings_is_refused(client, session):
+    """A state of v_max 30 under the digest of a state made with v_max 300, sent with
+    v_max 300: its values are ones v_max 300 could have made, so only the seal, which
+    binds the digest to the values it was answered with, tells it apart."""
+    state, scans = session
+    wider = {**POLAR, "v_max": 300.0}
+    sim = answer(
+        client.post(
+            "/v1/initiation/simulate", json={"scenario": {"clutter": 20.0, "scans": 2}, "seed": 4}
+        )
+    )["scans"]
+    digest = _state_under(client, wider, sim[:1])["config_digest"]
+    forged = {**copy.deepcopy(state), "config_digest": digest}
+    body = invalid_input(_post(client, forged, scans, wider), "state.config_digest")
+    assert "seal" in body["detail"]
+
+
+HELD = [
+    (
+        "held plot dropped",
+        lambda s: [s["plots"][k].pop(0) for k in ("plot", "z", "R")],
+        "state.tracks.plots",
+    ),
+    (
+        "held plot moved",
+        _set("plots", "z", 0, lambda z: [z[0] + 50.0, z[1]]),
+        "state.tracks",
+    ),
+    ("held plot id not increasing", _set("plots", "plot", 1, 0), "state.plots.plot[1]"),
+    ("seal changed", _top("seal", "0123456789abcdef"), "state.config_digest"),
+    ("seal missing", _drop("seal"), "state.seal"),
+]
+
+
+@pytest.mark.parametrize(("change", "field"), [h[1:] for h in HELD], ids=[h[0] for h in HELD])
+def test_held_plots_tampered_are_named(client, session, change, field):
+    state, scans = session
+    hostile = copy.deepcopy(state)
+    change(hostile)
+    r = _post(client, hostile, scans)
+    assert r.status_code == 422, r.text
+    assert r.headers["content-type"].startswith("application/problem+json")
+    assert r.json()["errors"][0]["field"].startswith(field), r.text
