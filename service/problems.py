@@ -21,14 +21,16 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``internal`` (500): a bug; never bad input.
 """
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from plotgate.core import PlotgateError
-from plotgate.service.schemas import FieldError, Problem
+from plotgate.service.schemas import ENDPOINTS, FieldError, Problem
+from plotgate.service.tags import tag_reason
 
 __all__ = ["ProblemError", "field_errors", "from_core", "from_validation", "problem_json"]
 
@@ -88,13 +90,25 @@ def _path(loc: tuple[int | str, ...]) -> str:
     return out or "body"
 
 
-def field_errors(errors: Sequence[Any]) -> list[FieldError]:
-    """Pydantic's (or FastAPI's) error dicts as field paths like ``candidates[3].r``."""
-    return [FieldError(field=_path(tuple(e["loc"])), reason=e["msg"]) for e in errors]
+def field_errors(errors: Sequence[Any], model: type[BaseModel] | None = None) -> list[FieldError]:
+    """Pydantic's (or FastAPI's) error dicts as field paths like ``candidates[3].r``; a
+    missing or unknown tag of a discriminated union of ``model`` names the tag's choices
+    (:func:`plotgate.service.tags.tag_reason`)."""
+    return [
+        FieldError(field=_path(tuple(e["loc"])), reason=tag_reason(e, model) or e["msg"])
+        for e in errors
+    ]
+
+
+@functools.cache
+def _requests() -> dict[str, type[BaseModel]]:
+    return {ep.request.__name__: ep.request for ep in ENDPOINTS.values()}
 
 
 def from_validation(exc: ValidationError) -> ProblemError:
-    """Map pydantic's errors to field paths; a body that is not JSON is a 400."""
+    """Map pydantic's errors to field paths; a body that is not JSON is a 400. The
+    request model is found by the error's title (its class name), so that a missing tag
+    names its choices."""
     errors = exc.errors(include_url=False, include_input=False)
     if any(e["type"] == "json_invalid" for e in errors):
         reason = "; ".join(str(e.get("ctx", {}).get("error", e["msg"])) for e in errors)
@@ -104,7 +118,7 @@ def from_validation(exc: ValidationError) -> ProblemError:
             f"body is not valid JSON: {reason}",
             [FieldError(field="body", reason=reason)],
         )
-    fields = field_errors(errors[:MAX_FIELD_ERRORS])
+    fields = field_errors(errors[:MAX_FIELD_ERRORS], _requests().get(exc.title))
     detail = "; ".join(f"{f.field}: {f.reason}" for f in fields)
     if len(errors) > MAX_FIELD_ERRORS:
         detail += f"; and {len(errors) - MAX_FIELD_ERRORS} more errors"

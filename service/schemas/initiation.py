@@ -240,7 +240,7 @@ class InitiateRequest(Schema):
     """Scans to run through initiation, continuing ``state`` when given."""
 
     config: InitiationSettings = Field(
-        default_factory=InitiationSettings, description="The rules; the same for a whole session."
+        default=InitiationSettings(), description="The rules; the same for a whole session."
     )
     state: SessionState | None = Field(
         default=None,
@@ -333,7 +333,7 @@ class ScenarioIn(Schema):
     """Targets, one radar and Poisson clutter (Mu et al.'s test by default)."""
 
     targets: list[TargetIn] = Field(
-        default_factory=lambda: [
+        default=[
             TargetIn(position=(5000.0 + 1000.0 * i, 10000.0 - 1000.0 * i), velocity=(25.0, 0.0))
             for i in range(5)
         ],
@@ -432,7 +432,7 @@ class ScenarioIn(Schema):
 class SimulateRequest(Schema):
     """A scenario and the seed of its draw."""
 
-    scenario: ScenarioIn = Field(default_factory=ScenarioIn, description="The scenario.")
+    scenario: ScenarioIn = Field(default=ScenarioIn(), description="The scenario.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1, description="Seed of the draw.")
 
     @model_validator(mode="after")
@@ -558,9 +558,9 @@ class SweepPoint(EvaluationMeans):
 class EvaluateRequest(Schema):
     """Monte Carlo of initiation on a scenario (and, with ``sweep``, an operating curve)."""
 
-    scenario: ScenarioIn = Field(default_factory=ScenarioIn, description="The scenario.")
+    scenario: ScenarioIn = Field(default=ScenarioIn(), description="The scenario.")
     config: InitiationSettings = Field(
-        default_factory=InitiationSettings, description="The rules evaluated."
+        default=InitiationSettings(), description="The rules evaluated."
     )
     runs: int = Field(default=100, ge=1, le=10_000, description="Monte Carlo runs.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1, description="Seed (run r: spawn r).")
