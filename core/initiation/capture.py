@@ -363,9 +363,9 @@ class LikelyCapture:
 
 def capture_stage(config: InitiationConfig) -> Capture:
     """The capture stage the settings name: the capture gate's pairs, widened by the
-    maximum-likelihood gate under score confirmation in Cartesian mode (polar mode's
+    maximum-likelihood gate under score or existence confirmation in Cartesian mode (polar mode's
     windows keep the paper's first association)."""
     gate, window = capture_gate(config), capture_window(config)
-    if config.mode == "cartesian" and config.confirmation == "score":
+    if config.mode == "cartesian" and config.confirmation in ("score", "existence"):
         return LikelyCapture(config, gate, window)
     return GateCapture(gate, window)

@@ -18,14 +18,17 @@ from dataclasses import asdict, dataclass, field
 
 from plotgate.core.errors import ParameterError
 
-__all__ = ["CHOICES", "InitiationConfig"]
+__all__ = ["CHOICES", "EXISTENCE_SETTINGS", "InitiationConfig"]
+
+EXISTENCE_SETTINGS = ("survival", "existence_birth", "existence_confirm", "existence_delete")
+"""The settings only existence confirmation reads."""
 
 CHOICES = {
     "mode": ("cartesian", "polar"),
     "capture_gate": ("ring", "expanded", "combined"),
     "association": ("branch", "nearest"),
     "filter": ("kalman", "alpha_beta"),
-    "confirmation": ("k_of_m", "score"),
+    "confirmation": ("k_of_m", "score", "existence"),
 }
 """The settings that name a choice, and their options."""
 
@@ -111,6 +114,17 @@ class InitiationConfig:
     false_confirmation, true_deletion : float
         Score: alpha, the wanted probability of confirming a false track, and beta, of
         dropping a true one; each in (0, 1), alpha + beta < 1.
+    survival, existence_birth : float
+        Existence (IPDA, :mod:`plotgate.core.initiation.existence`): p11, the probability
+        that a target that exists in a scan still exists in the next, and p21, that a
+        track which is not a target's becomes one; each in [0, 1]. The Markov chain
+        P(k|k-1) = p11 P(k-1) + p21 (1 - P(k-1)) carries existence across a scan.
+    existence_confirm, existence_delete : float
+        Existence: tau_c, a tentative track confirms when its probability of existence
+        reaches it (with at least confirm_k plots), and tau_d, it is dropped at or below
+        it; 0 < tau_d < tau_c < 1. P_D, clutter_density, surveillance_area and
+        new_target_density are the score's, and serve existence too (a single plot's
+        odds of existence are P_D beta_NT / beta_FT, the score's first plot).
     """
 
     mode: str = "cartesian"
@@ -143,6 +157,10 @@ class InitiationConfig:
     new_target_density: float = 1e-8
     false_confirmation: float = 1e-3
     true_deletion: float = 0.1
+    survival: float = 0.98
+    existence_birth: float = 0.0
+    existence_confirm: float = 0.99
+    existence_delete: float = 0.02
 
     def __post_init__(self) -> None:
         for name, options in CHOICES.items():
@@ -180,6 +198,10 @@ class InitiationConfig:
         for name in ("alpha_min", "beta_min"):
             number(name, 0 < getattr(self, name) <= 1, "in (0, 1]")
         number("K_A", self.K_A > 1, "> 1")
+        for name in ("survival", "existence_birth"):
+            number(name, 0 <= getattr(self, name) <= 1, "in [0, 1]")
+        for name in ("existence_confirm", "existence_delete"):
+            number(name, 0 < getattr(self, name) < 1, "in (0, 1)")
         for name in ("K_R", "K_az", "capture_time", "clutter_density", "surveillance_area"):
             if getattr(self, name) is not None:
                 number(name, getattr(self, name) > 0, "> 0 or null")
@@ -198,6 +220,7 @@ class InitiationConfig:
                 "confirm_k", f"must be <= confirm_m = {self.confirm_m}, got {self.confirm_k}"
             )
         alpha, beta = self.false_confirmation, self.true_deletion
+        self._check_existence()
         score = self.confirmation == "score"  # alpha + beta < 1 where they are used:
         if score and (1.0 - alpha) * (1.0 - beta) <= alpha * beta:  # without rounding
             raise ParameterError(
@@ -205,11 +228,12 @@ class InitiationConfig:
                 f"must be < 1 - false_confirmation = {1 - alpha:g}, got {beta!r} (the "
                 "confirmation threshold must lie above the deletion threshold)",
             )
-        if score and self.clutter_density is None and self.surveillance_area is None:
+        scored = self.confirmation != "k_of_m"
+        if scored and self.clutter_density is None and self.surveillance_area is None:
             raise ParameterError(
                 "clutter_density",
-                "score confirmation needs clutter_density, or surveillance_area to estimate "
-                "it from each scan's plot count",
+                f"{self.confirmation} confirmation needs clutter_density, or "
+                "surveillance_area to estimate it from each scan's plot count",
             )
         w = self.gate_widening
         if not w or not all(math.isfinite(x) and x >= 1 for x in w) or list(w) != sorted(w):
@@ -217,7 +241,29 @@ class InitiationConfig:
                 "gate_widening", f"must be non-decreasing factors >= 1, got {list(w)}"
             )
 
+    def _check_existence(self) -> None:
+        """Existence confirmation: tau_d below tau_c, and the Cartesian mode (its gate
+        probability P_G is the chi-square ellipse's, which polar windows do not have)."""
+        if self.confirmation != "existence":
+            return
+        if self.existence_delete >= self.existence_confirm:
+            raise ParameterError(
+                "existence_delete",
+                f"must be < existence_confirm = {self.existence_confirm}, "
+                f"got {self.existence_delete!r}",
+            )
+        if self.mode != "cartesian":
+            raise ParameterError(
+                "mode", "existence confirmation runs in cartesian mode (its gates are ellipses)"
+            )
+
     def digest(self) -> str:
-        """A short fingerprint of these settings (stored in every state)."""
-        text = json.dumps(asdict(self), sort_keys=True)
+        """A short fingerprint of these settings (stored in every state). The existence
+        settings count only under existence confirmation, so every other configuration
+        keeps the fingerprint it had before they were added."""
+        settings = asdict(self)
+        if self.confirmation != "existence":
+            for name in EXISTENCE_SETTINGS:
+                del settings[name]
+        text = json.dumps(settings, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]

@@ -13,6 +13,10 @@ scan consumes, which of its plots become initiators, and the score of a new init
   the first plot with the velocity prior updated with the second, the sequential
   log-likelihood ratio, ready at ln((1 - beta) / alpha) with at least k plots, the
   higher score first, lapsed (``"score"``) at ln(beta / (1 - alpha)).
+- :class:`ExistenceRule` (IPDA, Mušicki, Evans and Stanković 1994;
+  :mod:`plotgate.core.initiation.existence`): the score rule's start and initiators, the
+  score the log-odds of existence, updated each scan from every plot in a tentative
+  track's gate; ready at existence tau_c, lapsed (``"existence"``) at tau_d.
 
 The initiators: under k/m (the textbook's) a capture consumes its initiator and every
 plot a track took or started is spent. Under the score, every plot no confirmed track
@@ -33,6 +37,7 @@ from typing import Protocol
 import numpy as np
 
 from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.existence import Gated, ipda, log_odds
 from plotgate.core.initiation.filter import kalman_gain, one_point, predict, two_point, update
 from plotgate.core.initiation.pairs import Pairs, Prediction
 from plotgate.core.initiation.scan import Scan
@@ -47,7 +52,7 @@ from plotgate.core.initiation.score import (
 from plotgate.core.initiation.state import Initiators, Tracks
 from plotgate.core.sym2 import sym2
 
-__all__ = ["Confirmation", "KOfM", "ScoreRule", "confirmation_rule"]
+__all__ = ["Confirmation", "ExistenceRule", "KOfM", "ScoreRule", "confirmation_rule"]
 
 
 class Confirmation(Protocol):
@@ -100,6 +105,11 @@ class Confirmation(Protocol):
 
     def initiator_score(self, plots: int) -> float:
         """Score of a new initiator in a scan of ``plots`` plots."""
+        ...
+
+    def mixed(self, tracks: Tracks, prediction: Prediction, gated: Gated) -> Tracks:
+        """The tracks after the scan's association, their tentative ones re-weighted from
+        every plot in their gates (existence); the others' rules keep them as they are."""
         ...
 
 
@@ -165,6 +175,9 @@ class KOfM:
 
     def initiator_score(self, plots: int) -> float:
         return 0.0
+
+    def mixed(self, tracks: Tracks, prediction: Prediction, gated: Gated) -> Tracks:
+        return tracks
 
 
 @dataclass(frozen=True)
@@ -238,11 +251,44 @@ class ScoreRule:
     def initiator_score(self, plots: int) -> float:
         return first_plot_score(self.config, log_clutter_density(self.config, plots))
 
+    def mixed(self, tracks: Tracks, prediction: Prediction, gated: Gated) -> Tracks:
+        return tracks
+
+
+@dataclass(frozen=True)
+class ExistenceRule(ScoreRule):
+    """Existence confirmation (IPDA, :mod:`plotgate.core.initiation.existence`): the score
+    rule's initiators and captures, the score holding the log-odds of existence; each
+    scan a tentative track's existence and state come from every plot in its gate;
+    ready at existence >= tau_c with at least confirm_k plots, the likelier first,
+    lapsed (``"existence"``) at existence <= tau_d."""
+
+    def rescore(
+        self, tracks: Tracks, prediction: Prediction, plot: np.ndarray, scan: Scan
+    ) -> np.ndarray:
+        """Unchanged here: :meth:`mixed` updates existence from all the gate's plots."""
+        return tracks.score
+
+    def mixed(self, tracks: Tracks, prediction: Prediction, gated: Gated) -> Tracks:
+        return ipda(tracks, prediction, gated, self.config)
+
+    def ready(self, tracks: Tracks, k: int) -> np.ndarray:
+        confirm_at = log_odds(self.config.existence_confirm)
+        ready: np.ndarray = (
+            ~tracks.confirmed & (tracks.score >= confirm_at) & (tracks.n >= self.config.confirm_k)
+        )
+        return ready
+
+    def lapsed(self, tracks: Tracks, k: int) -> tuple[str, np.ndarray]:
+        delete_at = log_odds(self.config.existence_delete)
+        return "existence", ~tracks.confirmed & (tracks.score <= delete_at)
+
 
 def confirmation_rule(config: InitiationConfig) -> Confirmation:
     """The rule the settings name."""
     rules: dict[str, Callable[[InitiationConfig], Confirmation]] = {
         "k_of_m": KOfM,
         "score": ScoreRule,
+        "existence": ExistenceRule,
     }
     return rules[config.confirmation](config)

@@ -18,7 +18,11 @@ Each scan, in this order:
    gate is the chi-square ellipse rho = nu^T S^-1 nu <= gamma (Cartesian) or the polar
    windows (range about the linear extrapolation of the last two ranges, azimuth about
    the last azimuth within asin(v_max dt / r) + K_az sigma); gamma (or K^2) grows by
-   gate_widening[misses] after misses in a row.
+   gate_widening[misses] after misses in a row. Under existence confirmation
+   (:mod:`plotgate.core.initiation.existence`, IPDA) the nearest plot still enters a
+   tentative track's history, but its state and probability of existence come from
+   every plot in its gate that no confirmed track took (the PDA mixture, and the Markov
+   chain then Mušicki et al.'s update).
 4. Initiators from earlier scans within the 2/N (or 2/T) window capture plots in their
    capture gate (ring, expanded, combined, or polar first-association windows); each
    plot starts a tentative track (branch), or only the nearest one does, with the
@@ -75,6 +79,7 @@ import numpy as np
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.assignment import one_to_one
 from plotgate.core.initiation.config import InitiationConfig
+from plotgate.core.initiation.existence import Gated
 from plotgate.core.initiation.filter import SPEED_SIGMAS, predict, speed_excess, update
 from plotgate.core.initiation.held import held_plots
 from plotgate.core.initiation.pairs import Pairs, Prediction, nearest
@@ -93,10 +98,11 @@ from plotgate.core.initiation.state import (
 
 __all__ = ["DROP_REASONS", "ScanReport", "initiate"]
 
-DROP_REASONS = ("misses", "window", "acceleration", "speed", "pruned", "score")
+DROP_REASONS = ("misses", "window", "acceleration", "speed", "pruned", "score", "existence")
 """Why a track was dropped: l misses in a row; k unreachable within m; the polar
 acceleration check; a speed beyond v_max (filter.speed_excess); sharing two or more plots
-with a confirmed track; a tentative track's score at or below Wald's deletion threshold."""
+with a confirmed track; a tentative track's score at or below Wald's deletion threshold;
+its probability of existence at or below existence_delete."""
 
 
 @dataclass(frozen=True)
@@ -140,11 +146,13 @@ class ScanReport:
 
 class _Association(NamedTuple):
     """Stages 2-3: plot (m,) each track took (-1 none) and its gate statistic (0 none);
-    taken (n,) the plots confirmed tracks took (no one else may use them)."""
+    taken (n,) the plots confirmed tracks took (no one else may use them); shared the
+    tentative tracks' gated pairs on the other plots (existence weighs them all)."""
 
     plot: np.ndarray
     statistic: np.ndarray
     taken: np.ndarray
+    shared: Pairs
 
 
 def _no_pairs() -> Pairs:
@@ -170,14 +178,15 @@ def _associate(
     statistic = np.zeros(tracks.size)
     taken = np.zeros(scan.size, dtype=bool)
     if scan.size == 0:
-        return _Association(plot, statistic, taken)
+        return _Association(plot, statistic, taken, _no_pairs())
     gated = rules.track_pairs(tracks, prediction, scan, index)
     by_confirmed = tracks.confirmed[gated.row]
     owned = Pairs(*one_to_one(*gated.take(by_confirmed)))
     plot[owned.row], statistic[owned.row], taken[owned.plot] = owned.plot, owned.statistic, True
-    shared = nearest(gated.take(~by_confirmed & ~taken[gated.plot]))
-    plot[shared.row], statistic[shared.row] = shared.plot, shared.statistic
-    return _Association(plot, statistic, taken)
+    shared = gated.take(~by_confirmed & ~taken[gated.plot])
+    chosen = nearest(shared)
+    plot[chosen.row], statistic[chosen.row] = chosen.plot, chosen.statistic
+    return _Association(plot, statistic, taken, shared)
 
 
 def _shift_in(history: np.ndarray, hit: np.ndarray, new: np.ndarray) -> np.ndarray:
@@ -394,7 +403,10 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
     index = rules.index(scan)
     prediction = _predicted(state.tracks, scan.t, rules.config)
     association = _associate(state.tracks, prediction, scan, index, rules)
+    clutter = int(n - association.taken.sum())  # plots no confirmed track took
+    gated = Gated(association.shared, scan.z, scan.R, state.tracks.misses, clutter)
     updated = _updated(state.tracks, prediction, association, scan, ids, rules)
+    updated = rules.confirmation.mixed(updated, prediction, gated)
     captured = _capture(state.initiators, scan, index, association.taken, k, rules)
     born = _born(state.initiators, captured, scan, ids, k, state.next_track, rules)
     owners = _plot_owners(state.tracks, association, born, captured, n)

@@ -114,9 +114,14 @@ def _cartesian_index(scan: Scan) -> PlotIndex:
     return PlotIndex(scan, None)
 
 
-_CARTESIAN_TRACK_GATES = {"k_of_m": ellipse_pairs, "score": likelihood_pairs}
+_CARTESIAN_TRACK_GATES = {
+    "k_of_m": ellipse_pairs,
+    "score": likelihood_pairs,
+    "existence": ellipse_pairs,
+}
 """A Cartesian track's gate by confirmation rule: the chi-square ellipse, or under the
-score the ellipse or the maximum-likelihood gate, whichever is wider."""
+score the ellipse or the maximum-likelihood gate, whichever is wider (existence keeps the
+ellipse, whose gating probability P_G its update needs)."""
 
 
 def select_rules(config: InitiationConfig) -> Rules:

@@ -28,7 +28,7 @@ positive definite):
   with core's condition bound, track covariances symmetric positive semi-definite to
   rounding (:data:`ROUNDING`) with positive variances; scores
   finite, 0 under k/m confirmation, an initiator's that of a single plot under score
-  confirmation;
+  and existence confirmation (existence's scores are log-odds of existence);
 - against the settings and the plots (:func:`_check_against`; the digest is a plain
   fingerprint anyone can recompute, so a state of other settings under a forged one is
   known by these): speeds within v_max but for
@@ -38,8 +38,9 @@ positive definite):
   caller's limits); an initiator's range, azimuth and sigmas those of its z, R and
   sensor; initiators within the capture window; confirmation no sooner than
   confirm_k plots (under k/m within the first confirm_m scans), a tentative track one
-  that neither confirms nor drops; no track twice and none sharing two plots with a
-  confirmed one; one time a scan, the last the state's, later scans not earlier.
+  that neither confirms nor drops (its score, or existence, between the thresholds); no
+  track twice and none sharing two plots with a confirmed one; one time a scan, the last
+  the state's, later scans not earlier.
 
 - the plots the tentative tracks hold (``state.plots``): each tentative track's ``x``
   and ``P`` those its plots make again (:mod:`plotgate.core.initiation.held_checks`);
@@ -69,6 +70,7 @@ from plotgate.core.errors import CovarianceError, NonFiniteError, ParameterError
 from plotgate.core.frames import wrap_angle
 from plotgate.core.initiation.config import InitiationConfig
 from plotgate.core.initiation.confirmation import confirmation_rule
+from plotgate.core.initiation.existence import log_odds
 from plotgate.core.initiation.filter import SPEED_SIGMAS, speed_excess
 from plotgate.core.initiation.held_checks import check_held_plots
 from plotgate.core.initiation.scan import MIN_SENSOR_RANGE
@@ -321,7 +323,7 @@ def _check_scores(state: InitiationState, config: InitiationConfig) -> None:
     the config's clutter density, or between its values for scans of 1 and PLOT_STRIDE
     plots when the density is estimated. A track's score sums its whole history, which
     the state does not keep: it is held finite (and within the wire's magnitudes)."""
-    if config.confirmation == "score":
+    if config.confirmation in ("score", "existence"):  # existence: the log-odds
         one, most = (
             first_plot_score(config, log_clutter_density(config, n)) for n in (1, PLOT_STRIDE)
         )
@@ -629,6 +631,9 @@ def _check_confirmation(state: InitiationState, config: InitiationConfig) -> Non
     if config.confirmation == "score":
         _check_tentative_scores(state, config)
         return
+    if config.confirmation == "existence":
+        _check_tentative_existence(state, config)
+        return
     latest = tr.first_scan + config.confirm_m - 1
     _require(
         f"{f}.confirmed_scan",
@@ -672,6 +677,35 @@ def _check_tentative_scores(state: InitiationState, config: InitiationConfig) ->
         lambda i: (
             f"is {tr.score[i]} with {tr.n[i]} plots; a tentative track at {confirm_at} with "
             f"confirm_k = {config.confirm_k} plots is confirmed"
+        ),
+    )
+
+
+def _check_tentative_existence(state: InitiationState, config: InitiationConfig) -> None:
+    """Existence confirmation: a tentative track's log-odds of existence lie above the
+    deletion threshold's and, with confirm_k plots or more, below the confirmation's
+    (ln(tau / (1 - tau)) of existence_delete and existence_confirm); else initiation
+    would have dropped or confirmed it."""
+    tr = state.tracks
+    confirm_at, delete_at = (
+        log_odds(config.existence_confirm),
+        log_odds(config.existence_delete),
+    )
+    _require(
+        "state.tracks.score",
+        tr.confirmed | (tr.score > delete_at),
+        lambda i: (
+            f"is {tr.score[i]}: log-odds of existence at or below {delete_at} "
+            f"(existence_delete = {config.existence_delete}); such a tentative track is dropped"
+        ),
+    )
+    _require(
+        "state.tracks.score",
+        tr.confirmed | (tr.n < config.confirm_k) | (tr.score < confirm_at),
+        lambda i: (
+            f"is {tr.score[i]} with {tr.n[i]} plots: log-odds of existence at or above "
+            f"{confirm_at} (existence_confirm = {config.existence_confirm}) with confirm_k "
+            f"= {config.confirm_k} plots; such a tentative track is confirmed"
         ),
     )
 

@@ -218,3 +218,46 @@ def test_the_score_path_answers_as_before(case):
     assert (
         fingerprint(SCORE[name], _scans(form, clutter, seed)) == SCORE_FINGERPRINTS[_case_id(case)]
     )
+
+
+EXISTENCE = {
+    "existence": InitiationConfig(
+        mode="cartesian",
+        capture_gate="combined",
+        v_max=30.0,
+        confirmation="existence",
+        P_D=0.8,
+        surveillance_area=15000.0**2,
+        existence_confirm=0.9,
+    ),
+}
+EXISTENCE_CASES = [
+    ("existence", form, clutter, seed)
+    for form in ("polar", "cartesian")
+    for clutter in CLUTTER
+    for seed in (1, 2)
+]
+EXISTENCE_FINGERPRINTS = {
+    "existence-polar-c20-s1": "5ee90684386f9749",
+    "existence-polar-c20-s2": "261e0e5d50ff350d",
+    "existence-polar-c250-s1": "caeb7c2fad7dc7b1",
+    "existence-polar-c250-s2": "eaccb15a431cbef2",
+    "existence-polar-c1000-s1": "e09867f84a8a0660",
+    "existence-polar-c1000-s2": "476738e49b339884",
+    "existence-cartesian-c20-s1": "88029c0cfe4fba0f",
+    "existence-cartesian-c20-s2": "e0a6f8d193e40557",
+    "existence-cartesian-c250-s1": "5378d3629aafd862",
+    "existence-cartesian-c250-s2": "b3df9f49b3466fb5",
+    "existence-cartesian-c1000-s1": "aa18329a9b467f86",
+    "existence-cartesian-c1000-s2": "754ad7293558f788",
+}
+"""Taken when existence confirmation (issue 38, IPDA) was added."""
+
+
+@pytest.mark.parametrize("case", EXISTENCE_CASES, ids=_case_id)
+def test_the_existence_path_answers_as_before(case):
+    name, form, clutter, seed = case
+    assert (
+        fingerprint(EXISTENCE[name], _scans(form, clutter, seed))
+        == EXISTENCE_FINGERPRINTS[_case_id(case)]
+    )
