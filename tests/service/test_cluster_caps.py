@@ -21,13 +21,13 @@ from plotgate.service.config import Settings
 from plotgate.service.registry import OPERATIONS, over_caps
 from plotgate.service.schemas import (
     CLUSTER_BUDGET_S,
-    ENDPOINTS,
     TIME_BUDGET_S,
     EvaluateRequest,
     EvaluateResult,
     IdentifySimulateRequest,
     IdentifySimulateResult,
 )
+from plotgate.service.table import ENDPOINTS
 from tests.conftest import answer, invalid_input
 
 SIZE = "runs x scans x plots"

@@ -1,9 +1,10 @@
 """Property-based fuzzing of every operation from the OpenAPI schema (Schemathesis).
 
 All three of Schemathesis' phases run on every operation, with positive and negative
-data: *examples* sends each operation's OpenAPI example
-(:data:`plotgate.service.schemas.examples.EXAMPLES`), *coverage* the schema's boundary values
-and violations around it, *fuzzing* Hypothesis-generated bodies. A positive body is
+data: *examples* sends each operation's OpenAPI example (its declaration's
+``example_body``, :data:`plotgate.service.table.ENDPOINTS`), *coverage* the schema's
+boundary values and violations around it, *fuzzing* Hypothesis-generated bodies. A
+positive body is
 first repaired (:func:`tests.service.valid_bodies.repaired`) to pass the rules over
 several fields that JSON Schema cannot say (matching lengths, one dimension, exactly one
 of two alternatives) and to fit the work caps below, so the valid paths of every

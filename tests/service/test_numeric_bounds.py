@@ -1,6 +1,7 @@
 """Every numeric field of every operation, driven to its bounds and to IEEE extremes.
 
-Each operation starts from its OpenAPI example (:data:`plotgate.service.schemas.examples.EXAMPLES`)
+Each operation starts from its OpenAPI example (its declaration's ``example_body``,
+:data:`plotgate.service.table.ENDPOINTS`)
 and the few variants below that reach the other branches of its schema (gate kinds, plot
 frames, optional fields). Every number in a base (its defaults included) is replaced, one
 at a time, by

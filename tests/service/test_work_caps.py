@@ -16,7 +16,6 @@ from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.registry import OPERATIONS, over_caps
 from plotgate.service.schemas import (
-    ENDPOINTS,
     MAX_GATE_CLUTTER,
     MEMORY_BUDGET_MIB,
     RUN_COST,
@@ -35,8 +34,8 @@ from plotgate.service.schemas import (
     ScenarioIn,
     SpeedPrior,
     StudyRequest,
-    work_caps,
 )
+from plotgate.service.table import ENDPOINTS, work_caps
 from tests.conftest import answer, invalid_input, with_handler
 
 
