@@ -41,11 +41,28 @@ import numpy as np
 
 from plotgate.service.schemas import REQUEST_ID_PATTERN, Problem
 
-__all__ = ["MAX_DEPTH", "Envelope", "check_messages", "loads", "parse_record"]
+__all__ = [
+    "MAX_DEPTH",
+    "MAX_DURATION_S",
+    "MAX_TIME_NS",
+    "Envelope",
+    "check_messages",
+    "check_time",
+    "loads",
+    "parse_record",
+]
 
 MAX_DEPTH = 256
 """Deepest JSON a record may hold. The service records a body as ``body`` only when its
 JSON parser (nesting limit 200) takes it, inside a one-level envelope."""
+MAX_DURATION_S = 1e7
+"""Longest duration a response record may state, s (116 days, past any request's timeout).
+A duration is a finite number in [0, MAX_DURATION_S]: a 400-digit integer or ``1e308``,
+which JSON and the recorder's schema allow, overflowed the readers' arithmetic (ms, ns)."""
+MAX_TIME_NS = 2**63 - 1
+"""Latest message time a recording may hold, ns since the epoch (an int64: the year 2262).
+MCAP allows any 64-bit unsigned time; the readers keep times in int64 arrays, and add
+durations to them."""
 REQUEST_ID = re.compile(REQUEST_ID_PATTERN)
 UNSET: Any = msgspec.UNSET
 """A field the message does not have (``null`` is a value)."""
@@ -105,8 +122,11 @@ def _shape(kind: str, operation: str, record: Any) -> Envelope:
         raise ValueError("a response record without an HTTP status")
     if not (isinstance(duration, int | float) and type(duration) is not bool):
         raise ValueError("a response record without a duration")
-    if not 0 <= duration < float("inf"):
-        raise ValueError("a response record without a duration")
+    if not 0 <= duration <= MAX_DURATION_S:  # NaN, infinities and long integers included
+        raise ValueError(
+            f"a response record whose duration_s {str(duration)[:40]} is not a number of "
+            f"seconds in [0, {MAX_DURATION_S:g}]"
+        )
     if status < 400 and record.result is UNSET:
         raise ValueError(f"a {status} response record without a result")
     if status >= 400:
@@ -114,7 +134,7 @@ def _shape(kind: str, operation: str, record: Any) -> Envelope:
             Problem.model_validate(None if record.error is UNSET else record.error)
         except ValueError:
             raise ValueError(f"a {status} response record without a problem") from None
-    return Envelope(rid, None, status, duration)
+    return Envelope(rid, None, status, float(duration))
 
 
 class _Record:
@@ -188,6 +208,14 @@ def check_messages(messages: Sequence[tuple[str, str, bytes]]) -> list[Envelope 
         except ValueError as exc:
             verdicts.append(str(exc))
     return verdicts
+
+
+def check_time(log_time: int) -> str | None:
+    """Why a message's ``log_time`` (ns) is not one a reader computes with, or None: the
+    one check of a record's time, before any arithmetic."""
+    if 0 <= log_time <= MAX_TIME_NS:
+        return None
+    return f"a message whose log_time {log_time} ns is past {MAX_TIME_NS} (the year 2262)"
 
 
 def loads(data: bytes) -> Any:

@@ -44,7 +44,14 @@ from typing import Any
 from mcap.records import Channel, Metadata, Schema
 
 from plotgate.clients.live import writer_alive
-from plotgate.clients.messages import MAX_DEPTH, Envelope, check_messages, loads, parse_record
+from plotgate.clients.messages import (
+    MAX_DEPTH,
+    Envelope,
+    check_messages,
+    check_time,
+    loads,
+    parse_record,
+)
 from plotgate.clients.pairing import MAX_LISTED, Filters, Pair, Pairing, Seen, iso_time
 from plotgate.clients.scan import (
     MAX_RECORD_BYTES,
@@ -384,16 +391,20 @@ class Reader:
             return
         records = [run.records[i] for run, i in places]
         rec.messages += len(records)
-        first, last = min(r[3] for r in records), max(r[3] for r in records)
-        rec.first_time = first if rec.first_time is None else min(rec.first_time, first)
-        rec.last_time = last if rec.last_time is None else max(rec.last_time, last)
         on: list[tuple[str, str] | str] = []
-        """Each message's (operation, kind), or why its channel is not a plotgate one."""
-        for _, channel_id, _, _, _, _ in records:
+        """Each message's (operation, kind), or why it is not a plotgate one (its channel,
+        or a time out of range)."""
+        for _, channel_id, _, log_time, _, _ in records:
             channel = channels.get(channel_id)
             if channel is None:
                 channel = f"channel {channel_id}, which no Channel record declared"
-            on.append(f"a message on {channel}" if isinstance(channel, str) else channel)
+            late = check_time(log_time)
+            on.append(late or (f"a message on {channel}" if isinstance(channel, str) else channel))
+        times = [r[3] for r in records if check_time(r[3]) is None]
+        if times:
+            first, last = min(times), max(times)
+            rec.first_time = first if rec.first_time is None else min(rec.first_time, first)
+            rec.last_time = last if rec.last_time is None else max(rec.last_time, last)
         checked = iter(
             check_messages(
                 [(c[1], c[0], r[5]) for c, r in zip(on, records, strict=True) if type(c) is tuple]

@@ -98,8 +98,10 @@ REQUEST_LOST = "answer whose request record was lost to damage"
 BODY_TIMEOUT = "body timed out (408): it never arrived whole, so it cannot be sent again"
 REPLAYED_ORIGINAL = "replay of an exchange read before it"
 REFUSED_FOR_THE_SERVER = (
-    "refused for the server's state (503: recording, cluster or shutdown), not for its input"
+    "refused for the server's state (503: recording, cluster, worker or shutdown), not for "
+    "its input"
 )
+FAULT_NOW = "answered 503 by the replaying server (a fault, not an answer), not compared"
 CLIENT_GONE = "given up by its client (499): the work was cancelled, no answer to compare"
 OVER_CAPS = "over this replay's work caps (the defaults and PLOTGATE_LIMITS; --no-limits runs it)"
 
@@ -601,6 +603,8 @@ def judge(
         return Outcome(skip=answer.skip)
     if writer is not None and answer.status is not None:
         writer(exchange, rid, answer, time.perf_counter() - started)
+    if answer.status == 503:  # a fault of the server now, set aside as a recorded one is
+        return Outcome(skip=FAULT_NOW)
     return Outcome(None, tuple(_differences(exchange, answer, rtol, atol)), answer.note)
 
 

@@ -38,7 +38,7 @@ from plotgate.service.offload import LargeBodies
 from plotgate.service.openapi import ASSETS_PATH, assets_folder, docs_router, openapi
 from plotgate.service.problems import ProblemError, field_errors, problem_json
 from plotgate.service.provenance import VERSION, provenance
-from plotgate.service.recording import Recorder
+from plotgate.service.recording import Recorder, rotation_bytes
 from plotgate.service.registry import OPERATIONS, check_limits, load_all
 from plotgate.service.routes import PROBLEM_JSON, Operations, health_router, request_id_of
 
@@ -72,7 +72,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             recorder = Recorder(
                 settings.log_dir,
                 OPERATIONS.values(),
-                max_bytes=settings.rotate_bytes,
+                max_bytes=rotation_bytes(settings.rotate_bytes),
                 max_age_s=settings.rotate_age_s,
                 metadata=provenance(settings),
                 on_flush=app.state.metrics.flush.observe,

@@ -47,6 +47,7 @@ from tqdm import tqdm
 
 __all__ = [
     "CONNECT_S",
+    "NO_WORKERS_S",
     "Cancellable",
     "ClusterTimeout",
     "ClusterUnavailable",
@@ -455,21 +456,67 @@ def lazy_map(function: Callable[..., Any], items: Iterable[Any]) -> list[Any]:
 async def _mapped(
     client: Any, function: Callable[..., Any], items: list[Any], bar: tqdm[Any]
 ) -> list[Any]:
-    """``function`` over ``items`` on the cluster, results in order; the tasks are
-    cancelled when this is (past the deadline) or anything fails."""
-    from distributed import as_completed
-
+    """``function`` over ``items`` on the cluster, results in order, while the cluster has
+    workers (:func:`_while_workers`); the tasks are cancelled when this is (past the
+    deadline) or anything fails."""
     futures = client.map(function, items, pure=False)
+    work = asyncio.ensure_future(_gathered(client, futures, bar))
+    watch = asyncio.ensure_future(_while_workers(client))
     try:
-        async for _ in as_completed(futures, loop=client.loop):
-            bar.update()
-        return list(await client.gather(futures))
+        await asyncio.wait({work, watch}, return_when=asyncio.FIRST_COMPLETED)
+        if not work.done():
+            watch.result()  # raises: no worker, or no scheduler
+        return work.result()
     except BaseException as exc:
         failed = [f for f in futures if f.status == "error"]
         await _cancelled(client, futures)
         if failed and isinstance(exc, Exception):
             raise _TaskFailed(exc) from exc
         raise
+    finally:
+        work.cancel()
+        watch.cancel()
+
+
+async def _gathered(client: Any, futures: list[Any], bar: tqdm[Any]) -> list[Any]:
+    from distributed import as_completed
+
+    async for _ in as_completed(futures, loop=client.loop):
+        bar.update()
+    return list(await client.gather(futures))
+
+
+NO_WORKERS_S = 3.0
+"""How long a request's work waits on a cluster that has no worker (none joined, or every
+one died), s; then it is answered 503 ``cluster-unavailable`` with that cause, not 504
+after ``PLOTGATE_DASK_TIMEOUT_S`` (300 s by default). Long enough for a restarted worker
+to join again."""
+_WORKERS_POLL_S = 0.5
+"""How often a request's work asks the scheduler for its workers, s."""
+
+
+async def _while_workers(client: Any) -> None:
+    """Return never: raise :class:`ClusterUnavailable` once the scheduler has had no worker
+    for :data:`NO_WORKERS_S`, or does not say within :data:`_CLOSE_S` (it died)."""
+    alone_since = None
+    while True:
+        try:
+            threads = await asyncio.wait_for(_threads(client), _CLOSE_S)
+        except Exception as exc:  # noqa: BLE001 - whatever a dead scheduler's client raises
+            raise ClusterUnavailable(
+                f"the Dask scheduler did not report its workers: {type(exc).__name__}: {exc}"
+            ) from None
+        now = time.monotonic()
+        if threads:
+            alone_since = None
+        elif alone_since is None:
+            alone_since = now
+        elif now - alone_since >= NO_WORKERS_S:
+            raise ClusterUnavailable(
+                f"the Dask cluster has had no worker for {NO_WORKERS_S:g} s: its work "
+                "cannot run (start a worker: plotgate worker SCHEDULER)"
+            )
+        await asyncio.sleep(_WORKERS_POLL_S)
 
 
 async def _cancelled(client: Any, futures: list[Any]) -> None:

@@ -11,6 +11,10 @@ Kinds of problem (the ``type`` member), each with its status:
 - ``recording-unavailable`` (503): the exchange could not be recorded, so it is refused;
 - ``cluster-unavailable`` (503): the Dask scheduler (``PLOTGATE_DASK_SCHEDULER``) cannot
   be reached;
+- ``worker-lost`` (503): the worker process answering large bodies died (killed, out of
+  memory) during the request; a fault, not an answer: send it again;
+- ``workers-busy`` (503): the large-body worker's lane holds its bound of bodies
+  (:data:`plotgate.service.offload.LANE_BODIES`);
 - ``shutting-down`` (503): the server reached the end of its graceful shutdown
   (``PLOTGATE_GRACEFUL_SHUTDOWN_S``) before the operation finished; another replica, or
   this one restarted, will answer it;
@@ -48,6 +52,8 @@ TITLES = {
     "recording-unavailable": "Recording unavailable",
     "cluster-unavailable": "Cluster unavailable",
     "shutting-down": "Shutting down",
+    "worker-lost": "Worker lost",
+    "workers-busy": "Workers busy",
     "client-disconnected": "Client closed request",
     "cluster-timeout": "Cluster timeout",
     "internal": "Internal error",

@@ -17,7 +17,19 @@ and problem models embedded (``jsonschema`` schema encoding, ``json`` messages),
 ``plotgate`` metadata record (versions, git commit, settings) at the start of every file.
 """
 
-from plotgate.service.recording.recorder import Exchange, Recorder, RecordingError
+from plotgate.service.recording.recorder import (
+    Exchange,
+    Recorder,
+    RecordingError,
+    rotation_bytes,
+)
 from plotgate.service.recording.records import request_record, response_record
 
-__all__ = ["Exchange", "Recorder", "RecordingError", "request_record", "response_record"]
+__all__ = [
+    "Exchange",
+    "Recorder",
+    "RecordingError",
+    "request_record",
+    "response_record",
+    "rotation_bytes",
+]

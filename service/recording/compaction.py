@@ -29,6 +29,7 @@ message index and one index entry per chunk.
 """
 
 import contextlib
+import errno
 import io
 import logging
 import os
@@ -70,6 +71,12 @@ SUFFIX = ".compacting"
 FAILURES = (OSError, ValueError, McapError)
 """What a compaction can meet: the disk, or a file that does not read as its recorder
 wrote it. The original is intact after each."""
+
+
+NO_SPACE = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+"""The errors of a full disk (EFBIG: a file size limit, as the tests make one)."""
+NO_SPACE_EXIT = 3
+"""The exit status of a compaction that failed for lack of space (1: any other failure)."""
 
 
 def temporary(path: Path, pid: int) -> Path:
@@ -227,6 +234,9 @@ class Compactions:
 
     def __init__(self) -> None:
         self._running: dict[Path, subprocess.Popen[bytes]] = {}
+        self.no_space: list[Path] = []
+        """Files whose compaction failed for lack of space, to start again once there is
+        some (:meth:`plotgate.service.recording.recorder.Recorder.probe`)."""
 
     def start(self, path: Path) -> None:
         """Compact ``path`` in a child process (a second request for it waits for the first)."""
@@ -252,7 +262,10 @@ class Compactions:
         for path, child in list(self._running.items()):
             if child.poll() is not None:
                 del self._running[path]
-                if child.returncode != 0:
+                if child.returncode == NO_SPACE_EXIT:
+                    self.no_space.append(path)
+                    log.warning("compaction of %s waits for space on the disk", path)
+                elif child.returncode != 0:
                     log.warning("compaction of %s failed (exit %s)", path, child.returncode)
 
     def wait(self, timeout_s: float) -> list[Path]:
@@ -277,16 +290,18 @@ class Compactions:
 
 def main(argv: list[str]) -> int:
     """``python -P compaction.py FILE``: compact one closed file,
-    at a low priority. Exit 0 when compacted or nothing to do, 1 when it failed (the
-    original intact)."""
+    at a low priority. Exit 0 when compacted or nothing to do, :data:`NO_SPACE_EXIT` when
+    it failed for lack of space, 1 for any other failure (the original intact)."""
     with contextlib.suppress(OSError):
         os.nice(10)
     [path] = argv
     try:
         compact(Path(path))
     except FAILURES as exc:
-        print(f"plotgate: compaction of {path} failed: {exc}", file=sys.stderr)
-        return 1
+        with contextlib.suppress(OSError):  # a log on the full disk
+            print(f"plotgate: compaction of {path} failed: {exc}", file=sys.stderr)
+        no_space = isinstance(exc, OSError) and exc.errno in NO_SPACE
+        return NO_SPACE_EXIT if no_space else 1
     return 0
 
 

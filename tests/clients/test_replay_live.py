@@ -90,7 +90,7 @@ def test_rotation_under_load_hides_no_exchange(tmp_path, mcap_check):
                 if r.status_code != 200:
                     errors.append(r.text)
 
-    with serve(folder, env={"PLOTGATE_ROTATE_BYTES": "65536"}) as (_, url):
+    with serve(folder, env={"PLOTGATE_ROTATE_AGE_S": "0.05"}) as (_, url):
         threads = [threading.Thread(target=client, args=(k, url)) for k in range(clients)]
         for t in threads:
             t.start()

@@ -202,6 +202,24 @@ def test_work_past_the_timeout_answers_504_not_retried(settings):
     assert "did not finish on the cluster within 1 s" in r.json()["detail"]
 
 
+def test_a_scheduler_with_no_workers_answers_a_recorded_503_with_its_cause(settings):
+    """An in-cap request on a scheduler no worker has joined waited the whole
+    PLOTGATE_DASK_TIMEOUT_S (300 s) for its 504; it is answered 503 cluster-unavailable,
+    saying why, within NO_WORKERS_S and a poll (30 s: a hang detector), and recorded as a
+    503, which replay sets aside."""
+    with LocalCluster(n_workers=0, processes=True, dashboard_address=":0") as local:
+        update = {"dask_scheduler": local.scheduler_address, "dask_timeout_s": 300.0}
+        started = time.monotonic()
+        r = _post(settings.model_copy(update=update))
+        took = time.monotonic() - started
+    print(f"503 after {took:.1f} s")
+    assert r.status_code == 503 and r.headers["retry-after"] == "1", r.text
+    assert r.json()["type"] == "urn:plotgate:problem:cluster-unavailable"
+    assert "has had no worker" in r.json()["detail"]
+    assert took < 30
+    assert [e.response["status"] for e in _exchanges(settings)] == [503]
+
+
 def test_the_compose_file_names_this_builds_commands_and_settings():
     from pathlib import Path
 

@@ -243,3 +243,49 @@ def _offsets(data: bytes):
     while pos < len(data) - 8:
         yield pos
         pos += 9 + int.from_bytes(data[pos + 1 : pos + 9], "little")
+
+
+def _no_space_left() -> None:
+    """In a compaction's child: every write past a file's first byte fails (EFBIG), as on
+    a full disk."""
+    import resource
+
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (1, resource.RLIM_INFINITY))
+
+
+def test_a_file_closed_while_the_disk_was_full_is_compacted_once_space_returns(
+    tmp_path, monkeypatch
+):
+    """Its compaction failed for lack of space and was never tried again: the file stayed
+    in its unchunked form for good. Now the probe that finds space back starts it again."""
+    popen = subprocess.Popen
+
+    def full(*args, **kwargs):
+        return popen(*args, preexec_fn=_no_space_left, **kwargs)
+
+    async def settled(recorder: Recorder) -> None:
+        deadline = time.monotonic() + 120
+        while recorder.compacting:
+            assert time.monotonic() < deadline
+            await asyncio.sleep(0.05)
+
+    async def session() -> None:
+        recorder = Recorder(tmp_path, OPERATIONS.values(), max_bytes=1).start()
+        monkeypatch.setattr(compaction_module.subprocess, "Popen", full)
+        for i in range(2):  # the second rotates the first file: its compaction fails
+            ex = await recorder.arequest(OP.name, request_record(f"r{i}", OP.name, b"{}", True))
+            await recorder.aresponse(ex, response_record(f"r{i}", OP.name, 200, 0.1, b"{}"))
+        await settled(recorder)
+        first = recorder.files[0]
+        assert compaction_module.closed(first)  # still unchunked
+        monkeypatch.setattr(compaction_module.subprocess, "Popen", popen)  # space is back
+        recorder.probe()
+        await settled(recorder)
+        assert not compaction_module.closed(first)
+        with open(first, "rb") as stream:
+            assert make_reader(stream).get_summary().chunk_indexes  # compacted
+        assert {ex.request_id for ex in read_recording(first).exchanges} == {"r0"}
+        recorder.close()
+
+    asyncio.run(session())

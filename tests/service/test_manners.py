@@ -102,11 +102,11 @@ def test_another_method_on_an_operation_path_is_405_with_allow(tmp_path):
             assert r.json()["instance"] == "/v1/gates/test"
 
 
-def test_files_rotate_by_size_each_compacted_by_a_child_process(tmp_path, mcap_check):
+def test_files_rotate_each_compacted_by_a_child_process(tmp_path, mcap_check):
     """Every rotated file, and the last one on shutdown, is compacted off the loop into an
     indexed, chunked MCAP with a summary, every record kept; bytes_written counts what was
     written (before compaction)."""
-    settings = Settings(log_dir=tmp_path / "rec", rotate_bytes=1)  # one commit a file
+    settings = Settings(log_dir=tmp_path / "rec", rotate_age_s=1e-9)  # one commit a file
     with TestClient(create_app(settings)) as c:
         for i in range(4):
             r = c.post("/v1/gates/test", json=GOOD, headers={"x-request-id": f"r-{i}"})

@@ -56,4 +56,4 @@ def test_a_dead_workers_requests_do_not_drop_the_next_worker(monkeypatch):
         answers = [await t for t in (first, second, third)]
         return [outcome.status for _, outcome in answers]
 
-    assert asyncio.run(session()) == [500, 500, 200]
+    assert asyncio.run(session()) == [503, 503, 200]

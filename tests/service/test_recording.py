@@ -1,6 +1,7 @@
 """Every exchange is recorded: 2N messages for N requests, read back by two MCAP readers."""
 
 import json
+import logging
 import time
 from pathlib import Path
 
@@ -11,6 +12,8 @@ from mcap.writer import Writer
 from plotgate.clients.cli import main
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
+from plotgate.service.recording import recorder as recorder_module
+from plotgate.service.recording import rotation_bytes
 from tests.conftest import cartesian
 
 GOOD = {
@@ -121,7 +124,8 @@ def test_replay_writes_the_new_session(settings, tmp_path, mcap_check):
     assert main(["replay", str(out)]) == 0
 
 
-def test_rotation_by_size(tmp_path, mcap_check):
+def test_rotation_by_size(tmp_path, mcap_check, monkeypatch):
+    monkeypatch.setattr(recorder_module, "MIN_ROTATE_BYTES", 4096)  # 30 exchanges, files
     settings = Settings(log_dir=tmp_path / "rec", rotate_bytes=4096)
     _session(settings, 30)
     files = sorted(settings.log_dir.glob("*.mcap"))
@@ -129,6 +133,19 @@ def test_rotation_by_size(tmp_path, mcap_check):
     for f in files:
         assert mcap_check(f)[0] == 0
     assert main(["replay", str(settings.log_dir)]) == 0
+
+
+def test_a_rotation_size_below_the_floor_is_raised_to_it(tmp_path, caplog):
+    """PLOTGATE_ROTATE_BYTES below a file's head made every commit a file of its own (897
+    files, 15 requests/s instead of 1,740); it is raised to its floor, with a warning."""
+    settings = Settings(log_dir=tmp_path / "rec", rotate_bytes=1)
+    with caplog.at_level(logging.WARNING, "plotgate"), TestClient(create_app(settings)) as c:
+        for _ in range(4):
+            assert c.post("/v1/gates/test", json=GOOD).status_code == 200
+    assert len(list(settings.log_dir.glob("*.mcap"))) == 1
+    assert any("below its floor" in r.getMessage() for r in caplog.records)
+    assert rotation_bytes(1) == recorder_module.MIN_ROTATE_BYTES
+    assert rotation_bytes(2**30) == 2**30
 
 
 def test_rotation_by_age(tmp_path, mcap_check):
