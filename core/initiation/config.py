@@ -258,12 +258,18 @@ class InitiationConfig:
             )
 
     def digest(self) -> str:
-        """A short fingerprint of these settings (stored in every state). The existence
-        settings count only under existence confirmation, so every other configuration
-        keeps the fingerprint it had before they were added."""
-        settings = asdict(self)
-        if self.confirmation != "existence":
-            for name in EXISTENCE_SETTINGS:
-                del settings[name]
-        text = json.dumps(settings, sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+        """A short fingerprint of these settings (stored in every state), computed once
+        per settings object: initiation checks it on every call, and a Monte Carlo
+        evaluation calls once a scan (7% of the score path's time before it was kept).
+        The existence settings count only under existence confirmation, so every other
+        configuration keeps the fingerprint it had before they were added."""
+        kept: str | None = self.__dict__.get("_digest")
+        if kept is None:
+            settings = asdict(self)
+            if self.confirmation != "existence":
+                for name in EXISTENCE_SETTINGS:
+                    del settings[name]
+            text = json.dumps(settings, sort_keys=True)
+            kept = hashlib.sha256(text.encode()).hexdigest()[:16]
+            object.__setattr__(self, "_digest", kept)  # frozen: a cache, not a field
+        return kept

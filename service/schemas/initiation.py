@@ -74,6 +74,11 @@ clutter 10,000 (0.35 a gate), 11x, so 1 + 30 x 0.35."""
 MODE_COST = {"cartesian": 1.0, "polar": 2.0}
 """The cost of a plot in each mode, relative to the Cartesian logic: Mu et al.'s polar
 method took twice as long on the same scans (200 runs at clutter 250, in one run)."""
+CONFIRMATION_COST = {"k_of_m": 1.0, "score": 2.0}
+"""The cost of a plot under each confirmation rule, relative to k/m: the score path (its
+maximum-likelihood gates, every plot no confirmed track holds an initiator living out its
+window) took 1.73-2.00x the k/m path's time a run, Mu et al.'s scenario at clutter 250 with
+the README's score configuration (bench/README.md, issue 35)."""
 MAX_SPEED = 1e6
 """Largest |velocity component| of a simulated target, m/s."""
 MAX_GATE_CLUTTER = 1.0
@@ -615,16 +620,19 @@ class EvaluateRequest(Schema):
         Each rule evaluated initiates every run's plots, runs x scans x (clutter +
         targets), each plot weighted by what it costs there: 1 + :data:`GATE_CLUTTER_COST`
         x the expected clutter plots in a capture gate, times :data:`MODE_COST` of the
-        mode; and each run costs :data:`RUN_COST` more. A plot-equivalent is about 5.4 us
-        on one core (Mu et al.'s scenario at clutter 250, Cartesian logic); the default
-        cap, 1,200,000, is about 6.5 s. The estimate is what sets the cap; the bench
+        mode and :data:`CONFIRMATION_COST` of the confirmation rule; and each run costs
+        :data:`RUN_COST` more. A plot-equivalent is about 5.4 us on one core (Mu et al.'s
+        scenario at clutter 250, Cartesian logic); the default cap, 1,200,000, is about
+        6.5 s. The estimate is what sets the cap; the bench
         (``bench/bench_worst_requests.py``) checks its worst requests against the 10 s.
         """
         total = 0.0
         for config in self.configs():
-            weight = (1.0 + GATE_CLUTTER_COST * self.scenario.gate_clutter(config)) * MODE_COST[
-                config.mode
-            ]
+            weight = (
+                (1.0 + GATE_CLUTTER_COST * self.scenario.gate_clutter(config))
+                * MODE_COST[config.mode]
+                * CONFIRMATION_COST[config.confirmation]
+            )
             total += self.runs * (self.scenario.plots() * weight + RUN_COST)
         return math.ceil(total)
 
