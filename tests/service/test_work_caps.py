@@ -5,6 +5,7 @@ The refusals are tested with the operation's handler replaced by one that fails 
 if it runs: the cap must answer before any work, and on a build without the cap the
 request would reach the handler (a 500 here, seconds and gigabytes for real)."""
 
+import dataclasses
 import math
 from collections.abc import Callable
 from typing import Any
@@ -19,7 +20,6 @@ from plotgate.service.schemas import (
     MAX_GATE_CLUTTER,
     MEMORY_BUDGET_MIB,
     RUN_COST,
-    Endpoint,
     EvaluateRequest,
     GateAnalysisRequest,
     GateDesignRequest,
@@ -225,4 +225,4 @@ def test_a_picture_at_a_small_size_is_answered(client):
 def test_a_default_cap_on_a_size_the_operation_lacks_is_a_bug():
     e = ENDPOINTS["solves.study"]
     with pytest.raises(ValueError, match="default caps on sizes it lacks"):
-        Endpoint(e.name, e.path, e.summary, e.request, e.response, caps={"plots": 1})
+        dataclasses.replace(e, caps={"plots": 1})
