@@ -3,14 +3,12 @@ it was installed from in editable mode (``pip install -e``), or from a package i
 
 import json
 import sys
-from functools import cache
 from importlib import metadata
 from urllib.parse import unquote, urlparse
 
 __all__ = ["install_hint"]
 
 
-@cache
 def _editable_source() -> str | None:
     """The folder this copy was installed from with ``pip install -e`` (PEP 610's
     ``direct_url.json``), or None for an install from an index or a wheel."""
