@@ -38,7 +38,7 @@ from plotgate.clients.commands.arguments import filter_parser
 from plotgate.clients.commands.kernels import KernelsUnavailable, load_kernels_first
 from plotgate.clients.commands.output import silence_stdout
 
-__all__ = ["main"]
+__all__ = ["build_parser", "main"]
 
 IN_PROCESS = frozenset({"serve", "call", "replay", "plot", "study", "scenario"})
 """The commands that run operations in this process (unless given ``--server``), and so
@@ -51,7 +51,7 @@ DESCRIPTION = (
 EPILOG = "Each command's options and exit status: plotgate COMMAND --help."
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     """The ``plotgate`` parser: each command's module adds its own subparser, in the order
     ``plotgate --help`` lists them."""
     parser = argparse.ArgumentParser(prog="plotgate", description=DESCRIPTION, epilog=EPILOG)
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``plotgate`` console script: its exit status (a usage error is
     2, after argparse's message)."""
     try:
-        args = _parser().parse_args(argv)
+        args = build_parser().parse_args(argv)
     except SystemExit as exc:  # --help (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else 2
     try:

@@ -83,6 +83,7 @@ def format_inspection(summary: dict[str, Any]) -> str:
         lines.append(
             f"{f['path']}: {f['messages']} messages, {span}, {state}"
             + (f", plotgate {version}" if version else "")
+            + (f", {f['scene_messages']} scene messages" if f["scene_messages"] else "")
         )
         if f["damage_count"]:
             lines.append(f"  {f['damage_count']} damaged records skipped:")

@@ -69,6 +69,8 @@ __all__ = [
     "OnRecord",
     "Reader",
     "Recording",
+    "SCENE",
+    "TRANSFORM",
     "exchange_of",
     "file_state",
     "iso_time",
@@ -179,6 +181,9 @@ class Recording:
     damage: list[str] = field(default_factory=list)
     """The first :data:`MAX_LISTED` pieces of damage, each with its offset."""
     damage_count: int = 0
+    scene_messages: int = 0
+    """Scene updates and logs of ``plotgate view`` (:data:`SCENE`; its transforms are read
+    and not counted): neither exchanges nor damage."""
     error: str | None = None
     """Why the file could not be read at all (an I/O error); None otherwise."""
     skipped: str | None = None
@@ -214,6 +219,7 @@ class Recording:
             "last_time": iso_time(self.last_time),
             "damage_count": self.damage_count,
             "damage": self.damage,
+            "scene_messages": self.scene_messages,
             "metadata": self.metadata,
         }
 
@@ -256,9 +262,23 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
     return sorted(found.values(), key=lambda f: (f.name, str(f)))
 
 
+SCENE_PREFIX, LOG_TOPIC, TRANSFORM_TOPIC = "/scene/", "/log", "/tf"
+"""The scene channels ``plotgate view`` writes beside the exchanges' (those of
+:mod:`plotgate.service.scenes`, which the clients do not import)."""
+
+SCENE, TRANSFORM = ("", "scene"), ("", "transform")
+"""What :func:`plotgate_channel` gives for a scene channel (``/scene/<operation>``,
+``/log``) and for the radar frame's transform (``/tf``): read as scenes, not damage."""
+
+
 def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | str:
     """(operation, kind) of a plotgate channel (``schemas``: the schema ids declared so
-    far), or why the channel is not one."""
+    far), :data:`SCENE` for a scene channel of ``plotgate view``, or why the channel is
+    not one."""
+    if channel.topic.startswith(SCENE_PREFIX) or channel.topic == LOG_TOPIC:
+        return SCENE
+    if channel.topic == TRANSFORM_TOPIC:
+        return TRANSFORM
     operation, _, kind = channel.topic.rpartition("/")
     name = f"channel {channel.id} ({channel.topic[:100]!r})"
     if not operation or kind not in ("request", "response"):
@@ -407,11 +427,18 @@ class Reader:
             rec.last_time = last if rec.last_time is None else max(rec.last_time, last)
         checked = iter(
             check_messages(
-                [(c[1], c[0], r[5]) for c, r in zip(on, records, strict=True) if type(c) is tuple]
+                [
+                    (c[1], c[0], r[5])
+                    for c, r in zip(on, records, strict=True)
+                    if type(c) is tuple and c not in (SCENE, TRANSFORM)
+                ]
             )
         )
         file = str(rec.path)
         for (run, i), channel in zip(places, on, strict=True):
+            if channel in (SCENE, TRANSFORM):
+                rec.scene_messages += channel == SCENE
+                continue
             if isinstance(channel, tuple):
                 verdict = next(checked)
                 if isinstance(verdict, Envelope):

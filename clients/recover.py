@@ -24,7 +24,13 @@ from pathlib import Path
 from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
-from plotgate.clients.recordings import MAX_LISTED, parse_record, plotgate_channel
+from plotgate.clients.recordings import (
+    MAX_LISTED,
+    SCENE,
+    TRANSFORM,
+    parse_record,
+    plotgate_channel,
+)
 from plotgate.clients.scan import MAGIC, Damage, NotMcap, NotRegular, Scan, not_mcap, open_regular
 
 __all__ = ["Recovery", "Refused", "recover"]
@@ -128,7 +134,8 @@ class _Copy:
                 )
             if isinstance(channel, str):
                 raise ValueError(f"a message on {channel}")
-            parse_record(channel[1], channel[0], message.data)
+            if channel not in (SCENE, TRANSFORM):  # plotgate view's scenes: copied as they are
+                parse_record(channel[1], channel[0], message.data)
         except ValueError as exc:
             self.dropped(Damage(offset, str(exc), inner))
             return

@@ -45,6 +45,8 @@ from typing import Any, TypeVar
 
 from tqdm import tqdm
 
+from plotgate.install import install_hint
+
 __all__ = [
     "CONNECT_S",
     "NO_WORKERS_S",
@@ -318,7 +320,7 @@ def _open(address: str, within: float) -> Any:
     try:
         import distributed  # noqa: F401
     except ImportError as exc:
-        raise ClusterUnavailable('a cluster needs Dask: pip install "plotgate[cluster]"') from exc
+        raise ClusterUnavailable("a cluster needs Dask: " + install_hint("cluster")) from exc
     _check_address(address)
 
     failing = f"no Dask scheduler answers at {address}"
@@ -595,7 +597,7 @@ def _cluster(address: str | None, local_workers: int | None) -> Iterator[None]:
     try:
         from distributed import LocalCluster
     except ImportError as exc:
-        raise ClusterUnavailable('a cluster needs Dask: pip install "plotgate[cluster]"') from exc
+        raise ClusterUnavailable("a cluster needs Dask: " + install_hint("cluster")) from exc
     local = client = None
     try:
         if address is None:
@@ -748,7 +750,7 @@ def run_worker(address: str, nthreads: int = 1, wait: float = 10.0) -> None:
     try:
         from distributed import Worker
     except ImportError as exc:
-        raise ClusterUnavailable('a worker needs Dask: pip install "plotgate[cluster]"') from exc
+        raise ClusterUnavailable("a worker needs Dask: " + install_hint("cluster")) from exc
     _check_address(address)
 
     async def work() -> None:

@@ -3,6 +3,7 @@ names, and where a command computes (--server, --dask, --local-workers)."""
 
 import argparse
 import math
+import textwrap
 from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
@@ -101,6 +102,18 @@ def add_where(
     where.add_argument("--local-workers", type=at_least(1), metavar="N", help=workers_help)
 
 
+def operations(text: str) -> str:
+    """An argparse type: operation names, comma-separated, each one of this build's (a typo
+    would otherwise filter everything out and pass as an empty recording)."""
+    known = list(OperationNames())
+    unknown = [op.strip() for op in text.split(",") if op.strip() and op.strip() not in known]
+    if unknown:
+        raise argparse.ArgumentTypeError(
+            f"no operation {', '.join(map(repr, unknown))}; the operations: {', '.join(known)}"
+        )
+    return text
+
+
 def filter_parser() -> argparse.ArgumentParser:
     """The parent parser of the commands that read recordings: PATH..., --operation,
     --since, --until."""
@@ -116,6 +129,7 @@ def filter_parser() -> argparse.ArgumentParser:
     filters.add_argument(
         "--operation",
         action="append",
+        type=operations,
         metavar="OP",
         help="only this operation (repeat, or comma-separate, for several)",
     )
@@ -141,3 +155,48 @@ def recording_filters(args: argparse.Namespace):
         op.strip() for ops in args.operation or () for op in ops.split(",") if op.strip()
     )
     return Filters(operations, args.since, args.until)
+
+
+HELP_WIDTH = 79
+"""Columns of a command's description and exit statuses (argparse wraps the options' help
+to the terminal, 80 columns when there is none)."""
+
+USAGE_ERROR = (2, "a usage error (argparse's message)")
+
+
+def exit_status(*codes: tuple[int, str], note: str = "") -> str:
+    """A command's ``exit status:`` section: each code and its meaning on wrapped lines,
+    then ``note`` as a paragraph."""
+    lines = ["exit status:"]
+    for code, meaning in codes:
+        lines += textwrap.wrap(
+            meaning, HELP_WIDTH, initial_indent=f"  {code}  ", subsequent_indent="     "
+        )
+    if note:
+        lines += ["", *textwrap.wrap(note, HELP_WIDTH)]
+    return "\n".join(lines)
+
+
+def command_parser(
+    sub: Any,
+    name: str,
+    *,
+    summary: str,
+    description: str,
+    exits: str,
+    parents: tuple[argparse.ArgumentParser, ...] = (),
+) -> argparse.ArgumentParser:
+    """A command's parser in the one form of plotgate's help: ``summary`` in the list of
+    commands, ``description`` (paragraphs separated by blank lines) wrapped, then its
+    exit statuses (:func:`exit_status`)."""
+    paragraphs = (
+        textwrap.fill(" ".join(p.split()), HELP_WIDTH) for p in description.split("\n\n")
+    )
+    return sub.add_parser(
+        name,
+        parents=list(parents),
+        help=summary,
+        description="\n\n".join(paragraphs),
+        epilog=exits,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )

@@ -7,23 +7,38 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from plotgate.clients.commands.arguments import OperationNames, add_where, at_least, seconds
+from plotgate.clients.commands.arguments import (
+    OperationNames,
+    add_where,
+    at_least,
+    command_parser,
+    exit_status,
+    seconds,
+)
 from plotgate.clients.commands.where import in_process_caps, on_cluster
 
 
 def add_command(sub: Any) -> None:
-    call = sub.add_parser(
+    call = command_parser(
+        sub,
         "call",
-        help="run one operation on a JSON request and print the answer",
+        summary="run one operation on a JSON request and print the answer",
         description="Runs in-process through this build's registry (what the server would "
         "answer, its work caps included: --no-limits lifts them), or on a live server with "
-        "--server (a 503 or a failed connection tried again, "
-        "--retries times). The Monte Carlo chunks of initiation.evaluate, solves.study and "
-        "identification.simulate, and the points of an unconditional "
-        "gates.probability_curve, go to a Dask "
-        "cluster with --dask or --local-workers, with the same numbers. Exit 0 on an answer, "
-        "1 on a problem, 2 when the cluster cannot be had or no usable answer came from the "
-        "server (unreachable, not the operation's answer, over 128 MiB).",
+        "--server (a 503 or a failed connection tried again, --retries times). The Monte "
+        "Carlo chunks of initiation.evaluate, solves.study and identification.simulate, and "
+        "the points of an unconditional gates.probability_curve, go to a Dask cluster with "
+        "--dask or --local-workers, with the same numbers. The answer is printed as indented "
+        "JSON (--compact: one line).",
+        exits=exit_status(
+            (0, "an answer"),
+            (1, "a problem (the request's, printed as problem+json)"),
+            (
+                2,
+                "a usage error, the cluster cannot be had, or no usable answer came from the "
+                "server (unreachable, not the operation's answer, over 128 MiB)",
+            ),
+        ),
     )
     call.add_argument(
         "operation",
@@ -31,7 +46,7 @@ def add_command(sub: Any) -> None:
         metavar="OPERATION",
         help="operation name: %(choices)s",
     )
-    call.add_argument("request", nargs="?", help="JSON request file (default: stdin)")
+    call.add_argument("request", nargs="?", help="JSON request file (default stdin)")
     add_where(call, "a live server URL (default in-process)")
     call.add_argument(
         "--retries",
@@ -44,14 +59,17 @@ def add_command(sub: Any) -> None:
         "--backoff",
         type=seconds,
         metavar="S",
-        help="with --server: the longest wait before the first retry, doubled for each one "
-        "after it, at least the 503's Retry-After, at most 30 (default 0.5)",
+        help="with --server: the longest wait before the first retry in s, doubled for each "
+        "one after it, at least the 503's Retry-After, at most 30 s (default 0.5)",
     )
     call.add_argument(
         "--no-limits",
         action="store_true",
         help="in-process: run a request over the service's work caps (the defaults that "
         "keep a request under the server's memory budget, and PLOTGATE_LIMITS) too",
+    )
+    call.add_argument(
+        "--compact", action="store_true", help="print the JSON on one line, not indented"
     )
     call.set_defaults(func=run)
 
@@ -94,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     except ClusterUnavailable as exc:
         print(f"plotgate call: {exc}", file=sys.stderr)
         return 2
-    sys.stdout.write(json.dumps(json.loads(outcome.content), indent=2) + "\n")
+    _print_json(json.loads(outcome.content), args.compact)
     return 0 if outcome.status < 400 else 1
 
 
@@ -123,10 +141,20 @@ def _call_server(args: argparse.Namespace, body: bytes) -> int:
         if answer.status_code == 503 and retries:
             print(f"plotgate call: still 503 after {retries + 1} attempts", file=sys.stderr)
         problem = exc.problem.model_dump(mode="json", exclude_none=True)
-        sys.stdout.write(json.dumps(problem, indent=2) + "\n")
+        _print_json(problem, args.compact)
         return 1
     except PlotgateClientError as exc:
         print(f"plotgate call: {exc}", file=sys.stderr)
         return 2
-    sys.stdout.write(json.dumps(json.loads(answer.content), indent=2) + "\n")
+    _print_json(json.loads(answer.content), args.compact)
     return 0
+
+
+def _print_json(value: Any, compact: bool) -> None:
+    """An answer or problem on stdout: indented, or on one line without spaces
+    (``--compact``, as the docs show answers)."""
+    if compact:
+        text = json.dumps(value, separators=(",", ":"))
+    else:
+        text = json.dumps(value, indent=2)
+    sys.stdout.write(text + "\n")

@@ -4,19 +4,23 @@ import argparse
 import sys
 from typing import Any
 
-from plotgate.clients.commands.arguments import recording_filters
+from plotgate.clients.commands.arguments import command_parser, exit_status, recording_filters
 from plotgate.clients.commands.output import unreadable_exit, write
 
 
 def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
-    cat = sub.add_parser(
+    cat = command_parser(
+        sub,
         "cat",
-        parents=[filters],
-        help="print the exchanges as JSON lines",
+        parents=(filters,),
+        summary="print the exchanges as JSON lines",
         description="One JSON line per exchange: file, time, log_time, operation, "
         "request_id, replay_of, and the request and response records as recorded (response "
-        "null when never answered). Damage goes to stderr with its offset. Exit 0, or 2 when "
-        "a file is not a recording at all.",
+        "null when never answered). Damage goes to stderr with its offset.",
+        exits=exit_status(
+            (0, "every file read (damage inside a file is listed with its offset, not an error)"),
+            (2, "a usage error, a missing or unreadable file, or no recording among the paths"),
+        ),
     )
     cat.set_defaults(func=run)
 

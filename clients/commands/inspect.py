@@ -5,17 +5,23 @@ import argparse
 import json
 from typing import Any
 
-from plotgate.clients.commands.arguments import recording_filters
+from plotgate.clients.commands.arguments import command_parser, exit_status, recording_filters
 from plotgate.clients.commands.output import unreadable_exit, write
 
 
 def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
-    ins = sub.add_parser(
+    ins = command_parser(
+        sub,
         "inspect",
-        parents=[filters],
-        help="each file's state and time range; per-operation counts, errors, latencies",
-        description="Exit 0, or 2 when a file is not a recording at all (damage inside a "
-        "file is listed with its offset, not an error).",
+        parents=(filters,),
+        summary="each file's state and time range; per-operation counts, errors, latencies",
+        description="Prints a line per file (its state, time range and damage, and the scene "
+        "messages of a file plotgate view wrote), then a table per operation: requests, "
+        "answers, errors, replays and latency percentiles in milliseconds.",
+        exits=exit_status(
+            (0, "every file read (damage inside a file is listed with its offset, not an error)"),
+            (2, "a usage error, a missing or unreadable file, or no recording among the paths"),
+        ),
     )
     ins.add_argument("--json", action="store_true", help="print JSON instead of a table")
     ins.set_defaults(func=run)

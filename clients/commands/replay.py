@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any
 from plotgate.clients.commands.arguments import (
     add_where,
     at_least,
+    command_parser,
+    exit_status,
     recording_filters,
     seconds,
     tolerance,
@@ -21,36 +23,40 @@ if TYPE_CHECKING:
     from plotgate.clients.replay import ReplayReport
 
 
-REPLAY_EXIT_CODES = """exit status:
-  0  every exchange compared and unchanged
-  1  something changed: an answer, a recorded failure that now succeeds or fails
-     differently, or an exchange that did not answer within --timeout; or two
-     records of one exchange (same id and time) that differ: a conflict
-  2  nothing comparable (--allow-empty makes that 0), a file that cannot be read,
-     no recording among the files, a FIFO, socket or device among the paths, a
-     usage or connection error, no Dask scheduler (--dask, --local-workers) or a
-     worker that cannot read the files (2 wins over 1)
-
-skipped with a note, deciding no exit code when other files are recordings: files
-that are empty or not MCAP at all.
-
-not compared, counted apart with the reason: requests never answered, answers
-whose request record is lost, bodies that timed out (408), replays whose original
-was read before them, in-process requests over the work caps: the defaults and
-PLOTGATE_LIMITS (--no-limits runs them)."""
+REPLAY_EXIT_CODES = exit_status(
+    (0, "every exchange compared and unchanged"),
+    (
+        1,
+        "something changed: an answer, a recorded failure that now succeeds or fails "
+        "differently, or an exchange that did not answer within --timeout; or two records of "
+        "one exchange (same id and time) that differ: a conflict",
+    ),
+    (
+        2,
+        "nothing comparable (--allow-empty makes that 0), a file that cannot be read, no "
+        "recording among the files, a FIFO, socket or device among the paths, a usage or "
+        "connection error, no Dask scheduler (--dask, --local-workers) or a worker that "
+        "cannot read the files (2 wins over 1)",
+    ),
+    note="Skipped with a note, deciding no exit code when other files are recordings: files "
+    "that are empty or not MCAP at all. Not compared, counted apart with the reason: requests "
+    "never answered, answers whose request record is lost, bodies that timed out (408), "
+    "replays whose original was read before them, in-process requests over the work caps: "
+    "the defaults and PLOTGATE_LIMITS (--no-limits runs them).",
+)
 
 
 def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
-    rep = sub.add_parser(
+    rep = command_parser(
+        sub,
         "replay",
-        parents=[filters],
-        help="re-run recorded requests and compare the answers",
+        parents=(filters,),
+        summary="re-run recorded requests and compare the answers",
         description="Re-runs every recorded exchange (in-process through this build, or on "
         "a live server with --server, each request under a new id marked as a replay of its "
         "original) and compares the answers field by field, numbers within --rtol and "
         "--atol as numpy.isclose does: |recorded - replayed| <= atol + rtol |replayed|.",
-        epilog=REPLAY_EXIT_CODES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        exits=REPLAY_EXIT_CODES,
     )
     add_where(
         rep,
@@ -78,7 +84,7 @@ def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
         type=seconds,
         default=60.0,
         metavar="S",
-        help="seconds each exchange may take (default %(default)g; 0: no limit)",
+        help="time each exchange may take, s (default %(default)g; 0: no limit)",
     )
     rep.add_argument(
         "--no-limits",

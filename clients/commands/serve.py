@@ -5,13 +5,36 @@ import os
 import sys
 from typing import Any
 
+from plotgate.clients.commands.arguments import command_parser, exit_status
+
 
 def add_command(sub: Any) -> None:
-    serve = sub.add_parser("serve", help="run the HTTP service, recording to MCAP")
-    serve.add_argument("--host", help="listen address (PLOTGATE_HOST, default 127.0.0.1)")
-    serve.add_argument("--port", type=int, help="port (PLOTGATE_PORT, default 8000)")
-    serve.add_argument("--workers", type=int, help="worker processes (PLOTGATE_WORKERS)")
-    serve.add_argument("--log-dir", help="recordings folder (PLOTGATE_LOG_DIR, ./recordings)")
+    serve = command_parser(
+        sub,
+        "serve",
+        summary="run the HTTP service, recording to MCAP",
+        description="Runs the HTTP service (uvicorn) until Ctrl-C or SIGTERM, recording every "
+        "exchange to MCAP files in --log-dir. Each option overrides its PLOTGATE_* setting "
+        "(docs/configuration.md); the interactive API is at /docs.",
+        exits=exit_status(
+            (0, "the server stopped (Ctrl-C or SIGTERM)"),
+            (
+                2,
+                "a usage error, settings the service refuses, a recording folder it cannot "
+                "write, a port it cannot listen on, or a live view it cannot start",
+            ),
+        ),
+    )
+    serve.add_argument("--host", help="listen address (default 127.0.0.1; PLOTGATE_HOST)")
+    serve.add_argument(
+        "--port", type=int, help="TCP port to listen on (default 8000; PLOTGATE_PORT)"
+    )
+    serve.add_argument(
+        "--workers", type=int, help="worker processes (default 1; PLOTGATE_WORKERS)"
+    )
+    serve.add_argument(
+        "--log-dir", help="recordings folder (default ./recordings; PLOTGATE_LOG_DIR)"
+    )
     serve.add_argument(
         "--no-record",
         dest="record",
@@ -24,13 +47,13 @@ def add_command(sub: Any) -> None:
         type=int,
         metavar="PORT",
         help="publish every answered exchange's scene live over Foxglove's WebSocket "
-        "protocol on this port (PLOTGATE_FOXGLOVE_PORT; off by default; needs "
+        "protocol on this TCP port (default off; PLOTGATE_FOXGLOVE_PORT; needs "
         "plotgate[view]; docs/view.md)",
     )
     serve.add_argument(
         "--foxglove-host",
         metavar="HOST",
-        help="address of the live view (PLOTGATE_FOXGLOVE_HOST, default 127.0.0.1)",
+        help="address of the live view (default 127.0.0.1; PLOTGATE_FOXGLOVE_HOST)",
     )
     serve.set_defaults(func=run)
 
@@ -92,10 +115,12 @@ def _live_view_refused(settings: Any) -> str | None:
     import importlib.util
     import socket
 
+    from plotgate.install import install_hint
+
     if settings.foxglove_port is None:
         return None
     if importlib.util.find_spec("foxglove") is None:
-        return 'needs foxglove-sdk: pip install "plotgate[view]"'
+        return f"needs foxglove-sdk: {install_hint('view')}"
     if settings.workers > 1:
         return "one live view per server: run it with --workers 1"
     try:

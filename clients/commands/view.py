@@ -5,23 +5,31 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from plotgate.clients.commands.arguments import recording_filters
+from plotgate.clients.commands.arguments import command_parser, exit_status, recording_filters
 from plotgate.clients.commands.output import unreadable_exit, write
+from plotgate.install import install_hint
 
 
 def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
-    view = sub.add_parser(
+    view = command_parser(
+        sub,
         "view",
-        parents=[filters],
-        help="write recordings as a Foxglove scene (needs plotgate[view])",
+        parents=(filters,),
+        summary="write recordings as a Foxglove scene (needs plotgate[view])",
         description="Writes one MCAP that Foxglove opens as a scene: the original request "
         "and response channels, and per exchange a foxglove.SceneUpdate on "
         "/scene/<operation> (plots, gates, tracks, platforms, solutions, bearings in the "
-        "radar frame: x east, y north, m), a foxglove.Log on /log for problems and the "
-        "radar frame's foxglove.FrameTransform on /tf (docs/view.md; docs/foxglove_layout.json "
-        "is a layout for it). Files are read as inspect reads them. Exit 0; 2 when a file "
-        "cannot be read, none is a recording, OUT cannot be written or is one of the inputs, "
-        "or foxglove-sdk is missing.",
+        "radar frame: x east, y north, in m), a foxglove.Log on /log for problems and the "
+        "radar frame's foxglove.FrameTransform on /tf (docs/view.md; "
+        "docs/foxglove_layout.json is a layout for it). Files are read as inspect reads them.",
+        exits=exit_status(
+            (0, "the scene file is written"),
+            (
+                2,
+                "a usage error, a file that cannot be read, no recording among the paths, "
+                "OUT cannot be written or is one of the inputs, or foxglove-sdk is missing",
+            ),
+        ),
     )
     view.add_argument("-o", "--out", type=Path, required=True, help="the MCAP file to write")
     view.set_defaults(func=run)
@@ -34,8 +42,7 @@ def run(args: argparse.Namespace) -> int:
         from plotgate.service.scenes import Encoded
     except ImportError as exc:
         print(
-            f"plotgate view: needs foxglove-sdk ({exc.name} is missing): "
-            'pip install "plotgate[view]"',
+            f"plotgate view: needs foxglove-sdk ({exc.name} is missing): " + install_hint("view"),
             file=sys.stderr,
         )
         return 2

@@ -4,19 +4,25 @@ import argparse
 import sys
 from typing import Any
 
-from plotgate.clients.commands.arguments import at_least
+from plotgate.clients.commands.arguments import at_least, command_parser, exit_status
 
 
 def add_command(sub: Any) -> None:
-    wrk = sub.add_parser(
+    wrk = command_parser(
+        sub,
         "worker",
-        help="join a Dask scheduler as a worker for Monte Carlo chunks",
-        description='Joins the Dask scheduler at ADDRESS (pip install "plotgate[cluster]") '
-        "and runs the chunks it is given until the scheduler goes away or SIGTERM/SIGINT "
-        "(exit 0). Exit 2 when Dask is missing or no scheduler answers within 10 s.",
+        summary="join a Dask scheduler as a worker for Monte Carlo chunks",
+        description="Joins the Dask scheduler at ADDRESS (Dask: the plotgate[cluster] extra) "
+        "and runs the chunks it is given until the scheduler goes away or SIGTERM/SIGINT.",
+        exits=exit_status(
+            (0, "the scheduler went away, or SIGTERM/SIGINT"),
+            (2, "a usage error, Dask missing, or no scheduler answered within 10 s"),
+        ),
     )
     wrk.add_argument("address", help="the scheduler, e.g. tcp://scheduler:8786")
-    wrk.add_argument("--nthreads", type=at_least(1), default=1, help="threads (1)")
+    wrk.add_argument(
+        "--nthreads", type=at_least(1), default=1, help="threads (default %(default)s)"
+    )
     wrk.set_defaults(func=run)
 
 

@@ -1,12 +1,15 @@
 """The command's help: plain text (no reStructuredText), the defaults shown, and quick,
 since it imports nothing heavy (no numpy, httpx, mcap or pydantic models)."""
 
+import argparse
+import os
+import re
 import subprocess
 import sys
 
 import pytest
 
-from plotgate.clients.cli import main
+from plotgate.clients.cli import build_parser, main
 
 COMMANDS = ["serve", "replay", "recover", "call", "worker", "inspect", "cat", "plot", "study"]
 
@@ -54,3 +57,49 @@ def test_call_still_checks_and_lists_the_operations(capsys):
     assert "invalid choice: 'gates.nothing'" in err and "'gates.test'" in err
     assert main(["call", "--help"]) == 0
     assert "solves.position" in capsys.readouterr().out
+
+
+def _commands() -> dict[str, argparse.ArgumentParser]:
+    [choices] = [a.choices for a in build_parser()._actions if isinstance(a.choices, dict)]
+    return dict(choices)
+
+
+def test_every_command_is_checked_here():
+    assert set(_commands()) == {*COMMANDS, "view", "scenario"}
+
+
+@pytest.mark.parametrize("command", sorted(_commands()))
+def test_every_help_has_one_form(command, capsys):
+    """A description, the exit statuses, defaults as "(default X)", no line over 100
+    characters (issue 37)."""
+    assert main([command, "--help"]) == 0
+    out = capsys.readouterr().out
+    description = out.split("\n\n")[1]
+    assert not description.startswith(("positional arguments:", "options:")), out
+    assert "\nexit status:\n  0  " in out
+    assert "  2  " in out.split("\nexit status:\n")[1]
+    assert max(map(len, out.splitlines())) <= 100
+    for action in _commands()[command]._actions:
+        text = (action.help or "").replace("%(default)", "")
+        if action.default not in (None, False, argparse.SUPPRESS):
+            assert "(default " in text, (action.dest, text)
+        assert len(re.findall(r"\bdefault\b", text)) == text.count("(default "), text
+
+
+def test_usage_lines_are_wrapped_at_a_terminals_width():
+    done = subprocess.run(
+        [sys.executable, "-m", "plotgate.clients.cli", "replay", "--help"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "COLUMNS": "80"},
+    )
+    assert done.returncode == 0
+    assert max(map(len, done.stdout.splitlines())) <= 80
+
+
+@pytest.mark.parametrize("command", ["inspect", "cat", "replay", "view"])
+def test_an_unknown_operation_is_refused_naming_the_operations(command, tmp_path, capsys):
+    args = [command, str(tmp_path), "--operation", "gates.test,gates.tset"]
+    assert main(args + (["-o", str(tmp_path / "v.mcap")] if command == "view" else [])) == 2
+    err = capsys.readouterr().err
+    assert "no operation 'gates.tset'" in err and "gates.probability" in err

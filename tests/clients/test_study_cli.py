@@ -159,3 +159,20 @@ def test_checks_judge_the_limits_and_the_table_shows_them():
     )
     assert "| 1 | 0 |  | 1 | 1 | — | 1.2 | 1.5 | 2 | 2 | 1.200 | 1.200 | — | — | 1.000 |" in text
     assert "| **NOT MET** |" in text and 'note "on bk": the target crosses baseline k' in text
+
+
+def test_study_writes_files_only_where_told_and_sums_up_in_a_sentence(
+    tmp_path, capsys, monkeypatch
+):
+    base = {"seed": 1, "sigma": 0.5, "noise_sigma": 0.5, "noise_sigma_spread": 0.01}
+    monkeypatch.setattr(study, "run_study", _fake_study({**base, "samples": [_sample(1.0)]}))
+    monkeypatch.chdir(tmp_path)
+    assert main(["study", str(EXAMPLE)]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert list(tmp_path.iterdir()) == []  # nothing written unasked (issue 37)
+    assert printed[-2].startswith("Verdict: all 5 requirements met: over 200 Monte Carlo runs")
+    assert printed[-1].startswith("wrote no file (--out DIR")
+    out = tmp_path / "results"
+    assert main(["study", str(EXAMPLE), "--out", str(out), "--no-png"]) == 0
+    assert [p.name for p in out.iterdir()] == ["multistatic_accuracy.md"]
+    assert capsys.readouterr().out.splitlines()[-1] == f"wrote {out / 'multistatic_accuracy.md'}"

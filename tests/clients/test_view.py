@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from plotgate.clients import recordings
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import Reader
 from plotgate.clients.view import view
@@ -55,13 +56,35 @@ def test_every_scene_message_validates_against_foxglove_schemas(session, tmp_pat
 
 def test_the_original_records_are_kept_byte_for_byte(session, tmp_path):
     out = tmp_path / "scene.mcap"
-    view(session, out, Encoded())
+    report = view(session, out, Encoded())
     key = lambda ex: (ex.request_id, ex.request_bytes, ex.response_bytes)  # noqa: E731
     recorded = sorted(map(key, Reader(session)))
     copied = Reader(out)
     assert sorted(map(key, copied)) == recorded
-    # the scene channels are not plotgate's: the reader names them, and reads on
-    assert all("not a plotgate channel" in d for d in copied.files[0].damage)
+    # the scene channels are read as scenes, not damage (issue 37)
+    assert copied.files[0].damage_count == 0
+    assert copied.files[0].scene_messages == report.scene_messages > 0
+
+
+def test_the_readers_know_the_scene_topics_view_writes():
+    assert recordings.SCENE_PREFIX == SCENE_PREFIX
+    assert (recordings.LOG_TOPIC, recordings.TRANSFORM_TOPIC) == (LOG_TOPIC, TRANSFORM_TOPIC)
+
+
+def test_inspect_cat_and_recover_read_a_view_file_without_damage(session, tmp_path, capsys):
+    out = tmp_path / "scene.mcap"
+    scenes = view(session, out, Encoded()).scene_messages
+    assert main(["inspect", str(out)]) == 0
+    printed = capsys.readouterr()
+    assert "damaged" not in printed.out + printed.err
+    assert f", {scenes} scene messages" in printed.out
+    assert main(["cat", str(out)]) == 0
+    assert capsys.readouterr().err == ""
+    copy = tmp_path / "copy.mcap"
+    assert main(["recover", str(out), "--out", str(copy), "--keep"]) == 0
+    reader = Reader(copy)
+    assert len(list(reader)) == len(list(Reader(out)))
+    assert reader.files[0].damage_count == 0 and reader.files[0].scene_messages == scenes
 
 
 def test_filters_take_what_inspect_takes(session, tmp_path):
