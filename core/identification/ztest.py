@@ -30,6 +30,7 @@ Beyond the paper:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -258,6 +259,81 @@ def bearing_sigma(name: str, value: ArrayLike | None, passive: np.ndarray) -> np
     return s
 
 
+_Axis = tuple[str, str, str, ArrayLike, ArrayLike, float | None]
+"""One coordinate tested: the passive and active fields' names, the sigma's, their values."""
+
+
+def _axes(
+    passive: ArrayLike,
+    active: ArrayLike,
+    sigma: float | None,
+    passive_elevation: ArrayLike | None,
+    active_elevation: ArrayLike | None,
+    sigma_elevation: float | None,
+) -> list[_Axis]:
+    """The coordinates tested: the bearings, and the elevations when both sides give them."""
+    axes: list[_Axis] = [("passive", "active", "sigma", passive, active, sigma)]
+    if (passive_elevation is None) != (active_elevation is None):
+        raise ParameterError(
+            "active_elevation" if active_elevation is None else "passive_elevation",
+            "give elevations on both sides or none",
+        )
+    if passive_elevation is not None and active_elevation is not None:
+        axes.append(
+            (
+                "passive_elevation",
+                "active_elevation",
+                "sigma_elevation",
+                passive_elevation,
+                active_elevation,
+                sigma_elevation,
+            )
+        )
+    return axes
+
+
+def _axis_statistics(
+    axes: list[_Axis],
+) -> tuple[int, int, list[Any], list[Any], list[Any], list[Any]]:
+    """Per coordinate, Kvasnov's eq. (5): the circular means' difference d, the population
+    sigma s and Z = d sqrt(m) / s; and the Shapiro-Wilk p-value of the passive sample's
+    deviations (NaN for fewer than 3 samples or no spread). Returns n, m and those lists."""
+    zs, diff, sig, normality = [], [], [], []
+    n = m = 0
+    for p_name, a_name, s_name, p_val, a_val, s_val in axes:
+        p, a = _samples(p_name, p_val), _samples(a_name, a_val)
+        if n and (p.size != n or a.size != m):
+            raise ParameterError(
+                p_name if p.size != n else a_name,
+                f"must have as many samples as the bearings ({n}, {m})",
+            )
+        n, m = p.size, a.size
+        s = bearing_sigma(s_name, s_val, p)
+        d = wrap_finite(circular_mean(a) - circular_mean(p))
+        zs.append(d * np.sqrt(m) / s)
+        diff.append(d)
+        sig.append(s)
+        dev = wrap_finite(p - circular_mean(p))
+        normality.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
+    return n, m, zs, diff, sig, normality
+
+
+def _power(
+    delta: float | None, beta_max: float | None, sigma: float, m: int, alpha: float, n: int
+) -> tuple[float | None, int | None]:
+    """The type II error at the separation delta, and the samples beta_max needs
+    (:func:`type_two_error`, :func:`required_samples`, at the per-coordinate level)."""
+    if beta_max is not None and delta is None:
+        raise ParameterError("beta_max", "needs delta, the separation to detect")
+    if delta is None:
+        return None, None
+    delta = float(as_array("delta", delta))
+    beta = float(type_two_error(delta, sigma, m, alpha, n))
+    if beta_max is None:
+        return beta, None
+    return beta, required_samples(delta, sigma, alpha, beta_max, n)
+
+
 def z_test(
     passive: ArrayLike,
     active: ArrayLike,
@@ -329,53 +405,12 @@ def z_test(
     normality_alpha = float(as_probability("normality_alpha", normality_alpha))
     if not ratio > 1:
         raise ParameterError("ratio", f"must be > 1, got {ratio!r}")
-    coords: list[tuple[str, str, str, ArrayLike, ArrayLike, float | None]] = [
-        ("passive", "active", "sigma", passive, active, sigma)
-    ]
-    if (passive_elevation is None) != (active_elevation is None):
-        raise ParameterError(
-            "active_elevation" if active_elevation is None else "passive_elevation",
-            "give elevations on both sides or none",
-        )
-    if passive_elevation is not None and active_elevation is not None:
-        coords.append(
-            (
-                "passive_elevation",
-                "active_elevation",
-                "sigma_elevation",
-                passive_elevation,
-                active_elevation,
-                sigma_elevation,
-            )
-        )
-    k = len(coords)
+    axes = _axes(passive, active, sigma, passive_elevation, active_elevation, sigma_elevation)
+    k = len(axes)
     z_crit = float(stats.norm.ppf(1.0 - alpha / (2 * k)))
-    zs, diff, sig, normality = [], [], [], []
-    n = m = 0
-    for p_name, a_name, s_name, p_val, a_val, s_val in coords:
-        p, a = _samples(p_name, p_val), _samples(a_name, a_val)
-        if n and (p.size != n or a.size != m):
-            raise ParameterError(
-                p_name if p.size != n else a_name,
-                f"must have as many samples as the bearings ({n}, {m})",
-            )
-        n, m = p.size, a.size
-        s = bearing_sigma(s_name, s_val, p)
-        d = wrap_finite(circular_mean(a) - circular_mean(p))
-        zs.append(d * np.sqrt(m) / s)
-        diff.append(d)
-        sig.append(s)
-        dev = wrap_finite(p - circular_mean(p))
-        normality.append(stats.shapiro(dev).pvalue if n >= 3 and np.ptp(dev) > 0 else np.nan)
+    n, m, zs, diff, sig, normality = _axis_statistics(axes)
     z, normal_p = np.array(zs, dtype=float), np.array(normality, dtype=float)
-    beta = m_req = None
-    if beta_max is not None and delta is None:
-        raise ParameterError("beta_max", "needs delta, the separation to detect")
-    if delta is not None:
-        delta = float(as_array("delta", delta))
-        beta = float(type_two_error(delta, sig[0], m, alpha / k, n))
-        if beta_max is not None:
-            m_req = required_samples(delta, float(sig[0]), alpha / k, beta_max, n)
+    beta, m_req = _power(delta, beta_max, float(sig[0]), m, alpha / k, n)
     return ZTest(
         z=z,
         p_value=2.0 * stats.norm.sf(np.abs(z)),

@@ -33,7 +33,7 @@ def acceleration_ok_reference(tracks: Tracks, config: InitiationConfig) -> np.nd
 
 
 @kernel("boolean[:](float64[:, :], float64[:, :], float64)")
-def _acceleration_kernel(r: np.ndarray, t: np.ndarray, bound: float) -> np.ndarray:
+def _acceleration_ok_compiled(r: np.ndarray, t: np.ndarray, bound: float) -> np.ndarray:
     ok = np.ones(r.shape[0], dtype=np.bool_)
     for i in range(r.shape[0]):
         for c in range(r.shape[1] - 2):
@@ -48,7 +48,7 @@ def _acceleration_kernel(r: np.ndarray, t: np.ndarray, bound: float) -> np.ndarr
 
 def acceleration_ok(tracks: Tracks, config: InitiationConfig) -> np.ndarray:
     """:func:`acceleration_ok_reference`, compiled."""
-    return _acceleration_kernel(
+    return _acceleration_ok_compiled(
         np.ascontiguousarray(tracks.ranges, dtype=float),
         np.ascontiguousarray(tracks.times, dtype=float),
         config.K_A * config.a_max,

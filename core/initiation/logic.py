@@ -439,6 +439,34 @@ def _step(state: InitiationState, scan: Scan, rules: Rules) -> tuple[InitiationS
     ), report
 
 
+def _check_after_scan(state: InitiationState, i: int, max_tracks: int | None) -> None:
+    """After the request's scan i: every track's state and covariance finite, and at most
+    ``max_tracks`` live tracks; otherwise ParameterError naming ``scans`` at i."""
+    if not (np.isfinite(state.tracks.x).all() and np.isfinite(state.tracks.P).all()):
+        bad = int(
+            np.flatnonzero(
+                ~np.isfinite(state.tracks.P).all(axis=(1, 2))
+                | ~np.isfinite(state.tracks.x).all(axis=1)
+            )[0]
+        )
+        raise ParameterError(
+            "scans",
+            f"leaves track {state.tracks.id[bad]} with a state "
+            "or covariance beyond double precision (scans or plot "
+            "times too close together for a velocity?)",
+            i,
+        )
+    if max_tracks is not None and state.tracks.size > max_tracks:
+        raise ParameterError(
+            "scans",
+            f"leaves {state.tracks.size} live tracks (scan "
+            f"{state.scans - 1} of the session); at most {max_tracks}: "
+            "narrower capture gates, nearest association or fewer "
+            "plots",
+            i,
+        )
+
+
 def initiate(
     state: InitiationState | None,
     scans: Sequence[Scan],
@@ -521,29 +549,7 @@ def initiate(
             if exc.field != "scans" or exc.index is not None:
                 raise
             raise ParameterError("scans", exc.reason, i) from exc
-        if not (np.isfinite(state.tracks.x).all() and np.isfinite(state.tracks.P).all()):
-            bad = int(
-                np.flatnonzero(
-                    ~np.isfinite(state.tracks.P).all(axis=(1, 2))
-                    | ~np.isfinite(state.tracks.x).all(axis=1)
-                )[0]
-            )
-            raise ParameterError(
-                "scans",
-                f"leaves track {state.tracks.id[bad]} with a state "
-                "or covariance beyond double precision (scans or plot "
-                "times too close together for a velocity?)",
-                i,
-            )
-        if max_tracks is not None and state.tracks.size > max_tracks:
-            raise ParameterError(
-                "scans",
-                f"leaves {state.tracks.size} live tracks (scan "
-                f"{state.scans - 1} of the session); at most {max_tracks}: "
-                "narrower capture gates, nearest association or fewer "
-                "plots",
-                i,
-            )
+        _check_after_scan(state, i, max_tracks)
         reports.append(report)
         last = scan.t
     return state, reports

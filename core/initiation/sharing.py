@@ -218,7 +218,7 @@ def _shares_with_holders(
 
 
 @kernel("boolean[:](int64[:, :], int64[:], int64[:], int64[:])")
-def _shares_two_kernel(
+def _shares_two_compiled(
     a: np.ndarray, ids: np.ndarray, start: np.ndarray, holder: np.ndarray
 ) -> np.ndarray:
     out = np.zeros(a.shape[0], dtype=np.bool_)
@@ -239,7 +239,7 @@ def shares_two(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     if a.shape[0] == 0 or b.shape[0] == 0:
         return np.zeros(a.shape[0], dtype=bool)
     ids, start, holder = _holders(b, np.arange(b.shape[0]))
-    return _shares_two_kernel(np.ascontiguousarray(a, dtype=np.int64), ids, start, holder)
+    return _shares_two_compiled(np.ascontiguousarray(a, dtype=np.int64), ids, start, holder)
 
 
 @kernel("boolean(int64[:], int64)")
@@ -252,7 +252,7 @@ def _holds(row: np.ndarray, plot: int) -> bool:
 
 
 @kernel("boolean[:](int64[:, :], int64[:])")
-def _keep_greedy_kernel(plots: np.ndarray, ids: np.ndarray) -> np.ndarray:
+def _keep_greedy_compiled(plots: np.ndarray, ids: np.ndarray) -> np.ndarray:
     """Rows in order, each kept unless two of its plots are held by one row kept before.
 
     The kept rows holding each plot are chained (head and next), newest first; a row's
@@ -297,4 +297,4 @@ def keep_greedy(plots: np.ndarray) -> np.ndarray:
     if plots.shape[0] < 2:
         return np.ones(plots.shape[0], dtype=bool)
     ids = np.unique(plots[plots >= 0]).astype(np.int64)
-    return _keep_greedy_kernel(np.ascontiguousarray(plots, dtype=np.int64), ids)
+    return _keep_greedy_compiled(np.ascontiguousarray(plots, dtype=np.int64), ids)

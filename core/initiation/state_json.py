@@ -419,6 +419,9 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
 
 
 def _check_track_histories(state: InitiationState) -> None:
+    """A track's history: ids increasing, every track at the state's time, its plots a
+    suffix of its row from increasing scans, as many as ``n`` (at most the width), its
+    first scan that of its oldest plot; then its counters (:func:`_check_track_counters`)."""
     tr, f = state.tracks, "state.tracks"
     H = tr.plots.shape[1]
     present = tr.plots >= 0
@@ -466,6 +469,15 @@ def _check_track_histories(state: InitiationState) -> None:
             f"scan {oldest[i]} ({tr.n[i]} plots, history {H})"
         ),
     )
+    _check_track_counters(state, scan, present)
+
+
+def _check_track_counters(state: InitiationState, scan: np.ndarray, present: np.ndarray) -> None:
+    """A track's counters and nulls as its history shows them: ``confirmed_scan`` set
+    exactly when confirmed and not before its first scan, ``misses`` the scans since its
+    last plot, null exactly where no plot is, times non-decreasing and not after the
+    state's; ``scan`` (m, H) holds each history plot's scan (-1 where none)."""
+    tr, f = state.tracks, "state.tracks"
     _require(
         f"{f}.confirmed_scan",
         (tr.confirmed_scan >= 0) == tr.confirmed,

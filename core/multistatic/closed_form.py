@@ -56,7 +56,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plotgate.core.compiled import ARRAY_1D, ARRAY_2D, ARRAY_3D, kernel, record
+from plotgate.core.compiled import ARRAY_1D, ARRAY_2D, ARRAY_3D, kernel, record, tuple_of
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
@@ -464,29 +464,18 @@ def root_work(p: int, d: int) -> RootWork:  # pragma: no cover (compiled)
     )
 
 
-@kernel(
-    numba.void(ARRAY_1D, ARRAY_2D, ARRAY_2D, ROOT_WORK, ARRAY_2D, ARRAY_1D, numba.boolean[::1]),
-    inline=True,
-)
-def sum_range_roots_into(
+@kernel(numba.void(ARRAY_1D, ARRAY_2D, ARRAY_2D, ROOT_WORK), inline=True)
+def _baselines_into(
     l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
     tx: np.ndarray,
     rx: np.ndarray,
     work: RootWork,
-    out: np.ndarray,
-    res: np.ndarray,
-    flags: np.ndarray,
 ) -> None:  # pragma: no cover (compiled)
-    """The sum-range roots of one problem (P pairs of one transmitter, tx[0]), compiled.
-
-    Into out (x, alternative) (2, D), res (their residuals) (2,) and flags
-    (solvable, has_alternative) (2,): :func:`sum_range_roots_reference`'s arithmetic.
-    """
+    """The linear system of the sum-range equations: the baselines M_k = rx_k - tx (P, D)
+    and h_k = (|M_k| - l_k)(|M_k| + l_k) / 2, so that M s = h + R l for s = x - tx and
+    R = |s| (the target's range from the transmitter), m and m^2."""
     p, d = tx.shape
-    M, U, V, S, h = work.M, work.U, work.V, work.S, work.h
-    a, c, s, x, R = work.a, work.c, work.s, work.x, work.R
-    consistent, residual, fallback = work.consistent, work.residual, work.fallback
-    tol = ROOT_RTOL * scale_of(tx, rx)
+    M, h = work.M, work.h
     for k in range(p):
         nb = 0.0
         for i in range(d):
@@ -494,13 +483,18 @@ def sum_range_roots_into(
             nb += M[k, i] * M[k, i]
         nb = np.sqrt(nb)
         h[k] = 0.5 * (nb - l[k]) * (nb + l[k])
-    _svd(M, U, V, S)
-    full_rank = S[d - 1] > RANK_RTOL * S[0]
-    rank = 0
-    for i in range(d):
-        if S[i] > RANK_RTOL * S[0]:
-            rank += 1
-    # a = V S^-1 U^T h, c = V S^-1 U^T g (g = l)
+
+
+@kernel(numba.void(ARRAY_1D, ROOT_WORK, numba.int64), inline=True)
+def _line_into(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    work: RootWork,
+    rank: int,
+) -> None:  # pragma: no cover (compiled)
+    """The least-norm line of solutions s = a + R c of M s = h + R l, over the rank's
+    singular values of M = U S V^T: a = V S^-1 U^T h, c = V S^-1 U^T l."""
+    p, d = l.shape[0], work.V.shape[0]
+    U, V, S, h, a, c = work.U, work.V, work.S, work.h, work.a, work.c
     for i in range(d):
         ai = 0.0
         ci = 0.0
@@ -514,6 +508,16 @@ def sum_range_roots_into(
             ci += V[i, j] / S[j] * ug
         a[i] = ai
         c[i] = ci
+
+
+@kernel(tuple_of(numba.float64, numba.float64, numba.boolean)(ROOT_WORK), inline=True)
+def _circle_roots_into(work: RootWork) -> tuple[float, float, bool]:  # pragma: no cover
+    """The roots R_j of |a + R c| = R, alpha R^2 + 2 beta R + gamma = 0 with alpha =
+    |c|^2 - 1, beta = a.c, gamma = |a|^2 (the stable form q = -(beta + sign(beta) root)),
+    into R and the points s_j = a + R_j c; returns alpha, beta and whether the roots are
+    real (the discriminant |a|^2 - |a ^ c|^2 not below rounding)."""
+    d = work.a.shape[0]
+    a, c, s, R = work.a, work.c, work.s, work.R
     alpha = -1.0
     beta = 0.0
     gamma = 0.0
@@ -538,7 +542,24 @@ def sum_range_roots_into(
     for j in range(2):
         for i in range(d):
             s[j, i] = a[i] + R[j] * c[i]
-    # rank D - 1: the mirror images +-t along the null direction
+    return alpha, beta, real
+
+
+@kernel(
+    tuple_of(numba.boolean, numba.float64, numba.boolean)(ARRAY_1D, ROOT_WORK, numba.int64),
+    inline=True,
+)
+def _mirror_into(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    work: RootWork,
+    rank: int,
+) -> tuple[bool, float, bool]:  # pragma: no cover (compiled)
+    """Rank D - 1 (receivers on one line with the transmitter, in 2-D): R fixed by the
+    part of l outside M's range, R_m = -(h_o . l_o) / |l_o|^2, and the two roots the
+    mirror images a + R_m c +- t v along the null direction v, t^2 = R_m^2 - |a + R_m c|^2,
+    into R and s. Returns whether it applies, R_m (0 when not) and whether t is real."""
+    p, d = l.shape[0], work.V.shape[0]
+    U, V, h, a, c, s, R = work.U, work.V, work.h, work.a, work.c, work.s, work.R
     gg = 0.0
     g2 = 0.0
     hg = 0.0
@@ -558,6 +579,7 @@ def sum_range_roots_into(
         hg += ho * go
     mirror = rank == d - 1 and gg > 1e-16 * g2
     R_m = -hg / gg if mirror else 0.0
+    real = False
     if mirror:
         t2 = R_m * R_m
         for i in range(d):
@@ -570,7 +592,28 @@ def sum_range_roots_into(
                 s[j, i] = a[i] + R_m * c[i] + sign * t * V[i, d - 1]
             R[j] = R_m
         real = t2 >= -1e-12 * R_m * R_m
-    solvable_rank = full_rank or mirror
+    return mirror, R_m, real
+
+
+@kernel(
+    numba.void(ARRAY_1D, ARRAY_2D, ARRAY_2D, ROOT_WORK, numba.float64, numba.boolean),
+    inline=True,
+)
+def _candidates_into(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: np.ndarray,
+    rx: np.ndarray,
+    work: RootWork,
+    tol: float,
+    admissible: bool,
+) -> None:  # pragma: no cover (compiled)
+    """Each root's target x_j = tx + s_j (0 where not finite) and its residual; it is
+    consistent when finite, ``admissible`` (real, of a solvable rank) and R_j >= 0 and
+    l_k - R_j >= 0 for every pair (a range sum is at least the transmitter's range), to
+    tol, m."""
+    p, d = tx.shape
+    s, x, R = work.s, work.x, work.R
+    consistent, residual = work.consistent, work.residual
     for j in range(2):
         finite = math.isfinite(R[j])
         for i in range(d):
@@ -581,11 +624,45 @@ def sum_range_roots_into(
                 s[j, i] = 0.0
         for i in range(d):
             x[j, i] = tx[0, i] + s[j, i]
-        ok = finite and real and solvable_rank and R[j] >= -tol
+        ok = finite and admissible and R[j] >= -tol
         for k in range(p):
             ok = ok and l[k] - R[j] >= -tol
         consistent[j] = ok
         residual[j] = _range_sum_residual(x[j], l, tx, rx)
+
+
+@kernel(
+    numba.void(
+        ARRAY_1D,
+        ARRAY_2D,
+        ARRAY_2D,
+        ROOT_WORK,
+        numba.float64,
+        numba.float64,
+        ARRAY_2D,
+        ARRAY_1D,
+        numba.boolean[::1],
+    ),
+    inline=True,
+)
+def _chosen_into(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: np.ndarray,
+    rx: np.ndarray,
+    work: RootWork,
+    tol: float,
+    vertex: float,
+    out: np.ndarray,
+    res: np.ndarray,
+    flags: np.ndarray,
+) -> None:  # pragma: no cover (compiled)
+    """The better root (the smaller residual; on a tie the smaller R, then the higher
+    last coordinate) and the other as an alternative when it is consistent too and apart
+    by more than tol; with no consistent root, the line's point at R = ``vertex`` (at
+    least 0) as the fallback."""
+    d = tx.shape[1]
+    x, R, a, c = work.x, work.R, work.a, work.c
+    consistent, residual, fallback = work.consistent, work.residual, work.fallback
     tie = abs(residual[0] - residual[1]) <= tol
     if tie:
         if abs(R[0] - R[1]) <= tol:
@@ -605,7 +682,6 @@ def sum_range_roots_into(
         out[0] = x[best]
         res[0] = residual[best]
     else:
-        vertex = R_m if mirror else -beta / alpha
         if vertex == vertex:  # np.maximum keeps a NaN
             vertex = max(vertex, 0.0)
         if not math.isfinite(vertex):
@@ -624,8 +700,48 @@ def sum_range_roots_into(
     flags[1] = has_alt
 
 
+@kernel(
+    numba.void(ARRAY_1D, ARRAY_2D, ARRAY_2D, ROOT_WORK, ARRAY_2D, ARRAY_1D, numba.boolean[::1]),
+    inline=True,
+)
+def sum_range_roots_into(
+    l: np.ndarray,  # noqa: E741 (Fadeev et al. name the range sum l)
+    tx: np.ndarray,
+    rx: np.ndarray,
+    work: RootWork,
+    out: np.ndarray,
+    res: np.ndarray,
+    flags: np.ndarray,
+) -> None:  # pragma: no cover (compiled)
+    """The sum-range roots of one problem (P pairs of one transmitter, tx[0]), compiled.
+
+    Into out (x, alternative) (2, D), res (their residuals) (2,) and flags
+    (solvable, has_alternative) (2,): :func:`sum_range_roots_reference`'s arithmetic, in
+    its steps: the linear system, its SVD and least-norm line s = a + R c, the roots on the
+    circle |s| = R (or the mirror images at rank D - 1), each root checked, the better
+    chosen.
+    """
+    d = tx.shape[1]
+    S = work.S
+    tol = ROOT_RTOL * scale_of(tx, rx)
+    _baselines_into(l, tx, rx, work)
+    _svd(work.M, work.U, work.V, S)
+    full_rank = S[d - 1] > RANK_RTOL * S[0]
+    rank = 0
+    for i in range(d):
+        if S[i] > RANK_RTOL * S[0]:
+            rank += 1
+    _line_into(l, work, rank)
+    alpha, beta, real = _circle_roots_into(work)
+    mirror, R_m, mirror_real = _mirror_into(l, work, rank)
+    if mirror:
+        real = mirror_real
+    _candidates_into(l, tx, rx, work, tol, real and (full_rank or mirror))
+    _chosen_into(l, tx, rx, work, tol, R_m if mirror else -beta / alpha, out, res, flags)
+
+
 @kernel(numba.void(ARRAY_2D, ARRAY_3D, ARRAY_3D, ARRAY_3D, ARRAY_2D, numba.boolean[:, ::1]))
-def _sum_range_kernel(
+def _sum_range_compiled(
     ls: np.ndarray,
     tx: np.ndarray,
     rx: np.ndarray,
@@ -652,7 +768,7 @@ def sum_range_roots(ls: np.ndarray, tx: np.ndarray, rx: np.ndarray) -> ClosedFor
     out = np.empty((n, 2, d))
     flags = np.empty((n, 2), dtype=np.bool_)
     res = np.empty((n, 2))
-    _sum_range_kernel(
+    _sum_range_compiled(
         np.ascontiguousarray(ls, dtype=float),
         np.ascontiguousarray(tx, dtype=float),
         np.ascontiguousarray(rx, dtype=float),

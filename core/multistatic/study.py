@@ -36,6 +36,7 @@ once for all prefixes with cumulative sums).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -43,7 +44,7 @@ from numpy.typing import ArrayLike
 from plotgate.core.chunks import Mapper, mapped, spans
 from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.closed_form import difference_range_solve, sum_range_solve
-from plotgate.core.multistatic.crlb import crlb, difference_crlb
+from plotgate.core.multistatic.crlb import CRLB, crlb, difference_crlb
 from plotgate.core.multistatic.information import inverse_information, position_covariance
 from plotgate.core.multistatic.model import (
     BASELINE_SIGMAS,
@@ -326,6 +327,137 @@ def _tracks(
     return state, track_ok
 
 
+def _checked(
+    x0: ArrayLike, v: ArrayLike, t: ArrayLike, runs: int, seed: int, sigma: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The study's inputs checked: x0, v, t as :func:`validate_track` gives them, T >= 2
+    increasing times, runs >= 2, seed >= 0 and sigma > 0 (m)."""
+    x0, v, t = validate_track(x0, v, t)
+    if t.size < 2 or not np.all(np.diff(t) > 0.0):
+        raise ParameterError("t", f"must be strictly increasing with T >= 2, got {t}")
+    if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 2:
+        raise ParameterError("runs", f"must be an integer >= 2, got {runs!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ParameterError("seed", f"must be an integer >= 0, got {seed!r}")
+    sigma = float(as_array("sigma", sigma))
+    require_positive("sigma", sigma)
+    return x0, v, t, sigma
+
+
+class _Linearised(NamedTuple):
+    """The linearised estimators' errors (curves 2 and 4) and the accumulated bound."""
+
+    single: np.ndarray
+    """(runs, T, D) errors of the linearised single-shot estimator, m."""
+    track: np.ndarray
+    """(runs, T, D) errors of the linearised track estimator on every prefix 0..i, m."""
+    cov: np.ndarray
+    """(T, 2D, 2D) inverse information of [position at t0, velocity] on each prefix."""
+    A_cov: np.ndarray
+    """(T, D, D) the position bound at t_i on the prefix 0..i, m^2."""
+    accumulated: np.ndarray
+    """(T, D) its sigmas (the single-shot bound at t0), m."""
+
+
+def _linearised(
+    Hw: np.ndarray, b1: CRLB, tau: np.ndarray, white: np.ndarray, tracks: bool
+) -> _Linearised:
+    """The linearised single-shot and track estimators on the runs' whitened noise
+    ``white`` (runs, T, P), with the whitened Jacobians Hw (T, P, D): the accumulated bound
+    and linearised track estimator for every prefix 0..i of the samples (NaN at the first
+    sample, which holds no track, and everywhere without ``tracks``)."""
+    d = Hw.shape[-1]
+    single = np.einsum("tij,tpj,rtp->rti", b1.covariance, Hw, white)
+    Hs = np.concatenate([Hw, tau[:, None, None] * Hw], axis=-1)  # (T, P, 2D)
+    J = np.cumsum(np.einsum("tpi,tpj->tij", Hs, Hs), axis=0)
+    cov = inverse_information(J)
+    P_xv, tau3 = cov[:, :d, d:], tau[:, None, None]  # position bound at t_i, prefix 0..i
+    A_cov = cov[:, :d, :d] + tau3 * (P_xv + np.swapaxes(P_xv, 1, 2)) + tau3 * tau3 * cov[:, d:, d:]
+    acc = np.sqrt(np.diagonal(A_cov, axis1=-2, axis2=-1)).copy()
+    acc[0] = b1.sigma[0]
+    theta = np.einsum("tij,rtj->rti", cov, np.cumsum(np.einsum("tpi,rtp->rti", Hs, white), axis=1))
+    track = theta[..., :d] + tau[:, None] * theta[..., d:]
+    track[:, 0] = np.nan
+    if not tracks:
+        track[:] = np.nan
+    return _Linearised(single, track, cov, A_cov, acc)
+
+
+class _TrackCurves(NamedTuple):
+    """Curve 3 and the full track: errors, RMSE, bound and largest distance."""
+
+    ml_track: np.ndarray
+    """(runs, T, D) errors of the ML track on every prefix 0..i, at t_i, m."""
+    full_track: np.ndarray
+    """(T, D) RMSE of the track of all T samples, at each t_i, m (NaN without tracks)."""
+    full_crlb: np.ndarray
+    """(T, D) its bound, m (NaN without tracks)."""
+    distance: np.ndarray
+    """(T,) the ML track's largest Mahalanobis distance from the truth (NaN at t0 and
+    without tracks)."""
+
+
+def _track_curves(
+    solved: RunSolves, x: np.ndarray, tau: np.ndarray, line: _Linearised, tracks: bool
+) -> _TrackCurves:
+    """Curve 3 (the track solved per chunk on every prefix) and the full track, against
+    the accumulated bound of :func:`_linearised`."""
+    n_t, d = x.shape
+    state = solved.state
+    full_track = full_crlb = np.full((n_t, d), np.nan)
+    if tracks:
+        full = state[:, -1]
+        full_track = _rmse(full[:, None, :d] + tau[:, None] * full[:, None, d:] - x)
+        full_crlb = np.sqrt(
+            np.diagonal(position_covariance(line.cov[-1], tau), axis1=-2, axis2=-1)
+        )
+    ml_track = state[..., :d] + tau[:, None] * state[..., d:] - x
+    J_track = np.linalg.inv(line.A_cov[1:])
+    distance = np.full(n_t, np.nan)
+    if tracks:
+        distance[1:] = _mahalanobis(ml_track[:, 1:], J_track).max(axis=0)
+    return _TrackCurves(ml_track, full_track, full_crlb, distance)
+
+
+def _tallies(solved: RunSolves, J1: np.ndarray) -> dict[str, np.ndarray]:
+    """Per sample, the runs flagged: inconsistent (the chi-square test), not converged,
+    false minima (a solution more than one CRLB from the best start's that costs more),
+    false minima the test did not flag, the track's two flags, and the closed forms'
+    unsolvable runs."""
+    false_min = (_mahalanobis(solved.single - solved.reference, J1) > 1.0) & (
+        solved.cost > solved.reference_cost + 1e-9
+    )
+    inconsistent = ~solved.consistent
+    return {
+        "inconsistent": _count(inconsistent),
+        "not_converged": _count(~solved.converged),
+        "false_minima": _count(false_min),
+        "false_unflagged": _count(false_min & ~inconsistent),
+        "track_inconsistent": _count(~solved.track_ok[0]),
+        "track_not_converged": _count(~solved.track_ok[1]),
+        "sum_range_unsolvable": _count(~solved.sum_range_ok),
+        "difference_range_unsolvable": _count(~solved.difference_range_ok),
+    }
+
+
+def _noise_estimate(t: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """The range-sum noise sigma estimated from the measured sums L (runs, T, P), window by
+    window of :data:`NOISE_WINDOW` samples (:func:`range_sum_noise`), m."""
+    n_t = t.size
+    series = np.moveaxis(L, 0, 1).reshape(n_t, -1)  # (T, runs P)
+    w = min(NOISE_WINDOW, n_t)
+    est: np.ndarray = np.sqrt(
+        np.mean(
+            [
+                range_sum_noise(t[i : i + w], series[i : i + w]).variance
+                for i in range(0, n_t - w + 1, w)
+            ],
+            axis=0,
+        )
+    )
+    return est
+
+
 def accuracy_study(
     t: ArrayLike,
     tx: ArrayLike,
@@ -394,15 +526,7 @@ def accuracy_study(
     >>> bool(np.all(np.abs(s.rmse["ml_single"] / s.crlb - 1.0) < 0.25))
     True
     """
-    x0, v, t = validate_track(x0, v, t)
-    if t.size < 2 or not np.all(np.diff(t) > 0.0):
-        raise ParameterError("t", f"must be strictly increasing with T >= 2, got {t}")
-    if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 2:
-        raise ParameterError("runs", f"must be an integer >= 2, got {runs!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ParameterError("seed", f"must be an integer >= 0, got {seed!r}")
-    sigma = float(as_array("sigma", sigma))
-    require_positive("sigma", sigma)
+    x0, v, t, sigma = _checked(x0, v, t, runs, seed, sigma)
     n_t, d = t.size, x0.size
     tau = t - t[0]
     x = x0 + tau[:, None] * v
@@ -426,81 +550,30 @@ def accuracy_study(
         "sum_range": solved.sum_range - x,
         "difference_range": solved.difference_range - x,
     }
-    unsolvable = {
-        "sum_range": _count(~solved.sum_range_ok),
-        "difference_range": _count(~solved.difference_range_ok),
-    }
 
     H = range_sum_jacobian(x, txb, rxb)  # (T, P, D)
-    Hw = H / sigma
-    e["linearised"] = np.einsum("tij,tpj,rtp->rti", b1.covariance, Hw, noise / sigma)
-    # accumulated bound and linearised track estimator for every prefix 0..i
-    Hs = np.concatenate([Hw, tau[:, None, None] * Hw], axis=-1)  # (T, P, 2D)
-    J = np.cumsum(np.einsum("tpi,tpj->tij", Hs, Hs), axis=0)
-    cov = inverse_information(J)
-    P_xv, tau3 = cov[:, :d, d:], tau[:, None, None]  # position bound at t_i, prefix 0..i
-    A_cov = cov[:, :d, :d] + tau3 * (P_xv + np.swapaxes(P_xv, 1, 2)) + tau3 * tau3 * cov[:, d:, d:]
-    acc = np.sqrt(np.diagonal(A_cov, axis1=-2, axis2=-1)).copy()
-    acc[0] = b1.sigma[0]
-    theta = np.einsum(
-        "tij,rtj->rti", cov, np.cumsum(np.einsum("tpi,rtp->rti", Hs, noise / sigma), axis=1)
-    )
-    e["linearised_track"] = theta[..., :d] + tau[:, None] * theta[..., d:]
+    line = _linearised(H / sigma, b1, tau, noise / sigma, tracks)
+    e["linearised"], e["linearised_track"] = line.single, line.track
 
-    # curve 3 (solved per chunk), and the full track
-    state, track_ok = solved.state, solved.track_ok
-    full_track = full_crlb = np.full((n_t, d), np.nan)
-    if tracks:
-        full = state[:, -1]
-        full_track = _rmse(full[:, None, :d] + tau[:, None] * full[:, None, d:] - x)
-        full_crlb = np.sqrt(np.diagonal(position_covariance(cov[-1], tau), axis1=-2, axis2=-1))
-    e["ml_track"] = state[..., :d] + tau[:, None] * state[..., d:] - x
-    e["linearised_track"][:, 0] = np.nan
-    if not tracks:
-        e["linearised_track"][:] = np.nan
-
+    curves = _track_curves(solved, x, tau, line, tracks)
+    e["ml_track"] = curves.ml_track
     J1 = b1.information
-    false_min = (_mahalanobis(single - solved.reference, J1) > 1.0) & (
-        solved.cost > solved.reference_cost + 1e-9
-    )
-    inconsistent = ~solved.consistent
-    J_track = np.linalg.inv(A_cov[1:])
-    track_distance = np.full(n_t, np.nan)
-    if tracks:
-        track_distance[1:] = _mahalanobis(e["ml_track"][:, 1:], J_track).max(axis=0)
     sq = np.sum(e["ml_single"] ** 2, axis=-1)
-    series = np.moveaxis(L, 0, 1).reshape(n_t, -1)  # (T, runs P)
-    w = min(NOISE_WINDOW, n_t)
-    est = np.sqrt(
-        np.mean(
-            [
-                range_sum_noise(t[i : i + w], series[i : i + w]).variance
-                for i in range(0, n_t - w + 1, w)
-            ],
-            axis=0,
-        )
-    )
+    est = _noise_estimate(t, L)
     return AccuracyStudy(
         t=t,
         x=x,
         crlb=b1.sigma,
-        crlb_accumulated=acc,
+        crlb_accumulated=line.accumulated,
         crlb_difference=bd.sigma,
         rmse={k: _rmse(v) for k, v in e.items()},
         rmse_se=sq.std(axis=0, ddof=1) / (2.0 * np.sqrt(runs) * sq.mean(axis=0)),
-        full_track=full_track,
-        full_track_crlb=full_crlb,
+        full_track=curves.full_track,
+        full_track_crlb=curves.full_crlb,
         max_distance=_mahalanobis(e["ml_single"], J1).max(axis=0),
-        max_track_distance=track_distance,
+        max_track_distance=curves.distance,
         gradient=np.linalg.norm(H, axis=-1),
-        inconsistent=_count(inconsistent),
-        not_converged=_count(~solved.converged),
-        false_minima=_count(false_min),
-        false_unflagged=_count(false_min & ~inconsistent),
-        track_inconsistent=_count(~track_ok[0]),
-        track_not_converged=_count(~track_ok[1]),
-        sum_range_unsolvable=unsolvable["sum_range"],
-        difference_range_unsolvable=unsolvable["difference_range"],
+        **_tallies(solved, J1),
         noise_sigma=(float(est.mean()), float(est.std())),
         runs=int(runs),
         seed=int(seed),

@@ -74,6 +74,7 @@ from plotgate.service.schemas.initiation_state import (
     MAX_HISTORY_CELLS,
     MAX_STATE_INITIATORS,
     MAX_STATE_TRACKS,
+    SessionHeldPlots,
 )
 from plotgate.service.schemas.solves import MAX_TIME
 
@@ -338,7 +339,11 @@ def evaluate(request: EvaluateRequest) -> EvaluateResult:
     )
 
 
-_STATE_ROWS = (("initiators", SessionInitiators), ("tracks", SessionTracks))
+_STATE_ROWS = (
+    ("initiators", SessionInitiators),
+    ("tracks", SessionTracks),
+    ("plots", SessionHeldPlots),
+)
 
 INITIATE_FIELDS: FieldMap = {
     **{name: f"config.{name}" for name in InitiationSettings.model_fields},
