@@ -68,6 +68,8 @@ window, K_R = K_az = 3.03 (99%), and |second difference of range| <= 3 x 10 m/s^
 DENSITY = 250.0 / 15000.0**2  # clutter plots per m^2 per scan
 SCORE = replace(LOGIC, confirmation="score", P_D=0.8, clutter_density=DENSITY)
 """The logic method under score confirmation: its time per scan against k/m's."""
+EXISTENCE = replace(SCORE, confirmation="existence", existence_confirm=0.85)
+"""The logic method under existence confirmation (IPDA, issue 38)."""
 
 
 def study(runs: int, seed: int, stonesoup: bool) -> list[str]:
@@ -142,6 +144,7 @@ def scaling(max_plots: int, repeats: int, seed: int) -> list[str]:
         ("logic (Cartesian)", LOGIC, _cartesian_scans),
         ("polar (Mu et al.)", POLAR, _polar_scans),
         ("score (Cartesian)", SCORE, _cartesian_scans),
+        ("existence (Cartesian)", EXISTENCE, _cartesian_scans),
     ):
         for n in sizes:
             scans = make(n, np.random.default_rng(seed))

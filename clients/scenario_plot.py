@@ -315,6 +315,11 @@ def describe(config: dict[str, Any]) -> str:
             f"score confirmation (false_confirmation {config['false_confirmation']:g}, "
             f"at least {config['confirm_k']} plots)"
         )
+    elif config["confirmation"] == "existence":
+        confirm = (
+            f"existence confirmation (IPDA, at existence {config['existence_confirm']:g}, "
+            f"at least {config['confirm_k']} plots)"
+        )
     else:
         confirm = f"{config['confirm_k']}/{config['confirm_m']} confirmation"
     return f"{frame} initiation, {capture}, {confirm}"

@@ -43,6 +43,7 @@ from plotgate.core.initiation import (
 from plotgate.core.initiation.evaluate import Evaluation
 from plotgate.core.initiation.evaluate import evaluate as core_evaluate
 from plotgate.core.initiation.evaluate import sweep as core_sweep
+from plotgate.core.initiation.existence import existence
 from plotgate.core.initiation.scan import merged_scan
 from plotgate.core.initiation.simulate import Scenario
 from plotgate.core.initiation.simulate import simulate as core_simulate
@@ -145,13 +146,14 @@ def _outcome(report: ScanReport) -> ScanOutcome:
     )
 
 
-def _tracks(state: InitiationState) -> list[dict[str, Any]]:
+def _tracks(state: InitiationState, config: InitiationConfig) -> list[dict[str, Any]]:
     """The live tracks as wire objects (:class:`TrackOut`), validated with the answer."""
     tr = state.tracks
     plots = [
         [[int(p // PLOT_STRIDE), int(p % PLOT_STRIDE)] for p in row if p >= 0]
         for row in tr.plots.tolist()
     ]
+    alive = existence(tr.score).tolist() if config.confirmation == "existence" else None
     return [
         {
             "id": i,
@@ -162,22 +164,25 @@ def _tracks(state: InitiationState) -> list[dict[str, Any]]:
             "plots": p,
             "n_plots": n,
             "score": sc,
+            "existence": alive[j] if alive is not None else None,
             "misses": m,
             "first_scan": f,
             "confirmed_scan": k if c else None,
         }
-        for i, c, x, P, p, n, sc, m, f, k in zip(
-            tr.id.tolist(),
-            tr.confirmed.tolist(),
-            tr.x.tolist(),
-            tr.P.tolist(),
-            plots,
-            tr.n.tolist(),
-            tr.score.tolist(),
-            tr.misses.tolist(),
-            tr.first_scan.tolist(),
-            tr.confirmed_scan.tolist(),
-            strict=True,
+        for j, (i, c, x, P, p, n, sc, m, f, k) in enumerate(
+            zip(
+                tr.id.tolist(),
+                tr.confirmed.tolist(),
+                tr.x.tolist(),
+                tr.P.tolist(),
+                plots,
+                tr.n.tolist(),
+                tr.score.tolist(),
+                tr.misses.tolist(),
+                tr.first_scan.tolist(),
+                tr.confirmed_scan.tolist(),
+                strict=True,
+            )
         )
     ]
 
@@ -222,7 +227,7 @@ def initiate(request: InitiateRequest) -> InitiateResult:
     return InitiateResult.model_validate(
         {
             "state": _answered(state),
-            "tracks": _tracks(state),
+            "tracks": _tracks(state, config),
             "scans": [_outcome(r) for r in reports],
         }
     )

@@ -3,7 +3,9 @@
 - ``initiation.initiate``: the request's plots, green when a track took them, grey when
   none did; each live track's history (its recent plots of this request's scans) as a
   line, green when confirmed, amber while tentative, its last position with its 1-sigma
-  ellipse and its velocity (drawn as the distance covered in 60 s), labelled ``T<id>``;
+  ellipse and its velocity (drawn as the distance covered in 60 s), labelled ``T<id>``
+  and, under existence confirmation, a tentative track with its probability of
+  existence (``P_E 0.83``);
 - ``initiation.simulate``: the simulated plots, green for a target's, grey for clutter,
   and each target's true track in white;
 - ``initiation.evaluate`` returns counts, not geometry: the radar at the origin, labelled
@@ -46,7 +48,17 @@ def initiate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) ->
         canvas.ellipse(position, track["covariance"], colors.COVARIANCE)
         velocity = VELOCITY_SECONDS * np.asarray(track["velocity"], dtype=float)
         canvas.line([position, position + velocity], color)
-        canvas.text(position, f"T{track['id']} {track['status']}", color)
+        canvas.text(position, _label(track), color)
+
+
+def _label(track: dict[str, Any]) -> str:
+    """``T<id> <status>``, and a tentative track's probability of existence where it has
+    one (existence confirmation): ``T7 tentative P_E 0.83``."""
+    label = f"T{track['id']} {track['status']}"
+    existence = track.get("existence")  # absent from answers recorded before issue 38
+    if existence is not None and track["status"] == "tentative":
+        label += f" P_E {existence:.2f}"
+    return label
 
 
 def simulate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) -> None:

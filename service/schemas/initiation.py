@@ -74,11 +74,13 @@ clutter 10,000 (0.35 a gate), 11x, so 1 + 30 x 0.35."""
 MODE_COST = {"cartesian": 1.0, "polar": 2.0}
 """The cost of a plot in each mode, relative to the Cartesian logic: Mu et al.'s polar
 method took twice as long on the same scans (200 runs at clutter 250, in one run)."""
-CONFIRMATION_COST = {"k_of_m": 1.0, "score": 2.0}
-"""The cost of a plot under each confirmation rule, relative to k/m: the score path (its
+CONFIRMATION_COST = {"k_of_m": 1.0, "score": 2.0, "existence": 2.0}
+"""The cost of a plot under each confirmation rule, relative to k/m. The score path (its
 maximum-likelihood gates, every plot no confirmed track holds an initiator living out its
 window) took 1.73-2.00x the k/m path's time a run, Mu et al.'s scenario at clutter 250 with
-the README's score configuration (bench/README.md, issue 35)."""
+the README's score configuration (bench/README.md, issue 35). Existence (IPDA) weighs every
+plot of every tentative track's gate and mixes the updates: 12.7 us a plot against k/m's
+7.0 (one core, a loaded machine, 200 runs at clutter 250), 1.8x, rounded up (issue 38)."""
 MAX_SPEED = 1e6
 """Largest |velocity component| of a simulated target, m/s."""
 MAX_GATE_CLUTTER = 1.0
@@ -192,13 +194,17 @@ class InitiationSettings(Schema):
         le=MAX_HISTORY,
         description="Plots remembered per track (>= confirm_m and >= 2).",
     )
-    confirmation: Literal["k_of_m", "score"] = Field(
+    confirmation: Literal["k_of_m", "score", "existence"] = Field(
         default="k_of_m",
         description="k_of_m: confirm_k plots within the first confirm_m scans; score: the "
         "sequential log-likelihood-ratio track score (Blackman and Popoli, ch. 6) reaches "
         "ln((1 - true_deletion) / false_confirmation) with at least confirm_k plots, and a "
         "tentative track at or below "
-        "ln(true_deletion / (1 - false_confirmation)) is dropped (Wald's test).",
+        "ln(true_deletion / (1 - false_confirmation)) is dropped (Wald's test); existence "
+        "(IPDA, Musicki, Evans and Stankovic 1994; cartesian mode): a tentative track's "
+        "probability of existence, updated from every plot in its gate, reaches "
+        "existence_confirm with at least confirm_k plots, and at or below existence_delete "
+        "the track is dropped.",
     )
     P_D: float = Field(
         default=0.9, gt=0, lt=1, description="Score: a target's detection probability per scan."
@@ -231,6 +237,33 @@ class InitiationSettings(Schema):
         lt=1,
         description="Score: beta, the wanted probability of dropping a true track "
         "(false_confirmation + true_deletion < 1).",
+    )
+    survival: float = Field(
+        default=0.98,
+        ge=0,
+        le=1,
+        description="Existence: p11, the probability that a target still exists a scan "
+        "later (the Markov chain of existence).",
+    )
+    existence_birth: float = Field(
+        default=0.0,
+        ge=0,
+        le=1,
+        description="Existence: p21, the probability that a track which is not a target's "
+        "becomes one a scan later.",
+    )
+    existence_confirm: float = Field(
+        default=0.99,
+        gt=0,
+        lt=1,
+        description="Existence: a tentative track confirms at this probability of existence.",
+    )
+    existence_delete: float = Field(
+        default=0.02,
+        gt=0,
+        lt=1,
+        description="Existence: a tentative track is dropped at or below this probability of "
+        "existence (< existence_confirm).",
     )
 
 
@@ -272,6 +305,9 @@ class InitiateRequest(Schema):
         return self
 
 
+DropReason = Literal["misses", "window", "acceleration", "speed", "pruned", "score", "existence"]
+
+
 class ScanOutcome(Schema):
     """What one scan did."""
 
@@ -284,10 +320,11 @@ class ScanOutcome(Schema):
     started: list[int] = Field(description="Ids of tentative tracks started.")
     confirmed: list[int] = Field(description="Ids of tracks confirmed.")
     dropped: list[int] = Field(description="Ids of tracks dropped.")
-    reasons: list[Literal["misses", "window", "acceleration", "speed", "pruned", "score"]] = Field(
+    reasons: list[DropReason] = Field(
         description="Why each was dropped: misses in a row, k out of reach in m, the polar "
         "acceleration check, a speed beyond v_max by more than 6 of its sigmas, sharing two "
-        "plots with a confirmed track, a score at or below the deletion threshold."
+        "plots with a confirmed track, a score at or below the deletion threshold, a "
+        "probability of existence at or below existence_delete."
     )
 
 
@@ -307,6 +344,11 @@ class TrackOut(Schema):
     score: float = Field(
         description="Track score, the log-likelihood ratio of target against clutter "
         "(config.confirmation score; 0 under k_of_m)."
+    )
+    existence: float | None = Field(
+        default=None,
+        description="Probability of existence (config.confirmation existence; its score "
+        "is the log-odds, ln(P / (1 - P))); null under the other confirmations.",
     )
     misses: int = Field(description="Misses in a row.")
     first_scan: int = Field(description="Scan number of its first plot.")

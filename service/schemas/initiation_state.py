@@ -197,7 +197,8 @@ class SessionTracks(Schema):
     )
     score: list[TrackValue] = Field(
         max_length=MAX_STATE_TRACKS,
-        description="Track score: the log-likelihood ratio, target against clutter; 0 under k/m.",
+        description="Track score: the log-likelihood ratio, target against clutter; under "
+        "existence confirmation the log-odds of existence; 0 under k/m.",
     )
 
     @model_validator(mode="after")
