@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 from plotgate import __version__
+from plotgate.clients import listen
 
 if TYPE_CHECKING:
     from plotgate.clients.replay import ReplayReport
@@ -98,6 +99,7 @@ def _serve(args: argparse.Namespace) -> int:
         "PLOTGATE_RECORD": args.record,
         "PLOTGATE_FOXGLOVE_PORT": args.foxglove_port,
         "PLOTGATE_FOXGLOVE_HOST": args.foxglove_host,
+        **listen.overrides(args),
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
     try:  # settings the app would refuse at start: a usage error, not a bug
@@ -105,6 +107,8 @@ def _serve(args: argparse.Namespace) -> int:
         check_limits(settings.limits)
     except ValueError as exc:
         print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
+        return 2
+    if listen.refused(settings):
         return 2
     refused = _live_view_refused(settings)
     if refused:
@@ -799,6 +803,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="HOST",
         help="address of the live view (PLOTGATE_FOXGLOVE_HOST, default 127.0.0.1)",
     )
+    listen.add_arguments(serve)
     serve.set_defaults(func=_serve)
 
     filters = argparse.ArgumentParser(add_help=False)
