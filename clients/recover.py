@@ -14,7 +14,10 @@ once.
 A file that does not start with the MCAP magic is refused (:class:`Refused`) and left as
 it is: it is not a recording, and an empty copy would pass for one. So is a path that is
 not a regular file (a FIFO, socket, device or folder), at once: it is never opened to
-read, where a FIFO would block.
+read, where a FIFO would block. The copy is written through
+:func:`plotgate.files.atomic_write` (a temporary beside it, renamed into place): an existing
+``--out`` (or ``<name>.partial``) that is a link, FIFO, device or folder is refused, and
+nothing is written through it.
 """
 
 import os
@@ -32,6 +35,7 @@ from plotgate.clients.recordings import (
     plotgate_channel,
 )
 from plotgate.clients.scan import MAGIC, Damage, NotMcap, NotRegular, Scan, not_mcap, open_regular
+from plotgate.files import atomic_write, check_target
 
 __all__ = ["Recovery", "Refused", "recover"]
 
@@ -192,13 +196,13 @@ def recover(path: Path | str, out: Path | str | None = None, keep: bool = False)
     path = Path(path)
     out = Path(out) if out is not None else path.with_name(f"{path.stem}.recovered.mcap")
     _check_magic(path)
+    check_target(out)
     if out.exists() and out.resolve() == path.resolve():
         raise Refused(f"the copy would overwrite {path}; name another with --out")
     recovery = Recovery(path, out)
     scan = Scan(path)
-    partial = out.with_name(out.name + ".writing")
     try:
-        with open(partial, "wb") as stream:
+        with atomic_write(out) as stream:
             writer = Writer(stream, compression=CompressionType.LZ4)
             copy = _Copy(writer, recovery)
             for item in scan:
@@ -209,15 +213,13 @@ def recover(path: Path | str, out: Path | str | None = None, keep: bool = False)
             if not copy.started:
                 copy.start("", "plotgate recover")
             writer.finish()
-        os.replace(partial, out)
     except NotMcap as exc:  # the file changed since its magic was read
         raise Refused(str(exc)) from None
-    finally:
-        partial.unlink(missing_ok=True)
     recovery.was_complete = scan.complete
     recovery.chunks, recovery.chunks_damaged = scan.chunks, scan.chunks_damaged
     recovery.dropped_messages, recovery.skipped_bytes = scan.dropped_messages, scan.skipped_bytes
     if not keep and (recovery.damage_count or not scan.complete):
         recovery.renamed = path.with_name(path.name + ".partial")
+        check_target(recovery.renamed)
         path.rename(recovery.renamed)
     return recovery

@@ -48,6 +48,7 @@ import ctypes
 import errno
 import importlib
 import json
+import os
 import signal
 import threading
 import time
@@ -66,6 +67,7 @@ from plotgate.clients.recordings import (
     file_state,
     iso_time,
 )
+from plotgate.files import check_target, replace_into, temporary_beside
 from plotgate.service.table import ENDPOINTS
 
 if TYPE_CHECKING:
@@ -694,7 +696,9 @@ def _count(
 
 class _SessionWriter:
     """Writes the replayed session (each request under its new id, marked as a replay of
-    its original, with its new answer) to one MCAP file."""
+    its original, with its new answer) to one MCAP file: a temporary beside ``out``, renamed
+    into place at the end (:mod:`plotgate.files`; an ``out`` that is a link, FIFO, device or
+    folder is refused before anything is replayed)."""
 
     def __init__(self, out: Path, sources: list[Path]) -> None:
         from plotgate.service.provenance import VERSION
@@ -702,12 +706,16 @@ class _SessionWriter:
         from plotgate.service.registry import OPERATIONS
 
         out = self._out = Path(out)
+        check_target(out)
+        fd, self._partial = temporary_beside(out, suffix=".writing")
+        os.close(fd)
+        self._partial.unlink()  # the recorder creates it again with O_EXCL|O_NOFOLLOW
         metadata = {
             "plotgate_version": VERSION,
             "replayed_from": ", ".join(map(str, sources))[:10_000],
         }
         self._recorder = Recorder(
-            out.parent, OPERATIONS.values(), file_name=out.name, metadata=metadata
+            out.parent, OPERATIONS.values(), file_name=self._partial.name, metadata=metadata
         ).start()
 
     def __call__(self, exchange: Exchange, rid: str, answer: Answer, duration_s: float) -> None:
@@ -738,5 +746,9 @@ class _SessionWriter:
     def __enter__(self) -> "_SessionWriter":
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: object, *exc: object) -> None:
         self._recorder.close()
+        if kind is None and self._partial.exists():
+            replace_into(self._partial, self._out)
+        else:
+            self._partial.unlink(missing_ok=True)

@@ -13,16 +13,15 @@ and unfinished files are read exactly as ``inspect`` and ``cat`` read them):
   layers keep their one direction), stamped with the request's time, and the radar frame's
   transform at the first exchange and then once a second of recording time.
 
-The file is written beside ``out`` under a hidden temporary name and moved into place when
-complete, so a killed or interrupted run never leaves a half-written file under the name
-asked for; when no file read is a recording, nothing is written. ``out`` may not be one of
-the recordings read.
+The file is written through :func:`plotgate.files.atomic_write`: beside ``out`` under a
+hidden temporary name, moved into place when complete, so a killed or interrupted run never
+leaves a half-written file under the name asked for; when no file read is a recording,
+nothing is written. ``out`` may not be one of the recordings read, nor an existing link,
+FIFO, device or folder (refused before anything is read).
 """
 
-import contextlib
 import json
-import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO, Protocol
@@ -30,6 +29,7 @@ from typing import Any, BinaryIO, Protocol
 from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.recordings import Exchange, Filters, Reader
+from plotgate.files import atomic_write, check_target
 from plotgate.service.schemas import request_schema, response_schema
 from plotgate.service.table import ENDPOINTS
 
@@ -133,37 +133,26 @@ def view(
 
     Raises ``FileNotFoundError`` or :class:`~plotgate.clients.scan.NotRegular` for paths
     that are not recordings (as every reader does), ``ValueError`` for an ``out`` among
-    them, ``OSError`` naming ``out`` when it cannot be written."""
+    them, ``OSError`` naming ``out`` when it cannot be written
+    (:class:`~plotgate.files.NotRegularTarget` when it is not a regular file)."""
     out = Path(out)
+    check_target(out)
     reader = Reader(paths, filters)
     _check_out(out, reader.paths)
     report = ViewReport(out, reader=reader)
-    partial = out.with_name(f".{out.name}.{os.getpid()}.partial")
     try:
-        with _naming(out), open(partial, "wb") as stream:
+        with atomic_write(out) as stream:
             _write(stream, reader, scenes, report)
-            stream.flush()
-            os.fsync(stream.fileno())
-        if reader.recordings:
-            with _naming(out):
-                os.replace(partial, out)
-            report.written = True
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            partial.unlink()
+            if not reader.recordings:
+                raise _NothingToWrite
+        report.written = True
+    except _NothingToWrite:
+        pass
     return report
 
 
-@contextlib.contextmanager
-def _naming(out: Path) -> Iterator[None]:
-    """An ``OSError`` of the output's temporary named as the output the user gave (a
-    folder there, a missing folder, a full disk)."""
-    try:
-        yield
-    except OSError as exc:
-        if exc.filename is None or exc.filename == str(out):
-            raise
-        raise OSError(exc.errno, exc.strerror, str(out)) from exc
+class _NothingToWrite(Exception):
+    """No file read was a recording: the temporary is dropped, ``out`` left as it was."""
 
 
 def _write(stream: BinaryIO, reader: Reader, scenes: Scenes, report: ViewReport) -> None:

@@ -29,6 +29,7 @@ from fastapi.responses import Response
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException
 
+from plotgate.service.access import Keys, binding_refusal
 from plotgate.service.cluster import cancel_calls, configure
 from plotgate.service.config import Settings, get_settings
 from plotgate.service.guards import Auth, BodyLimit, RequestId
@@ -129,14 +130,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.openapi = lambda: openapi(app)  # type: ignore[method-assign]
     app.add_middleware(Operations, state=app.state)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
-    if settings.api_key is not None or settings.bearer_token is not None:
-        app.add_middleware(
-            Auth,
-            api_key=settings.api_key.get_secret_value() if settings.api_key else None,
-            bearer_token=(
-                settings.bearer_token.get_secret_value() if settings.bearer_token else None
-            ),
-        )
+    keys = Keys.from_settings(settings)
+    if keys.required:
+        app.add_middleware(Auth, keys=keys)
     app.add_middleware(RequestId)
     return app
 
@@ -152,7 +148,18 @@ def _live_view(settings: Settings) -> "LiveView | None":
     except ImportError as exc:
         log.error("no live view: foxglove-sdk is missing (%s): pip install 'plotgate[view]'", exc)
         return None
-    live = LiveView(settings.foxglove_host, settings.foxglove_port)
+    keys = Keys.from_settings(settings)
+    refusal, warning = binding_refusal(
+        "the live view", settings.foxglove_host, keys, settings.allow_unauthenticated
+    )
+    if refusal is not None:
+        log.error("no live view: %s", refusal)
+        return None
+    if warning is not None:
+        log.warning("%s", warning)
+    live = LiveView(
+        settings.foxglove_host, settings.foxglove_port, keys, settings.live_max_clients
+    )
     try:
         live.start()
     except RuntimeError as exc:

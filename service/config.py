@@ -104,13 +104,28 @@ class Settings(BaseSettings):
     )
     foxglove_host: str = Field(
         default="127.0.0.1",
-        description="Address the live view binds (the protocol has no authentication).",
+        description="Address the live view binds; it asks for the same keys as the API "
+        "(a ?key= in the WebSocket URL, or the API's headers).",
+    )
+    live_max_clients: int = Field(
+        default=64,
+        ge=1,
+        le=4096,
+        description="Live view clients connected at once; one more is refused with 503.",
     )
     api_key: SecretStr | None = Field(
-        default=None, description="When set, requests need this X-API-Key header."
+        default=None,
+        description="When set, requests need this X-API-Key header (and the live view this key).",
     )
     bearer_token: SecretStr | None = Field(
-        default=None, description="When set, requests need Authorization: Bearer <token>."
+        default=None,
+        description="When set, requests need Authorization: Bearer <token> (and the live "
+        "view this token).",
+    )
+    allow_unauthenticated: bool = Field(
+        default=False,
+        description="Let the API or the live view listen on an address other than "
+        "loopback with no key set (a warning is logged); refused otherwise.",
     )
 
     @field_validator("limits")

@@ -12,12 +12,13 @@
 * :class:`Auth` requires, when ``Settings.api_key`` or ``Settings.bearer_token`` is set,
   an ``X-API-Key`` header or an ``Authorization: Bearer`` token on every path but the
   open ones (``/healthz``, ``/readyz``, the docs with their assets and the OpenAPI
-  schema), compared in constant time (``hmac.compare_digest``); anything else answers 401
-  problem+json with ``WWW-Authenticate``. The recorder writes request bodies only, never
+  schema), checked by the one policy every listener shares
+  (:meth:`plotgate.service.access.Keys.allows`, in constant time); anything else answers
+  401 problem+json with ``WWW-Authenticate``. Keys in the URL are not taken here: a URL
+  ends up in logs. The recorder writes request bodies only, never
   headers, so the key is never recorded.
 """
 
-import hmac
 import re
 import uuid
 from collections.abc import Awaitable, Callable, MutableMapping, Sequence
@@ -25,6 +26,7 @@ from typing import Any
 
 from starlette.datastructures import Headers
 
+from plotgate.service.access import Keys
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.schemas import REQUEST_ID_PATTERN, FieldError
 
@@ -160,20 +162,9 @@ class BodyLimit:
 class Auth:
     """Require an API key or a bearer token on every path but :data:`OPEN_PATHS`."""
 
-    def __init__(self, app: ASGIApp, api_key: str | None, bearer_token: str | None) -> None:
+    def __init__(self, app: ASGIApp, keys: Keys) -> None:
         self.app = app
-        self.api_key = api_key.encode() if api_key else None
-        self.bearer = bearer_token.encode() if bearer_token else None
-
-    def _allowed(self, scope: Scope) -> bool:
-        given_key = Headers(scope=scope).get("x-api-key")
-        if self.api_key is not None and given_key is not None:
-            return hmac.compare_digest(given_key.encode("latin-1"), self.api_key)
-        authorization = Headers(scope=scope).get("authorization") or ""
-        scheme, _, token = authorization.partition(" ")
-        if self.bearer is not None and scheme.lower() == "bearer":
-            return hmac.compare_digest(token.strip().encode("latin-1"), self.bearer)
-        return False
+        self.keys = keys
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         path = route_path(scope)
@@ -181,24 +172,18 @@ class Auth:
             scope["type"] != "http"
             or path in OPEN_PATHS
             or path.startswith(OPEN_PREFIX)
-            or self._allowed(scope)
+            or self.keys.allows(Headers(scope=scope))
         ):
             await self.app(scope, receive, send)
             return
-        ways = [
-            w
-            for w, on in (
-                ("an X-API-Key header", self.api_key),
-                ("an Authorization: Bearer token", self.bearer),
-            )
-            if on
-        ]
-        reason = f"is missing or wrong: send {' or '.join(ways)}"
+        reason = f"is missing or wrong: send {' or '.join(self.keys.ways())}"
         err = ProblemError(
             "unauthorized",
             401,
             f"credentials: {reason}",
             [FieldError(field="credentials", reason=reason)],
         )
-        challenge = b'Bearer realm="plotgate"' if self.bearer else b'ApiKey realm="plotgate"'
+        challenge = (
+            b'Bearer realm="plotgate"' if self.keys.bearer_token else b'ApiKey realm="plotgate"'
+        )
         await _problem(send, scope, err, [(b"www-authenticate", challenge)])

@@ -116,6 +116,28 @@ class _LiveCollector(Collector):
         for reason, count in live.dropped.items():
             dropped.add_metric([reason], count)
         yield dropped
+        yield from _live_clients(live)
+
+
+def _live_clients(live: "LiveView") -> Iterator[Metric]:
+    """The live view gate's counters: clients, refusals, scenes dropped for slow clients."""
+    yield GaugeMetricFamily(
+        "plotgate_foxglove_clients", "Live view clients connected now.", value=live.clients
+    )
+    refused = CounterMetricFamily(
+        "plotgate_foxglove_refused",
+        "Live view clients refused, by reason: key (no key or a wrong one), full (the "
+        "connection cap, PLOTGATE_LIVE_MAX_CLIENTS).",
+        labels=["reason"],
+    )
+    for reason, count in live.refused.items():
+        refused.add_metric([reason], count)
+    yield refused
+    yield CounterMetricFamily(
+        "plotgate_foxglove_client_dropped",
+        "Scenes dropped from a slow live view client's backlog (the oldest first).",
+        value=live.client_dropped,
+    )
 
 
 class Metrics:

@@ -111,6 +111,10 @@ def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from plotgate.clients.replay import replay
+    from plotgate.files import check_target, write_bytes
+
+    if args.report:
+        check_target(args.report)  # a link, FIFO or device: refused before the replay
 
     try:
         limits = in_process_caps(args)
@@ -137,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
         )
     code = report.exit_code(args.allow_empty)
     if args.report:
-        Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
+        write_bytes(args.report, json.dumps(report.to_json(), indent=2, default=str).encode())
     text = report.text()
     if code == 2 and report.skipped and not (report.unreadable or report.recordings):
         text += "\nno MCAP recording among the paths given (exit 2)"

@@ -5,6 +5,7 @@ import os
 import sys
 from typing import Any
 
+from plotgate.clients import listen
 from plotgate.clients.commands.arguments import command_parser, exit_status
 
 
@@ -55,6 +56,7 @@ def add_command(sub: Any) -> None:
         metavar="HOST",
         help="address of the live view (default 127.0.0.1; PLOTGATE_FOXGLOVE_HOST)",
     )
+    listen.add_arguments(serve)
     serve.set_defaults(func=run)
 
 
@@ -73,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
         "PLOTGATE_RECORD": args.record,
         "PLOTGATE_FOXGLOVE_PORT": args.foxglove_port,
         "PLOTGATE_FOXGLOVE_HOST": args.foxglove_host,
+        **listen.overrides(args),
     }
     os.environ.update({k: str(v) for k, v in overrides.items() if v is not None})
     try:  # settings the app would refuse at start: a usage error, not a bug
@@ -80,6 +83,8 @@ def run(args: argparse.Namespace) -> int:
         check_limits(settings.limits)
     except ValueError as exc:
         print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
+        return 2
+    if listen.refused(settings):
         return 2
     refused = _live_view_refused(settings)
     if refused:

@@ -6,9 +6,11 @@ chunks of :data:`CHUNK_BYTES`, message indexes, and a summary with the chunk ind
 statistics (mcap's ``Writer``). The schemas, channels, metadata and messages are copied in
 order, with their ids, times and sequence numbers.
 
-Safety, step by step: the copy is written to a temporary name in the same folder
-(``.<name>.<pid>.compacting``: hidden, and not ``*.mcap``, so no reader takes it for a
-recording), synced, then swapped in with ``os.replace`` and the folder synced. Until the
+Safety, step by step: the copy is written to a new temporary file in the same folder
+(``.<name>.<random>.<pid>.compacting``: hidden, and not ``*.mcap``, so no reader takes it
+for a recording), created by :mod:`plotgate.files` with O_EXCL|O_NOFOLLOW, so a name
+planted in the folder is never opened; the source is opened without following a link.
+The copy is synced, then swapped in with ``os.replace`` and the folder synced. Until the
 swap the original is untouched; after it the copy holds the same messages. A kill at any
 moment therefore leaves one readable file with every acknowledged exchange, plus at worst
 a temporary, which the next start removes (:func:`remove_leftovers`) once its process is
@@ -22,7 +24,8 @@ start cannot tell them from a dead one's; ``plotgate recover`` writes its indexe
 A server compacts in a child process (:class:`Compactions`), started with ``nice``, so
 the compaction never holds the loop's GIL. The child runs this file as a script, so it
 imports mcap and the standard library only, not the service (which takes seconds on a
-loaded machine); that is why this module imports nothing of plotgate. Plain code
+loaded machine); that is why this module imports nothing of plotgate but the
+standard-library :mod:`plotgate.files`. Plain code
 (``plotgate replay --out``, the benches) compacts in its own thread on ``close``.
 Memory is bounded: records are read one at a time and the writer holds one chunk, its
 message index and one index entry per chunk.
@@ -46,6 +49,8 @@ from mcap.exceptions import McapError
 from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
+from plotgate.files import open_regular, replace_into, temporary_beside
+
 __all__ = [
     "CHUNK_BYTES",
     "COMPRESSION",
@@ -53,7 +58,7 @@ __all__ = [
     "Compactions",
     "compact",
     "remove_leftovers",
-    "temporary",
+    "temporaries",
 ]
 
 log = logging.getLogger("plotgate")
@@ -79,9 +84,9 @@ NO_SPACE_EXIT = 3
 """The exit status of a compaction that failed for lack of space (1: any other failure)."""
 
 
-def temporary(path: Path, pid: int) -> Path:
-    """Where process ``pid`` writes the compacted copy of ``path``."""
-    return path.with_name(f".{path.name}.{pid}{SUFFIX}")
+def temporaries(path: Path, pid: int) -> list[Path]:
+    """The temporaries process ``pid`` made for compacted copies of ``path``."""
+    return sorted(path.parent.glob(f".{path.name}.*.{pid}{SUFFIX}"))
 
 
 _UNSUMMARIZED_END = struct.pack("<BQQ", 0x02, 20, 0)
@@ -91,7 +96,7 @@ _UNSUMMARIZED_END = struct.pack("<BQQ", 0x02, 20, 0)
 def closed(path: Path) -> bool:
     """``path`` ends with the footer its recorder writes on closing it, without a summary
     (a compacted file has one: compacting it again does nothing)."""
-    with open(path, "rb") as f:
+    with open_regular(path) as f:
         size = f.seek(0, os.SEEK_END)
         if size < 29 + len(MCAP0_MAGIC):
             return False
@@ -108,18 +113,18 @@ def compact(path: Path) -> bool:
     path = Path(path)
     if not closed(path):
         return False
-    copy = temporary(path, os.getpid())
+    fd, copy = temporary_beside(path, suffix=f".{os.getpid()}{SUFFIX}")
     try:
-        with open(path, "rb") as source, open(copy, "wb") as out:
+        with os.fdopen(fd, "wb") as out, open_regular(path) as source:
+            os.fchmod(fd, 0o644)  # mkstemp's 0600: the recording's mode
             _copy(source, out, os.fstat(source.fileno()).st_size)
             out.flush()
             os.fsync(out.fileno())
-        os.replace(copy, path)
+        replace_into(copy, path)
     except BaseException:
         with contextlib.suppress(OSError):
             copy.unlink()
         raise
-    _sync_folder(path.parent)
     return True
 
 
@@ -187,15 +192,6 @@ def _records(source: IO[bytes], size: int) -> Iterator[McapRecord]:
             raise ValueError(f"offset {pos}: the record's fields do not fill its length")
         yield record
         pos += 9 + length
-
-
-def _sync_folder(folder: Path) -> None:
-    """Make a rename in ``folder`` durable (its entry written), where the OS allows it."""
-    fd = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def remove_leftovers(folder: Path) -> list[Path]:
@@ -280,8 +276,9 @@ class Compactions:
             except subprocess.TimeoutExpired:
                 child.kill()
                 child.wait()
-                with contextlib.suppress(OSError):
-                    temporary(path, child.pid).unlink()
+                for leftover in temporaries(path, child.pid):
+                    with contextlib.suppress(OSError):
+                        leftover.unlink()
                 log.warning("%s left uncompacted: the shutdown's time ran out", path)
                 left.append(path)
         self._running.clear()

@@ -12,6 +12,7 @@ import time
 from datetime import UTC, datetime
 from pathlib import Path
 
+from plotgate.files import create_new
 from plotgate.service.recording.records import FILE_TAIL
 
 __all__ = ["FileLost", "FileMoved", "RecordingFile", "file_name"]
@@ -46,7 +47,7 @@ class RecordingFile:
     def __init__(self, path: Path, number: int, head: bytes) -> None:
         self.path = path
         self.number = number
-        self.fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o644)
+        self.fd = create_new(path)  # O_EXCL|O_NOFOLLOW: a name planted in the folder is refused
         self.size = 0
         self.commits = 0
         self.opened_at = time.monotonic()

@@ -32,6 +32,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from plotgate.files import temporary_beside
 from plotgate.service.recording.compaction import (
     FAILURES,
     Compactions,
@@ -290,7 +291,8 @@ class Recorder:
         probe = self.directory / f".plotgate-probe-{os.getpid()}"
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
-            with open(probe, "wb") as f:
+            fd, probe = temporary_beside(probe, suffix="")  # never a planted name
+            with os.fdopen(fd, "wb") as f:
                 f.write(b"\0" * PROBE_BYTES)
                 f.flush()
                 os.fsync(f.fileno())

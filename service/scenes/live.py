@@ -8,8 +8,10 @@ counts the exchange dropped: a list append and two comparisons, on the event loo
 thread forwards the queue in batches, every :data:`FORWARD_S`, through a pipe to a
 publisher process, which parses the records, builds the scenes with the same builder as
 ``plotgate view`` (:func:`plotgate.service.scenes.scene_messages`) and logs them on
-foxglove-sdk's channels; the SDK's server sends them to the subscribed clients (keeping at
-most its backlog of messages per client, dropping the oldest for a slow one).
+foxglove-sdk's channels. The SDK's server listens on loopback only; the port given is
+:mod:`plotgate.service.scenes.live_gate`'s, which asks every client for the API's key
+before it sends a byte, caps the clients connected, and keeps each client's backlog bounded
+(dropping the oldest scene for a slow one, counted in ``/metrics``).
 
 Decisions where the issue is silent:
 
@@ -22,22 +24,34 @@ Decisions where the issue is silent:
 - **Records over** :data:`MAX_RECORD_BYTES` are not sent: a 64 MiB body is not drawn live
   (``plotgate view`` draws it, under the scene's caps); a Log message says so, and it
   counts as dropped (``reason="too_large"``).
-- **One publisher per server**, binding ``--foxglove-host`` (127.0.0.1 by default: the
-  protocol has no authentication) and the port given; ``serve --workers N`` with N > 1
-  is refused with it (each worker would bind the port).
+- **One publisher per server**, its gate binding ``--foxglove-host`` (127.0.0.1 by
+  default) and the port given; ``serve --workers N`` with N > 1 is refused with it (each
+  worker would bind the port). With no key set, a host other than loopback needs
+  ``--allow-unauthenticated`` (:func:`plotgate.service.access.binding_refusal`).
 - **A publisher that fails** (the port taken, foxglove-sdk missing, the process killed)
   costs the live view, never an answer: the server logs it, goes on answering and
   recording, and counts every exchange after it as dropped (``reason="no_publisher"``).
 """
 
+import asyncio
 import logging
 import multiprocessing
 import os
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, MutableSequence
 from multiprocessing.connection import Connection
 from typing import Any
+
+from plotgate.service.access import Keys
+from plotgate.service.scenes.live_gate import (
+    CLIENTS,
+    COUNTERS,
+    DROPPED,
+    REFUSED_FULL,
+    REFUSED_KEY,
+    Gate,
+)
 
 __all__ = [
     "FORWARD_S",
@@ -68,10 +82,16 @@ Offered = tuple[str, int, bytes, bytes]
 class LiveView:
     """The server's side: the bounded queue, the forwarding thread and the publisher
     process. ``published`` counts the exchanges handed to the publisher, ``dropped`` those
-    that were not, by reason."""
+    that were not, by reason; the gate's counters are read through :attr:`clients`,
+    :attr:`refused` and :attr:`client_dropped`."""
 
-    def __init__(self, host: str, port: int) -> None:
+    def __init__(
+        self, host: str, port: int, keys: Keys | None = None, max_clients: int = 64
+    ) -> None:
         self.host, self.port = host, port
+        self.keys = keys or Keys()
+        self.max_clients = max_clients
+        self._counters: MutableSequence[int] = [0] * COUNTERS
         self.published = 0
         self.dropped = {"queue_full": 0, "too_large": 0, "no_publisher": 0}
         self._queue: list[Offered] = []
@@ -86,9 +106,10 @@ class LiveView:
         """Spawn the publisher and wait until it serves (``RuntimeError`` saying why not)."""
         context = multiprocessing.get_context("spawn")
         ours, theirs = context.Pipe()
+        self._counters = context.RawArray("q", COUNTERS)
         self._process = context.Process(
             target=publish,
-            args=(theirs, self.host, self.port),
+            args=(theirs, self.host, self.port, self.keys, self.max_clients, self._counters),
             name="plotgate-foxglove",
             daemon=True,
         )
@@ -108,6 +129,21 @@ class LiveView:
         )
         self._thread.start()
         return self
+
+    @property
+    def clients(self) -> int:
+        """Live view clients connected now."""
+        return int(self._counters[CLIENTS])
+
+    @property
+    def refused(self) -> dict[str, int]:
+        """Clients refused: without a key, or over the cap."""
+        return {"key": self._counters[REFUSED_KEY], "full": self._counters[REFUSED_FULL]}
+
+    @property
+    def client_dropped(self) -> int:
+        """Scenes dropped from slow clients' backlogs."""
+        return int(self._counters[DROPPED])
 
     def offer(self, operation: str, log_time: int, request: bytes, response: bytes) -> None:
         """Queue an answered exchange for the picture, or count it dropped (never waits)."""
@@ -156,25 +192,46 @@ class LiveView:
                 self._process.join(5)
 
 
-def publish(conn: Connection, host: str, port: int) -> None:
-    """The publisher process: serve on ``host:port``, then draw every batch received until
-    the pipe closes. Reports ``("serving", port)`` or ``("failed", why)`` first."""
+def publish(
+    conn: Connection,
+    host: str,
+    port: int,
+    keys: Keys,
+    max_clients: int,
+    counters: MutableSequence[int],
+) -> None:
+    """The publisher process: the SDK's server on loopback, the gate on ``host:port``, then
+    draw every batch received until the pipe closes. Reports ``("serving", port)`` or
+    ``("failed", why)`` first."""
     os.nice(NICENESS)
     try:
         import foxglove
 
         from plotgate.service.scenes.channels import LiveChannels
 
-        server = foxglove.start_server(name="plotgate", host=host, port=port)
+        server = foxglove.start_server(name="plotgate", host="127.0.0.1", port=0)
         channels = LiveChannels()
+        gate = Gate(keys, server.port, max_clients, counters)
+        loop, bound = _start_gate(gate, host, port)
     except Exception as exc:  # noqa: BLE001 - said to the server, which goes on without us
         conn.send(("failed", f"{type(exc).__name__}: {exc}"))
         return
-    conn.send(("serving", server.port))
+    conn.send(("serving", bound))
     try:
         _draw_until_closed(conn, channels.log_exchange)
     finally:
+        loop.call_soon_threadsafe(loop.stop)
         server.stop()
+
+
+def _start_gate(gate: Gate, host: str, port: int) -> tuple[asyncio.AbstractEventLoop, int]:
+    """Run ``gate`` on its own loop in a thread; the loop and the port it bound
+    (``OSError`` when it cannot listen)."""
+    loop = asyncio.new_event_loop()
+    server = loop.run_until_complete(gate.serve(host, port))
+    thread = threading.Thread(target=loop.run_forever, name="plotgate-live-gate", daemon=True)
+    thread.start()
+    return loop, int(server.sockets[0].getsockname()[1])
 
 
 def _draw_until_closed(conn: Connection, draw: Callable[[Offered], None]) -> None:

@@ -22,7 +22,7 @@ from mcap.stream_reader import StreamReader
 from plotgate.clients.recordings import read_recording
 from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.recording import compaction as compaction_module
-from plotgate.service.recording.compaction import compact, remove_leftovers, temporary
+from plotgate.service.recording.compaction import compact, remove_leftovers, temporaries
 from plotgate.service.registry import OPERATIONS
 
 OP = OPERATIONS["gates.test"]
@@ -124,12 +124,12 @@ def test_a_sigkill_during_compaction_leaves_the_original_whole(tmp_path, monkeyp
         [sys.executable, "-P", compaction_module.__file__, str(path)],
         stderr=subprocess.PIPE,
     )
-    copy = temporary(path, child.pid)
     deadline = time.monotonic() + 60
-    while not (copy.exists() and copy.stat().st_size > 2**20):  # mid-way through the copy
+    while not ((made := temporaries(path, child.pid)) and made[0].stat().st_size > 2**20):
         assert child.poll() is None, child.stderr.read() if child.stderr else ""
         assert time.monotonic() < deadline, "the compaction never started writing"
         time.sleep(0.002)
+    [copy] = made  # mid-way through the copy
     os.kill(child.pid, signal.SIGKILL)
     child.wait(30)
     child.stderr.close()
@@ -148,7 +148,10 @@ def test_leftovers_are_removed_only_when_their_process_is_gone(tmp_path):
     try:
         dead = subprocess.Popen([sys.executable, "-c", "pass"])
         dead.wait(30)
-        kept, mine, gone = (temporary(path, pid) for pid in (live.pid, os.getpid(), dead.pid))
+        kept, mine, gone = (
+            tmp_path / f".{path.name}.x1y2.{pid}.compacting"
+            for pid in (live.pid, os.getpid(), dead.pid)
+        )
         for leftover in (kept, mine, gone):
             leftover.write_bytes(b"part of a copy")
         assert sorted(remove_leftovers(tmp_path)) == sorted([mine, gone])
