@@ -33,7 +33,8 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from plotgate.core import PlotgateError
-from plotgate.service.schemas import ENDPOINTS, FieldError, Problem
+from plotgate.service.schemas import FieldError, Problem
+from plotgate.service.table import ENDPOINTS
 from plotgate.service.tags import tag_reason
 
 __all__ = ["ProblemError", "field_errors", "from_core", "from_validation", "problem_json"]

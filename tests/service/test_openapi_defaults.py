@@ -4,7 +4,7 @@ states the value it then has (null where null means "derived", as its descriptio
 from fastapi.testclient import TestClient
 
 from plotgate.service.app import create_app
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 
 
 def _requests_and_their_parts(spec: dict) -> dict[str, dict]:
