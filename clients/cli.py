@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 from plotgate import __version__
+from plotgate.clients.replay_gate import add_gate_arguments
 
 if TYPE_CHECKING:
     from plotgate.clients.replay import ReplayReport
@@ -338,32 +339,44 @@ def _in_process_caps(args: argparse.Namespace) -> dict[str, dict[str, int]] | No
 
 
 def _replay(args: argparse.Namespace) -> int:
+    from functools import partial
+
     from plotgate.clients.replay import replay
+    from plotgate.clients.replay_gate import calibrate, check_tolerances, finish
 
     try:
         limits = _in_process_caps(args)
     except ValueError as exc:
         print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
         return 2
+    rules = check_tolerances(args)
+    if isinstance(rules, int):
+        return rules
+    once = partial(
+        replay,
+        args.paths,
+        server=args.server,
+        rtol=args.rtol,
+        atol=args.atol,
+        out=args.out,
+        progress=None,
+        filters=_filters(args),
+        timeout=args.timeout or None,
+        limits=limits,
+        load=_kernels_as_met("replay"),
+        rules=rules,
+    )
+    if args.calibrate is not None:
+        return calibrate(args, once)
     if args.dask is not None or args.local_workers is not None:
-        fleet = _replay_on_cluster(args, limits)
+        fleet = _replay_on_cluster(args, limits, rules)
         if fleet is None:
             return 2
         report = fleet
     else:
-        report = replay(
-            args.paths,
-            server=args.server,
-            rtol=args.rtol,
-            atol=args.atol,
-            out=args.out,
-            progress=None,
-            filters=_filters(args),
-            timeout=args.timeout or None,
-            limits=limits,
-            load=_kernels_as_met("replay"),
-        )
+        report = once()
     code = report.exit_code(args.allow_empty)
+    gated = finish(args, report, code)
     if args.report:
         Path(args.report).write_text(json.dumps(report.to_json(), indent=2, default=str))
     text = report.text()
@@ -375,11 +388,11 @@ def _replay(args: argparse.Namespace) -> int:
             "passes a run with nothing to compare"
         )
     _write(text)
-    return code
+    return gated
 
 
 def _replay_on_cluster(
-    args: argparse.Namespace, limits: dict[str, dict[str, int]] | None
+    args: argparse.Namespace, limits: dict[str, dict[str, int]] | None, rules: Any = None
 ) -> "ReplayReport | None":
     """``replay --dask/--local-workers``: the report, or None after saying on stderr why
     there is none (no cluster, a worker that cannot read the folder, --out). A Ctrl-C ends
@@ -395,7 +408,7 @@ def _replay_on_cluster(
             file=sys.stderr,
         )
         return None
-    judging = Judging(args.rtol, args.atol, args.timeout or None, limits, _filters(args))
+    judging = Judging(args.rtol, args.atol, args.timeout or None, limits, _filters(args), rules)
     try:
         return fleet_replay(
             args.paths,
@@ -697,6 +710,7 @@ def _add_replay(sub: Any, filters: argparse.ArgumentParser) -> None:
     )
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")
+    add_gate_arguments(rep)
     rep.set_defaults(func=_replay)
 
 
