@@ -428,7 +428,7 @@ class _Merge:
 
     def _second_round(self) -> list[Outcome]:
         """Judge, on the cluster, the exchanges no part could judge alone."""
-        pairs = [s[1] for s in self.slots if not isinstance(s, int) and isinstance(s[1], Pair)]
+        pairs = [s[1] for s in self.slots if not isinstance(s, list) and isinstance(s[1], Pair)]
         if not pairs:
             return []
         self._fill([w for p in pairs for w in (p.request, p.response) if w is not None])
