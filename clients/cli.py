@@ -365,6 +365,7 @@ def _replay(args: argparse.Namespace) -> int:
         limits=limits,
         load=_kernels_as_met("replay"),
         rules=rules,
+        cases=args.junit is not None,
     )
     if args.calibrate is not None:
         return calibrate(args, once)
@@ -408,7 +409,15 @@ def _replay_on_cluster(
             file=sys.stderr,
         )
         return None
-    judging = Judging(args.rtol, args.atol, args.timeout or None, limits, _filters(args), rules)
+    judging = Judging(
+        args.rtol,
+        args.atol,
+        args.timeout or None,
+        limits,
+        _filters(args),
+        rules,
+        args.junit is not None,
+    )
     try:
         return fleet_replay(
             args.paths,

@@ -146,6 +146,8 @@ class Judging:
     filters: Filters = field(default_factory=Filters)
     rules: Rules | None = None
     """Per-field tolerances over ``rtol`` and ``atol``."""
+    cases: bool = False
+    """Keep every compared exchange's name in the report (JUnit)."""
 
 
 @dataclass
@@ -368,12 +370,13 @@ class _Merge:
         self.spread = spread
         self.pairing = Pairing(judging.filters)
         self.parts: list[PartRead] = []
-        self.slots: list[list[_Name] | tuple[Exchange, Outcome | Pair]] = []
-        """In the serial order: runs of unchanged exchanges (what names each), and the
-        others (with their judgement, or the pair still to be judged)."""
+        self.slots: list[list[_Name] | dict[str, int] | tuple[Exchange, Outcome | Pair]] = []
+        """In the serial order: runs of unchanged exchanges (what names each when the
+        report keeps every name, else their count per operation), and the others (with
+        their judgement, or the pair still to be judged)."""
 
     def report(self, files: list[list[PartRead]]) -> ReplayReport:
-        report = ReplayReport()
+        report = ReplayReport(cases=[] if self.judging.cases else None)
         for reads in files:
             rec = _recording(reads)
             report.files.append(rec.summary())
@@ -389,6 +392,11 @@ class _Merge:
             if isinstance(slot, list):
                 for operation, rid, log_time in slot:
                     tally(report, Exchange(operation, rid, None, None, log_time), UNCHANGED)
+                continue
+            if isinstance(slot, dict):
+                for operation, count in slot.items():
+                    for _ in range(count):
+                        tally(report, Exchange(operation, ""), UNCHANGED)
                 continue
             exchange, outcome = slot
             tally(report, exchange, outcome if isinstance(outcome, Outcome) else next(outcomes))
@@ -406,16 +414,27 @@ class _Merge:
                 continue
             outcome = self._judged(pair)
             if outcome == UNCHANGED:
-                assert pair.request is not None
-                name = (seen.operation, seen.request_id, pair.request.seen.log_time)
-                if self.slots and isinstance(self.slots[-1], list):
-                    self.slots[-1].append(name)
-                else:
-                    self.slots.append([name])
+                self._unchanged(pair)
             else:
                 self.slots.append((_named(pair), outcome or pair))
         # paired: only the records the part left unpaired are kept
         read.records, read.partner, read.judged = Described(), array("q"), {}
+
+    def _unchanged(self, pair: Pair) -> None:
+        """Count an unchanged exchange into the run it ends."""
+        assert pair.request is not None
+        seen = pair.request.seen
+        last = self.slots[-1] if self.slots else None
+        if self.judging.cases:
+            if not isinstance(last, list):
+                last = []
+                self.slots.append(last)
+            last.append((seen.operation, seen.request_id, seen.log_time))
+            return
+        if not isinstance(last, dict):
+            last = {}
+            self.slots.append(last)
+        last[seen.operation] = last.get(seen.operation, 0) + 1
 
     def _judged(self, pair: Pair) -> Outcome | None:
         """The part's judgement, when the part paired these two records itself."""
@@ -428,7 +447,7 @@ class _Merge:
 
     def _second_round(self) -> list[Outcome]:
         """Judge, on the cluster, the exchanges no part could judge alone."""
-        pairs = [s[1] for s in self.slots if not isinstance(s, list) and isinstance(s[1], Pair)]
+        pairs = [s[1] for s in self.slots if isinstance(s, tuple) and isinstance(s[1], Pair)]
         if not pairs:
             return []
         self._fill([w for p in pairs for w in (p.request, p.response) if w is not None])

@@ -165,8 +165,12 @@ class ReplayReport:
     changes: list[Change] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     """Exceptions raised in process (each answered as the server's 500)."""
-    cases: list[tuple[str, str, int, bool]] = field(default_factory=list)
-    """Every exchange compared, in order: operation, request id, time (ns), changed."""
+    operations: dict[str, dict[str, int]] = field(default_factory=dict)
+    """Per operation: exchanges ``compared`` and ``changed``."""
+    cases: list[tuple[str, str, int, bool]] | None = None
+    """Every exchange compared, in order (operation, request id, time in ns, changed):
+    kept only when asked (``replay(cases=True)``; JUnit needs one line per exchange),
+    since it grows with the recording."""
     latency: dict[str, dict[str, float]] = field(default_factory=dict)
     """Per operation, recorded and replayed p50 and p99 durations (s): over HTTP only,
     where the replayed durations are a server's as the recorded ones are."""
@@ -200,7 +204,7 @@ class ReplayReport:
             "files": self.files,
             "changes": [vars(c) for c in self.changes],
             "notes": self.notes,
-            "operations": _operations(self.cases),
+            "operations": dict(sorted(self.operations.items())),
             "latency": self.latency,
         }
 
@@ -242,15 +246,6 @@ class ReplayReport:
             f"{self.compared} compared: {self.unchanged} unchanged, {self.changed} changed"
         )
         return "\n".join(lines)
-
-
-def _operations(cases: list[tuple[str, str, int, bool]]) -> dict[str, dict[str, int]]:
-    counts: dict[str, dict[str, int]] = {}
-    for operation, _, _, changed in cases:
-        row = counts.setdefault(operation, {"compared": 0, "changed": 0})
-        row["compared"] += 1
-        row["changed"] += changed
-    return dict(sorted(counts.items()))
 
 
 def _file_line(f: dict[str, Any]) -> str:
@@ -544,6 +539,7 @@ def replay(
     load: Callable[[str], object] | None = None,
     rules: Rules | None = None,
     observe: Observer | None = None,
+    cases: bool = False,
 ) -> ReplayReport:
     """Replay every exchange in the files at ``paths`` (files or folders) and compare.
 
@@ -565,11 +561,12 @@ def replay(
     rules : per-field tolerances (:mod:`plotgate.clients.tolerances`) over ``rtol`` and
         ``atol``; None: those two everywhere.
     observe : called with every compared exchange's recorded and replayed answers.
+    cases : keep every compared exchange's name in :attr:`ReplayReport.cases`.
 
     Raises :class:`plotgate.clients.TransportError` when the server cannot be reached, and
     ``FileNotFoundError`` for a path that does not exist.
     """
-    report = ReplayReport()
+    report = ReplayReport(cases=[] if cases else None)
     reader = Reader(paths, filters)
     with contextlib.ExitStack() as resources:
         if server:
@@ -733,12 +730,18 @@ def _count(
     report: ReplayReport, exchange: Exchange, differences: tuple[tuple[str, Any, Any, str], ...]
 ) -> None:
     report.compared += 1
-    case = (exchange.operation, exchange.request_id, exchange.log_time, bool(differences))
-    report.cases.append(case)
+    row = report.operations.get(exchange.operation)
+    if row is None:
+        row = report.operations[exchange.operation] = {"compared": 0, "changed": 0}
+    row["compared"] += 1
+    if report.cases is not None:
+        case = (exchange.operation, exchange.request_id, exchange.log_time, bool(differences))
+        report.cases.append(case)
     if not differences:
         report.unchanged += 1
         return
     report.changed += 1
+    row["changed"] += 1
     when = iso_time(exchange.log_time) or ""
     for where, a, b, rule in differences:
         if len(report.changes) < MAX_CHANGES:

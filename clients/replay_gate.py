@@ -126,6 +126,13 @@ def _latency_regressions(args: argparse.Namespace, report: "ReplayReport") -> li
     ratio = args.max_latency_ratio
     if ratio is None:
         return []
+    if args.server is None:
+        print(
+            "plotgate replay: --max-latency-ratio judges replays over HTTP only (--server): "
+            "in-process durations are not a server's; not judged",
+            file=sys.stderr,
+        )
+        return []
     found = []
     for operation, row in sorted(report.latency.items()):
         if row["replayed_p99"] > ratio * row["recorded_p99"]:

@@ -73,7 +73,7 @@ def junit_xml(report: ReplayReport) -> str:
     stamp = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%S")
     host = socket.gethostname() or "localhost"
     by_operation: dict[str, list[tuple[str, str, bool]]] = defaultdict(list)
-    for operation, rid, log_time, changed in report.cases:
+    for operation, rid, log_time, changed in report.cases or ():
         by_operation[operation].append((rid, iso_time(log_time) or "", changed))
     for number, (operation, cases) in enumerate(sorted(by_operation.items())):
         suite = ET.SubElement(
@@ -109,11 +109,10 @@ def junit_xml(report: ReplayReport) -> str:
 
 
 def _per_operation(report: ReplayReport) -> dict[str, list[int]]:
-    counts: dict[str, list[int]] = defaultdict(lambda: [0, 0])
-    for operation, _, _, changed in report.cases:
-        counts[operation][0] += 1
-        counts[operation][1] += changed
-    return dict(sorted(counts.items()))
+    return {
+        operation: [row["compared"], row["changed"]]
+        for operation, row in sorted(report.operations.items())
+    }
 
 
 def _cell(text: object) -> str:
@@ -187,8 +186,7 @@ def _svg(changes: list[Change]) -> str:
     points = [(i, r) for i, c in enumerate(changes) if (r := _relative(c)) is not None]
     width, height, pad = 640, 240, 40
     parts = [
-        f'<svg width="{width}" height="{height}" '
-        'role="img" aria-label="relative differences">',
+        f'<svg width="{width}" height="{height}" role="img" aria-label="relative differences">',
         f'<rect x="{pad}" y="10" width="{width - pad - 10}" height="{height - pad - 10}" '
         'fill="none" stroke="#888"/>',
     ]
