@@ -342,16 +342,17 @@ def _replay(args: argparse.Namespace) -> int:
     from functools import partial
 
     from plotgate.clients.replay import replay
-    from plotgate.clients.replay_gate import calibrate, check_tolerances, finish
+    from plotgate.clients.replay_gate import calibrate, finish, prepare
 
     try:
         limits = _in_process_caps(args)
     except ValueError as exc:
         print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
         return 2
-    rules = check_tolerances(args)
-    if isinstance(rules, int):
-        return rules
+    gate = prepare(args)
+    if isinstance(gate, int):
+        return gate
+    rules = gate.rules
     once = partial(
         replay,
         args.paths,
@@ -366,6 +367,7 @@ def _replay(args: argparse.Namespace) -> int:
         load=_kernels_as_met("replay"),
         rules=rules,
         cases=args.junit is not None,
+        pace=gate.pace,
     )
     if args.calibrate is not None:
         return calibrate(args, once)

@@ -174,6 +174,9 @@ class ReplayReport:
     latency: dict[str, dict[str, float]] = field(default_factory=dict)
     """Per operation, recorded and replayed p50 and p99 durations (s): over HTTP only,
     where the replayed durations are a server's as the recorded ones are."""
+    pacing: dict[str, Any] | None = None
+    """With ``--pace``: the speed, exchanges sent, how many behind their time."""
+    pacing_text: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -206,6 +209,7 @@ class ReplayReport:
             "notes": self.notes,
             "operations": dict(sorted(self.operations.items())),
             "latency": self.latency,
+            "pacing": self.pacing,
         }
 
     def text(self) -> str:
@@ -222,6 +226,8 @@ class ReplayReport:
         if self.changed > len({(c.file, c.request_id, c.time) for c in self.changes}):
             lines.append(f"... more changes than the {MAX_CHANGES} listed")
         lines += [f"note: {n}" for n in self.notes]
+        if self.pacing_text:
+            lines.append(self.pacing_text)
         for operation, row in sorted(self.latency.items()):
             lines.append(
                 f"latency {operation}: p50 {row['recorded_p50']:.4g} s recorded, "
@@ -540,6 +546,7 @@ def replay(
     rules: Rules | None = None,
     observe: Observer | None = None,
     cases: bool = False,
+    pace: float | None = None,
 ) -> ReplayReport:
     """Replay every exchange in the files at ``paths`` (files or folders) and compare.
 
@@ -562,6 +569,8 @@ def replay(
         ``atol``; None: those two everywhere.
     observe : called with every compared exchange's recorded and replayed answers.
     cases : keep every compared exchange's name in :attr:`ReplayReport.cases`.
+    pace : with ``server`` (and without ``out``): send at the recorded pace times this
+        speed, open-loop (:mod:`plotgate.clients.pace`); ``inf``: as fast as possible.
 
     Raises :class:`plotgate.clients.TransportError` when the server cannot be reached, and
     ``FileNotFoundError`` for a path that does not exist.
@@ -586,8 +595,8 @@ def replay(
         quiet = None if progress is None else not progress
         judging = _Judging(rtol, atol, rules, observe)
         durations = Durations() if server else None
-        for exchange in tqdm(reader, desc="replay", unit="exchange", disable=quiet):
-            outcome = judge(exchange, run, judging, writer=writer, meet=meet)
+        shown = tqdm(reader, desc="replay", unit="exchange", disable=quiet)
+        for exchange, outcome in _judged(shown, run, judging, writer, meet, report, pace):
             tally(report, exchange, outcome)
             if durations is not None and outcome.duration_s is not None:
                 durations.add(exchange.operation, exchange.duration_s, outcome.duration_s)
@@ -599,6 +608,31 @@ def replay(
     report.written_twice = reader.written_twice
     report.conflict_count, report.conflicts = reader.conflict_count, list(reader.conflicts)
     return report
+
+
+def _judged(
+    exchanges: Iterable[Exchange],
+    run: Runner,
+    judging: "_Judging",
+    writer: "_SessionWriter | None",
+    meet: Callable[[str], None],
+    report: ReplayReport,
+    pace: float | None,
+) -> Iterator[tuple[Exchange, "Outcome"]]:
+    """Each exchange with its outcome, in the order read: one after the other, or sent
+    at the recorded pace (``pace``: its speed), the pacing kept in ``report``."""
+    if pace is None:
+        for exchange in exchanges:
+            yield exchange, judge(exchange, run, judging, writer=writer, meet=meet)
+        return
+    from plotgate.clients.pace import Pacing, paced
+
+    pacing = Pacing(pace)
+    try:
+        yield from paced(exchanges, lambda ex: judge(ex, run, judging, meet=meet), pacing)
+    finally:
+        report.pacing = pacing.to_json()
+        report.pacing_text = pacing.text()
 
 
 @dataclass(frozen=True)

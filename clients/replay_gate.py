@@ -1,15 +1,18 @@
 """``plotgate replay`` as a CI gate: its per-field tolerances (``--tolerances``), its
 reports for CI (``--junit``, ``--summary-md``, ``--html``), tolerances learned from noise
-(``--calibrate``, ``--runs``) and latency as a regression (``--max-latency-ratio``).
+(``--calibrate``, ``--runs``), latency as a regression (``--max-latency-ratio``) and
+load from real traffic (``--pace``).
 
-:func:`add_gate_arguments` adds the options to the replay command; :func:`gate_rules`
-reads the tolerance file before the replay; :func:`finish` writes the reports after it
-and turns a latency regression into exit 1; :func:`calibrate` is ``--calibrate``.
+:func:`add_gate_arguments` adds the options to the replay command; :func:`prepare`
+checks them and reads the tolerance file before the replay; :func:`finish` writes the
+reports after it and turns a latency regression into exit 1; :func:`calibrate` is
+``--calibrate``.
 """
 
 import argparse
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,7 +20,7 @@ if TYPE_CHECKING:
     from plotgate.clients.replay import ReplayReport
     from plotgate.clients.tolerances import Rules
 
-__all__ = ["add_gate_arguments", "calibrate", "finish", "gate_rules"]
+__all__ = ["Gate", "add_gate_arguments", "calibrate", "finish", "gate_rules", "prepare"]
 
 
 def _positive(text: str) -> float:
@@ -28,6 +31,15 @@ def _positive(text: str) -> float:
     if not 0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
     return value
+
+
+def _pace(text: str) -> float:
+    from plotgate.clients.pace import speed_of
+
+    try:
+        return speed_of(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _runs(text: str) -> int:
@@ -68,6 +80,13 @@ def add_gate_arguments(parser: argparse.ArgumentParser) -> None:
         default=3,
         metavar="N",
         help="with --calibrate: replays (default %(default)s)",
+    )
+    gate.add_argument(
+        "--pace",
+        type=_pace,
+        metavar="1x|2x|max",
+        help="with --server: send each exchange at its recorded time divided by this speed, "
+        "open-loop (max: at once, 64 in flight); the report says if the sender fell behind",
     )
     gate.add_argument(
         "--max-latency-ratio",
@@ -177,12 +196,31 @@ def calibrate(args: argparse.Namespace, replay_once: Callable[..., "ReplayReport
     return 0
 
 
-def check_tolerances(args: argparse.Namespace) -> "Rules | None | int":
-    """:func:`gate_rules`, or 2 after the file's one-line message on stderr."""
+@dataclass(frozen=True)
+class Gate:
+    """What the replay needs from the gate's options: the rules and the pace."""
+
+    rules: "Rules | None"
+    pace: float | None
+
+
+def prepare(args: argparse.Namespace) -> Gate | int:
+    """The gate's options checked (:func:`gate_rules`, ``--pace``), or 2 after a one-line
+    message on stderr."""
     from plotgate.clients.tolerances import ToleranceFileError
 
     try:
-        return gate_rules(args)
+        rules = gate_rules(args)
     except ToleranceFileError as exc:
         print(f"plotgate replay: --tolerances {args.tolerances}: {exc}", file=sys.stderr)
         return 2
+    if args.pace is None:
+        return Gate(rules, None)
+    if args.server is None or args.out is not None or args.calibrate is not None:
+        print(
+            "plotgate replay: --pace sends to a live server (--server URL), without --out "
+            "or --calibrate",
+            file=sys.stderr,
+        )
+        return 2
+    return Gate(rules, args.pace)

@@ -106,5 +106,37 @@ def test_max_latency_ratio_fails_a_slowed_server_and_passes_otherwise(tmp_path, 
         with _slow_proxy(url, 0.5) as slow:
             summary = tmp_path / "summary.md"
             assert main([*gate, "--server", slow, "--summary-md", str(summary)]) == 1
-    assert "LATENCY gates.test" in capsys.readouterr().err
+            assert "LATENCY gates.test" in capsys.readouterr().err
+            # open loop: five answers of 0.5 s each, sent 10 ms apart, take about 0.5 s
+            started = time.monotonic()
+            assert main(["replay", str(rec), "--server", slow, "--pace", "1x"]) == 0
+            assert time.monotonic() - started < 2.4
+            assert "pace 1x: 5 sent" in capsys.readouterr().out
     assert "### Latency" in summary.read_text()
+
+
+class _At:
+    def __init__(self, ms: int) -> None:
+        self.log_time = ms * 10**6
+
+
+def test_paced_sends_on_time_keeps_the_order_and_says_when_it_fell_behind(monkeypatch):
+    from plotgate.clients import pace
+
+    exchanges = [_At(10 * i) for i in range(6)]
+    fast = pace.Pacing(1.0)
+    started = time.monotonic()
+    assert [ex for ex, _ in pace.paced(exchanges, lambda ex: ex, fast)] == exchanges
+    assert 0.05 <= time.monotonic() - started and fast.behind == 0 and fast.sent == 6
+    monkeypatch.setattr(pace, "MAX_IN_FLIGHT", 2)
+    slow = pace.Pacing(1.0)
+    out = list(pace.paced(exchanges, lambda ex: time.sleep(0.2) or ex.log_time, slow))
+    assert [ex.log_time for ex, _ in out] == [r for _, r in out]
+    assert slow.behind >= 3 and "fell behind" in slow.text()
+
+
+def test_pace_without_a_server_is_exit_2(tmp_path, capsys):
+    rec = moved_recording(tmp_path / "rec")
+    assert main(["replay", str(rec), "--pace", "2x"]) == 2
+    assert "--pace sends to a live server" in capsys.readouterr().err
+    assert main(["replay", str(rec), "--pace", "fast"]) == 2
