@@ -14,7 +14,8 @@ Then, best of ``--repeat`` each:
 - **reading**: :class:`plotgate.clients.recordings.Reader` over the folder, every exchange
   parsed, checked and paired;
 - **in-process replay**: :func:`plotgate.clients.replay.replay`, the ``plotgate replay`` code
-  path, in this process (imports already paid);
+  path, in this process (imports already paid); and again with the rules of
+  ``docs/replay_tolerances.toml`` (``--tolerances``: a rule looked up per field walked);
 - **plotgate replay**: the command in a subprocess, as a user runs it: wall time with its
   imports, and its peak RSS;
 - **fleet replay**: :func:`plotgate.clients.fleet.fleet_replay` on ``--workers`` local Dask
@@ -40,6 +41,7 @@ import httpx
 
 from plotgate.clients.recordings import Reader
 from plotgate.clients.replay import ReplayReport, replay
+from plotgate.clients.tolerances import load_rules
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -95,7 +97,7 @@ def record(folder: Path, exchanges: int, connections: int) -> dict[str, float]:
     """Write the recording with the service; the wall seconds of sending and the server's
     CPU seconds answering."""
     folder.mkdir(parents=True, exist_ok=True)
-    with serve(folder, log=folder.parent / "server.log") as (proc, url):
+    with serve(folder, log=folder.parent / "server.log", ready_s=300.0) as (proc, url):
         cpu_before = cpu_seconds(proc.pid)
         wall = send(url, exchanges, connections)
         cpu = cpu_seconds(proc.pid) - cpu_before
@@ -162,6 +164,10 @@ def main() -> None:
         wall, cpu, report = best(lambda: replay(folder, progress=False), args.repeat)
         assert isinstance(report, ReplayReport) and report.unchanged == n, report
         rows.append(("in-process replay (replay())", wall, cpu))
+        rules = load_rules(ROOT / "docs" / "replay_tolerances.toml", 1e-9, 1e-12)
+        wall, cpu, ruled = best(lambda: replay(folder, progress=False, rules=rules), args.repeat)
+        assert isinstance(ruled, ReplayReport) and ruled.unchanged == n, ruled
+        rows.append(("in-process replay, docs/replay_tolerances.toml", wall, cpu))
         wall, cpu, rss = command(folder)
         rows.append((f"plotgate replay, imports included (peak RSS {rss:.0f} MiB)", wall, cpu))
         wall, cpu, fleet = best(lambda: fleet_replay(folder, args.workers), 1)

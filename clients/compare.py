@@ -13,15 +13,23 @@ are numbers, compared within the tolerances, while a bool is not one and is comp
 (``true`` equals ``1`` as in Python, but not ``1.0000001``); NaN is never close to anything,
 itself included. ``tests/clients/test_compare.py``
 holds :func:`diff` to the field-by-field walk it replaced on generated trees.
+
+Given ``rules`` (:class:`plotgate.clients.tolerances.OperationRules`), each field is
+judged by the rule its path resolves to: a list of numbers still as one array, with the
+tolerances of its items' path (``a[*]``, ``a[*][*]``); a field a rule ignores is not walked.
+Without them nothing is looked up, and the walk is what it was.
 """
 
 import math
 from collections.abc import Iterable, Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-__all__ = ["FIELDS_PER_EXCHANGE", "MISSING", "diff"]
+if TYPE_CHECKING:
+    from plotgate.clients.tolerances import OperationRules
+
+__all__ = ["FIELDS_PER_EXCHANGE", "MISSING", "diff", "is_number"]
 
 MISSING = "<missing>"
 """The value reported for a key that one side lacks."""
@@ -33,14 +41,25 @@ _SCALAR_TYPES = frozenset((int, float, str, bool, type(None)))
 
 
 def diff(
-    a: Any, b: Any, rtol: float, atol: float, path: str = ""
+    a: Any,
+    b: Any,
+    rtol: float,
+    atol: float,
+    path: str = "",
+    rules: "OperationRules | None" = None,
 ) -> Iterator[tuple[str, Any, Any]]:
-    """Yield (field path, recorded, replayed) for every difference between two JSON trees."""
+    """Yield (field path, recorded, replayed) for every difference between two JSON trees
+    (``rules``: per-field tolerances, over ``rtol`` and ``atol``)."""
+    if rules is not None:
+        judged = rules.at(path)
+        if judged.ignore:
+            return
+        rtol, atol = judged.rtol, judged.atol
     if isinstance(a, dict) and isinstance(b, dict):
-        yield from _dicts(a, b, rtol, atol, path)
+        yield from _dicts(a, b, rtol, atol, path, rules)
     elif isinstance(a, list) and isinstance(b, list):
-        yield from _lists(a, b, rtol, atol, path)
-    elif _is_number(a) and _is_number(b):
+        yield from _lists(a, b, rtol, atol, path, rules)
+    elif is_number(a) and is_number(b):
         if not _close(a, b, rtol, atol) and a != b:
             yield path, a, b
     elif a != b:
@@ -48,19 +67,30 @@ def diff(
 
 
 def _dicts(
-    a: dict[Any, Any], b: dict[Any, Any], rtol: float, atol: float, path: str
+    a: dict[Any, Any],
+    b: dict[Any, Any],
+    rtol: float,
+    atol: float,
+    path: str,
+    rules: "OperationRules | None",
 ) -> Iterator[tuple[str, Any, Any]]:
     keys = a.keys() if a.keys() == b.keys() else a.keys() | b.keys()
     for key in sorted(keys):
         sub = f"{path}.{key}" if path else key
         if key not in a or key not in b:
-            yield sub, a.get(key, MISSING), b.get(key, MISSING)
+            if rules is None or not rules.at(sub).ignore:
+                yield sub, a.get(key, MISSING), b.get(key, MISSING)
         elif not _equal_scalars(a[key], b[key]):
-            yield from diff(a[key], b[key], rtol, atol, sub)
+            yield from diff(a[key], b[key], rtol, atol, sub, rules)
 
 
 def _lists(
-    a: list[Any], b: list[Any], rtol: float, atol: float, path: str
+    a: list[Any],
+    b: list[Any],
+    rtol: float,
+    atol: float,
+    path: str,
+    rules: "OperationRules | None",
 ) -> Iterator[tuple[str, Any, Any]]:
     if len(a) != len(b):
         yield f"{path}.length", len(a), len(b)
@@ -68,9 +98,14 @@ def _lists(
     arrays = _numbers(a, b) or _matrices(a, b)
     if arrays is None:
         for i in _unequal(a, b):
-            yield from diff(a[i], b[i], rtol, atol, f"{path}[{i}]")
+            yield from diff(a[i], b[i], rtol, atol, f"{path}[{i}]", rules)
         return
     x, y = arrays
+    if rules is not None:
+        judged = rules.at(path + "[*]" * x.ndim)
+        if judged.ignore:
+            return
+        rtol, atol = judged.rtol, judged.atol
     far = ~np.isclose(x, y, rtol, atol)
     if x.ndim == 1:
         for i in np.flatnonzero(far)[:FIELDS_PER_EXCHANGE].tolist():
@@ -122,10 +157,11 @@ def _matrices(a: list[Any], b: list[Any]) -> tuple[np.ndarray, np.ndarray] | Non
 def _all_numbers(values: list[Any]) -> bool:
     """Whether every value is a number: a set of types for what a JSON parser gives
     (ints and floats), the per-value check only for anything else (a bool, a subclass)."""
-    return set(map(type, values)) <= _NUMBER_TYPES or all(map(_is_number, values))
+    return set(map(type, values)) <= _NUMBER_TYPES or all(map(is_number, values))
 
 
-def _is_number(x: Any) -> bool:
+def is_number(x: Any) -> bool:
+    """Whether a JSON value is a number (an int or a float, never a bool)."""
     return isinstance(x, int | float) and not isinstance(x, bool)
 
 

@@ -68,6 +68,7 @@ from plotgate.clients.replay import (
     tally,
 )
 from plotgate.clients.scan import open_regular
+from plotgate.clients.tolerances import Rules
 
 __all__ = [
     "BATCH",
@@ -86,7 +87,6 @@ BATCH = 64
 
 
 UNCHANGED = Outcome()
-_UNNAMED = Exchange("", "", None)
 
 
 class Described:
@@ -144,6 +144,10 @@ class Judging:
     timeout: float | None = DEFAULT_TIMEOUT_S
     limits: Mapping[str, Mapping[str, int]] | None = None
     filters: Filters = field(default_factory=Filters)
+    rules: Rules | None = None
+    """Per-field tolerances over ``rtol`` and ``atol``."""
+    cases: bool = False
+    """Keep every compared exchange's name in the report (JUnit)."""
 
 
 @dataclass
@@ -222,11 +226,13 @@ def _read(part: Part, judging: Judging) -> PartRead:
 def _both(
     exchange: Exchange, run: Callable[..., Any], judging: Judging
 ) -> tuple[Outcome, Outcome]:
-    outcome = judge(exchange, run, judging.rtol, judging.atol)
+    outcome = judge(exchange, run, judging.rtol, judging.atol, rules=judging.rules)
     if exchange.original_read or exchange.replay_of is None:
         return outcome, outcome
     # were its original read before it, it is set aside without running
-    return outcome, judge(_original_read(exchange), run, judging.rtol, judging.atol)
+    return outcome, judge(
+        _original_read(exchange), run, judging.rtol, judging.atol, rules=judging.rules
+    )
 
 
 def _original_read(exchange: Exchange) -> Exchange:
@@ -250,7 +256,7 @@ def _original_read(exchange: Exchange) -> Exchange:
 def judge_all(exchanges: list[Exchange], judging: Judging) -> list[Outcome]:
     """Judge exchanges on a worker (the second round)."""
     run = in_process(judging.timeout, judging.limits)
-    return [judge(ex, run, judging.rtol, judging.atol) for ex in exchanges]
+    return [judge(ex, run, judging.rtol, judging.atol, rules=judging.rules) for ex in exchanges]
 
 
 class _Lazy:
@@ -364,12 +370,13 @@ class _Merge:
         self.spread = spread
         self.pairing = Pairing(judging.filters)
         self.parts: list[PartRead] = []
-        self.slots: list[int | tuple[Exchange, Outcome | Pair]] = []
-        """In the serial order: runs of unchanged exchanges (their count), and the others
-        (with their judgement, or the pair still to be judged)."""
+        self.slots: list[list[_Name] | dict[str, int] | tuple[Exchange, Outcome | Pair]] = []
+        """In the serial order: runs of unchanged exchanges (what names each when the
+        report keeps every name, else their count per operation), and the others (with
+        their judgement, or the pair still to be judged)."""
 
     def report(self, files: list[list[PartRead]]) -> ReplayReport:
-        report = ReplayReport()
+        report = ReplayReport(cases=[] if self.judging.cases else None)
         for reads in files:
             rec = _recording(reads)
             report.files.append(rec.summary())
@@ -382,9 +389,14 @@ class _Merge:
             self.slots.append((_named(pair), judge(_stub(pair), _never, 0.0, 0.0)))
         outcomes = iter(self._second_round())
         for slot in self.slots:
-            if isinstance(slot, int):
-                for _ in range(slot):
-                    tally(report, _UNNAMED, UNCHANGED)
+            if isinstance(slot, list):
+                for operation, rid, log_time in slot:
+                    tally(report, Exchange(operation, rid, None, None, log_time), UNCHANGED)
+                continue
+            if isinstance(slot, dict):
+                for operation, count in slot.items():
+                    for _ in range(count):
+                        tally(report, Exchange(operation, ""), UNCHANGED)
                 continue
             exchange, outcome = slot
             tally(report, exchange, outcome if isinstance(outcome, Outcome) else next(outcomes))
@@ -401,14 +413,28 @@ class _Merge:
             if pair is None:
                 continue
             outcome = self._judged(pair)
-            if outcome == UNCHANGED and self.slots and isinstance(self.slots[-1], int):
-                self.slots[-1] += 1
-            elif outcome == UNCHANGED:
-                self.slots.append(1)
+            if outcome == UNCHANGED:
+                self._unchanged(pair)
             else:
                 self.slots.append((_named(pair), outcome or pair))
         # paired: only the records the part left unpaired are kept
         read.records, read.partner, read.judged = Described(), array("q"), {}
+
+    def _unchanged(self, pair: Pair) -> None:
+        """Count an unchanged exchange into the run it ends."""
+        assert pair.request is not None
+        seen = pair.request.seen
+        last = self.slots[-1] if self.slots else None
+        if self.judging.cases:
+            if not isinstance(last, list):
+                last = []
+                self.slots.append(last)
+            last.append((seen.operation, seen.request_id, seen.log_time))
+            return
+        if not isinstance(last, dict):
+            last = {}
+            self.slots.append(last)
+        last[seen.operation] = last.get(seen.operation, 0) + 1
 
     def _judged(self, pair: Pair) -> Outcome | None:
         """The part's judgement, when the part paired these two records itself."""
@@ -421,7 +447,7 @@ class _Merge:
 
     def _second_round(self) -> list[Outcome]:
         """Judge, on the cluster, the exchanges no part could judge alone."""
-        pairs = [s[1] for s in self.slots if not isinstance(s, int) and isinstance(s[1], Pair)]
+        pairs = [s[1] for s in self.slots if isinstance(s, tuple) and isinstance(s[1], Pair)]
         if not pairs:
             return []
         self._fill([w for p in pairs for w in (p.request, p.response) if w is not None])
@@ -464,6 +490,10 @@ def _payloads(
     for _ in Reader([part.path], judging.filters, span=part.span, on_record=take):
         pass
     return found
+
+
+_Name = tuple[str, str, int]
+"""An unchanged exchange's operation, request id and time: all a report names it by."""
 
 
 def _named(pair: Pair) -> Exchange:

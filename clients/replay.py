@@ -59,6 +59,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from plotgate.clients.compare import FIELDS_PER_EXCHANGE, diff
+from plotgate.clients.latency import Durations
 from plotgate.clients.recordings import (
     MAX_LISTED,
     Exchange,
@@ -67,6 +68,7 @@ from plotgate.clients.recordings import (
     file_state,
     iso_time,
 )
+from plotgate.clients.tolerances import DEFAULT, Rules
 from plotgate.files import check_target, replace_into, temporary_beside
 from plotgate.service.table import ENDPOINTS
 
@@ -80,6 +82,7 @@ __all__ = [
     "Answer",
     "Change",
     "InProcess",
+    "Observer",
     "Outcome",
     "ReplayReport",
     "diff",
@@ -121,6 +124,9 @@ class Answer:
 
 Runner = Callable[[Exchange, str], Answer]
 """Runs an exchange's request again under a new request id."""
+Observer = Callable[[str, Any, Any], None]
+"""Called with an operation and the recorded and replayed answers (results, or what must
+stay the same of a failure) of every exchange compared: ``--calibrate`` learns from them."""
 
 
 @dataclass
@@ -135,6 +141,8 @@ class Change:
     field: str
     recorded: Any
     replayed: Any
+    rule: str = DEFAULT
+    """What judged the field: a tolerance rule's name, or the global tolerances."""
 
 
 @dataclass
@@ -161,6 +169,18 @@ class ReplayReport:
     changes: list[Change] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     """Exceptions raised in process (each answered as the server's 500)."""
+    operations: dict[str, dict[str, int]] = field(default_factory=dict)
+    """Per operation: exchanges ``compared`` and ``changed``."""
+    cases: list[tuple[str, str, int, bool]] | None = None
+    """Every exchange compared, in order (operation, request id, time in ns, changed):
+    kept only when asked (``replay(cases=True)``; JUnit needs one line per exchange),
+    since it grows with the recording."""
+    latency: dict[str, dict[str, float]] = field(default_factory=dict)
+    """Per operation, recorded and replayed p50 and p99 durations (s): over HTTP only,
+    where the replayed durations are a server's as the recorded ones are."""
+    pacing: dict[str, Any] | None = None
+    """With ``--pace``: the speed, exchanges sent, how many behind their time."""
+    pacing_text: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -191,6 +211,9 @@ class ReplayReport:
             "files": self.files,
             "changes": [vars(c) for c in self.changes],
             "notes": self.notes,
+            "operations": dict(sorted(self.operations.items())),
+            "latency": self.latency,
+            "pacing": self.pacing,
         }
 
     def text(self) -> str:
@@ -202,10 +225,19 @@ class ReplayReport:
             lines.append(
                 f"CHANGED {c.operation} {c.request_id} {c.field}: "
                 f"recorded {_short(c.recorded)}, replayed {_short(c.replayed)}"
+                + ("" if c.rule == DEFAULT else f" (rule {c.rule!r})")
             )
         if self.changed > len({(c.file, c.request_id, c.time) for c in self.changes}):
             lines.append(f"... more changes than the {MAX_CHANGES} listed")
         lines += [f"note: {n}" for n in self.notes]
+        if self.pacing_text:
+            lines.append(self.pacing_text)
+        for operation, row in sorted(self.latency.items()):
+            lines.append(
+                f"latency {operation}: p50 {row['recorded_p50']:.4g} s recorded, "
+                f"{row['replayed_p50']:.4g} s replayed; p99 {row['recorded_p99']:.4g} s, "
+                f"{row['replayed_p99']:.4g} s"
+            )
         skipped = sum(self.not_compared.values())
         lines.append(
             f"{self.exchanges} exchanges: {self.compared} compared, {skipped} not compared"
@@ -515,6 +547,10 @@ def replay(
     timeout: float | None = DEFAULT_TIMEOUT_S,
     limits: Mapping[str, Mapping[str, int]] | None = None,
     load: Callable[[str], object] | None = None,
+    rules: Rules | None = None,
+    observe: Observer | None = None,
+    cases: bool = False,
+    pace: float | None = None,
 ) -> ReplayReport:
     """Replay every exchange in the files at ``paths`` (files or folders) and compare.
 
@@ -533,11 +569,17 @@ def replay(
     load : in-process, called with an operation's name before its first exchange runs
         (the registry imports each operation when it first runs; the CLI loads its kernels
         here, saying when they compile).
+    rules : per-field tolerances (:mod:`plotgate.clients.tolerances`) over ``rtol`` and
+        ``atol``; None: those two everywhere.
+    observe : called with every compared exchange's recorded and replayed answers.
+    cases : keep every compared exchange's name in :attr:`ReplayReport.cases`.
+    pace : with ``server`` (and without ``out``): send at the recorded pace times this
+        speed, open-loop (:mod:`plotgate.clients.pace`); ``inf``: as fast as possible.
 
     Raises :class:`plotgate.clients.TransportError` when the server cannot be reached, and
     ``FileNotFoundError`` for a path that does not exist.
     """
-    report = ReplayReport()
+    report = ReplayReport(cases=[] if cases else None)
     reader = Reader(paths, filters)
     with contextlib.ExitStack() as resources:
         if server:
@@ -555,8 +597,14 @@ def replay(
         from tqdm import tqdm
 
         quiet = None if progress is None else not progress
-        for exchange in tqdm(reader, desc="replay", unit="exchange", disable=quiet):
-            tally(report, exchange, judge(exchange, run, rtol, atol, writer, meet))
+        judging = _Judging(rtol, atol, rules, observe)
+        durations = Durations() if server else None
+        shown = tqdm(reader, desc="replay", unit="exchange", disable=quiet)
+        for exchange, outcome in _judged(shown, run, judging, writer, meet, report, pace):
+            tally(report, exchange, outcome)
+            if durations is not None and outcome.duration_s is not None:
+                durations.add(exchange.operation, exchange.duration_s, outcome.duration_s)
+        report.latency = durations.percentiles() if durations is not None else {}
     report.files = [rec.summary() for rec in reader.files]
     report.unreadable = list(reader.unreadable)
     report.skipped = list(reader.skipped)
@@ -566,33 +614,74 @@ def replay(
     return report
 
 
+def _judged(
+    exchanges: Iterable[Exchange],
+    run: Runner,
+    judging: "_Judging",
+    writer: "_SessionWriter | None",
+    meet: Callable[[str], None],
+    report: ReplayReport,
+    pace: float | None,
+) -> Iterator[tuple[Exchange, "Outcome"]]:
+    """Each exchange with its outcome, in the order read: one after the other, or sent
+    at the recorded pace (``pace``: its speed), the pacing kept in ``report``."""
+    if pace is None:
+        for exchange in exchanges:
+            yield exchange, judge(exchange, run, judging, writer=writer, meet=meet)
+        return
+    from plotgate.clients.pace import Pacing, paced
+
+    pacing = Pacing(pace)
+    try:
+        yield from paced(exchanges, lambda ex: judge(ex, run, judging, meet=meet), pacing)
+    finally:
+        report.pacing = pacing.to_json()
+        report.pacing_text = pacing.text()
+
+
 @dataclass(frozen=True)
 class Outcome:
     """What replaying one exchange found: ``skip`` says why it was not compared; else the
     ``differences`` (none: unchanged) and a ``note`` (an exception raised in process)."""
 
     skip: str | None = None
-    differences: tuple[tuple[str, Any, Any], ...] = ()
+    differences: tuple[tuple[str, Any, Any, str], ...] = ()
+    """Each: the field, its recorded and replayed values, and what judged it."""
     note: str | None = None
+    duration_s: float | None = field(default=None, compare=False)
+    """How long the replayed answer took (s); not part of the judgement."""
+
+
+@dataclass(frozen=True)
+class _Judging:
+    rtol: float
+    atol: float
+    rules: Rules | None = None
+    observe: Observer | None = None
 
 
 def judge(
     exchange: Exchange,
     run: Runner,
-    rtol: float,
-    atol: float,
+    rtol: "float | _Judging",
+    atol: float = 0.0,
     writer: Callable[[Exchange, str, Answer, float], None] | None = None,
     meet: Callable[[str], None] | None = None,
+    rules: Rules | None = None,
 ) -> Outcome:
     """Run one exchange again (when it can be compared) and compare its answer; ``writer``
     writes the replayed exchange, ``meet`` loads its operation before its clock starts (so
     a written duration holds no import or compilation). The serial replay and the fleet's
     workers both judge with this, and :func:`tally` counts the outcomes in the serial
-    order."""
+    order. ``rtol`` may carry the whole judging (tolerances, rules, observer); ``rules``
+    judges fields by their tolerance rules."""
+    how = rtol if isinstance(rtol, _Judging) else _Judging(rtol, atol, rules)
     reason = _not_comparable(exchange)
     if reason is None and exchange.operation not in ENDPOINTS:
         return Outcome(
-            differences=(("operation", exchange.operation, "not an operation of this build"),)
+            differences=(
+                ("operation", exchange.operation, "not an operation of this build", DEFAULT),
+            )
         )
     if reason is not None:
         return Outcome(skip=reason)
@@ -601,13 +690,15 @@ def judge(
         meet(exchange.operation)
     started = time.perf_counter()
     answer = run(exchange, rid)
+    took = time.perf_counter() - started
     if answer.skip is not None:
         return Outcome(skip=answer.skip)
     if writer is not None and answer.status is not None:
-        writer(exchange, rid, answer, time.perf_counter() - started)
+        writer(exchange, rid, answer, took)
     if answer.status == 503:  # a fault of the server now, set aside as a recorded one is
         return Outcome(skip=FAULT_NOW)
-    return Outcome(None, tuple(_differences(exchange, answer, rtol, atol)), answer.note)
+    found = tuple(_differences(exchange, answer, how))
+    return Outcome(None, found, answer.note, took if answer.status is not None else None)
 
 
 def tally(report: ReplayReport, exchange: Exchange, outcome: Outcome) -> None:
@@ -647,49 +738,63 @@ def _not_comparable(exchange: Exchange) -> str | None:
 
 
 def _differences(
-    exchange: Exchange, answer: Answer, rtol: float, atol: float
-) -> list[tuple[str, Any, Any]]:
+    exchange: Exchange, answer: Answer, how: _Judging
+) -> list[tuple[str, Any, Any, str]]:
     recorded = exchange.response or {}
     status = recorded.get("status", 0)
     if answer.status is None:
-        return [("answer", f"status {status}", answer.note)]
+        return [("answer", f"status {status}", answer.note, DEFAULT)]
     if status < 400 and answer.status < 400:
         old, new = recorded.get("result"), answer.content
     else:
         old = _failure(status, recorded.get("error"))
         new = _failure(answer.status, answer.content if answer.status >= 400 else {})
+    if how.observe is not None:
+        how.observe(exchange.operation, old, new)
     if old == new:
         # Equal trees have no difference to find (1 and 1.0, true and 1 are equal and
         # not reported either); NaN is unequal to itself, so a NaN is still walked to.
         # Exact only for trees parsed apart, as these are: no float object is shared.
         return []
     found = []
-    for where, a, b in diff(old, new, rtol, atol):
-        found.append((where or "result", a, b))
+    fields = how.rules.for_operation(exchange.operation) if how.rules is not None else None
+    for where, a, b in diff(old, new, how.rtol, how.atol, rules=fields):
+        rule = DEFAULT if fields is None else fields.at(where).rule
+        found.append((where or "result", a, b, rule))
         if len(found) == FIELDS_PER_EXCHANGE:
             break
     return found
 
 
 def _count(
-    report: ReplayReport, exchange: Exchange, differences: tuple[tuple[str, Any, Any], ...]
+    report: ReplayReport, exchange: Exchange, differences: tuple[tuple[str, Any, Any, str], ...]
 ) -> None:
     report.compared += 1
+    row = report.operations.get(exchange.operation)
+    if row is None:
+        row = report.operations[exchange.operation] = {"compared": 0, "changed": 0}
+    row["compared"] += 1
+    if report.cases is not None:
+        case = (exchange.operation, exchange.request_id, exchange.log_time, bool(differences))
+        report.cases.append(case)
     if not differences:
         report.unchanged += 1
         return
     report.changed += 1
-    for where, a, b in differences:
+    row["changed"] += 1
+    when = iso_time(exchange.log_time) or ""
+    for where, a, b, rule in differences:
         if len(report.changes) < MAX_CHANGES:
             report.changes.append(
                 Change(
                     exchange.file,
                     exchange.operation,
                     exchange.request_id,
-                    iso_time(exchange.log_time) or "",
+                    when,
                     where,
                     a,
                     b,
+                    rule,
                 )
             )
 

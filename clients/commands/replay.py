@@ -18,6 +18,7 @@ from plotgate.clients.commands.arguments import (
 from plotgate.clients.commands.kernels import kernels_as_met
 from plotgate.clients.commands.output import write
 from plotgate.clients.commands.where import in_process_caps, leave_the_cluster
+from plotgate.clients.replay_gate import add_gate_arguments
 
 if TYPE_CHECKING:
     from plotgate.clients.replay import ReplayReport
@@ -106,11 +107,15 @@ def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
     )
     rep.add_argument("--out", type=Path, help="write the replayed session to this MCAP file")
     rep.add_argument("--report", type=Path, help="write the report as JSON here")
+    add_gate_arguments(rep)
     rep.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from functools import partial
+
     from plotgate.clients.replay import replay
+    from plotgate.clients.replay_gate import calibrate, finish, prepare
     from plotgate.files import check_target, write_bytes
 
     if args.report:
@@ -121,25 +126,37 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"plotgate replay: the service's settings: {exc}", file=sys.stderr)
         return 2
+    gate = prepare(args)
+    if isinstance(gate, int):
+        return gate
+    rules = gate.rules
+    once = partial(
+        replay,
+        args.paths,
+        server=args.server,
+        rtol=args.rtol,
+        atol=args.atol,
+        out=args.out,
+        progress=None,
+        filters=recording_filters(args),
+        timeout=args.timeout or None,
+        limits=limits,
+        load=kernels_as_met("replay"),
+        rules=rules,
+        cases=args.junit is not None,
+        pace=gate.pace,
+    )
+    if args.calibrate is not None:
+        return calibrate(args, once)
     if args.dask is not None or args.local_workers is not None:
-        fleet = _replay_on_cluster(args, limits)
+        fleet = _replay_on_cluster(args, limits, rules)
         if fleet is None:
             return 2
         report = fleet
     else:
-        report = replay(
-            args.paths,
-            server=args.server,
-            rtol=args.rtol,
-            atol=args.atol,
-            out=args.out,
-            progress=None,
-            filters=recording_filters(args),
-            timeout=args.timeout or None,
-            limits=limits,
-            load=kernels_as_met("replay"),
-        )
+        report = once()
     code = report.exit_code(args.allow_empty)
+    gated = finish(args, report, code)
     if args.report:
         write_bytes(args.report, json.dumps(report.to_json(), indent=2, default=str).encode())
     text = report.text()
@@ -151,11 +168,11 @@ def run(args: argparse.Namespace) -> int:
             "passes a run with nothing to compare"
         )
     write(text)
-    return code
+    return gated
 
 
 def _replay_on_cluster(
-    args: argparse.Namespace, limits: dict[str, dict[str, int]] | None
+    args: argparse.Namespace, limits: dict[str, dict[str, int]] | None, rules: Any = None
 ) -> "ReplayReport | None":
     """``replay --dask/--local-workers``: the report, or None after saying on stderr why
     there is none (no cluster, a worker that cannot read the folder, --out). A Ctrl-C ends
@@ -171,7 +188,15 @@ def _replay_on_cluster(
             file=sys.stderr,
         )
         return None
-    judging = Judging(args.rtol, args.atol, args.timeout or None, limits, recording_filters(args))
+    judging = Judging(
+        args.rtol,
+        args.atol,
+        args.timeout or None,
+        limits,
+        recording_filters(args),
+        rules,
+        args.junit is not None,
+    )
     try:
         return fleet_replay(
             args.paths,
