@@ -103,7 +103,7 @@ def gate_rules(args: argparse.Namespace) -> "Rules | None":
     if args.tolerances is None:
         return None
     from plotgate.clients.tolerances import load_rules
-    from plotgate.service.schemas import ENDPOINTS
+    from plotgate.service.table import ENDPOINTS
 
     return load_rules(args.tolerances, args.rtol, args.atol, ENDPOINTS)
 

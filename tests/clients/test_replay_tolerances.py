@@ -17,7 +17,7 @@ from plotgate.clients.tolerances import (
     ToleranceFileError,
     load_rules,
 )
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 from tests.clients.gate_recordings import moved_recording, rules_file
 
 ROOT = Path(__file__).resolve().parents[2]
