@@ -106,6 +106,12 @@ def _serve(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
         return 2
+    from plotgate.clients.ports import listen_refused
+
+    refused = listen_refused(settings.host, settings.port)
+    if refused:
+        print(f"plotgate serve: {refused}", file=sys.stderr)
+        return 2
     refused = _live_view_refused(settings)
     if refused:
         print(f"plotgate serve: --foxglove-port: {refused}", file=sys.stderr)
@@ -1055,8 +1061,9 @@ def _load_kernels_first(args: argparse.Namespace) -> bool:
     """Load the kernels an in-process command needs before it runs (:func:`_load_kernels`):
     ``call``'s operation's, every operation's for the commands that run several; none yet
     for ``replay``, which loads each operation's as it first meets it
-    (:func:`_kernels_as_met`)."""
-    if args.command == "replay":
+    (:func:`_kernels_as_met`), and none for ``serve``, which answers while its warm-up
+    compiles them (:mod:`plotgate.service.warmup`)."""
+    if args.command in ("replay", "serve"):
         return True
     if args.command == "call":
         from plotgate.service.registry import OPERATIONS
