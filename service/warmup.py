@@ -73,7 +73,7 @@ def kernel_names(package: str = "plotgate.core") -> frozenset[str]:
     sources without importing (and so compiling) them."""
     spec = importlib.util.find_spec(package)
     roots = spec.submodule_search_locations if spec else None
-    names = set()
+    names: set[str] = set()
     for root in roots or ():
         for source in Path(root).rglob("*.py"):
             parts = source.relative_to(root).with_suffix("").parts
