@@ -34,8 +34,11 @@ WORKDIR /data
 USER plotgate
 # compile the numba kernels now, as the user that serves, into a cache it can write:
 # a container starts warm (plotgate.core.compiled; the registry imports operations lazily,
-# load_all imports every one)
-RUN python -c "from plotgate.service.registry import load_all; load_all()"
+# load_all imports every one); the second import must compile nothing, or the cache was
+# not kept and every container would compile in its warm-up (service/warmup.py)
+RUN python -c "from plotgate.service.registry import load_all; load_all()" \
+ && python -c "from plotgate.service.kernels import load_kernels; \
+assert load_kernels(lambda: None) is None, 'the kernel cache was not kept'"
 EXPOSE 8000
 HEALTHCHECK --interval=10s --timeout=3s \
     CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/healthz', timeout=2)"]

@@ -14,9 +14,11 @@ Run it with ``plotgate serve`` or ``uvicorn --factory service.app:create_app``.
 """
 
 import asyncio
+import difflib
 import gc
 import logging
 import signal
+import sys
 import threading
 from collections.abc import AsyncIterator, Callable, Mapping
 from contextlib import asynccontextmanager
@@ -40,8 +42,9 @@ from plotgate.service.openapi import ASSETS_PATH, assets_folder, docs_router, op
 from plotgate.service.problems import ProblemError, field_errors, problem_json
 from plotgate.service.provenance import VERSION, provenance
 from plotgate.service.recording import Recorder, rotation_bytes
-from plotgate.service.registry import OPERATIONS, check_limits, load_all
+from plotgate.service.registry import OPERATIONS, check_limits
 from plotgate.service.routes import PROBLEM_JSON, Operations, health_router, request_id_of
+from plotgate.service.warmup import KernelsFirst, Warmup
 
 if TYPE_CHECKING:  # foxglove-sdk is imported only with a live view
     from plotgate.service.scenes.live import LiveView
@@ -62,8 +65,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the plotgate app; ``settings`` default to the ``PLOTGATE_*`` environment."""
     settings = settings or get_settings()
     check_limits(settings.limits)
-    # every handler and kernel now, not on a first request (the registry imports lazily)
-    load_all()
     logging.getLogger("uvicorn.access").addFilter(REDACT_QUERY)
 
     @asynccontextmanager
@@ -80,6 +81,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 compaction_wait_s=settings.graceful_shutdown_s,
             ).start()
         app.state.recorder = recorder
+        # listening now; the kernels load meanwhile, each request waiting for its own
+        app.state.warmup = Warmup(_say, loaded=_freeze_again).start()
         app.state.live = _live_view(settings)
         configure(settings.dask_scheduler, settings.dask_timeout_s)
         if gc.get_freeze_count() == 0:
@@ -97,6 +100,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             yield
         finally:
             restore_signals()
+            app.state.warmup.close()
             if watch is not None:
                 watch.cancel()
             if app.state.live is not None:
@@ -118,6 +122,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.recorder = None
+    app.state.warmup = None
     app.state.live = None
     app.state.stopping = asyncio.Event()  # the lifespan makes its own, on its loop
     app.state.metrics = Metrics(lambda: app.state.recorder, lambda: app.state.live)
@@ -129,12 +134,26 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_exception_handler(RequestValidationError, _validation_problem)
     app.openapi = lambda: openapi(app)  # type: ignore[method-assign]
     app.add_middleware(Operations, state=app.state)
+    app.add_middleware(KernelsFirst, state=app.state)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     keys = Keys.from_settings(settings)
     if keys.required:
         app.add_middleware(Auth, keys=keys)
     app.add_middleware(RequestId)
     return app
+
+
+def _say(text: str) -> None:
+    """A line on the server's console (stderr), such as the kernels' warm-up progress."""
+    print(f"plotgate: {text}", file=sys.stderr, flush=True)
+
+
+def _freeze_again() -> None:
+    """What the warm-up imported lives as long as the process, like what start-up built:
+    out of every collection too (when start-up froze its own)."""
+    if gc.get_freeze_count():
+        gc.collect()
+        gc.freeze()
 
 
 def _live_view(settings: Settings) -> "LiveView | None":
@@ -232,8 +251,23 @@ def _render(
 async def _http_problem(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, HTTPException)
     kind = _KINDS.get(exc.status_code, "invalid-input")
+    detail = str(exc.detail)
+    if exc.status_code == 404:
+        detail = _not_found(request.method, request.url.path)
+    elif exc.status_code == 405:
+        allowed = (exc.headers or {}).get("Allow", "another method")
+        detail = f"{request.url.path} does not take {request.method}: use {allowed} (see /docs)"
     # Starlette's own headers (405: Allow, as RFC 9110 requires) go out with the problem
-    return _render(ProblemError(kind, exc.status_code, str(exc.detail)), request, exc.headers)
+    return _render(ProblemError(kind, exc.status_code, detail), request, exc.headers)
+
+
+def _not_found(method: str, path: str) -> str:
+    """What a 404 says: the path is none of the service's, the nearest operation path when
+    one is close (a typo: ``/v1/gates/tset``), and where the list of them is."""
+    paths = [op.path for op in OPERATIONS.values()]
+    near = difflib.get_close_matches(path, paths, n=1, cutoff=0.8)
+    hint = f"did you mean POST {near[0]}? " if near else ""
+    return f"no route {method} {path}; {hint}every operation is listed at /docs"
 
 
 async def _validation_problem(request: Request, exc: Exception) -> Response:

@@ -24,6 +24,7 @@ anyway and counted in ``plotgate_unrecorded_total``.
 """
 
 import asyncio
+import json
 import logging
 import math
 import time
@@ -73,6 +74,7 @@ from plotgate.service.registry import (
     parse,
 )
 from plotgate.service.schemas import FieldError
+from plotgate.service.warmup import readiness
 
 if TYPE_CHECKING:  # foxglove-sdk is imported only with a live view
     from plotgate.service.scenes.live import LiveView
@@ -441,15 +443,20 @@ def health_router() -> APIRouter:
     @router.get(
         "/readyz",
         summary="Readiness: requests can be answered and recorded",
-        description='200 `{"status": "ready"}` when an exchange can be recorded now '
+        description='200 `{"status": "ready", "operations": {"ready": [...], "compiling": '
+        "[...]}}` when an exchange can be recorded now "
         "(the recordings folder is writable and has room; always, with recording off); "
+        "`operations` names the operations whose numerical kernels are loaded and those "
+        "still compiling after a start with an empty cache (a request for one of those "
+        "waits for it, it is not refused); "
         "else 503 problem+json with `Retry-After`, and the server recovers by itself. "
         "For a readiness probe: every operation answers 503 while this does.",
     )
     async def readyz(request: Request) -> Response:
         recorder: Recorder | None = request.app.state.recorder
         if recorder is None or recorder.probe():
-            return Response('{"status":"ready"}', 200, media_type="application/json")
+            body = {"status": "ready", "operations": readiness(request.app.state.warmup)}
+            return Response(json.dumps(body), 200, media_type="application/json")
         err = ProblemError("recording-unavailable", 503, "the recorder cannot write")
         return Response(
             problem_json(err, "/readyz"),

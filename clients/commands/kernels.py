@@ -10,8 +10,9 @@ def load_kernels_first(args: argparse.Namespace) -> bool:
     """Load the kernels an in-process command needs before it runs (:func:`load_command_kernels`):
     ``call``'s operation's, every operation's for the commands that run several; none yet
     for ``replay``, which loads each operation's as it first meets it
-    (:func:`kernels_as_met`)."""
-    if args.command == "replay":
+    (:func:`kernels_as_met`), and none for ``serve``, which answers while its warm-up
+    compiles them (:mod:`plotgate.service.warmup`)."""
+    if args.command in ("replay", "serve"):
         return True
     if args.command == "call":
         from plotgate.service.registry import OPERATIONS

@@ -7,6 +7,7 @@ from typing import Any
 
 from plotgate.clients import listen
 from plotgate.clients.commands.arguments import command_parser, exit_status
+from plotgate.clients.ports import listen_refused
 
 
 def add_command(sub: Any) -> None:
@@ -85,6 +86,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"plotgate serve: the service's settings: {exc}", file=sys.stderr)
         return 2
     if listen.refused(settings):
+        return 2
+    refused = listen_refused(settings.host, settings.port)
+    if refused:
+        print(f"plotgate serve: {refused}", file=sys.stderr)
         return 2
     refused = _live_view_refused(settings)
     if refused:

@@ -1,5 +1,6 @@
 """The first start speaks: with an empty kernel cache a command says, on stderr, that it
-is compiling the numerical kernels and how long that took, instead of a silent minute."""
+is compiling the numerical kernels and how long that took, instead of a silent minute; the
+server answers meanwhile."""
 
 import json
 import os
@@ -9,14 +10,17 @@ import sys
 import time
 from pathlib import Path
 
+import httpx
 import pytest
 
 from plotgate.clients.cli import main
 from plotgate.service import kernels
+from plotgate.service.warmup import kernel_names
 from tests.servers import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
 ANNOUNCEMENT = "compiling numerical kernels (first start only, a minute or two)..."
+WARMUP_ANNOUNCEMENT = f"compiling {len(kernel_names())} numerical kernels (first start only"
 
 
 def _lines_until(proc: subprocess.Popen, wanted: str, seconds: float) -> list[str]:
@@ -39,11 +43,14 @@ def _lines_until(proc: subprocess.Popen, wanted: str, seconds: float) -> list[st
 
 
 @pytest.mark.slow
-def test_serve_with_an_empty_kernel_cache_says_it_is_compiling(tmp_path):
+def test_serve_with_an_empty_kernel_cache_answers_while_it_compiles(tmp_path):
+    """``/healthz`` answers while the warm-up compiles (:mod:`plotgate.service.warmup`),
+    and the console says what is compiling."""
     cache = tmp_path / "numba-cache"
     cache.mkdir()
+    port = free_port()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "plotgate.clients.cli", "serve", "--port", str(free_port())]
+        [sys.executable, "-m", "plotgate.clients.cli", "serve", "--port", str(port)]
         + ["--log-dir", str(tmp_path / "rec")],
         cwd=ROOT,
         env={**os.environ, "NUMBA_CACHE_DIR": str(cache)},
@@ -52,13 +59,17 @@ def test_serve_with_an_empty_kernel_cache_says_it_is_compiling(tmp_path):
         text=True,
     )
     try:
-        lines = _lines_until(proc, ANNOUNCEMENT, seconds=120)
+        lines = _lines_until(proc, WARMUP_ANNOUNCEMENT, seconds=120)
+        health = httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=15)
+        compiling = httpx.get(f"http://127.0.0.1:{port}/readyz", timeout=15).json()
     finally:
         proc.kill()  # no need to wait out the whole compilation
         proc.wait(timeout=30)
         if proc.stderr:
             proc.stderr.close()
-    assert lines and f"plotgate serve: {ANNOUNCEMENT}" in lines[-1], lines
+    assert lines and lines[-1].startswith(f"plotgate: {WARMUP_ANNOUNCEMENT}"), lines
+    assert health.json() == {"status": "ok"}
+    assert compiling["operations"]["compiling"], compiling
 
 
 def _gate_request(tmp_path: Path) -> str:
