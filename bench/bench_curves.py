@@ -229,11 +229,11 @@ def _points(ax: Any, points: list[dict[str, Any]], **style: Any) -> None:
 def _values(ax: Any, points: list[dict[str, Any]]) -> None:
     """Each point's swept value beside it, small, in the curve's colour."""
     color = ax.lines[-1].get_color()
-    for p in points:
+    for i, p in enumerate(points):  # alternately below-right and above-left: no overlap
         ax.annotate(
             f"{p['value']:g}" if isinstance(p["value"], float) else str(p["value"]),
             (p["mean_false"], p["mean_true"]),
-            xytext=(3, -7),
+            xytext=(4, -9) if i % 2 == 0 else (-14, 5),
             textcoords="offset points",
             fontsize=5.5,
             color=color,
@@ -246,14 +246,10 @@ def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -
 
     levels = sorted({r["clutter"] for r in rows})
     seeds = ", ".join(str(s) for s in rows[0]["seeds"])
-    cols = min(2, len(levels))
-    rows_ = -(-len(levels) // cols)
-    fig = Figure(figsize=(6.5 * cols, 5.0 * rows_), layout="constrained")
+    fig = Figure(figsize=(5.5 * len(levels), 5.0), layout="constrained")
     FigureCanvasAgg(fig)
-    axes = fig.subplots(rows_, cols, squeeze=False).ravel()
-    for ax in axes[len(levels) :]:
-        ax.set_visible(False)
-    for ax, level in zip(axes, levels, strict=False):
+    axes = fig.subplots(1, len(levels), squeeze=False).ravel()  # one panel a level: none empty
+    for ax, level in zip(axes, levels, strict=True):
         for name, _, parameter, _ in CURVES:
             pts = sorted(
                 (r for r in rows if r["clutter"] == level and r["curve"] == name),
@@ -276,12 +272,13 @@ def figure(rows: list[dict[str, Any]], stone: list[dict[str, Any]], out: Path) -
         ax.set_xscale("symlog", linthresh=0.01, linscale=0.5)
         widest = [r["mean_false"] + r["se_false"] for r in rows if r["clutter"] == level]
         widest += [s["mean_false"] + s["se_false"] for s in ss]
-        ax.set_xlim(0.0, max(0.1, 1.3 * max(widest)))
+        ax.set_xlim(0.0, max(0.01, 1.3 * max(widest)))
         ax.set_xlabel("false tracks per run (linear below 0.01, log above)")
         ax.set_ylabel("targets initiated per run (of 5)")
         ax.set_title(f"clutter {level:g} plots per scan, {rows[0]['runs']} runs (seeds {seeds})")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(loc="lower right", fontsize=8, title="curve: setting swept", title_fontsize=8)
+        # every panel's own curves in its own legend
+        ax.legend(loc="lower right", fontsize=7, title="curve: setting swept", title_fontsize=7)
     fig.suptitle(
         f"Operating curves of track initiation on Mu et al.'s scenario, held-out seeds "
         f"({rows[0]['runs']} runs, the same scans for every value)\neach point is one value "

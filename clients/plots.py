@@ -29,7 +29,6 @@ from pathlib import Path
 from typing import Any
 
 from plotgate.clients.runners import Runner, http_runner, in_process_runner
-from plotgate.install import install_hint
 
 __all__ = [
     "FIGURES",
@@ -63,7 +62,7 @@ PAPER_VALUES = {  # Konovalov's worked examples: (gate kind, range km, probabili
     "ring": ((20.0, 0.90), (50.0, 0.82)),
     "combined": ((50.0, 0.9967),),
 }
-INSTALL_HINT = "matplotlib is needed to draw figures: " + install_hint("plot")
+INSTALL_HINT = 'matplotlib is needed to draw figures: pip install "plotgate[plot]"'
 
 
 class MissingMatplotlib(ImportError):
