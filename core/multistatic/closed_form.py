@@ -136,26 +136,12 @@ def _single_transmitter(tx: np.ndarray, tol: np.ndarray) -> None:
         )
 
 
-def _intersect(
-    M: np.ndarray,
-    g: np.ndarray,
-    h: np.ndarray,
-    ranges: np.ndarray,
-    ranges_slope: np.ndarray,
-    base: np.ndarray,
-    ls: np.ndarray,
-    tx: np.ndarray,
-    rx: np.ndarray,
-) -> ClosedFormSolution:
-    """Solve M s = h + R g, |s| = R for s = x - base, batched; choose the root.
-
-    ``ranges + R * ranges_slope`` (N, K) are the other ranges the root implies; they
-    must be >= 0 for the root to be consistent.
-    """
-    n, _, d = M.shape
-    tol = ROOT_RTOL * coordinate_scale(tx, rx)  # (N,)
-
-    # Least squares s = a + R c through the SVD (batched pseudo-inverse).
+def _least_norm_line(
+    M: np.ndarray, g: np.ndarray, h: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The least-squares line s = a + R c of M s = h + R g through the SVD (batched
+    pseudo-inverse over the singular values kept). Returns U, V^T, the kept singular
+    values (N, D), whether M has full rank (N,), a and c (N, D)."""
     U, S, Vt = np.linalg.svd(M, full_matrices=False)  # (N,K,D), (N,D), (N,D,D)
     full_rank = S[:, -1] > RANK_RTOL * S[:, 0]
     keep = S > RANK_RTOL * S[:, :1]
@@ -163,8 +149,14 @@ def _intersect(
     pinv = np.einsum("nji,nj,nkj->nik", Vt, inv_s, U)  # (N, D, K): V S^-1 U^T
     a = np.einsum("ndk,nk->nd", pinv, h)
     c = np.einsum("ndk,nk->nd", pinv, g)
+    return U, Vt, keep, full_rank, a, c
 
-    # |a + R c|^2 = R^2:  alpha R^2 + 2 beta R + gamma = 0.
+
+def _circle_roots(
+    a: np.ndarray, c: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The roots of |a + R c|^2 = R^2, alpha R^2 + 2 beta R + gamma = 0, and their points
+    s (N, 2, D). Returns alpha, beta (N,), R (N, 2), s and whether the roots are real."""
     alpha = np.einsum("nd,nd->n", c, c) - 1.0
     beta = np.einsum("nd,nd->n", a, c)
     gamma = np.einsum("nd,nd->n", a, a)
@@ -182,11 +174,27 @@ def _intersect(
     with np.errstate(divide="ignore", invalid="ignore"):
         R = np.stack([q / alpha, gamma / q], axis=1)  # (N, 2); product gamma / alpha
     s = a[:, None, :] + R[..., None] * c[:, None, :]  # (N, 2, D)
+    return alpha, beta, R, s, real
 
-    # Rank D - 1 (2D: receivers on one line through the reference; 3D: all platforms
-    # in one plane): M s fixes s only in the platforms' span, but the equations
-    # outside range(M) fix R, and |s| = R gives the offset +-t along the null
-    # direction n: two mirror images. Needs an equation more than the rank.
+
+def _mirror_images(
+    U: np.ndarray,
+    Vt: np.ndarray,
+    keep: np.ndarray,
+    g: np.ndarray,
+    h: np.ndarray,
+    a: np.ndarray,
+    c: np.ndarray,
+    R: np.ndarray,
+    s: np.ndarray,
+    real: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rank D - 1 (2D: receivers on one line through the reference; 3D: all platforms
+    in one plane): M s fixes s only in the platforms' span, but the equations outside
+    range(M) fix R, and |s| = R gives the offset +-t along the null direction n: two
+    mirror images. Needs an equation more than the rank. Returns where it applies (N,),
+    its R_m (0 elsewhere), and R, s and real with the mirror images put in."""
+    d = a.shape[1]
     rank = keep.sum(axis=1)
     g_out = g - np.einsum("nkd,nd->nk", U, keep * np.einsum("nkd,nk->nd", U, g))
     h_out = h - np.einsum("nkd,nd->nk", U, keep * np.einsum("nkd,nk->nd", U, h))
@@ -207,6 +215,31 @@ def _intersect(
     )
     R = np.where(mirror[:, None], R_m[:, None], R)
     real = np.where(mirror, t2 >= -1e-12 * R_m * R_m, real)
+    return mirror, R_m, R, s, real
+
+
+def _intersect(
+    M: np.ndarray,
+    g: np.ndarray,
+    h: np.ndarray,
+    ranges: np.ndarray,
+    ranges_slope: np.ndarray,
+    base: np.ndarray,
+    ls: np.ndarray,
+    tx: np.ndarray,
+    rx: np.ndarray,
+) -> ClosedFormSolution:
+    """Solve M s = h + R g, |s| = R for s = x - base, batched; choose the root.
+
+    ``ranges + R * ranges_slope`` (N, K) are the other ranges the root implies; they
+    must be >= 0 for the root to be consistent.
+    """
+    n, _, d = M.shape
+    tol = ROOT_RTOL * coordinate_scale(tx, rx)  # (N,)
+
+    U, Vt, keep, full_rank, a, c = _least_norm_line(M, g, h)
+    alpha, beta, R, s, real = _circle_roots(a, c)
+    mirror, R_m, R, s, real = _mirror_images(U, Vt, keep, g, h, a, c, R, s, real)
     solvable_rank = full_rank | mirror
 
     finite = np.isfinite(R) & np.isfinite(s).all(axis=-1)

@@ -178,6 +178,12 @@ def _polar_state(example: dict[str, Any]) -> dict[str, Any]:
     )
 
 
+def _tentative_state(example: dict[str, Any]) -> dict[str, Any]:
+    """Continuing a state with a tentative track, so the plots it holds are carried."""
+    scans = [{"t": 0.0, "plots": [_POLAR]}, {"t": 1.0, "plots": [_POLAR]}]
+    return _state({**example, "config": _POLAR_CONFIG, "scans": scans})
+
+
 VARIANTS: dict[str, list[Variant]] = {
     "gates.test": [_with(gate=g, first=_CARTESIAN, candidates=[_POLAR]) for g in _GATES],
     "gates.pairs": [
@@ -236,6 +242,7 @@ VARIANTS: dict[str, list[Variant]] = {
         ),
         _state,
         _polar_state,
+        _tentative_state,
         *(
             _with(
                 config={**_POLAR_CONFIG, "confirmation": "score", **density},
