@@ -15,7 +15,10 @@ known. The track's ``x`` and ``P`` must be the ones made again within
 Not made again, because the state does not carry what it would take: a track whose first
 plot has left its history (``n`` above ``config.history``, possible under score
 confirmation only) and, under the alpha-beta filter, a track that missed a scan between
-two of its plots (the gain takes the scan interval, which the state does not keep).
+two of its plots (the gain takes the scan interval, which the state does not keep). Nor,
+under existence confirmation, any tentative track: its state is the PDA mixture of every
+plot of every gate it passed (Bar-Shalom and Tse), and the state carries only the nearest
+plot of each scan; its existence is held to (tau_d, tau_c) by the state's own checks.
 
 The held plots themselves: ids increasing, exactly those the tentative tracks hold, each
 covariance symmetric positive definite, and each track's last plot at the range and
@@ -212,4 +215,5 @@ def check_held_plots(state: InitiationState, config: InitiationConfig) -> None:
     docstring); raises ParameterError or CovarianceError naming the field and row."""
     _check_table(state)
     _check_last_plots(state)
-    _check_remade(state, config)
+    if config.confirmation != "existence":
+        _check_remade(state, config)
