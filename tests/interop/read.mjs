@@ -124,7 +124,8 @@ function recordProblem(kind, operation, data) {
   }
   const { status, duration_s: duration } = record;
   if (!Number.isInteger(status) || status < 100 || status > 599) return "no HTTP status";
-  if (typeof duration !== "number" || !(duration >= 0) || !Number.isFinite(duration)) return "no duration";
+  // a number of seconds in [0, 1e7], as clients/messages.py's MAX_DURATION_S
+  if (typeof duration !== "number" || !(duration >= 0 && duration <= 1e7)) return "no duration";
   if (status < 400 && !("result" in record)) return `a ${status} without a result`;
   if (status >= 400 && !isProblem(record.error)) return `a ${status} without a problem`;
   return null;
