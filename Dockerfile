@@ -25,6 +25,7 @@ COPY --from=builder /opt/venv /opt/venv
 ENV PATH=/opt/venv/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     PLOTGATE_HOST=0.0.0.0 \
+    PLOTGATE_ALLOW_UNAUTHENTICATED=true \
     PLOTGATE_PORT=8000 \
     PLOTGATE_LOG_DIR=/data \
     PLOTGATE_GIT_COMMIT=$GIT_COMMIT \

@@ -851,9 +851,9 @@ class _SessionWriter:
     def __enter__(self) -> "_SessionWriter":
         return self
 
-    def __exit__(self, kind: object, *exc: object) -> None:
+    def __exit__(self, *exc: object) -> None:
+        """Close the session and put it in place, a failed run's too: the recorder's file is
+        a readable recording of every exchange written before the failure, as before."""
         self._recorder.close()
-        if kind is None and self._partial.exists():
+        if self._partial.exists():
             replace_into(self._partial, self._out)
-        else:
-            self._partial.unlink(missing_ok=True)

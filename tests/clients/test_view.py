@@ -107,7 +107,7 @@ def test_bad_inputs_end_with_a_message_and_exit_2(session, tmp_path, capsys):
     assert main(["view", str(session), "-o", str(missing)]) == 2
     assert f"plotgate view: {missing}: No such file or directory" in capsys.readouterr().err
     assert main(["view", str(session), "-o", str(tmp_path)]) == 2  # a folder: named as given
-    assert f"plotgate view: {tmp_path}: Is a directory" in capsys.readouterr().err
+    assert f"plotgate view: {tmp_path}: exists and is a folder" in capsys.readouterr().err
     assert not list(tmp_path.glob(".*.partial"))
 
 

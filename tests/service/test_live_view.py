@@ -38,10 +38,22 @@ def lines_of(proc: subprocess.Popen) -> tuple[list[str], threading.Thread]:
 
 
 def test_a_foxglove_client_receives_the_scene_of_its_call(tmp_path, interop_node):
+    """With a key set, through the gate: the key as ?key= in the WebSocket URL."""
     port = free_port()
-    with serve(tmp_path, "--foxglove-port", str(port)) as (_, url):
+    key = {"X-API-Key": "live-key"}
+    with serve(tmp_path, "--foxglove-port", str(port), env={"PLOTGATE_API_KEY": "live-key"}) as (
+        _,
+        url,
+    ):
         client = subprocess.Popen(
-            [interop_node, str(LIVE), f"ws://127.0.0.1:{port}", "/scene/gates.test", "1", "120"],
+            [
+                interop_node,
+                str(LIVE),
+                f"ws://127.0.0.1:{port}/?key=live-key",
+                "/scene/gates.test",
+                "1",
+                "120",
+            ],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -59,7 +71,7 @@ def test_a_foxglove_client_receives_the_scene_of_its_call(tmp_path, interop_node
             answer = httpx.post(
                 url + "/v1/gates/test",
                 json=EXAMPLES["gates.test"],
-                headers={"X-Request-ID": "live-call-1"},
+                headers={"X-Request-ID": "live-call-1", **key},
                 timeout=30,
             )
             assert answer.status_code == 200
@@ -75,7 +87,7 @@ def test_a_foxglove_client_receives_the_scene_of_its_call(tmp_path, interop_node
         assert message["topic"] == "/scene/gates.test"
         assert b"live-call-1" in base64.b64decode(message["data"])  # the entity's metadata
         assert abs(int(message["timestamp"]) - sent) < 30e9  # stamped with the call's time
-        metrics = httpx.get(url + "/metrics").text
+        metrics = httpx.get(url + "/metrics", headers=key).text
         assert "plotgate_foxglove_published_total 1.0" in metrics
         assert 'plotgate_foxglove_dropped_total{reason="queue_full"} 0.0' in metrics
 
