@@ -41,8 +41,8 @@ from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
+from plotgate.clients.mcap_reader import Located, Scan
 from plotgate.clients.recordings import Reader
-from plotgate.clients.scan import Located, Scan
 from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 

@@ -19,8 +19,8 @@ alone, as at 1 client; 6: a turn of the loop at 10 clients), into a file on ``--
 Each is timed per exchange, best of ``--repeat``.
 
 **Compaction.** The ``Recorder`` file compacted with LZ4 and with zstd chunks: time to
-compact, size, and time for :class:`plotgate.clients.scan.Scan` and mcap's reader to read
-every message back.
+compact, size, and time for :class:`plotgate.clients.mcap_reader.RecordReader` and mcap's
+reader to read every message back.
 
     python bench/bench_record_writers.py [--exchanges 10000 --bytes 1400 --per-commit 1,6]
 """
@@ -38,7 +38,7 @@ from unittest import mock
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
-from plotgate.clients.scan import Scan
+from plotgate.clients.mcap_reader import RecordReader
 from plotgate.service.recording import Recorder, compaction, request_record, response_record
 from plotgate.service.recording.files import RecordingFile
 from plotgate.service.recording.records import file_head, message_header
@@ -176,7 +176,7 @@ def time_writers(folder: Path, args: argparse.Namespace) -> None:
 
 
 def _read_scan(path: Path) -> int:
-    return sum(1 for _ in Scan(path))
+    return sum(1 for _ in RecordReader(path))
 
 
 def _read_mcap(path: Path) -> int:
@@ -187,8 +187,8 @@ def _read_mcap(path: Path) -> int:
 def time_compaction(folder: Path, args: argparse.Namespace, source: Path) -> None:
     size = source.stat().st_size / 2**20
     print(f"\ncompaction of {size:.1f} MiB ({args.exchanges} gates.test exchanges), best of")
-    print(f"{args.repeat} reads (Scan: records only; mcap: make_reader().iter_messages())")
-    print("| chunks | compact s | MiB | Scan records s | mcap messages s |")
+    print(f"{args.repeat} reads (RecordReader: records only; mcap: make_reader().iter_messages())")
+    print("| chunks | compact s | MiB | RecordReader records s | mcap messages s |")
     print("|---|---:|---:|---:|---:|")
     for codec in (CompressionType.LZ4, CompressionType.ZSTD):
         path = folder / f"{codec.name}.mcap"

@@ -39,7 +39,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # bench.* when run as a script
 
-from plotgate.clients.plots import Setup  # noqa: E402
+from plotgate.clients.gate_figures import Setup  # noqa: E402
 from plotgate.clients.scenario_plot import default_settings, simulate_request  # noqa: E402
 from plotgate.clients.study import DEFAULT_REQUEST  # noqa: E402
 
@@ -67,7 +67,7 @@ class Recipe:
 
 def _konovalov(figure: str) -> Callable[[Path], Any]:
     def draw(out: Path) -> Any:
-        from plotgate.clients.plots import plot
+        from plotgate.clients.gate_figures import plot
 
         return plot(figure, out)
 
@@ -107,7 +107,7 @@ def _curves(out: Path) -> Any:
     return figure(rows, stone, out)
 
 
-_PLOTS = ("clients/plots.py",)
+_PLOTS = ("clients/gate_figures.py",)
 FIGURES: dict[str, Recipe] = {
     "fig2_ring": Recipe(
         "fig2_ring.png", _PLOTS, _konovalov("fig2"), {"figure": "fig2", "setup": asdict(Setup())}

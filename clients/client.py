@@ -117,7 +117,7 @@ The service sets no cap on the size of its answers; its default work caps bound 
 largest is ``identification.picture`` at its cap of 2,500,000 track pairs
 (``passive_deg x active_deg``): about 45 bytes of JSON a pair (measured at 200 x 200), some
 112 MB, under this cap. 128 MiB is also the largest record plotgate's own MCAP readers hold
-(``plotgate.clients.scan.MAX_RECORD_BYTES``): an answer over it could not be replayed
+(``plotgate.clients.mcap_reader.MAX_RECORD_BYTES``): an answer over it could not be replayed
 either. Other operations' largest answers are far below it (measured: a gate test of
 100,000 candidates is 2.0 MB, a simulation of 100,000 plots 12 MB). A server whose
 ``PLOTGATE_LIMITS`` raise the picture's cap needs clients with a larger

@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any
 
 from plotgate.clients.live import writer_alive
+from plotgate.clients.mcap_reader import open_regular
 from plotgate.clients.messages import Envelope
 from plotgate.clients.pairing import Pair, Pairing, Seen, Waiting, digest
 from plotgate.clients.parts import PART_BYTES, Part, parts
@@ -67,7 +68,6 @@ from plotgate.clients.replay import (
     judge,
     tally,
 )
-from plotgate.clients.scan import open_regular
 from plotgate.clients.tolerances import Rules
 
 __all__ = [

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, NamedTuple
 
-from plotgate.clients.scan import location
+from plotgate.clients.mcap_reader import location
 
 __all__ = [
     "MAX_LISTED",

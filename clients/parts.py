@@ -20,7 +20,14 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
-from plotgate.clients.scan import CHUNK, FOOTER, FOOTER_BYTES, MAGIC, PIECE_BYTES, open_regular
+from plotgate.clients.mcap_reader import (
+    CHUNK,
+    FOOTER,
+    FOOTER_BYTES,
+    MAGIC,
+    PIECE_BYTES,
+    open_regular,
+)
 
 __all__ = ["CHUNK_INDEX", "PART_BYTES", "Part", "chunk_offsets", "parts"]
 

@@ -1,8 +1,8 @@
 """plotgate recordings read back: every exchange of any number of MCAP files, each once.
 
-Files are read with :class:`plotgate.clients.scan.Scan`, which reports damage (with its file
-offset)
-and goes on after it, so a truncated or corrupt file gives every intact record it holds.
+Files are read with :class:`plotgate.clients.mcap_reader.RecordReader`, which reports
+damage (with its file offset) and goes on after it, so a truncated or corrupt file gives
+every intact record it holds.
 Each message is then checked for the shape the recorder writes
 (:mod:`plotgate.clients.messages`: a JSON object of at most :data:`MAX_DEPTH` levels, a
 request id the service could have given, ``raw`` as text for a request, a status and a
@@ -25,11 +25,11 @@ The rules are :class:`plotgate.clients.pairing.Pairing`'s, which the fleet repla
 
 A file without its footer is *open* while a process on this host still has it open (its
 name carries its writer's ``pid``; :mod:`plotgate.clients.live`), *unfinished* otherwise:
-its cut-short tail is not damage (:class:`~plotgate.clients.scan.Scan`).
+its cut-short tail is not damage (:class:`~plotgate.clients.mcap_reader.RecordReader`).
 
 Only regular files are opened (a FIFO named ``*.mcap`` would block a reader forever): a
 FIFO, socket, device or folder among the paths is refused before anything is read
-(:class:`~plotgate.clients.scan.NotRegular`). A file that is empty or does not start with
+(:class:`~plotgate.clients.mcap_reader.NotRegular`). A file that is empty or does not start with
 the MCAP magic is not a recording: it is skipped with a note, and decides no exit code
 when other files are recordings.
 """
@@ -44,6 +44,14 @@ from typing import Any
 from mcap.records import Channel, Metadata, Schema
 
 from plotgate.clients.live import writer_alive
+from plotgate.clients.mcap_reader import (
+    MAX_RECORD_BYTES,
+    Damage,
+    Messages,
+    NotMcap,
+    RecordReader,
+    check_regular,
+)
 from plotgate.clients.messages import (
     MAX_DEPTH,
     Envelope,
@@ -53,14 +61,6 @@ from plotgate.clients.messages import (
     parse_record,
 )
 from plotgate.clients.pairing import MAX_LISTED, Filters, Pair, Pairing, Seen, iso_time
-from plotgate.clients.scan import (
-    MAX_RECORD_BYTES,
-    Damage,
-    Messages,
-    NotMcap,
-    Scan,
-    check_regular,
-)
 
 __all__ = [
     "MAX_DEPTH",
@@ -239,7 +239,7 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
     in name order (names start with their UTC time, so this is time order).
 
     Raises ``FileNotFoundError`` for a path that does not exist, and
-    :class:`~plotgate.clients.scan.NotRegular` for one, given or in a folder, that is not a
+    :class:`~plotgate.clients.mcap_reader.NotRegular` for one, given or in a folder, that is not a
     regular file (a FIFO, socket, device or folder): refused before anything is read.
     """
     if isinstance(paths, str | Path):
@@ -327,7 +327,7 @@ class Reader:
         on_record: OnRecord | None = None,
         digest: Callable[[bytes], Any] = hash,
     ) -> None:
-        """``span`` reads only that range of each file (:class:`Scan`); ``on_record`` takes
+        """``span`` reads only that range of each file (:class:`RecordReader`); ``on_record`` takes
         every checked record in file order, and then nothing is paired (the fleet replay
         pairs the records of many parts itself); ``digest`` tells records apart (the fleet's
         parts need one that is the same in every process, which ``hash`` is not)."""
@@ -336,7 +336,7 @@ class Reader:
         self.on_record = on_record
         self.digest = digest
         self.stopped_at = 0
-        """Where reading the last file stopped (:attr:`Scan.stopped_at`)."""
+        """Where reading the last file stopped (:attr:`RecordReader.stopped_at`)."""
         self.filters = filters or Filters()
         self.max_record_bytes = max_record_bytes
         self.files: list[Recording] = []
@@ -358,7 +358,7 @@ class Reader:
             yield exchange_of(pair)
 
     def _file(self, rec: Recording) -> Iterator[Exchange]:
-        scan = Scan(rec.path, max_record_bytes=self.max_record_bytes, span=self.span)
+        scan = RecordReader(rec.path, max_record_bytes=self.max_record_bytes, span=self.span)
         channels: dict[int, tuple[str, str] | str] = {}
         schemas: set[int] = set()
         runs: list[Messages] = []

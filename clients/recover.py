@@ -2,9 +2,9 @@
 
 A server killed mid-write leaves an MCAP file without its summary, index and footer; a disk
 or a copy can damage bytes anywhere. :func:`recover` reads the file with
-:class:`plotgate.clients.scan.Scan`, which skips each damaged chunk or record and goes on at the
-next
-intact one, writes every intact plotgate record (the messages replay reads, checked as
+:class:`plotgate.clients.mcap_reader.RecordReader`, which skips each damaged chunk or
+record and goes on at the next intact one, writes every intact plotgate record (the
+messages replay reads, checked as
 :func:`plotgate.clients.recordings.parse_record` does, their channels and schemas, the metadata)
 into a new file with its own summary and index (LZ4 chunks, like the recorder), and
 reports what it dropped with its offset. The original is renamed to ``<name>.partial``
@@ -27,6 +27,15 @@ from pathlib import Path
 from mcap.records import Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
+from plotgate.clients.mcap_reader import (
+    MAGIC,
+    Damage,
+    NotMcap,
+    NotRegular,
+    RecordReader,
+    not_mcap,
+    open_regular,
+)
 from plotgate.clients.recordings import (
     MAX_LISTED,
     SCENE,
@@ -34,7 +43,6 @@ from plotgate.clients.recordings import (
     parse_record,
     plotgate_channel,
 )
-from plotgate.clients.scan import MAGIC, Damage, NotMcap, NotRegular, Scan, not_mcap, open_regular
 from plotgate.files import atomic_write, check_target
 
 __all__ = ["Recovery", "Refused", "recover"]
@@ -200,7 +208,7 @@ def recover(path: Path | str, out: Path | str | None = None, keep: bool = False)
     if out.exists() and out.resolve() == path.resolve():
         raise Refused(f"the copy would overwrite {path}; name another with --out")
     recovery = Recovery(path, out)
-    scan = Scan(path)
+    scan = RecordReader(path)
     try:
         with atomic_write(out) as stream:
             writer = Writer(stream, compression=CompressionType.LZ4)

@@ -263,7 +263,7 @@ def draw_scenario(
     circles, false ones red crosses named F1, F2, ...: markers, so a 75 m track is seen at
     the 15 km scale). Below: one zoom per target (at most :data:`MAX_ZOOMS`), a few hundred
     metres wide, where a track's line and style can be told apart."""
-    from plotgate.clients.plots import matplotlib_classes
+    from plotgate.clients.gate_figures import matplotlib_classes
 
     Figure, FigureCanvasAgg = matplotlib_classes()
     targets = min(len(sim["truth"][0]) if sim["truth"] else 0, MAX_ZOOMS)
@@ -344,7 +344,7 @@ def scenario_figure(
     server: str | None = None,
 ) -> Path:
     """Simulate, initiate scan by scan and draw; returns the PNG written."""
-    from plotgate.clients.plots import matplotlib_classes
+    from plotgate.clients.gate_figures import matplotlib_classes
     from plotgate.service.schemas import InitiationSettings, ScenarioIn
 
     matplotlib_classes()  # fail before computing

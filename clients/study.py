@@ -316,7 +316,7 @@ def table(answer: dict[str, Any], every: int = 1) -> str:
 def draw(answer: dict[str, Any], out: Path) -> Path:
     """Per-axis RMSE of curves 1-6 against the target's y, log scale, in the style of
     Fadeev et al., Fig. 3."""
-    from plotgate.clients.plots import matplotlib_classes
+    from plotgate.clients.gate_figures import matplotlib_classes
 
     Figure, FigureCanvasAgg = matplotlib_classes()
     samples = answer["samples"]

@@ -131,7 +131,7 @@ def view(
 ) -> ViewReport:
     """Write the scene MCAP of the recordings at ``paths`` to ``out``.
 
-    Raises ``FileNotFoundError`` or :class:`~plotgate.clients.scan.NotRegular` for paths
+    Raises ``FileNotFoundError`` or :class:`~plotgate.clients.mcap_reader.NotRegular` for paths
     that are not recordings (as every reader does), ``ValueError`` for an ``out`` among
     them, ``OSError`` naming ``out`` when it cannot be written
     (:class:`~plotgate.files.NotRegularTarget` when it is not a regular file)."""

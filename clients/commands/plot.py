@@ -15,7 +15,7 @@ from plotgate.clients.commands.where import on_cluster
 
 
 def add_command(sub: Any) -> None:
-    from plotgate.clients.plots import DEFAULT_FILES, FIGURES
+    from plotgate.clients.gate_figures import DEFAULT_FILES, FIGURES
 
     plo = command_parser(
         sub,
@@ -78,7 +78,7 @@ def add_command(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from plotgate.clients.errors import PlotgateClientError
-    from plotgate.clients.plots import MissingMatplotlib, Setup, plot
+    from plotgate.clients.gate_figures import MissingMatplotlib, Setup, plot
     from plotgate.service.cluster import ClusterUnavailable
 
     setup = Setup(

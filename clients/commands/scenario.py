@@ -58,7 +58,7 @@ def add_command(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from plotgate.clients.errors import PlotgateClientError
-    from plotgate.clients.plots import MissingMatplotlib
+    from plotgate.clients.gate_figures import MissingMatplotlib
     from plotgate.clients.scenario_plot import default_settings, scenario_figure, simulate_request
 
     config = default_settings(args.mode, args.v_max)

@@ -67,7 +67,7 @@ def add_command(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from plotgate.clients.errors import PlotgateClientError
-    from plotgate.clients.plots import MissingMatplotlib, matplotlib_classes
+    from plotgate.clients.gate_figures import MissingMatplotlib, matplotlib_classes
     from plotgate.clients.study import DEFAULT_REQUEST, NOT_MET, checks, draw, run_study, table
     from plotgate.service.cluster import ClusterUnavailable
 

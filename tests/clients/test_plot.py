@@ -8,7 +8,7 @@ import pytest
 
 from plotgate.clients import InvalidInputError
 from plotgate.clients.cli import main
-from plotgate.clients.plots import (
+from plotgate.clients.gate_figures import (
     FIGURES,
     INSTALL_HINT,
     OPERATION,

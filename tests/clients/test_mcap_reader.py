@@ -12,9 +12,9 @@ from mcap.records import Message
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from plotgate.clients import scan
+from plotgate.clients import mcap_reader
+from plotgate.clients.mcap_reader import Damage, Located, RecordReader
 from plotgate.clients.recordings import Reader
-from plotgate.clients.scan import Damage, Located, Scan
 from plotgate.service.recording import request_record, response_record
 
 RNG_SEED = 25
@@ -56,7 +56,7 @@ def _exchanges(n: int, big: int = 0) -> list[tuple[str, bytes]]:
 
 
 def _messages(path) -> list[tuple[int, int, int, int, bytes]]:
-    items = list(Scan(path))
+    items = list(RecordReader(path))
     assert not [i for i in items if isinstance(i, Damage)]
     return [
         (m.channel_id, m.sequence, m.log_time, m.publish_time, m.data)
@@ -78,7 +78,7 @@ FORMS = {
     "lz4": {"compression": CompressionType.LZ4},
     "zstd": {"compression": CompressionType.ZSTD},
     "uncompressed-chunks": {"compression": CompressionType.NONE},
-    "large-chunks-streamed": {"chunk_size": 3 * scan.INLINE_CHUNK_BYTES // 2},
+    "large-chunks-streamed": {"chunk_size": 3 * mcap_reader.INLINE_CHUNK_BYTES // 2},
     "unchunked": {"chunked": False},
 }
 
@@ -86,7 +86,7 @@ FORMS = {
 @pytest.mark.parametrize("form", list(FORMS), ids=list(FORMS))
 def test_every_form_reads_as_mcaps_own_reader_reads_it(form, tmp_path):
     path = tmp_path / "r.mcap"
-    exchanges = _exchanges(40, big=scan.BLOCK_BYTES + 1000) + _exchanges(1000)
+    exchanges = _exchanges(40, big=mcap_reader.BLOCK_BYTES + 1000) + _exchanges(1000)
     _write(path, exchanges, **FORMS[form])
     assert _messages(path) == _mcaps_own(path)
     reader = Reader(path)
@@ -104,9 +104,11 @@ def test_the_unchunked_form_is_read_a_block_at_a_time(tmp_path, monkeypatch):
     _write(path, _exchanges(10_000), chunked=False)
     calls = []
     real = os.pread
-    monkeypatch.setattr(scan.os, "pread", lambda fd, n, at: calls.append(n) or real(fd, n, at))
+    monkeypatch.setattr(
+        mcap_reader.os, "pread", lambda fd, n, at: calls.append(n) or real(fd, n, at)
+    )
     assert len(list(Reader(path))) == 10_000
-    assert len(calls) < 10 + 3 * os.path.getsize(path) // scan.BLOCK_BYTES, len(calls)
+    assert len(calls) < 10 + 3 * os.path.getsize(path) // mcap_reader.BLOCK_BYTES, len(calls)
 
 
 def test_a_live_unchunked_file_cut_anywhere_in_its_last_record_is_unfinished(tmp_path):
@@ -159,7 +161,7 @@ def test_a_bomb_in_a_small_chunk_is_stopped_at_its_declared_size(tmp_path):
     chunk = struct.pack("<BQ", 6, len(content) + len(bomb)) + content + bomb
     at = _first_chunk(sound)
     path.write_bytes(sound[:at] + chunk + sound[at:])
-    items = list(Scan(path))
+    items = list(RecordReader(path))
     [damage] = [i for i in items if isinstance(i, Damage) and i.offset == at]  # (and the
     # summary's CRC, which no longer matches: its offsets moved)
     assert "inflates past its declared 100 bytes" in damage.reason
@@ -176,8 +178,8 @@ def _first_chunk(data: bytes) -> int:
 def test_a_tail_declaring_more_than_a_writer_writes_is_damage(tmp_path):
     """A last record declaring a terabyte is not a write in progress: it is damage."""
     path = tmp_path / "r.mcap"
-    path.write_bytes(scan.MAGIC + struct.pack("<BQ", 5, 2**40) + b"x" * 100)
-    reading = Scan(path)
+    path.write_bytes(mcap_reader.MAGIC + struct.pack("<BQ", 5, 2**40) + b"x" * 100)
+    reading = RecordReader(path)
     [damage] = list(reading)
     assert isinstance(damage, Damage) and "declares 1099511627776 bytes" in damage.reason
     assert reading.unfinished == "its last 109 bytes, from offset 8, are damaged"

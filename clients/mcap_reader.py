@@ -3,7 +3,7 @@
 mcap's own ``StreamReader`` stops at the first bad record, believes every declared length
 and decompresses a chunk whole, so one flipped byte hides the rest of a file and a chunk
 declaring a terabyte (or a small one that inflates to gigabytes) takes the memory with
-it. :class:`Scan` reads a file the way a recovery tool must:
+it. :class:`RecordReader` reads a file the way a recovery tool must:
 
 - **Bounded memory, C-speed bytes.** A record is held whole only when it is a Schema,
   Channel, Message, Metadata or Header record of at most ``max_record_bytes`` (a declared
@@ -21,7 +21,7 @@ it. :class:`Scan` reads a file the way a recovery tool must:
   next record whose every length adds up (a Chunk, Schema, Channel, Metadata, DataEnd or
   Footer record followed by a plausible opcode), and reading goes on there: every intact
   chunk after a damaged one is kept.
-- **An unfinished tail is not damage** (see :class:`Scan`): a live file, or one whose
+- **An unfinished tail is not damage** (see :class:`RecordReader`): a live file, or one whose
   writer was killed, ends with a record cut short or without its footer.
 - **Channels of a damaged first chunk.** mcap's writer puts every Schema and Channel
   record in the first chunk; when the file has a summary section whose CRC checks, its
@@ -57,7 +57,7 @@ __all__ = [
     "Messages",
     "NotMcap",
     "NotRegular",
-    "Scan",
+    "RecordReader",
     "check_regular",
     "location",
     "not_mcap",
@@ -361,7 +361,7 @@ class Messages:
 
 
 _OneMessage = tuple[int | None, int, int, int, int, int, bytes]
-"""A Message record as :meth:`Scan._records` yields it: its chunk (None at top level), then
+"""A Message record as :meth:`RecordReader._records` yields it: its chunk (None at top level), then
 the fields of a :class:`Messages` record."""
 
 
@@ -372,7 +372,7 @@ def _message(chunk: int | None, where: int, data: bytes) -> _OneMessage:
     return (chunk, where, *struct.unpack_from("<HIQQ", data), data[22:])
 
 
-class Scan:
+class RecordReader:
     """Read one MCAP file: iterate to get each intact record (:class:`Located`) and each
     piece of damage (:class:`Damage`), in file order; :meth:`runs` gives the same with the
     Message records in batches (:class:`Messages`), as the fast readers want them.
