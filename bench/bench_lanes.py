@@ -22,7 +22,7 @@ import httpx
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from tests.servers import serve  # noqa: E402
-from tests.service.test_large_bodies import _pairs  # noqa: E402
+from tests.service.test_large_bodies import pairs_body  # noqa: E402
 
 PATH = "/v1/gates/pairs"
 HEADERS = {"content-type": "application/json"}
@@ -35,7 +35,7 @@ def _timed(url: str, body: bytes) -> tuple[int, float]:
 
 
 def run(repeats: int) -> None:
-    large, small = _pairs(46_000), _pairs(460)
+    large, small = pairs_body(46_000), pairs_body(460)
     print(f"large body {len(large) / 1e6:.1f} MB x 6, small body {len(small) / 1e3:.0f} KB")
     with tempfile.TemporaryDirectory() as tmp, serve(Path(tmp) / "rec", ready_s=300) as (_, url):
         assert _timed(url, small)[0] == 200  # both lanes' workers start

@@ -61,6 +61,7 @@ __all__ = [
     "mapper",
     "numba_threads",
     "run_worker",
+    "while_workers",
     "workers",
 ]
 
@@ -459,11 +460,11 @@ async def _mapped(
     client: Any, function: Callable[..., Any], items: list[Any], bar: tqdm[Any]
 ) -> list[Any]:
     """``function`` over ``items`` on the cluster, results in order, while the cluster has
-    workers (:func:`_while_workers`); the tasks are cancelled when this is (past the
+    workers (:func:`while_workers`); the tasks are cancelled when this is (past the
     deadline) or anything fails."""
     futures = client.map(function, items, pure=False)
     work = asyncio.ensure_future(_gathered(client, futures, bar))
-    watch = asyncio.ensure_future(_while_workers(client))
+    watch = asyncio.ensure_future(while_workers(client))
     try:
         await asyncio.wait({work, watch}, return_when=asyncio.FIRST_COMPLETED)
         if not work.done():
@@ -497,7 +498,7 @@ _WORKERS_POLL_S = 0.5
 """How often a request's work asks the scheduler for its workers, s."""
 
 
-async def _while_workers(client: Any) -> None:
+async def while_workers(client: Any) -> None:
     """Return never: raise :class:`ClusterUnavailable` once the scheduler has had no worker
     for :data:`NO_WORKERS_S`, or does not say within :data:`_CLOSE_S` (it died)."""
     alone_since = None

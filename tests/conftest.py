@@ -1,7 +1,5 @@
 """Shared fixtures: service settings on a temporary folder, the app, plots, the MCAP reader."""
 
-import dataclasses
-import io
 import json
 import shutil
 import subprocess
@@ -13,6 +11,7 @@ from fastapi.testclient import TestClient
 from plotgate.service import registry
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
+from tests.support.requests import with_handler
 
 READER = Path(__file__).resolve().parent / "interop"
 """The project's independent MCAP reader (Node, @mcap/core), pinned by its lockfile."""
@@ -27,14 +26,6 @@ def settings(tmp_path: Path) -> Settings:
 def client(settings: Settings):
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         yield c
-
-
-def with_handler(name: str, handler) -> registry.Operation:
-    """A copy of the registry's operation ``name`` answering with ``handler`` (held where
-    the registry keeps the handler it imports on first use)."""
-    op = dataclasses.replace(registry.OPERATIONS[name])
-    vars(op)["handler"] = handler
-    return op
 
 
 @pytest.fixture
@@ -125,66 +116,3 @@ def foxglove_check(interop_node: str):
         return run.returncode, json.loads(run.stdout)
 
     return check
-
-
-def cartesian(
-    x: float, y: float, sxx: float = 100.0**2, syy: float = 100.0**2, sxy: float = 0.0
-) -> dict:
-    return {"frame": "cartesian", "x": x, "y": y, "covariance": [[sxx, sxy], [sxy, syy]]}
-
-
-def polar(r: float, az_deg: float, sigma_r: float = 200.0, sigma_az_deg: float = 0.5) -> dict:
-    return {
-        "frame": "polar",
-        "r": r,
-        "az_deg": az_deg,
-        "sigma_r": sigma_r,
-        "sigma_az_deg": sigma_az_deg,
-    }
-
-
-def answer(r) -> dict:
-    """The JSON body of a 200 answer."""
-    assert r.status_code == 200, r.text
-    return r.json()
-
-
-def invalid_input(r, field: str, status: int = 422) -> dict:
-    """The problem body of an invalid-input answer that names ``field``."""
-    assert r.status_code == status, r.text
-    assert r.headers["content-type"].startswith("application/problem+json")
-    body = r.json()
-    assert body["status"] == status and body["type"] == "urn:plotgate:problem:invalid-input"
-    assert field in [e["field"] for e in body["errors"]], body
-    assert field in body["detail"]
-    return body
-
-
-def chunk_per_exchange(path: Path) -> None:
-    """Rewrite a recording with one LZ4 chunk per exchange (a flush after each response),
-    as the recorder wrote files before compaction: the readers' tests of a damaged chunk
-    need many small chunks, where a compacted file holds a megabyte per chunk."""
-    from mcap.records import Channel, Message, Metadata, Schema
-    from mcap.stream_reader import StreamReader
-    from mcap.writer import CompressionType, Writer
-
-    data = path.read_bytes()
-    with open(path, "wb") as out:
-        writer = Writer(out, compression=CompressionType.LZ4)
-        writer.start(library="plotgate")
-        for record in StreamReader(io.BytesIO(data)).records:
-            if isinstance(record, Schema):
-                writer.register_schema(record.name, record.encoding, record.data)
-            elif isinstance(record, Channel):
-                writer.register_channel(
-                    record.topic, record.message_encoding, record.schema_id, record.metadata
-                )
-            elif isinstance(record, Metadata):
-                writer.add_metadata(record.name, record.metadata)
-            elif isinstance(record, Message):
-                writer.add_message(
-                    record.channel_id, record.log_time, record.data, record.publish_time
-                )
-                if b'"status": ' in record.data[:200]:
-                    writer.flush()
-        writer.finish()

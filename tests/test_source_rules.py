@@ -3,6 +3,7 @@
 - A name starting with ``_`` is private to its module: no module imports one from another
   (``from x import _y``, ``x._y`` on an imported module, or anything from a module
   ``_x``); a helper two modules need is a public name of a module of its own.
+- Test modules import shared builders only from ``tests/support/``.
 - Nothing imports the layers by their folder names (``core``, ``service``, ``clients``):
   they exist only as ``plotgate.core``, ``plotgate.service`` and ``plotgate.clients``.
 """
@@ -85,3 +86,34 @@ def test_test_modules_have_unique_names():
     so two ``test_x.py`` in different folders stop the whole run at collection."""
     names = [p.name for p in (ROOT / "tests").rglob("test_*.py") if "node_modules" not in p.parts]
     assert sorted(n for n in set(names) if names.count(n) > 1) == []
+
+
+def _test_module_imports(tree: ast.Module) -> list[str]:
+    """Imports of ``tests.*`` that reach anything but the shared builders of
+    ``tests/support/``: another test module, or ``tests.conftest``."""
+    found = []
+    for node in ast.walk(tree):
+        names = []
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        found += [
+            f"line {node.lineno}: {name}"
+            for name in names
+            if name.split(".")[0] == "tests" and not name.startswith("tests.support")
+        ]
+    return found
+
+
+def test_tests_share_builders_only_through_tests_support():
+    """Test modules form a tree, not a web: shared builders live in ``tests/support/``
+    (fixtures in the ``conftest.py`` of the package that uses them), and no test module
+    imports another test module or ``tests.conftest``."""
+    found = {
+        str(path.relative_to(ROOT)): bad
+        for path in (ROOT / "tests").rglob("*.py")
+        if "node_modules" not in path.parts
+        and (bad := _test_module_imports(ast.parse(path.read_text())))
+    }
+    assert found == {}

@@ -19,7 +19,7 @@ import numpy as np
 from plotgate.service.scenes.draw import Canvas, as_points, colors
 from plotgate.service.scenes.geometry import plot_positions
 
-__all__ = ["evaluate", "initiate", "simulate"]
+__all__ = ["evaluate", "initiate", "simulate", "track_label"]
 
 VELOCITY_SECONDS = 60.0
 
@@ -48,10 +48,10 @@ def initiate(canvas: Canvas, request: dict[str, Any], result: dict[str, Any]) ->
         canvas.ellipse(position, track["covariance"], colors.COVARIANCE)
         velocity = VELOCITY_SECONDS * np.asarray(track["velocity"], dtype=float)
         canvas.line([position, position + velocity], color)
-        canvas.text(position, _label(track), color)
+        canvas.text(position, track_label(track), color)
 
 
-def _label(track: dict[str, Any]) -> str:
+def track_label(track: dict[str, Any]) -> str:
     """``T<id> <status>``, and a tentative track's probability of existence where it has
     one (existence confirmation): ``T7 tentative P_E 0.83``."""
     label = f"T{track['id']} {track['status']}"

@@ -7,7 +7,7 @@ import pytest
 
 from plotgate.clients.cli import main
 from plotgate.clients.ports import listen_refused
-from tests.servers import free_port
+from tests.support.servers import free_port
 
 
 def test_serve_on_a_busy_port_names_the_option_and_exits_2(tmp_path, capsys, monkeypatch):

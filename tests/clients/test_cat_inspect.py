@@ -9,7 +9,7 @@ from fastapi.testclient import TestClient
 
 from plotgate.clients.cli import main
 from plotgate.service.app import create_app
-from tests.service.test_recording import BAD_COV, GOOD
+from tests.support.requests import BAD_COV, GOOD
 
 PAIR = {
     "passive_bearings_deg": [1.0, 1.1, 0.9, 1.0],

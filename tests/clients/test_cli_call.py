@@ -45,7 +45,7 @@ class _Bytes:
 
 @pytest.mark.slow
 def test_call_on_a_live_server(tmp_path, capsys):
-    from tests.servers import serve
+    from tests.support.servers import serve
 
     path = tmp_path / "request.json"
     path.write_text(json.dumps(REQUEST))
@@ -92,7 +92,7 @@ def test_call_on_a_server_answering_what_is_no_answer(
     """A message and the contracted exit code, never a traceback: a non-2xx body that is no
     problem is printed as the problem the client makes of it (exit 1); a 2xx body that is not
     the operation's answer is no answer (exit 2)."""
-    from tests.servers import serving
+    from tests.support.servers import serving
 
     path = tmp_path / "request.json"
     path.write_text(json.dumps(REQUEST))
@@ -109,7 +109,7 @@ def test_call_on_a_server_answering_what_is_no_answer(
 
 
 def test_call_on_a_server_announcing_an_answer_over_the_cap(tmp_path, capsys):
-    from tests.servers import serving
+    from tests.support.servers import serving
 
     path = tmp_path / "request.json"
     path.write_text(json.dumps(REQUEST))

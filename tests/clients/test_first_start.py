@@ -16,7 +16,7 @@ import pytest
 from plotgate.clients.cli import main
 from plotgate.service import kernels
 from plotgate.service.warmup import kernel_names
-from tests.servers import free_port
+from tests.support.servers import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
 ANNOUNCEMENT = "compiling numerical kernels (first start only, a minute or two)..."

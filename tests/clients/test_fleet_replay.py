@@ -25,9 +25,9 @@ from plotgate.clients.recordings import Filters, recording_files
 from plotgate.clients.replay import replay
 from plotgate.service.recording import request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
-from tests.clients.hostile import corpus
-from tests.clients.recorded import OP, write_files
-from tests.servers import free_port
+from tests.support.hostile import corpus
+from tests.support.recorded import OP, write_files
+from tests.support.servers import free_port
 
 T0, MS = 1_700_000_000 * 10**9, 10**6
 

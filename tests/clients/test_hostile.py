@@ -20,8 +20,8 @@ from fastapi.testclient import TestClient
 
 from plotgate.service.app import create_app
 from plotgate.service.registry import OPERATIONS, execute
-from tests.clients.hostile import corpus
-from tests.service.test_recording import BAD_COV, GOOD
+from tests.support.hostile import corpus
+from tests.support.requests import BAD_COV, GOOD
 
 ROOT = Path(__file__).resolve().parents[2]
 PEAK_MB = 400

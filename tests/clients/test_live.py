@@ -12,9 +12,9 @@ import httpx
 from plotgate.clients.cli import main
 from plotgate.clients.live import writer_alive, writer_pid
 from plotgate.clients.recordings import Reader
-from tests.conftest import chunk_per_exchange
-from tests.servers import serve
-from tests.service.test_recording import GOOD
+from tests.support.recordings import chunk_per_exchange
+from tests.support.requests import GOOD
+from tests.support.servers import serve
 
 ROOT = Path(__file__).resolve().parents[2]
 

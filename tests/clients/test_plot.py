@@ -19,7 +19,7 @@ from plotgate.clients.gate_figures import (
 )
 from plotgate.clients.runners import http_runner, in_process_runner
 from plotgate.service.table import ENDPOINTS
-from tests.servers import serve
+from tests.support.servers import serve
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

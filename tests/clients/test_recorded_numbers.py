@@ -16,8 +16,8 @@ from plotgate.clients.cli import main
 from plotgate.clients.messages import MAX_DURATION_S, check_messages
 from plotgate.service.recording import request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
-from tests.clients.recorded import OP, write_files
-from tests.service.test_recording import GOOD
+from tests.support.recorded import OP, write_files
+from tests.support.requests import GOOD
 
 T0 = 1_700_000_000_000_000_000
 HOSTILE = {

@@ -6,7 +6,8 @@ from mcap.reader import make_reader
 
 from plotgate.clients.recordings import Reader, read_recording, recording_files
 from plotgate.service.app import create_app
-from tests.conftest import cartesian, chunk_per_exchange
+from tests.support.recordings import chunk_per_exchange
+from tests.support.requests import cartesian
 
 BODY = {
     "gate": {"kind": "ring", "tau": 1.0, "v_max": 10.0},

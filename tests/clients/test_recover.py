@@ -13,8 +13,8 @@ from plotgate.clients.cli import main
 from plotgate.clients.recordings import Reader
 from plotgate.clients.recover import recover
 from plotgate.service.app import create_app
-from tests.conftest import chunk_per_exchange
-from tests.service.test_recording import GOOD
+from tests.support.recordings import chunk_per_exchange
+from tests.support.requests import GOOD
 
 
 def test_a_file_that_is_not_mcap_is_refused_and_left_alone(tmp_path, capsys):

@@ -11,7 +11,7 @@ from plotgate.clients.replay import FAULT_NOW, REFUSED_FOR_THE_SERVER, Answer, j
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.recording import request_record, response_record
 from plotgate.service.registry import OPERATIONS
-from tests.clients.recorded import OP, write_files
+from tests.support.recorded import OP, write_files
 
 T0, MS = 1_700_000_000_000_000_000, 1_000_000
 

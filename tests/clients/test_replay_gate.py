@@ -31,8 +31,8 @@ from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.recording import request_record, response_record
 from plotgate.service.recording.files import RecordingFile
 from plotgate.service.registry import OPERATIONS, execute
-from tests.clients.recorded import write_files
-from tests.service.test_recording import BAD_COV, GOOD
+from tests.support.recorded import write_files
+from tests.support.requests import BAD_COV, GOOD
 
 OP = "gates.test"
 GOOD_BODY = json.dumps(GOOD).encode()

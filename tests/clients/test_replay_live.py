@@ -13,8 +13,8 @@ import httpx
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import Reader, read_recording
 from plotgate.clients.replay import REPLAYED_ORIGINAL
-from tests.servers import free_port, serve
-from tests.service.test_recording import BAD_COV, GOOD
+from tests.support.requests import BAD_COV, GOOD
+from tests.support.servers import free_port, serve
 
 ROOT = Path(__file__).resolve().parents[2]
 PAIR = {

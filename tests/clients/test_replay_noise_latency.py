@@ -14,8 +14,8 @@ import pytest
 
 from plotgate.clients.cli import main
 from plotgate.service import registry
-from tests.clients.gate_recordings import moved_recording
-from tests.servers import serve
+from tests.support.gate_recordings import moved_recording
+from tests.support.servers import serve
 
 
 def test_calibrate_on_a_clean_recording_writes_no_rule(tmp_path, capsys):

@@ -13,7 +13,7 @@ import pytest
 from lxml import etree, html
 
 from plotgate.clients.cli import main
-from tests.clients.gate_recordings import moved_recording
+from tests.support.gate_recordings import moved_recording
 
 SCHEMA = Path(__file__).parent / "schemas" / "junit_ant.xsd"
 

@@ -18,7 +18,7 @@ from plotgate.clients.tolerances import (
     load_rules,
 )
 from plotgate.service.table import ENDPOINTS
-from tests.clients.gate_recordings import moved_recording, rules_file
+from tests.support.gate_recordings import moved_recording, rules_file
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -29,7 +29,7 @@ from plotgate.clients.cli import main
 from plotgate.service.problems import ProblemError, problem_json
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas import CartesianPlot, GateResults, GateTestRequest, RingGate
-from tests.servers import free_port, serving
+from tests.support.servers import free_port, serving
 
 GATE = RingGate(kind="ring", tau=5.0, v_min=100.0, v_max=500.0)
 FIRST = CartesianPlot(frame="cartesian", x=0.0, y=0.0, covariance=((1e4, 0.0), (0.0, 1e4)))

@@ -4,7 +4,7 @@ import json
 
 from plotgate.clients.cli import main
 from plotgate.clients.scenario_plot import classify_tracks, confirmed_tracks, draw_scenario
-from tests.servers import serve
+from tests.support.servers import serve
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -2,7 +2,7 @@
 
 import pytest
 
-from tests.docs.markdown import blocks, documents, json_matches, text_matches
+from tests.support.markdown import blocks, documents, json_matches, text_matches
 
 PAGE = """# A page
 

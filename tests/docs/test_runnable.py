@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 
 import plotgate.service.registry  # noqa: F401 - compiles the kernels here, before the server and blocks load them
-from tests.docs.markdown import Block, blocks, documents, json_matches, links, text_matches
-from tests.servers import serve
+from tests.support.markdown import Block, blocks, documents, json_matches, links, text_matches
+from tests.support.servers import serve
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]

@@ -10,7 +10,7 @@ import httpx
 
 from plotgate.clients.recordings import read_recording
 from plotgate.service.registry import OPERATIONS, execute
-from tests.servers import health_watch, serve
+from tests.support.servers import health_watch, serve
 
 SIZE = 60 * 2**20  # just under the 64 MiB default limit
 HEALTH_WITHIN_S = 0.1

@@ -18,7 +18,7 @@ from plotgate.service.bodies import (
 )
 from plotgate.service.recording import request_record
 from plotgate.service.registry import OPERATIONS, execute, parse
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
 
 
 def _values(value: object) -> int:

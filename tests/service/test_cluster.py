@@ -25,7 +25,7 @@ from plotgate.core.initiation import InitiationConfig
 from plotgate.core.initiation.evaluate import CHUNK_RUNS, evaluate, sweep
 from plotgate.core.initiation.simulate import mu_scenario
 from plotgate.service.cluster import CONNECT_S, ClusterUnavailable, cluster, configure, mapper
-from tests.servers import free_port, losing_a_worker, serve
+from tests.support.servers import free_port, losing_a_worker, serve
 
 SCORE = InitiationConfig(
     mode="polar", v_max=30.0, confirmation="score", P_D=0.8, surveillance_area=15000.0**2

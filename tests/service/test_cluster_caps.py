@@ -28,7 +28,7 @@ from plotgate.service.schemas import (
     IdentifySimulateResult,
 )
 from plotgate.service.table import ENDPOINTS
-from tests.conftest import answer, invalid_input
+from tests.support.requests import answer, invalid_input
 
 SIZE = "runs x scans x plots"
 EVALUATE = ENDPOINTS["initiation.evaluate"]

@@ -30,7 +30,7 @@ class _Client:
 def _watch(client: _Client) -> tuple[str, float]:
     async def run() -> str:
         with pytest.raises(ClusterUnavailable) as caught:
-            await cluster._while_workers(client)
+            await cluster.while_workers(client)
         return str(caught.value)
 
     started = time.monotonic()

@@ -18,8 +18,8 @@ from plotgate.clients.cli import main
 from plotgate.core.multistatic.study import STUDY_CHUNK_RUNS, accuracy_study
 from plotgate.service.cluster import cluster, mapper, numba_threads
 from plotgate.service.registry import OPERATIONS, execute
-from tests.identical import assert_identical
-from tests.servers import losing_a_worker
+from tests.support.identical import assert_identical
+from tests.support.servers import losing_a_worker
 
 EXAMPLE = json.loads(
     (Path(__file__).resolve().parents[2] / "docs/examples/study_scenario.json").read_text()

@@ -11,8 +11,8 @@ import numpy as np
 from plotgate.core.initiation import InitiationConfig, initiate
 from plotgate.core.initiation.existence import existence
 from plotgate.core.initiation.simulate import mu_scenario, simulate
-from plotgate.service.scenes.initiation import _label
-from tests.conftest import answer
+from plotgate.service.scenes.initiation import track_label
+from tests.support.requests import answer
 
 EXAMPLE = Path(__file__).parents[2] / "docs/examples/existence_clutter_250.json"
 
@@ -67,6 +67,6 @@ def test_a_tampered_existence_is_named(client):
 
 def test_the_picture_labels_existence_on_tentative_tracks():
     track = {"id": 7, "status": "tentative", "existence": 0.834}
-    assert _label(track) == "T7 tentative P_E 0.83"
-    assert _label({**track, "status": "confirmed"}) == "T7 confirmed"
-    assert _label({"id": 7, "status": "tentative"}) == "T7 tentative"
+    assert track_label(track) == "T7 tentative P_E 0.83"
+    assert track_label({**track, "status": "confirmed"}) == "T7 confirmed"
+    assert track_label({"id": 7, "status": "tentative"}) == "T7 tentative"

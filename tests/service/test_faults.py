@@ -9,7 +9,7 @@ from plotgate.clients.recordings import read_recording
 from plotgate.service import registry
 from plotgate.service.app import create_app
 from plotgate.service.recording.files import RecordingFile
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
 
 
 class _Disk:

@@ -40,7 +40,7 @@ from schemathesis.checks import positive_data_acceptance
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.registry import OPERATIONS
-from tests.service.valid_bodies import repaired
+from tests.support.valid_bodies import repaired
 
 MAX_EXAMPLES = int(os.environ.get("PLOTGATE_FUZZ_EXAMPLES", "12"))
 CAPS = {

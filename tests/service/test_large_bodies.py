@@ -21,7 +21,7 @@ from plotgate.service.bodies import SLICE_BYTES
 from plotgate.service.recording import request_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.schemas.common import MAX_PLOTS
-from tests.servers import health_watch, serve
+from tests.support.servers import health_watch, serve
 
 HANG_S = 0.5
 """A /healthz answer slower than this is a stalled loop: it takes milliseconds, and at most
@@ -42,7 +42,7 @@ def _plot(rng: random.Random, sensor: bool) -> dict:
     return plot
 
 
-def _pairs(n: int, seed: int = 1) -> bytes:
+def pairs_body(n: int, seed: int = 1) -> bytes:
     """``n`` pairs: up to the bound, each plot with its sensor (the heaviest body);
     beyond it, without, so the body holds fewer values than the heaviest valid one and
     only validation can refuse it."""
@@ -53,7 +53,7 @@ def _pairs(n: int, seed: int = 1) -> bytes:
 
 
 def _candidates(n: int, seed: int = 2) -> bytes:
-    """``n`` candidates, without their sensors (as :func:`_pairs` beyond the bound)."""
+    """``n`` candidates, without their sensors (as :func:`pairs_body` beyond the bound)."""
     rng = random.Random(seed)
     body = {
         "gate": {"kind": "combined", "tau": 5, "v_min": 100, "v_max": 500, "P_G": 0.9},
@@ -65,7 +65,7 @@ def _candidates(n: int, seed: int = 2) -> bytes:
 
 def _broken_covariance(n: int) -> bytes:
     """``n`` pairs, pairs[3].second's covariance one row short."""
-    body = json.loads(_pairs(n, seed=3))
+    body = json.loads(pairs_body(n, seed=3))
     body["pairs"][3]["second"]["covariance"] = [[1.0, 0.0]]
     return json.dumps(body).encode()
 
@@ -78,8 +78,8 @@ def _malformed_text(size: int) -> bytes:
 
 
 BODIES = {  # name: (operation, body, status)
-    "heaviest-pairs": ("gates.pairs", _pairs(MAX_PLOTS), 200),
-    "pairs-over-the-bound": ("gates.pairs", _pairs(MAX_PLOTS + 1), 422),
+    "heaviest-pairs": ("gates.pairs", pairs_body(MAX_PLOTS), 200),
+    "pairs-over-the-bound": ("gates.pairs", pairs_body(MAX_PLOTS + 1), 422),
     "candidates-over-the-bound": ("gates.test", _candidates(MAX_PLOTS + 1), 422),
     "large-broken-covariance": ("gates.pairs", _broken_covariance(2_000), 422),
     "large-malformed-text": ("gates.test", _malformed_text(40 * 2**20), 400),
@@ -169,7 +169,7 @@ def _cpu_s(pid: int) -> float:
 
 def test_a_worker_killed_mid_body_costs_that_answer_only(tmp_path):
     path = OPERATIONS["gates.pairs"].path
-    small = _pairs(2_000)  # over INLINE_BODY_BYTES: the worker's
+    small = pairs_body(2_000)  # over INLINE_BODY_BYTES: the worker's
     heaviest = BODIES["heaviest-pairs"][1]
     with (
         serve(tmp_path / "recordings") as (proc, url),
@@ -201,7 +201,7 @@ def test_the_worker_dies_with_a_killed_server(tmp_path):
         httpx.Client(base_url=url, timeout=300) as http,
         ThreadPoolExecutor(1) as sender,
     ):
-        assert http.post(path, content=_pairs(2_000)).status_code == 200  # the workers start
+        assert http.post(path, content=pairs_body(2_000)).status_code == 200  # the workers start
         pending = sender.submit(http.post, path, content=BODIES["heaviest-pairs"][1])
         workers = _workers(proc.pid)
         _busy_worker(proc.pid, pending)  # one is parsing the heaviest body

@@ -14,8 +14,14 @@ from plotgate.clients.cli import main
 from plotgate.service.access import Keys, binding_refusal
 from plotgate.service.scenes.live import LiveView
 from plotgate.service.scenes.live_gate import BACKLOG_MESSAGES, Backlog, SlowClient
-from tests.live_clients import answer_head, handshake, read_frame, stalled_subscriber, subscribe
-from tests.servers import free_port, serve
+from tests.support.live_clients import (
+    answer_head,
+    handshake,
+    read_frame,
+    stalled_subscriber,
+    subscribe,
+)
+from tests.support.servers import free_port, serve
 
 KEY = "s3cret-live"
 

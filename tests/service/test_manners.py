@@ -11,7 +11,7 @@ from plotgate.service.config import Settings
 from plotgate.service.guards import OPEN_PATHS
 from plotgate.service.recording import Recorder
 from plotgate.service.registry import OPERATIONS
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
 
 KEY, TOKEN = "k3y-0f-the-day", "t0ken-0f-the-day"
 EXTERNAL = re.compile(r"(?:https?:)?//[A-Za-z0-9.-]+\.[A-Za-z]{2,}")

@@ -15,8 +15,8 @@ import time
 import httpx
 
 from plotgate.clients.recordings import read_recording
-from tests.servers import serve
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
+from tests.support.servers import serve
 
 HALF_SENT = 300
 DEADLINE_S = 1.0

@@ -90,10 +90,10 @@ def test_the_kernels_counted_are_the_functions_core_compiles():
     from numba.core.registry import CPUDispatcher
     from numba.np.ufunc.dufunc import DUFunc
 
-    from tests.core.test_compiled import _kernels
+    from tests.support.kernels import compiled_kernels
 
     names = kernel_names()
-    assert set(_kernels()) <= names
+    assert set(compiled_kernels()) <= names
     for name in names:
         module, function = name.rsplit(".", 1)
         value = getattr(importlib.import_module(module), function)

@@ -36,7 +36,7 @@ from plotgate.service.schemas import (
     StudyRequest,
 )
 from plotgate.service.table import ENDPOINTS, work_caps
-from tests.conftest import answer, invalid_input, with_handler
+from tests.support.requests import answer, invalid_input, with_handler
 
 
 def _without_work(name: str) -> Any:

@@ -21,7 +21,7 @@ from plotgate.core.multistatic import (
     trajectory_solve,
 )
 from plotgate.core.multistatic.study import CURVES
-from tests.identical import assert_identical
+from tests.support.identical import assert_identical
 
 SIGMA = 0.5
 T = 0.5 * np.arange(12)

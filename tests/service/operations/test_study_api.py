@@ -17,8 +17,7 @@ from plotgate.clients.study import DEFAULT_REQUEST
 from plotgate.core.multistatic import accuracy_study, platform_positions
 from plotgate.service.app import create_app
 from plotgate.service.schemas import MAX_STUDY_RUNS, StudyRequest
-from tests.conftest import answer, invalid_input
-from tests.service.test_solves_api import assert_finite
+from tests.support.requests import answer, assert_finite, invalid_input
 
 TIMES = [0.0, 0.5, 1.0, 1.5, 2.0, 2.5]
 BODY = {

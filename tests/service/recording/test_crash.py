@@ -9,8 +9,8 @@ import httpx
 from plotgate.clients import Client
 from plotgate.clients.recordings import read_recording
 from plotgate.service.schemas import CombinedGate, GateTestRequest
-from tests.servers import serve
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
+from tests.support.servers import serve
 
 
 def test_sigkill_keeps_every_answered_exchange(tmp_path, mcap_check):

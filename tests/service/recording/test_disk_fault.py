@@ -14,8 +14,8 @@ from collections import Counter
 import httpx
 
 from plotgate.clients.recordings import read_recording
-from tests.servers import serve
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
+from tests.support.servers import serve
 
 FILE_LIMIT = 256 * 1024  # bytes per file; a few hundred exchanges
 

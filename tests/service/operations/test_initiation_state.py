@@ -29,7 +29,7 @@ from plotgate.service.config import Settings
 from plotgate.service.operations.initiation import PLOT_BOUNDS
 from plotgate.service.schemas import MAX_STATE_INITIATORS, MAX_STATE_TRACKS, SessionState
 from plotgate.service.schemas import initiation_state as wire
-from tests.conftest import answer, cartesian, invalid_input
+from tests.support.requests import answer, cartesian, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0}
 TRACK, INI = 1, 3  # the track row and the initiator row mutated

@@ -22,7 +22,7 @@ from plotgate.service.app import create_app
 from plotgate.service.schemas import MAX_PLOTS, InitiationSettings
 from plotgate.service.schemas.common import MIN_RANGE
 from plotgate.service.table import ENDPOINTS
-from tests.conftest import answer, invalid_input
+from tests.support.requests import answer, invalid_input
 
 POLAR = {"mode": "polar", "v_max": 30.0, "a_max": 10.0, "K_A": 3.0}
 
@@ -461,7 +461,7 @@ def test_the_settings_are_cores_config_field_for_field():
 def test_the_documented_score_configuration_is_a_valid_config():
     from pathlib import Path
 
-    text = (Path(__file__).parents[2] / "docs/examples/score_initiation.json").read_text()
+    text = (Path(__file__).parents[3] / "docs/examples/score_initiation.json").read_text()
     settings = InitiationSettings.model_validate_json(text)
     assert settings.confirmation == "score" and settings.false_confirmation == 0.15
     InitiationConfig(**{**settings.model_dump(), "gate_widening": tuple(settings.gate_widening)})

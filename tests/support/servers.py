@@ -59,7 +59,7 @@ def serve(
             str(log_dir),
             *args,
         ],
-        cwd=source or Path(__file__).resolve().parents[1],
+        cwd=source or Path(__file__).resolve().parents[2],
         env={**os.environ, **({"PYTHONPATH": str(source)} if source else {}), **(env or {})},
         stdout=stderr if log is not None else subprocess.DEVNULL,
         stderr=stderr,

@@ -19,7 +19,7 @@ from plotgate.clients.recordings import read_recording
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.schemas import MAX_CURVE_POINTS, MAX_UNCONDITIONAL_POINTS, Mark
-from tests.conftest import answer, invalid_input
+from tests.support.requests import answer, invalid_input
 
 TAU = 5.0
 RING = {"kind": "ring", "v_min": 100.0, "v_max": 500.0}

@@ -9,7 +9,6 @@ answered (solvable false), not refused.
 import asyncio
 import copy
 import json
-import math
 
 import httpx
 import numpy as np
@@ -38,7 +37,7 @@ from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.schemas import MAX_PROBLEMS
 from plotgate.service.table import ENDPOINTS
-from tests.conftest import answer, invalid_input
+from tests.support.requests import answer, assert_finite, invalid_input
 
 SIGMA = 0.5
 TRUTH = 1e-6  # m: noise-free answers equal the truth within this
@@ -78,18 +77,6 @@ def _p(x, tx=TX2, rx=RX2, **changes) -> dict:
 
 def _position(*problems, **changes) -> dict:
     return {"problems": list(problems), **changes}
-
-
-def assert_finite(value) -> None:
-    """Every number in a JSON answer is finite."""
-    if isinstance(value, dict):
-        for v in value.values():
-            assert_finite(v)
-    elif isinstance(value, list):
-        for v in value:
-            assert_finite(v)
-    elif isinstance(value, float):
-        assert math.isfinite(value)
 
 
 # --- solves.position -------------------------------------------------------------------

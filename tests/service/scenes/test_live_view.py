@@ -16,11 +16,11 @@ import httpx
 from plotgate.clients.cli import main
 from plotgate.service.scenes.live import QUEUE_EXCHANGES, LiveView
 from plotgate.service.table import ENDPOINTS
-from tests.servers import free_port, serve
+from tests.support.servers import free_port, serve
 
 EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 
-LIVE = Path(__file__).resolve().parents[1] / "interop" / "live.mjs"
+LIVE = Path(__file__).resolve().parents[2] / "interop" / "live.mjs"
 
 
 def lines_of(proc: subprocess.Popen) -> tuple[list[str], threading.Thread]:

@@ -4,7 +4,7 @@ S = P_first + P_candidate that may happen to be positive definite."""
 
 import pytest
 
-from tests.conftest import cartesian, invalid_input, polar
+from tests.support.requests import cartesian, invalid_input, polar
 
 INDEFINITE = [[1e4, 1.5e4], [1.5e4, 1e4]]  # det = -1.25e8: not positive definite
 ASYMMETRIC = [[1e4, 5e3], [0.0, 1e4]]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from plotgate import core
-from tests.conftest import cartesian, polar
+from tests.support.requests import cartesian, polar
 
 COMBINED = {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0, "P_G": 0.9}
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 from plotgate.service.recording import request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
-from tests.clients.recorded import OP, write_files
-from tests.service.test_recording import GOOD
+from tests.support.recorded import OP, write_files
+from tests.support.requests import GOOD
 
 T0, MS = 1_700_000_000 * 10**9, 10**6
 

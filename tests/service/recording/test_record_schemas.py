@@ -9,7 +9,7 @@ from plotgate.clients.recordings import read_recording
 from plotgate.service.app import create_app
 from plotgate.service.registry import OPERATIONS
 from plotgate.service.schemas import Problem, request_schema, response_schema
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
 
 
 @pytest.mark.parametrize("name", sorted(OPERATIONS))

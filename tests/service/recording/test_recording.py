@@ -14,19 +14,7 @@ from plotgate.service.app import create_app
 from plotgate.service.config import Settings
 from plotgate.service.recording import recorder as recorder_module
 from plotgate.service.recording import rotation_bytes
-from tests.conftest import cartesian
-
-GOOD = {
-    "gate": {"kind": "combined", "tau": 5.0, "v_min": 100.0, "v_max": 500.0},
-    "first": cartesian(0.0, 50_000.0),
-    "candidates": [cartesian(0.0, 51_000.0), cartesian(0.0, 52_600.0)],
-}
-BAD_COV = dict(
-    GOOD,
-    candidates=[
-        {"frame": "cartesian", "x": 0.0, "y": 5e4, "covariance": [[1.0, 2.0], [2.0, 1.0]]}
-    ],
-)
+from tests.support.requests import BAD_COV, GOOD
 
 
 def _session(settings: Settings, n: int = 12) -> list[str]:

@@ -15,7 +15,7 @@ from plotgate.clients.recordings import read_recording
 from plotgate.core.identification import experiment, identify_picture, z_test
 from plotgate.service.app import create_app
 from plotgate.service.table import ENDPOINTS
-from tests.conftest import answer, invalid_input
+from tests.support.requests import answer, invalid_input
 
 RNG = np.random.default_rng(7)
 PASSIVE = (359.9 + 0.3 * RNG.standard_normal(50)) % 360.0

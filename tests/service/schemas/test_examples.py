@@ -8,7 +8,7 @@ import pytest
 
 from plotgate.service.registry import OPERATIONS
 from plotgate.service.table import ENDPOINTS
-from tests.conftest import answer
+from tests.support.requests import answer
 
 EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 

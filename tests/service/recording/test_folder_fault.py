@@ -22,8 +22,8 @@ from plotgate.service.app import create_app
 from plotgate.service.recording import Recorder, RecordingError, request_record, response_record
 from plotgate.service.recording.files import RecordingFile
 from plotgate.service.registry import OPERATIONS
-from tests.servers import serve
-from tests.service.test_recording import GOOD
+from tests.support.requests import GOOD
+from tests.support.servers import serve
 
 CLIENTS, EACH = 10, 60
 RECOVERY_S = 2.5
@@ -281,7 +281,7 @@ def test_serve_into_a_file_is_a_message_and_exit_2(tmp_path, capsys, monkeypatch
     """A file where the recordings folder should be: one line and exit 2 before the
     server starts, not the app's start-up traceback and uvicorn's exit 3."""
     from plotgate.clients.cli import main
-    from tests.servers import free_port
+    from tests.support.servers import free_port
 
     for name in ("PLOTGATE_HOST", "PLOTGATE_PORT", "PLOTGATE_LOG_DIR"):  # serve sets them
         monkeypatch.setenv(name, "")
