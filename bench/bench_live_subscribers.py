@@ -26,7 +26,7 @@ import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from plotgate.service.schemas.examples import EXAMPLES  # noqa: E402
+from plotgate.service.table import ENDPOINTS  # noqa: E402
 from tests.live_clients import stalled_subscriber  # noqa: E402
 from tests.servers import free_port, serve  # noqa: E402
 
@@ -69,7 +69,7 @@ def main() -> None:
         before = _rss_mb(publisher)
         stalled = [stalled_subscriber(port, "/scene/gates.test") for _ in range(args.subscribers)]
         connected = _rss_mb(publisher)
-        body = EXAMPLES["gates.test"]
+        body = ENDPOINTS["gates.test"].example_body
         latencies = []
         peak = connected
         with httpx.Client(base_url=url, timeout=60) as client:

@@ -20,7 +20,7 @@ from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.recording.compaction import compact
 from plotgate.service.recording.files import RecordingFile
 from plotgate.service.registry import OPERATIONS, execute
-from plotgate.service.schemas.examples import EXAMPLES
+from plotgate.service.table import ENDPOINTS
 
 PRECIOUS = b"the victim's bytes"
 
@@ -28,7 +28,7 @@ PRECIOUS = b"the victim's bytes"
 def _record(folder: Path, status: int, content: bytes) -> Path:
     """``folder`` with one recorded gate test, answered ``status`` and ``content``."""
     recorder = Recorder(folder, OPERATIONS.values()).start()
-    data = json.dumps(EXAMPLES["gates.test"]).encode()
+    data = json.dumps(ENDPOINTS["gates.test"].example_body).encode()
     written = recorder.request("gates.test", request_record("r1", "gates.test", data))
     recorder.response(written, response_record("r1", "gates.test", status, 0.01, content))
     recorder.flush()
@@ -45,7 +45,9 @@ def recording(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def answered(tmp_path_factory) -> Path:
     """A recorded gate test with this build's answer (a replay of it is unchanged)."""
-    answer = execute(OPERATIONS["gates.test"], json.dumps(EXAMPLES["gates.test"]).encode())
+    answer = execute(
+        OPERATIONS["gates.test"], json.dumps(ENDPOINTS["gates.test"].example_body).encode()
+    )
     return _record(tmp_path_factory.mktemp("answered"), answer.status, answer.content)
 
 
@@ -145,7 +147,7 @@ def test_the_commands_still_replace_a_regular_file(answered, tmp_path, writer):
 def _closed_uncompacted(monkeypatch, folder: Path) -> Path:
     monkeypatch.setattr("plotgate.service.recording.recorder.compact", lambda path: False)
     recorder = Recorder(folder, OPERATIONS.values()).start()
-    data = json.dumps(EXAMPLES["gates.test"]).encode()
+    data = json.dumps(ENDPOINTS["gates.test"].example_body).encode()
     written = recorder.request("gates.test", request_record("r1", "gates.test", data))
     recorder.response(written, response_record("r1", "gates.test", 200, 0.01, b"{}"))
     recorder.flush()

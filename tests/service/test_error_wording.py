@@ -3,7 +3,7 @@ and the nearest operation, another method names the one to use."""
 
 import pytest
 
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 from plotgate.service.tags import choices_at
 
 PLOT = {"frame": "cartesian", "x": 0, "y": 0, "covariance": [[1, 0], [0, 1]]}

@@ -29,7 +29,7 @@ from fastapi.testclient import TestClient
 from plotgate.service import registry, warmup
 from plotgate.service.app import create_app
 from plotgate.service.config import Settings
-from plotgate.service.schemas import ENDPOINTS
+from plotgate.service.table import ENDPOINTS
 
 flag = sys.argv[2]
 warmup.CHILD = [sys.executable, "-c", sys.argv[1], flag]
