@@ -814,7 +814,7 @@ class _SessionWriter:
 
     def __init__(self, out: Path, sources: list[Path]) -> None:
         from plotgate.service.provenance import VERSION
-        from plotgate.service.recording import Recorder
+        from plotgate.service.recording import Recorder, RecordingError
         from plotgate.service.registry import OPERATIONS
 
         out = self._out = Path(out)
@@ -835,6 +835,7 @@ class _SessionWriter:
             metadata=metadata,
             other_channels=[diff_channel] if diff_channel else (),
         ).start()
+        self._failed = RecordingError
         self._last: tuple[Exchange, str, int] | None = None
         """The exchange written last, its new id and when its replay was sent (ns)."""
 
@@ -865,8 +866,6 @@ class _SessionWriter:
     ) -> None:
         """Log on ``/replay/diff`` how the exchange just written changed (each difference:
         field, recorded, replayed, rule); nothing without foxglove-sdk."""
-        from plotgate.service.recording import RecordingError
-
         if self.diff_note is not None or self._last is None or self._last[0] is not exchange:
             return
         _, rid, log_time = self._last
@@ -874,7 +873,7 @@ class _SessionWriter:
         try:
             self._recorder.message(DIFF_TOPIC, data, log_time)
             flushed = self._recorder.flush()
-        except RecordingError as exc:
+        except self._failed as exc:
             raise self._unwritable(exc.__cause__ or exc) from exc
         if not flushed:
             raise self._unwritable(self._recorder.error)
