@@ -40,7 +40,9 @@ def test_the_diff_log_names_the_changed_path_its_values_and_rule(replayed):
     assert b"statistic[1]: recorded " in text and b"default (--rtol/--atol)" in text
 
 
-def test_readers_take_the_diff_channel_as_a_scene_channel_not_damage(replayed, capsys):
+def test_readers_take_the_diff_channel_as_a_scene_channel_not_damage(replayed, capsys, mcap_check):
+    code, checked = mcap_check(replayed)  # the independent reader (TypeScript @mcap/core)
+    assert code == 0 and checked["total_messages"] == 9, checked  # 4 exchanges and a Log
     reader = Reader(replayed)
     exchanges = list(reader)
     (rec,) = reader.files
