@@ -63,6 +63,7 @@ from plotgate.clients.messages import (
 from plotgate.clients.pairing import MAX_LISTED, Filters, Pair, Pairing, Seen, iso_time
 
 __all__ = [
+    "DIFF_TOPIC",
     "MAX_DEPTH",
     "Exchange",
     "Filters",
@@ -265,17 +266,21 @@ def recording_files(paths: Path | str | Iterable[Path | str]) -> list[Path]:
 SCENE_PREFIX, LOG_TOPIC, TRANSFORM_TOPIC = "/scene/", "/log", "/tf"
 """The scene channels ``plotgate view`` writes beside the exchanges' (those of
 :mod:`plotgate.service.scenes`, which the clients do not import)."""
+DIFF_TOPIC = "/replay/diff"
+"""The Log of changed exchanges ``plotgate replay --out`` writes beside the replayed ones
+(:mod:`plotgate.clients.replay_diff`): read as a scene channel."""
 
 SCENE, TRANSFORM = ("", "scene"), ("", "transform")
 """What :func:`plotgate_channel` gives for a scene channel (``/scene/<operation>``,
-``/log``) and for the radar frame's transform (``/tf``): read as scenes, not damage."""
+``/log``, replay's ``/replay/diff``) and for the radar frame's transform (``/tf``): read
+as scenes, not damage."""
 
 
 def plotgate_channel(channel: Channel, schemas: set[int]) -> tuple[str, str] | str:
     """(operation, kind) of a plotgate channel (``schemas``: the schema ids declared so
     far), :data:`SCENE` for a scene channel of ``plotgate view``, or why the channel is
     not one."""
-    if channel.topic.startswith(SCENE_PREFIX) or channel.topic == LOG_TOPIC:
+    if channel.topic.startswith(SCENE_PREFIX) or channel.topic in (LOG_TOPIC, DIFF_TOPIC):
         return SCENE
     if channel.topic == TRANSFORM_TOPIC:
         return TRANSFORM

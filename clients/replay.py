@@ -68,6 +68,7 @@ from plotgate.clients.recordings import (
     file_state,
     iso_time,
 )
+from plotgate.clients.replay_diff import DIFF_TOPIC, NO_SDK, diff_log, log_channel
 from plotgate.clients.tolerances import DEFAULT, Rules
 from plotgate.files import check_target, replace_into, temporary_beside
 from plotgate.service.table import ENDPOINTS
@@ -559,7 +560,9 @@ def replay(
     server : base URL of a live server; None runs in-process.
     rtol, atol : float tolerances of the comparison.
     out : write the replayed session (each request under its new id, marked as a replay
-        of its original, with its new answer) to this MCAP file.
+        of its original, with its new answer) to this MCAP file, and a ``foxglove.Log``
+        per changed exchange on its ``/replay/diff`` channel
+        (:mod:`plotgate.clients.replay_diff`).
     progress : show a progress bar; None shows it only on a terminal.
     filters : replay only these operations and request times.
     timeout : seconds each exchange may take (None: no limit).
@@ -602,9 +605,13 @@ def replay(
         shown = tqdm(reader, desc="replay", unit="exchange", disable=quiet)
         for exchange, outcome in _judged(shown, run, judging, writer, meet, report, pace):
             tally(report, exchange, outcome)
+            if writer is not None and outcome.differences:
+                writer.changed(exchange, outcome.differences)
             if durations is not None and outcome.duration_s is not None:
                 durations.add(exchange.operation, exchange.duration_s, outcome.duration_s)
         report.latency = durations.percentiles() if durations is not None else {}
+    if writer is not None and writer.diff_note and report.changed:
+        report.notes.append(writer.diff_note)
     report.files = [rec.summary() for rec in reader.files]
     report.unreadable = list(reader.unreadable)
     report.skipped = list(reader.skipped)
@@ -807,7 +814,7 @@ class _SessionWriter:
 
     def __init__(self, out: Path, sources: list[Path]) -> None:
         from plotgate.service.provenance import VERSION
-        from plotgate.service.recording import Recorder
+        from plotgate.service.recording import Recorder, RecordingError
         from plotgate.service.registry import OPERATIONS
 
         out = self._out = Path(out)
@@ -819,9 +826,18 @@ class _SessionWriter:
             "plotgate_version": VERSION,
             "replayed_from": ", ".join(map(str, sources))[:10_000],
         }
+        diff_channel = log_channel()
+        self.diff_note = None if diff_channel else NO_SDK
         self._recorder = Recorder(
-            out.parent, OPERATIONS.values(), file_name=self._partial.name, metadata=metadata
+            out.parent,
+            OPERATIONS.values(),
+            file_name=self._partial.name,
+            metadata=metadata,
+            other_channels=[diff_channel] if diff_channel else (),
         ).start()
+        self._failed = RecordingError
+        self._last: tuple[Exchange, str, int] | None = None
+        """The exchange written last, its new id and when its replay was sent (ns)."""
 
     def __call__(self, exchange: Exchange, rid: str, answer: Answer, duration_s: float) -> None:
         """Write one replayed exchange; ``OSError`` naming ``--out`` when it cannot be
@@ -840,6 +856,24 @@ class _SessionWriter:
             )
             flushed = self._recorder.flush()
         except RecordingError as exc:
+            raise self._unwritable(exc.__cause__ or exc) from exc
+        if not flushed:
+            raise self._unwritable(self._recorder.error)
+        self._last = exchange, rid, written.request_time
+
+    def changed(
+        self, exchange: Exchange, differences: tuple[tuple[str, Any, Any, str], ...]
+    ) -> None:
+        """Log on ``/replay/diff`` how the exchange just written changed (each difference:
+        field, recorded, replayed, rule); nothing without foxglove-sdk."""
+        if self.diff_note is not None or self._last is None or self._last[0] is not exchange:
+            return
+        _, rid, log_time = self._last
+        data = diff_log(log_time, exchange.operation, (rid, exchange.request_id), differences)
+        try:
+            self._recorder.message(DIFF_TOPIC, data, log_time)
+            flushed = self._recorder.flush()
+        except self._failed as exc:
             raise self._unwritable(exc.__cause__ or exc) from exc
         if not flushed:
             raise self._unwritable(self._recorder.error)

@@ -71,8 +71,9 @@ def add_gate_arguments(parser: argparse.ArgumentParser) -> None:
         "--calibrate",
         type=Path,
         metavar="OUT",
-        help="replay --runs times and write to OUT the tolerance file that passes every "
-        "disagreement seen (with a margin); fields that never differed get no rule",
+        help="replay --runs times, or against two known-good servers (--server A --server "
+        "B), and write to OUT the tolerance file that passes every disagreement seen (with "
+        "a margin); fields that never differed get no rule",
     )
     gate.add_argument(
         "--runs",
@@ -163,9 +164,10 @@ def _latency_regressions(args: argparse.Namespace, report: "ReplayReport") -> li
 
 
 def calibrate(args: argparse.Namespace, replay_once: Callable[..., "ReplayReport"]) -> int:
-    """``--calibrate OUT``: replay ``--runs`` times (``replay_once(observe=...)``), gather
-    every disagreement, write the tolerance file; 0, or 2 when nothing was compared or OUT
-    cannot be written."""
+    """``--calibrate OUT``: replay ``--runs`` times (``replay_once(observe=...)``), or
+    against two servers (``--server A --server B``: :mod:`plotgate.clients.two_servers`),
+    gather every disagreement, write the tolerance file; 0, or 2 when nothing was compared,
+    the two servers answered different exchanges, or OUT cannot be written."""
     from plotgate.clients.calibrate import Noise, rules_toml
     from plotgate.clients.replay_reports import write_report_file
 
@@ -175,13 +177,31 @@ def calibrate(args: argparse.Namespace, replay_once: Callable[..., "ReplayReport
         noise.add(operation, recorded, replayed)
 
     compared = 0
-    for _ in range(args.runs):
+    if getattr(args, "more_servers", ()):
+        from plotgate.clients.two_servers import MisalignedAnswers, gather_two
+
+        servers = args.server, args.more_servers[0]
+        try:
+            report = gather_two(servers, replay_once, noise, args.allow_empty)
+        except MisalignedAnswers:
+            print(
+                f"plotgate replay: {servers[0]} and {servers[1]} answered different "
+                "exchanges (a fault set aside by one): calibrate again",
+                file=sys.stderr,
+            )
+            return 2
+        compared, runs = report.compared, 0
+    else:
+        runs = args.runs
+    for _ in range(runs):
         report = replay_once(observe=observe)
         noise.runs += 1
         compared += report.compared
         if report.exit_code(args.allow_empty) == 2:
-            print(report.text(), file=sys.stderr)
-            return 2
+            break
+    if report.exit_code(args.allow_empty) == 2:
+        print(report.text(), file=sys.stderr)
+        return 2
     source = ", ".join(map(str, args.paths))
     try:
         write_report_file(args.calibrate, rules_toml(noise, args.rtol, args.atol, source))

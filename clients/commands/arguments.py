@@ -93,11 +93,13 @@ def add_where(
     dask_help: str = "in-process, with the Monte Carlo chunks on this Dask scheduler",
     workers_help: str = "in-process, with the Monte Carlo chunks on a local Dask cluster of "
     "N worker processes (started and stopped by the command)",
+    server_action: type[argparse.Action] | str = "store",
 ) -> None:
     """Where a command computes: ``--server URL``, or in-process with its chunks on
-    ``--dask ADDRESS`` or ``--local-workers N`` (or in this process); one of the three."""
+    ``--dask ADDRESS`` or ``--local-workers N`` (or in this process); one of the three.
+    ``server_action`` takes ``--server`` (replay's may be given twice)."""
     where = command.add_mutually_exclusive_group()
-    where.add_argument("--server", help=server_help)
+    where.add_argument("--server", action=server_action, help=server_help)
     where.add_argument("--dask", metavar="ADDRESS", help=dask_help)
     where.add_argument("--local-workers", type=at_least(1), metavar="N", help=workers_help)
 

@@ -19,6 +19,7 @@ from plotgate.clients.commands.kernels import kernels_as_met
 from plotgate.clients.commands.output import write
 from plotgate.clients.commands.where import in_process_caps, leave_the_cluster
 from plotgate.clients.replay_gate import add_gate_arguments
+from plotgate.clients.two_servers import Servers, check_servers
 
 if TYPE_CHECKING:
     from plotgate.clients.replay import ReplayReport
@@ -61,12 +62,14 @@ def add_command(sub: Any, filters: argparse.ArgumentParser) -> None:
     )
     add_where(
         rep,
-        "replay against this live server URL (default in-process)",
+        "replay against this live server URL (default in-process); with --calibrate, "
+        "twice: two known-good servers",
         "in-process on the workers of this Dask scheduler, files and chunk ranges "
         "spread over them (the recording folder at the same path on every worker); the "
         "report and exit status are the serial run's",
         "as --dask, on a local Dask cluster of N worker processes (started and stopped "
         "by the command)",
+        server_action=Servers,
     )
     rep.add_argument(
         "--rtol",
@@ -118,6 +121,8 @@ def run(args: argparse.Namespace) -> int:
     from plotgate.clients.replay_gate import calibrate, finish, prepare
     from plotgate.files import check_target, write_bytes
 
+    if check_servers(args) is not None:
+        return 2
     if args.report:
         check_target(args.report)  # a link, FIFO or device: refused before the replay
 

@@ -24,6 +24,7 @@
 
 import asyncio
 import contextlib
+import itertools
 import json
 import logging
 import os
@@ -142,6 +143,9 @@ class Recorder:
     file_name : write exactly this one file in ``directory`` and never rotate (replay's
         ``--out``); by default files are named by time and pid and rotate.
     on_flush : called with the duration (s) of every commit that wrote records (metrics).
+    other_channels : more channels, ``(topic, schema name, schema, encoding)`` of
+        :func:`~plotgate.service.recording.records.file_head`, whose messages
+        :meth:`message` adds (replay's ``/replay/diff`` log).
     compaction_wait_s : how long ``close`` waits for running compactions (the service's
         graceful-shutdown budget); those still running then are stopped, their files left
         unchunked and readable.
@@ -158,6 +162,7 @@ class Recorder:
         file_name: str | None = None,
         on_flush: Callable[[float], None] | None = None,
         compaction_wait_s: float = 30.0,
+        other_channels: Iterable[tuple[str, str, bytes, str]] = (),
     ) -> None:
         self.directory = Path(directory)
         self.max_bytes = max_bytes
@@ -167,16 +172,16 @@ class Recorder:
         self.on_flush = on_flush
         self.compaction_wait_s = compaction_wait_s
         self.files: list[Path] = []
+        operation_channels = (
+            (f"{op.name}/{kind}", f"plotgate.{op.name}.{kind}", json.dumps(schema).encode())
+            for op in operations
+            for kind, schema in (
+                ("request", request_schema(op.request)),
+                ("response", response_schema(op.response)),
+            )
+        )
         self._head, self._channels = file_head(
-            (
-                (f"{op.name}/{kind}", f"plotgate.{op.name}.{kind}", json.dumps(schema).encode())
-                for op in operations
-                for kind, schema in (
-                    ("request", request_schema(op.request)),
-                    ("response", response_schema(op.response)),
-                )
-            ),
-            self.metadata,
+            itertools.chain(operation_channels, other_channels), self.metadata
         )
         self.records = 0  # records handed to the OS
         self.pending = 0  # records added, waiting for the next commit
@@ -312,6 +317,11 @@ class Recorder:
         self._write_request(exchange)
         self._inflight.add(exchange)
         return exchange
+
+    def message(self, topic: str, data: bytes, log_time: int) -> None:
+        """Add a message on one of ``other_channels`` (plain code: written by the next
+        ``flush``); never written again after a lost file, as exchanges' records are."""
+        self._add(topic, data, log_time)
 
     def response(self, exchange: Exchange, data: bytes, log_time: int | None = None) -> None:
         """Add a response record; it is written by the next ``flush`` or ``close``."""

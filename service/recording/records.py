@@ -69,24 +69,32 @@ def _record(opcode: int, content: bytes) -> bytes:
     return struct.pack("<BQ", opcode, len(content)) + content
 
 
+_JSON = ("jsonschema", "json")
+"""The encodings of a plotgate channel's schema and messages."""
+
+
 def file_head(
-    channels: Iterable[tuple[str, str, bytes]], metadata: Mapping[str, str]
+    channels: Iterable[tuple[str, str, bytes] | tuple[str, str, bytes, str]],
+    metadata: Mapping[str, str],
 ) -> tuple[bytes, dict[str, int]]:
     """The bytes that start every file and each topic's channel id.
 
     ``channels`` are ``(topic, schema name, JSON schema)``: one schema (``jsonschema``
-    encoding) and one channel (``json`` messages) each, ids from 1. Then the ``plotgate``
-    metadata record. Built once per recorder: opening a file is one write of these bytes.
+    encoding) and one channel (``json`` messages) each, ids from 1; a fourth item names
+    another encoding, of both the schema and the messages (``protobuf``: replay's
+    ``/replay/diff`` log). Then the ``plotgate`` metadata record. Built once per recorder:
+    opening a file is one write of these bytes.
     """
     head = [MAGIC, _record(_HEADER, _string("") + _string("plotgate"))]
     ids: dict[str, int] = {}
-    for number, (topic, schema_name, schema) in enumerate(channels, start=1):
+    for number, (topic, schema_name, schema, *encoding) in enumerate(channels, start=1):
+        schema_encoding, message_encoding = (encoding[0],) * 2 if encoding else _JSON
         head.append(
             _record(
                 _SCHEMA,
                 struct.pack("<H", number)
                 + _string(schema_name)
-                + _string("jsonschema")
+                + _string(schema_encoding)
                 + struct.pack("<I", len(schema))
                 + schema,
             )
@@ -94,7 +102,10 @@ def file_head(
         head.append(
             _record(
                 _CHANNEL,
-                struct.pack("<HH", number, number) + _string(topic) + _string("json") + _map({}),
+                struct.pack("<HH", number, number)
+                + _string(topic)
+                + _string(message_encoding)
+                + _map({}),
             )
         )
         ids[topic] = number

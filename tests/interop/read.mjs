@@ -11,7 +11,8 @@
 //  - reads from magic to footer with the streaming reader, every chunk's CRC checked, every
 //    chunk under MAX_CHUNK_BYTES (256 MiB) uncompressed (a larger declared size is refused before
 //    anything is allocated), no record the MCAP spec does not define;
-//  - has channels `<operation>/request` and `<operation>/response`, json messages, each with
+//  - has channels `<operation>/request` and `<operation>/response` (and replay --out's
+//    protobuf foxglove.Log `/replay/diff`), json messages, each with
 //    a jsonschema schema that is a JSON object schema;
 //  - holds messages that are what the recorder writes: a UTF-8 JSON object nested at most
 //    MAX_DEPTH deep, with no integer literal of more than MAX_INT_DIGITS digits (Python's
@@ -38,6 +39,9 @@ const MAX_DEPTH = 256;
 const MAX_INT_DIGITS = 4300;
 const REQUEST_ID = /^[A-Za-z0-9._:-]{1,128}$/;
 const TOPIC = /^([a-z_]+\.[a-z_]+)\/(request|response)$/;
+// replay --out's Log of changed exchanges (protobuf foxglove.Log), beside the exchanges.
+const DIFF_TOPIC = "/replay/diff";
+const DIFF_SCHEMA = { protobuf: "foxglove.Log" };
 
 // wasm-lz4 keeps one decompression context for good, and a frame that fails part-way (a
 // bomb) leaves it broken for every later chunk: each file gets a module of its own.
@@ -165,6 +169,10 @@ async function read(file, withSchemas) {
   const onRecord = (rec) => {
     switch (rec.type) {
       case "Schema": {
+        if (rec.encoding === "protobuf" && rec.name === "foxglove.Log") {
+          schemas.set(rec.id, DIFF_SCHEMA);  // replay --out's /replay/diff
+          break;
+        }
         let parsed;
         try {
           parsed = JSON.parse(new TextDecoder("utf-8", { fatal: true }).decode(rec.data));
@@ -178,6 +186,13 @@ async function read(file, withSchemas) {
         break;
       }
       case "Channel": {
+        if (rec.topic === DIFF_TOPIC) {
+          if (rec.messageEncoding !== "protobuf" || schemas.get(rec.schemaId) !== DIFF_SCHEMA) {
+            throw new Error(`channel ${rec.topic} is not protobuf foxglove.Log`);
+          }
+          channels.set(rec.id, { id: rec.id, topic: rec.topic, kind: "diff", count: 0 });
+          break;
+        }
         const topic = TOPIC.exec(rec.topic);
         if (!topic) throw new Error(`channel ${rec.id} (${rec.topic}) is not a plotgate channel`);
         if (rec.messageEncoding !== "json") throw new Error(`channel ${rec.topic} is not json`);
@@ -192,6 +207,7 @@ async function read(file, withSchemas) {
         const ch = channels.get(rec.channelId);
         ch.count++;
         report.total_messages++;
+        if (ch.kind === "diff") break;  // a foxglove.Log, not an exchange's record
         report.json.messages_checked++;
         if (first === undefined || rec.logTime < first) first = rec.logTime;
         if (last === undefined || rec.logTime > last) last = rec.logTime;
