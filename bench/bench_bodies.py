@@ -30,8 +30,8 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.servers import serve  # noqa: E402
 from tests.service.test_adversarial_bodies import SHAPES  # noqa: E402
+from tests.support.servers import serve  # noqa: E402
 
 _WATCH = """
 import sys, time, httpx

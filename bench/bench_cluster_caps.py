@@ -26,7 +26,7 @@ from distributed import LocalCluster
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tests.servers import serve  # noqa: E402
+from tests.support.servers import serve  # noqa: E402
 
 
 def _body(runs: int) -> dict:

@@ -28,7 +28,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.servers import free_port  # noqa: E402 - after the sys.path line
+from tests.support.servers import free_port  # noqa: E402 - after the sys.path line
 
 TIMEOUT_S = 1800.0  # a hang, not a figure (--ready-within sets a shorter wait)
 POLL_S = 0.2

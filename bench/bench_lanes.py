@@ -21,8 +21,8 @@ import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests.servers import serve  # noqa: E402
 from tests.service.test_large_bodies import pairs_body  # noqa: E402
+from tests.support.servers import serve  # noqa: E402
 
 PATH = "/v1/gates/pairs"
 HEADERS = {"content-type": "application/json"}

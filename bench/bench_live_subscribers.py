@@ -27,8 +27,8 @@ import httpx
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from plotgate.service.table import ENDPOINTS  # noqa: E402
-from tests.live_clients import stalled_subscriber  # noqa: E402
-from tests.servers import free_port, serve  # noqa: E402
+from tests.support.live_clients import stalled_subscriber  # noqa: E402
+from tests.support.servers import free_port, serve  # noqa: E402
 
 
 def _publisher(server_pid: int) -> int:

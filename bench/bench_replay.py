@@ -45,7 +45,7 @@ from plotgate.clients.tolerances import load_rules
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.servers import serve  # noqa: E402 - after the sys.path line
+from tests.support.servers import serve  # noqa: E402 - after the sys.path line
 
 OPERATION, PATH = "gates.test", "/v1/gates/test"
 

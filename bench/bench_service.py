@@ -52,7 +52,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.servers import free_port, serve  # noqa: E402 - after the sys.path line
+from tests.support.servers import free_port, serve  # noqa: E402 - after the sys.path line
 
 BODY = b"""{"gate": {"kind": "combined", "tau": 5, "v_min": 100, "v_max": 500, "P_G": 0.9},
   "first": {"frame": "polar", "r": 50000, "az_deg": 0, "sigma_r": 200, "sigma_az_deg": 0.5},

@@ -61,7 +61,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from plotgate.clients.recordings import read_recording  # noqa: E402
 from plotgate.service.registry import OPERATIONS  # noqa: E402
-from tests.servers import free_port, serve  # noqa: E402
+from tests.support.servers import free_port, serve  # noqa: E402
 
 HANG_S = 120.0
 """An answer slower than this counts as a hang."""
@@ -557,7 +557,7 @@ def files(work: Path) -> Row:
     from plotgate.service.app import create_app
     from plotgate.service.config import Settings
     from plotgate.service.registry import execute
-    from tests.clients.hostile import corpus
+    from tests.support.hostile import corpus
 
     row = Row("files")
     settings = Settings(log_dir=work / "sound", git_commit="hostile")

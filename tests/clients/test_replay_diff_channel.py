@@ -9,7 +9,7 @@ from mcap.reader import make_reader
 
 from plotgate.clients.cli import main
 from plotgate.clients.recordings import Reader
-from tests.clients.gate_recordings import moved_recording
+from tests.support.gate_recordings import moved_recording
 
 pytest.importorskip("foxglove")
 

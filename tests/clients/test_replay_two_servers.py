@@ -4,8 +4,8 @@ learned from two real servers' disagreement, B made noisy in one field by a test
 import tomllib
 
 from plotgate.clients.cli import main
-from tests.clients.gate_recordings import moved_recording
-from tests.servers import serve
+from tests.support.gate_recordings import moved_recording
+from tests.support.servers import serve
 
 NOISE = 3e-7
 """The relative amount the noisy server moves every gate statistic by."""
