@@ -1,4 +1,4 @@
-"""The hostile corpus (tests/clients/hostile.py) through inspect, replay, recover and cat.
+"""The hostile corpus (tests/support/hostile.py) through inspect, replay, recover and cat.
 
 Every file ends every command with a message and its contracted exit code, never a
 traceback; a file cut short (as a killed writer leaves it) is reported unfinished, not

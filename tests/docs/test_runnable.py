@@ -6,7 +6,7 @@ a new shell (``bash -e -o pipefail``, with the virtual environment's ``bin`` tak
 ``.venv`` of this installation and a copy of ``docs/examples``; the pages' server,
 ``http://127.0.0.1:8000``, is a live ``plotgate serve`` on a free loopback port, recording
 to the scratch folder's ``recordings/``. A block must exit 0, and print what the page's
-``output`` block after it shows (``tests/docs/markdown.py`` says how floats and ``...``
+``output`` block after it shows (``tests/support/markdown.py`` says how floats and ``...``
 compare). A block marked ``<!-- not run: why -->`` is counted and listed, not run.
 """
 

@@ -330,7 +330,7 @@ def test_under_score_confirmation_a_captured_plot_and_its_initiator_stay_initiat
 def test_a_state_may_hold_a_tentative_tracks_plot_as_an_initiator_under_the_score():
     """The state check follows the confirmation rule: under the score only a confirmed
     track owns its plots, so a tentative track's plot stays an initiator and the state
-    reads back (under k/m any track owns them: tests/service/test_initiation_state.py,
+    reads back (under k/m any track owns them: tests/service/operations/test_initiation_state.py,
     "initiator plot a track holds")."""
     scans = [scan(0.0, (1000.0, 2000.0)), scan(1.0, (1020.0, 2000.0))]
     state, _ = initiate(None, scans, config())
