@@ -9,6 +9,7 @@ leading batch axes, i.e. the row number for an (N, ...) batch.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -29,6 +30,7 @@ __all__ = [
     "first_invalid_covariance",
     "is_valid_covariance",
     "pair_count",
+    "require",
     "require_nonnegative",
     "require_positive",
     "require_scalar",
@@ -283,3 +285,16 @@ def to_pairs(x: np.ndarray | float, n: int) -> np.ndarray:
     if x.shape == (n,):
         return x
     return np.full(n, x)
+
+
+def require(
+    field: str,
+    ok: np.ndarray | np.bool_,
+    reason: Callable[[int], str],
+    error: type[ParameterError] | type[CovarianceError] = ParameterError,
+) -> None:
+    """Raise ``error(field, reason(i), i)`` at the first row i where ``ok`` is False."""
+    if not ok.all():
+        i = first_index(np.asarray(~ok))
+        assert i is not None
+        raise error(field, reason(i), i)

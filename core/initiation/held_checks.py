@@ -27,8 +27,6 @@ azimuth the track keeps of it (``state.plots.<name>``, ``state.tracks.<name>``).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
 from plotgate.core.errors import CovarianceError, ParameterError
@@ -43,7 +41,7 @@ from plotgate.core.initiation.filter import (
     update,
 )
 from plotgate.core.initiation.state import PLOT_STRIDE, InitiationState
-from plotgate.core.validation import as_covariance, first_index
+from plotgate.core.validation import as_covariance, require
 
 __all__ = ["REMADE_TOLERANCE", "check_held_plots", "remade_tracks"]
 
@@ -56,23 +54,10 @@ initiation rounded, but for the predictions over missed scans composed into one 
 10 km is 1e-4 of it)."""
 
 
-def _require(
-    field: str,
-    ok: np.ndarray | np.bool_,
-    reason: Callable[[int], str],
-    error: type = ParameterError,
-) -> None:
-    """Raise ``error(field, reason(i), i)`` at the first row i where ``ok`` is False."""
-    if not ok.all():
-        i = first_index(np.asarray(~ok))
-        assert i is not None
-        raise error(field, reason(i), i)
-
-
 def _check_table(state: InitiationState) -> None:
     """The held plots are exactly the tentative tracks' plots, ids increasing."""
     held, tr = state.plots, state.tracks
-    _require(
+    require(
         "state.plots.plot",
         np.concatenate([[True], held.plot[1:] > held.plot[:-1]]),
         lambda i: f"is {held.plot[i]}, not above the id before it; ids increase",
@@ -80,7 +65,7 @@ def _check_table(state: InitiationState) -> None:
     as_covariance("state.plots.R", held.R)
     tentative = ~tr.confirmed[:, None] & (tr.plots >= 0)
     known = np.isin(tr.plots, held.plot)
-    _require(
+    require(
         "state.tracks.plots",
         (known | ~tentative).all(axis=1),
         lambda i: (
@@ -88,7 +73,7 @@ def _check_table(state: InitiationState) -> None:
             "carry (a state carries every plot of its tentative tracks)"
         ),
     )
-    _require(
+    require(
         "state.plots.plot",
         np.isin(held.plot, tr.plots[tentative]),
         lambda i: f"is {held.plot[i]}, a plot no tentative track holds",

@@ -60,7 +60,6 @@ with the row as ``index`` (``state.tracks.misses``, index 3: ``state.tracks.miss
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -89,7 +88,7 @@ from plotgate.core.initiation.state import (
     layout,
     seal,
 )
-from plotgate.core.validation import as_covariance, first_index
+from plotgate.core.validation import as_covariance, first_index, require
 
 __all__ = ["MAX_PLOT_ID", "ROUNDING", "PlotBounds", "check_state", "state_from_json"]
 
@@ -247,19 +246,6 @@ def _part(cls: type, where: str, data: Any, history: int) -> Any:
     return cls(**arrays)
 
 
-def _require(
-    field: str,
-    ok: np.ndarray | np.bool_,
-    reason: Callable[[int], str],
-    error: type = ParameterError,
-) -> None:
-    """Raise ``error(field, reason(i), i)`` at the first row i where ``ok`` is False."""
-    if not ok.all():
-        i = first_index(np.asarray(~ok))
-        assert i is not None
-        raise error(field, reason(i), i)
-
-
 def _angles_and_sigmas(
     field: str,
     r: np.ndarray | None,
@@ -268,36 +254,36 @@ def _angles_and_sigmas(
     sigma_az: np.ndarray,
 ) -> None:
     if r is not None:
-        _require(
+        require(
             f"{field}.r",
             r >= MIN_SENSOR_RANGE,
             lambda i: f"is {r[i]} m; a plot is at least {MIN_SENSOR_RANGE} m from its sensor",
         )
     if sigma_r is not None:
-        _require(f"{field}.sigma_r", sigma_r > 0, lambda i: f"must be > 0, got {sigma_r[i]}")
-    _require(
+        require(f"{field}.sigma_r", sigma_r > 0, lambda i: f"must be > 0, got {sigma_r[i]}")
+    require(
         f"{field}.az",
         np.abs(az) <= np.pi,
         lambda i: f"must be an azimuth in [-pi, pi] rad, got {az[i]}",
     )
-    _require(f"{field}.sigma_az", sigma_az > 0, lambda i: f"must be > 0, got {sigma_az[i]}")
+    require(f"{field}.sigma_az", sigma_az > 0, lambda i: f"must be > 0, got {sigma_az[i]}")
 
 
 def _check_initiators(state: InitiationState) -> None:
     ini, f = state.initiators, "state.initiators"
-    _require(
+    require(
         f"{f}.plot",
         (ini.plot >= 0) & (ini.plot < MAX_PLOT_ID),
         lambda i: f"is {ini.plot[i]}; plot ids are 0 to {MAX_PLOT_ID - 1}",
     )
-    _require(
+    require(
         f"{f}.scan",
         (ini.scan >= 0) & (ini.scan < state.scans),
         lambda i: f"is {ini.scan[i]}; this state has processed scans 0 to {state.scans - 1}",
     )
     as_covariance(f"{f}.R", ini.R)
     _angles_and_sigmas(f, ini.r, ini.az, ini.sigma_r, ini.sigma_az)
-    _require(
+    require(
         f"{f}.plot",
         ini.plot // PLOT_STRIDE == ini.scan,
         lambda i: (
@@ -309,8 +295,8 @@ def _check_initiators(state: InitiationState) -> None:
     order = np.argsort(ini.plot, kind="stable")
     again = np.zeros(ini.plot.size, dtype=bool)
     again[order[1:]] = ini.plot[order[1:]] == ini.plot[order[:-1]]
-    _require(f"{f}.plot", ~again, lambda i: f"repeats plot {ini.plot[i]}")
-    _require(
+    require(f"{f}.plot", ~again, lambda i: f"repeats plot {ini.plot[i]}")
+    require(
         f"{f}.t",
         ini.t <= (state.t if state.t is not None else -np.inf),
         lambda i: f"is {ini.t[i]} s, after the state's time {state.t} s",
@@ -328,7 +314,7 @@ def _check_scores(state: InitiationState, config: InitiationConfig) -> None:
             first_plot_score(config, log_clutter_density(config, n)) for n in (1, PLOT_STRIDE)
         )
         score = state.initiators.score
-        _require(
+        require(
             "state.initiators.score",
             (score >= min(one, most)) & (score <= max(one, most)),
             lambda i: (
@@ -345,18 +331,18 @@ def _check_scores(state: InitiationState, config: InitiationConfig) -> None:
         def nonzero(i: int, v: np.ndarray = values) -> str:
             return f"is {v[i]}; scores are 0 under k_of_m confirmation"
 
-        _require(f"{f}.score", values == 0.0, nonzero)
+        require(f"{f}.score", values == 0.0, nonzero)
 
 
 def _check_track_values(state: InitiationState, config: InitiationConfig) -> None:
     tr, f = state.tracks, "state.tracks"
-    _require(
+    require(
         f"{f}.id",
         (tr.id >= 0) & (tr.id < state.next_track),
         lambda i: f"is {tr.id[i]}; track ids are 0 to next_track - 1 = {state.next_track - 1}",
     )
     scale = np.trace(np.abs(tr.P), axis1=1, axis2=2)
-    _require(
+    require(
         f"{f}.P",
         (np.abs(tr.P - np.swapaxes(tr.P, 1, 2)) <= 1e-9 * scale[:, None, None]).all(axis=(1, 2)),
         lambda i: f"is not symmetric: {tr.P[i].tolist()}",
@@ -368,7 +354,7 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
     # to about -1e-16 of the trace; a tampered one is off by far more
     low = np.linalg.eigvalsh(tr.P).min(axis=1, initial=np.inf)
     variances = np.diagonal(tr.P, axis1=1, axis2=2)
-    _require(
+    require(
         f"{f}.P",
         (low >= -ROUNDING * scale) & (variances > 0).all(axis=1),
         lambda i: (
@@ -376,18 +362,18 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
         ),
         CovarianceError,
     )
-    _require(f"{f}.n", tr.n >= 2, lambda i: f"is {tr.n[i]}; a track starts with two plots")
-    _require(
+    require(f"{f}.n", tr.n >= 2, lambda i: f"is {tr.n[i]}; a track starts with two plots")
+    require(
         f"{f}.first_scan",
         (tr.first_scan >= 0) & (tr.first_scan < state.scans),
         lambda i: f"is {tr.first_scan[i]}; this state has processed scans 0 to {state.scans - 1}",
     )
-    _require(
+    require(
         f"{f}.confirmed_scan",
         (tr.confirmed_scan >= -1) & (tr.confirmed_scan < state.scans),
         lambda i: f"is {tr.confirmed_scan[i]}; -1 (tentative) or a scan 0 to {state.scans - 1}",
     )
-    _require(
+    require(
         f"{f}.misses",
         (tr.misses >= 0) & (tr.misses < config.drop_misses),
         lambda i: (
@@ -395,9 +381,9 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
             f"{config.drop_misses - 1} (a track with more is dropped)"
         ),
     )
-    _require(f"{f}.cost", tr.cost >= 0, lambda i: f"must be >= 0, got {tr.cost[i]}")
+    require(f"{f}.cost", tr.cost >= 0, lambda i: f"must be >= 0, got {tr.cost[i]}")
     present = tr.plots >= 0
-    _require(
+    require(
         f"{f}.plots",
         ((tr.plots == -1) | present & (tr.plots < state.scans * PLOT_STRIDE)).all(axis=1),
         lambda i: (
@@ -414,7 +400,7 @@ def _check_track_values(state: InitiationState, config: InitiationConfig) -> Non
                 f"(ranges >= {MIN_SENSOR_RANGE} m, sigmas > 0): {v[i].tolist()}"
             )
 
-        _require(f"{f}.{name}", (ok | np.isnan(values)).all(axis=1), out_of_domain)
+        require(f"{f}.{name}", (ok | np.isnan(values)).all(axis=1), out_of_domain)
     _angles_and_sigmas(f, None, tr.az, None, tr.sigma_az)
 
 
@@ -425,34 +411,34 @@ def _check_track_histories(state: InitiationState) -> None:
     tr, f = state.tracks, "state.tracks"
     H = tr.plots.shape[1]
     present = tr.plots >= 0
-    _require(
+    require(
         f"{f}.id",
         np.r_[True, tr.id[1:] > tr.id[:-1]],
         lambda i: f"is {tr.id[i]}, not above the id before it ({tr.id[i - 1]}); ids increase",
     )
-    _require(
+    require(
         f"{f}.t",
         tr.t == (state.t if state.t is not None else np.nan),
         lambda i: f"is {tr.t[i]} s; every track is at the state's time {state.t} s",
     )
-    _require(
+    require(
         f"{f}.plots",
         (present[:, 1:] >= present[:, :-1]).all(axis=1),
         lambda i: f"has a plot before a -1: {tr.plots[i].tolist()}; -1 only before the first plot",
     )
     scan = np.where(present, tr.plots // PLOT_STRIDE, -1)
-    _require(
+    require(
         f"{f}.plots",
         (~present[:, 1:] | (scan[:, 1:] > scan[:, :-1])).all(axis=1),
         lambda i: f"holds plots not from increasing scans: {tr.plots[i].tolist()}",
     )
     count = present.sum(axis=1)
-    _require(
+    require(
         f"{f}.n",
         count == np.minimum(tr.n, H),
         lambda i: f"is {tr.n[i]}, but plots[{i}] holds {count[i]} plots of a history of {H}",
     )
-    _require(
+    require(
         f"{f}.n",
         tr.n <= state.scans - tr.first_scan,
         lambda i: (
@@ -461,7 +447,7 @@ def _check_track_histories(state: InitiationState) -> None:
         ),
     )
     oldest = scan[np.arange(tr.size), H - np.maximum(count, 1)]
-    _require(
+    require(
         f"{f}.first_scan",
         np.where(tr.n <= H, tr.first_scan == oldest, tr.first_scan < oldest),
         lambda i: (
@@ -478,7 +464,7 @@ def _check_track_counters(state: InitiationState, scan: np.ndarray, present: np.
     last plot, null exactly where no plot is, times non-decreasing and not after the
     state's; ``scan`` (m, H) holds each history plot's scan (-1 where none)."""
     tr, f = state.tracks, "state.tracks"
-    _require(
+    require(
         f"{f}.confirmed_scan",
         (tr.confirmed_scan >= 0) == tr.confirmed,
         lambda i: (
@@ -487,13 +473,13 @@ def _check_track_counters(state: InitiationState, scan: np.ndarray, present: np.
             "tentative)"
         ),
     )
-    _require(
+    require(
         f"{f}.confirmed_scan",
         ~tr.confirmed | (tr.confirmed_scan >= tr.first_scan),
         lambda i: f"is {tr.confirmed_scan[i]}, before its first scan {tr.first_scan[i]}",
     )
     since = state.scans - 1 - scan[:, -1]
-    _require(
+    require(
         f"{f}.misses",
         tr.misses == since,
         lambda i: (
@@ -510,9 +496,9 @@ def _check_track_counters(state: InitiationState, scan: np.ndarray, present: np.
                 f"{v[i].tolist()} against {tr.plots[i].tolist()}"
             )
 
-        _require(f"{f}.{name}", (np.isnan(values) == ~present).all(axis=1), misplaced)
+        require(f"{f}.{name}", (np.isnan(values) == ~present).all(axis=1), misplaced)
     times = np.where(present, tr.times, -np.inf)
-    _require(
+    require(
         f"{f}.times",
         (times[:, 1:] >= times[:, :-1]).all(axis=1)
         & (times[:, -1] <= (state.t if state.t is not None else -np.inf)),
@@ -526,7 +512,7 @@ def _check_track_counters(state: InitiationState, scan: np.ndarray, present: np.
 def _within(field: str, values: np.ndarray, low: float, high: float, what: str) -> None:
     """Every value (NaN, where no plot is, aside) in [low, high]; rows of a history at once."""
     ok = (values >= low) & (values <= high) | np.isnan(values)
-    _require(
+    require(
         field,
         ok.all(axis=1) if ok.ndim == 2 else ok,
         lambda i: (
@@ -558,12 +544,12 @@ def _check_polar_copies(state: InitiationState) -> None:
     rel = ini.z - ini.sensor
     r, az = np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 0], rel[:, 1])
     near = 1e-9 * (np.abs(ini.z).sum(axis=1) + np.abs(ini.sensor).sum(axis=1) + ini.r)
-    _require(
+    require(
         f"{f}.r",
         np.abs(ini.r - r) <= near,
         lambda i: f"is {ini.r[i]} m, but its z is {r[i]} m from its sensor",
     )
-    _require(
+    require(
         f"{f}.az",
         np.abs(wrap_angle(ini.az - az)) * ini.r <= near,
         lambda i: f"is {ini.az[i]} rad, but its z is at {az[i]} rad from its sensor",
@@ -580,7 +566,7 @@ def _check_polar_copies(state: InitiationState) -> None:
         def disagrees(i: int, s: np.ndarray = sigma, v: np.ndarray = variance) -> str:
             return f"makes a sigma of {s[i]} m where its R gives {np.sqrt(v[i])} m"
 
-        _require(f"{f}.{name}", np.abs(sigma**2 - variance) <= tolerance, disagrees)
+        require(f"{f}.{name}", np.abs(sigma**2 - variance) <= tolerance, disagrees)
 
 
 def _check_information(state: InitiationState, config: InitiationConfig, b: PlotBounds) -> None:
@@ -599,7 +585,7 @@ def _check_information(state: InitiationState, config: InitiationConfig, b: Plot
         most = tr.n * ((1.0 + (2.0 * b.max_time) ** 2) / b.min_variance) + prior
     floor = 1.0 / most
     diagonal = np.diagonal(tr.P, axis1=1, axis2=2)
-    _require(
+    require(
         "state.tracks.P",
         (diagonal >= floor[:, None]).all(axis=1),
         lambda i: (
@@ -615,7 +601,7 @@ def _check_speeds(state: InitiationState, config: InitiationConfig) -> None:
     initiation keeps them (it drops a faster track, reason "speed")."""
     tr = state.tracks
     excess = speed_excess(tr.x, tr.P, config.v_max)
-    _require(
+    require(
         "state.tracks.x",
         excess <= SPEED_SIGMAS,
         lambda i: (
@@ -632,7 +618,7 @@ def _check_confirmation(state: InitiationState, config: InitiationConfig) -> Non
     confirms nor drops under these settings."""
     tr, f, k = state.tracks, "state.tracks", config.confirm_k
     earliest = tr.first_scan + k - 1
-    _require(
+    require(
         f"{f}.confirmed_scan",
         ~tr.confirmed | (tr.confirmed_scan >= earliest),
         lambda i: (
@@ -647,7 +633,7 @@ def _check_confirmation(state: InitiationState, config: InitiationConfig) -> Non
         _check_tentative_existence(state, config)
         return
     latest = tr.first_scan + config.confirm_m - 1
-    _require(
+    require(
         f"{f}.confirmed_scan",
         ~tr.confirmed | (tr.confirmed_scan <= latest),
         lambda i: (
@@ -656,7 +642,7 @@ def _check_confirmation(state: InitiationState, config: InitiationConfig) -> Non
         ),
     )
     age = state.scans - tr.first_scan  # scans from its first to the last, both counted
-    _require(
+    require(
         f"{f}.n",
         tr.confirmed | (tr.n < k) | (age > config.confirm_m),
         lambda i: (
@@ -665,7 +651,7 @@ def _check_confirmation(state: InitiationState, config: InitiationConfig) -> Non
         ),
     )
     reach = tr.n + config.confirm_m - age
-    _require(
+    require(
         f"{f}.first_scan",
         tr.confirmed | (reach >= k),
         lambda i: (
@@ -678,12 +664,12 @@ def _check_confirmation(state: InitiationState, config: InitiationConfig) -> Non
 def _check_tentative_scores(state: InitiationState, config: InitiationConfig) -> None:
     tr = state.tracks
     confirm_at, delete_at = wald_thresholds(config)
-    _require(
+    require(
         "state.tracks.score",
         tr.confirmed | (tr.score > delete_at),
         lambda i: f"is {tr.score[i]}; a tentative track at or below {delete_at} is dropped",
     )
-    _require(
+    require(
         "state.tracks.score",
         tr.confirmed | (tr.n < config.confirm_k) | (tr.score < confirm_at),
         lambda i: (
@@ -703,7 +689,7 @@ def _check_tentative_existence(state: InitiationState, config: InitiationConfig)
         log_odds(config.existence_confirm),
         log_odds(config.existence_delete),
     )
-    _require(
+    require(
         "state.tracks.score",
         tr.confirmed | (tr.score > delete_at),
         lambda i: (
@@ -711,7 +697,7 @@ def _check_tentative_existence(state: InitiationState, config: InitiationConfig)
             f"(existence_delete = {config.existence_delete}); such a tentative track is dropped"
         ),
     )
-    _require(
+    require(
         "state.tracks.score",
         tr.confirmed | (tr.n < config.confirm_k) | (tr.score < confirm_at),
         lambda i: (
@@ -726,7 +712,7 @@ def _check_windows(state: InitiationState, config: InitiationConfig) -> None:
     """Initiators within the settings' capture window (2/N or 2/T): older ones expire."""
     ini = state.initiators
     if config.capture_time is None:
-        _require(
+        require(
             "state.initiators.scan",
             ini.scan > state.scans - config.capture_scans,
             lambda i: (
@@ -736,7 +722,7 @@ def _check_windows(state: InitiationState, config: InitiationConfig) -> None:
         )
         return
     now = state.t if state.t is not None else np.inf
-    _require(
+    require(
         "state.initiators.t",
         now - ini.t < config.capture_time,
         lambda i: (
@@ -760,7 +746,7 @@ def _check_sharing(state: InitiationState, config: InitiationConfig) -> None:
             tr.plots[rows], axis=0, return_index=True, return_inverse=True
         )
         again[rows] = first[inverse.ravel()] != np.arange(rows.size)
-    _require(
+    require(
         "state.tracks.plots",
         ~again,
         lambda i: f"is {tr.plots[i].tolist()}, the whole history of another track: a duplicate",
@@ -769,7 +755,7 @@ def _check_sharing(state: InitiationState, config: InitiationConfig) -> None:
     clash = np.zeros(tr.size, dtype=bool)
     clash[confirmed] = ~keep_greedy(tr.plots[confirmed])
     clash[tentative] = shares_two(tr.plots[tentative], tr.plots[confirmed])
-    _require(
+    require(
         "state.tracks.plots",
         ~clash,
         lambda i: (
@@ -898,7 +884,7 @@ def check_state(
     _check_track_histories(state)
     rule = confirmation_rule(config)  # under the score only confirmed tracks own plots
     taken = np.isin(state.initiators.plot, rule.held(state.tracks))
-    _require(
+    require(
         "state.initiators.plot",
         ~taken,
         lambda i: (
