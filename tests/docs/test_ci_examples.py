@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from plotgate.clients import cli
+from plotgate.clients.commands import replay as replay_command
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "docs" / "ci").glob("*.yml"))
 
@@ -46,7 +47,7 @@ def test_every_plotgate_command_parses_with_the_real_parser(path, monkeypatch, c
     commands = _commands(path)
     assert commands, f"{path.name} runs no plotgate command"
     parsed = []
-    monkeypatch.setattr(cli, "_replay", lambda args: parsed.append(args) or 0)
+    monkeypatch.setattr(replay_command, "run", lambda args: parsed.append(args) or 0)
     for argv in commands:
         assert cli.main(argv) == 0, (argv, capsys.readouterr().err)
     assert len(parsed) == len(commands)
