@@ -36,6 +36,7 @@ def serve(
     log: Path | None = None,
     source: Path | None = None,
     ready_s: float = 30.0,
+    warm: bool = True,
 ) -> Iterator[tuple[subprocess.Popen, str]]:
     """Run ``plotgate serve`` as a subprocess on a loopback port until it is ready.
 
@@ -44,6 +45,9 @@ def serve(
     output (its logs, the access log included) in that file; ``source`` runs the server
     from another checkout (its folder goes first on ``PYTHONPATH``), by default this one;
     ``ready_s`` is the longest wait for ``/readyz`` (a bench on a loaded machine waits more).
+    ``warm`` (the default) waits, up to :data:`WARM_S` more, until ``/readyz`` lists no
+    operation still compiling, so a test's timings are of a server whose kernels are loaded
+    (``serve`` answers while its warm-up loads them: :mod:`plotgate.service.warmup`).
     """
     port = free_port()
     stderr = open(log, "wb") if log is not None else subprocess.PIPE  # noqa: SIM115
@@ -81,6 +85,8 @@ def serve(
                 pass
             assert time.monotonic() < deadline, f"server did not become ready in {ready_s:g} s"
             time.sleep(0.1)
+        if warm:
+            _until_warm(url, proc)
         yield proc, url
     finally:
         if proc.poll() is None:
@@ -88,6 +94,29 @@ def serve(
             proc.wait(timeout=30)
         if proc.stderr:
             proc.stderr.close()
+
+
+WARM_S = 900.0
+"""Longest wait for a started server's warm-up to load every operation's kernels, s (a
+cold cache on a loaded two-core machine)."""
+
+
+def _until_warm(url: str, proc: subprocess.Popen) -> None:
+    deadline = time.monotonic() + WARM_S
+    while True:
+        assert proc.poll() is None, "the server exited during its warm-up"
+        try:
+            answer = httpx.get(url + "/readyz", timeout=5)
+            compiling = answer.json().get("operations", {}).get("compiling", [])
+        except (httpx.TransportError, ValueError):
+            compiling = ["?"]  # busy loading a module: ask again
+        else:
+            if answer.status_code != 200:
+                return  # not ready for another reason (recording): the test's own business
+        if not compiling:
+            return
+        assert time.monotonic() < deadline, f"kernels not loaded in {WARM_S:g} s"
+        time.sleep(0.2)
 
 
 @contextlib.contextmanager
