@@ -582,7 +582,7 @@ def files(work: Path) -> Row:
     spec.write_text(json.dumps(jobs))
     peak = 0
     proc = subprocess.Popen(
-        [sys.executable, "-m", "tests.clients.hostile", str(spec)],
+        [sys.executable, "-m", "tests.support.hostile", str(spec)],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         text=True,

@@ -58,7 +58,7 @@ def _run_all(jobs: list[list[str]], tmp_path: Path) -> list[dict]:
     spec = tmp_path / "jobs.json"
     spec.write_text(json.dumps(jobs))
     run = subprocess.run(
-        [sys.executable, "-m", "tests.clients.hostile", str(spec)],
+        [sys.executable, "-m", "tests.support.hostile", str(spec)],
         cwd=ROOT,
         capture_output=True,
         text=True,

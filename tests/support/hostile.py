@@ -9,7 +9,7 @@ and opcodes; every wrong shape of message JSON among sound exchanges; and files 
 not MCAP at all. Each file comes with what a correct reader must find in it
 (:class:`Expect`).
 
-``python -m tests.clients.hostile JOBS.json`` runs ``clients.cli.main`` on each job (a list
+``python -m tests.support.hostile JOBS.json`` runs ``clients.cli.main`` on each job (a list
 of arguments) in this one process, and prints per job a JSON line: exit status, what it
 wrote, whether anything escaped ``main``, and the peak resident memory of the run
 (``VmHWM`` from ``/proc/self/status``, reset before each run through
