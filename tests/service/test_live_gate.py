@@ -151,7 +151,7 @@ def _serve(monkeypatch, argv):
     ran = []
     monkeypatch.setattr(os, "environ", os.environ.copy())  # serve sets its options there
     monkeypatch.setattr(uvicorn, "run", lambda *a, **k: ran.append(k))
-    monkeypatch.setattr("plotgate.clients.cli._load_kernels_first", lambda args: True)
+    monkeypatch.setattr("plotgate.clients.cli.load_kernels_first", lambda args: True)
     return main(["serve", "--no-record", *argv]), ran
 
 
