@@ -8,6 +8,7 @@ from fastapi.testclient import TestClient
 from plotgate.clients.recordings import read_recording
 from plotgate.service import registry
 from plotgate.service.app import create_app
+from plotgate.service.recording import recorder
 from plotgate.service.recording.files import RecordingFile
 from tests.support.requests import GOOD
 
@@ -18,20 +19,21 @@ class _Disk:
 
     def __init__(self, monkeypatch) -> None:
         self.full = False
-        real_write, real_open = RecordingFile.write, open
+        real_write = RecordingFile.write
+        real_temporary = recorder.temporary_beside
 
         def write(file, buffers):
             if self.full:
                 raise OSError(28, "No space left on device")
             return real_write(file, buffers)
 
-        def probe_open(path, *args, **kwargs):
-            if self.full and ".plotgate-probe-" in str(path):
+        def probe_file(target, *args, **kwargs):
+            if self.full and ".plotgate-probe-" in str(target):
                 raise OSError(28, "No space left on device")
-            return real_open(path, *args, **kwargs)
+            return real_temporary(target, *args, **kwargs)
 
         monkeypatch.setattr(RecordingFile, "write", write)
-        monkeypatch.setattr("builtins.open", probe_open)
+        monkeypatch.setattr(recorder, "temporary_beside", probe_file)
 
 
 def test_unrecordable_exchange_is_refused_then_recovers(settings, monkeypatch):
