@@ -21,7 +21,15 @@ Then reads each form, best of ``--repeat``:
   cat and replay read; then the same with every exchange's values built (``request`` and
   ``response``), as replay needs them.
 
-    python bench/bench_reading.py --exchanges 15000
+First, the aim's workload: :func:`plotgate.clients.inspect.inspect` (what ``plotgate inspect``
+runs, its imports paid: start-up subtracted) over the recording as the recorder wrote it,
+against mcap's own Python reader (``StreamReader``, CRCs checked, records only) over the
+same files; the aim is 50,000 exchanges/s of wall-clock.
+
+    python bench/bench_reading.py [--exchanges 12000 --repeat 3] [--quick]
+
+``--quick`` reads 2,000 exchanges once (CI: it asserts no times). The last lines are the
+front table's row (``SUMMARY {json}``).
 
 Figures are exchanges per second, from wall-clock and from CPU time; the ratios are to the
 C-level limits of the same form measured in the same run (CPU time: other work on the
@@ -41,12 +49,15 @@ from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from plotgate.clients.mcap_reader import Located, Scan
+from plotgate.clients.inspect import inspect
+from plotgate.clients.mcap_reader import Located, RecordReader
 from plotgate.clients.recordings import Reader
 from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 
 CHUNK_BYTES = 2**20
+AIM = 50_000
+"""Exchanges per second of wall-clock the reading aims at (issue 40)."""
 
 
 def record(folder: Path, exchanges: int) -> list[Path]:
@@ -83,7 +94,7 @@ def copy(files: list[Path], out: Path, chunked: bool) -> Path:
         schemas: dict[tuple[str, int], int] = {}
         channels: dict[tuple[str, int], int] = {}
         for path in files:
-            for item in Scan(path):
+            for item in RecordReader(path):
                 assert isinstance(item, Located), item
                 record, key = item.record, str(path)
                 if isinstance(record, Schema):
@@ -179,20 +190,51 @@ def readers(path: Path) -> dict[str, Callable[[], object]]:
     }
 
 
+def mcap_records(files: list[Path]) -> int:
+    """mcap's own Python reader over ``files``: every record, CRCs checked."""
+    return sum(1 for f in files for _ in StreamReader(str(f), validate_crcs=True).records)
+
+
+def summary(n: int, inspected: tuple[float, float], peer: tuple[float, float]) -> None:
+    """The front table's row: ``inspect`` against the aim, mcap's Python reader beside it."""
+    rate = n / inspected[0]
+    row = {
+        "row": "reading",
+        "workload": f"plotgate inspect of {n:,} gates.test exchanges as recorded "
+        "(in process: start-up subtracted; wall)",
+        "peer": f"mcap StreamReader (Python, CRCs checked, records only): "
+        f"{n / peer[0]:,.0f} exchanges/s",
+        "measured": f"{rate:,.0f} exchanges/s ({n / inspected[1]:,.0f}/s of CPU; "
+        f"{peer[0] / inspected[0]:.2f}x mcap's Python reader)",
+        "aim": f">= {AIM:,}/s",
+        "met": rate >= AIM,
+    }
+    print("SUMMARY " + json.dumps(row))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--exchanges", type=int, default=15_000)
+    parser.add_argument("--exchanges", type=int, default=12_000)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="2,000 exchanges, once (CI)")
     args = parser.parse_args()
+    if args.quick:
+        args.exchanges, args.repeat = 2_000, 1
+    n = args.exchanges
     with tempfile.TemporaryDirectory() as tmp:
-        files = record(Path(tmp) / "recorded", args.exchanges)
+        files = record(Path(tmp) / "recorded", n)
         size = sum(p.stat().st_size for p in files) / 2**20
-        wall, cpu = best(lambda: sum(1 for _ in Reader(files)), args.repeat)
-        print(f"{args.exchanges} exchanges; best of {args.repeat}; rates in exchanges/s")
-        print(
-            f"as recorded ({len(files)} files, {size:.1f} MiB): Reader (checked, paired) "
-            f"{args.exchanges / wall:,.0f}/s wall, {args.exchanges / cpu:,.0f}/s CPU"
-        )
+        print(f"{n} exchanges; best of {args.repeat}; rates in exchanges/s")
+        inspected = best(lambda: inspect(files), args.repeat)
+        peer = best(lambda: mcap_records(files), args.repeat)
+        paired = best(lambda: sum(1 for _ in Reader(files)), args.repeat)
+        print(f"as recorded ({len(files)} files, {size:.1f} MiB):")
+        for name, (wall, cpu) in (
+            ("inspect()", inspected),
+            ("Reader (checked, paired)", paired),
+            ("mcap StreamReader (CRCs checked, records only)", peer),
+        ):
+            print(f"  {name}: {n / wall:,.0f}/s wall, {n / cpu:,.0f}/s CPU")
         print(
             "| form | reader | wall s | CPU s | /s (wall) | /s (CPU) | x limit, built "
             "(CPU) | x limit, validated (CPU) |"
@@ -206,9 +248,10 @@ def main() -> None:
             for reader, (wall, cpu) in times.items():
                 print(
                     f"| {name} | {reader} | {wall:.3f} | {cpu:.3f} "
-                    f"| {args.exchanges / wall:,.0f} | {args.exchanges / cpu:,.0f} "
+                    f"| {n / wall:,.0f} | {n / cpu:,.0f} "
                     f"| {built / cpu:.2f} | {validated / cpu:.2f} |"
                 )
+        summary(n, inspected, peer)
 
 
 if __name__ == "__main__":
