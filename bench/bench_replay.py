@@ -25,10 +25,10 @@ Then, best of ``--repeat`` each:
     python bench/bench_replay.py [--exchanges 15000 --connections 4 --repeat 3] [--quick]
 
 ``--quick`` replays 500 exchanges, best of two (the first pays the imports; CI: it asserts
-no times). The last line is the front
-table's row (``SUMMARY {json}``): the in-process replay's wall-clock rate against the
-server's (the sending's wall-clock) in the same run; the aim is at least the server's rate,
-and at least 1,329 exchanges/s (three times the rate before issue 25).
+no times). The last line is the front table's row (``SUMMARY {json}``): the in-process
+replay's wall-clock rate against the server's (the sending's wall-clock) in the same run;
+the aim is at least the server's rate, and at least 1,329 exchanges/s (three times the rate
+before issue 25).
 """
 
 import argparse
