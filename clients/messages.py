@@ -46,6 +46,7 @@ __all__ = [
     "MAX_DURATION_S",
     "MAX_TIME_NS",
     "Envelope",
+    "body_bytes",
     "check_messages",
     "check_time",
     "loads",
@@ -91,7 +92,14 @@ class _Fields(msgspec.Struct):
     error: Any = UNSET
 
 
+class _Body(msgspec.Struct):
+    """A request record's body, its JSON kept as bytes; every other field skipped."""
+
+    body: msgspec.Raw | msgspec.UnsetType = UNSET
+
+
 _FIELDS = msgspec.json.Decoder(_Fields)
+_BODY = msgspec.json.Decoder(_Body)
 _VALUES = msgspec.json.Decoder()
 
 
@@ -225,6 +233,18 @@ def loads(data: bytes) -> Any:
         return _VALUES.decode(data)
     except Exception:  # noqa: BLE001 - json takes what the check took
         return json.loads(data.decode("utf-8"), parse_constant=_no_constant)
+
+
+def body_bytes(data: bytes) -> bytes | None:
+    """The ``body`` of a checked request record, its bytes as they stand in the record (the
+    recorder embeds a strict-JSON body as it came); None for a record without one (its body
+    was ``raw`` text, or empty) and where msgspec refuses the record (a lone surrogate
+    escape: the values, built by ``json``, say what was sent)."""
+    try:
+        body = _BODY.decode(data).body
+    except Exception:  # noqa: BLE001 - checked already: json takes what msgspec refuses
+        return None
+    return None if body is UNSET else bytes(body)
 
 
 def _long_digits(text: bytes, limit: int) -> bool:
