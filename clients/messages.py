@@ -183,18 +183,35 @@ def check_messages(messages: Sequence[tuple[str, str, bytes]]) -> list[Envelope 
 
     A message goes to the reference when msgspec refuses it (the reference says why, or
     takes it), when it is not ASCII, may hold an integer past the interpreter's limit, or
-    nests too deep. The nesting of all messages without escapes is screened at once (each
-    is valid JSON, so the nesting of one ends before the next starts); only a screen that
-    fires looks at them one by one."""
-    limit = sys.get_int_max_str_digits()
+    nests too deep. In the usual batch (every message taken by msgspec, ASCII, without
+    escapes or long runs of digits) those screens, nesting included, are one pass each over
+    the batch's bytes (each message is valid JSON, so the nesting of one ends before the
+    next starts), and its envelopes are checked together (:func:`_usual`); otherwise, or
+    when a screen fires, message by message."""
+    decode = _FIELDS.decode
     fields: list[_Fields | None] = []
-    suspects: set[int] = set()
-    structures = []
-    for i, (_, _, data) in enumerate(messages):
+    for _, _, data in messages:
         try:
-            fields.append(_FIELDS.decode(data))
+            fields.append(decode(data))
         except Exception:  # noqa: BLE001 - any refusal: the reference says why, or accepts
             fields.append(None)
+    limit = sys.get_int_max_str_digits()
+    if None not in fields:
+        batch = b"".join([data for _, _, data in messages])
+        if (
+            batch.isascii()
+            and b"\\" not in batch
+            and not (limit and len(batch) > limit and _long_digits(batch, limit))
+            and not _structure_deeper(batch.translate(_PARENTHESES, _NOT_STRUCTURE))
+        ):
+            usual = _usual(messages, fields)  # type: ignore[arg-type]
+            if usual is not None:
+                return usual
+            return [_verdict(m, f, False) for m, f in zip(messages, fields, strict=True)]
+    suspects: set[int] = set()
+    structures = []
+    for i, ((_, _, data), f) in enumerate(zip(messages, fields, strict=True)):
+        if f is None:
             continue
         if not data.isascii() or limit and len(data) > limit and _long_digits(data, limit):
             suspects.add(i)
@@ -206,16 +223,74 @@ def check_messages(messages: Sequence[tuple[str, str, bytes]]) -> list[Envelope 
             if len(structure) > MAX_DEPTH:  # else too few brackets to nest that deep
                 structures.append(structure)
     deep = _structure_deeper(b"".join(structures))
-    verdicts: list[Envelope | str] = []
-    for i, ((kind, operation, data), f) in enumerate(zip(messages, fields, strict=True)):
-        try:
-            if f is None or i in suspects or deep and _too_deep(data):
-                verdicts.append(_reference(kind, operation, data)[1])
-            else:
-                verdicts.append(_shape(kind, operation, f))
-        except ValueError as exc:
-            verdicts.append(str(exc))
-    return verdicts
+    return [
+        _verdict(m, f, i in suspects or deep and _too_deep(m[2]))
+        for i, (m, f) in enumerate(zip(messages, fields, strict=True))
+    ]
+
+
+def _verdict(
+    message: tuple[str, str, bytes], fields: _Fields | None, suspect: bool
+) -> Envelope | str:
+    """One message's verdict: by the reference when msgspec refused it or a screen fired
+    on it, from its envelope's fields otherwise."""
+    kind, operation, data = message
+    try:
+        if fields is None or suspect:
+            return _reference(kind, operation, data)[1]
+        return _shape(kind, operation, fields)
+    except ValueError as exc:
+        return str(exc)
+
+
+_ID = REQUEST_ID_PATTERN.removeprefix("^").removesuffix("$")
+_REQUEST_IDS = re.compile(f"(?:{_ID}\n)*")
+"""Request ids, each followed by a newline: what :data:`REQUEST_ID` takes of ids without
+one (an id the pattern's ``$`` lets end with a newline, or holding one, sends the batch to
+:func:`_shape`)."""
+
+
+def _usual(
+    messages: Sequence[tuple[str, str, bytes]], fields: list[_Fields]
+) -> list[Envelope] | None:
+    """The envelopes of a batch whose every message is usual, checked together: what
+    :func:`_shape` gives each; None when any is not (a replay, an error response, a
+    request id or field the bulk checks do not take), and then :func:`_shape` judges each.
+
+    Usual: a request id the service could have given, the channel's operation; a request
+    without ``replay_of`` whose ``raw``, if any, is text; a response of a status below 400
+    with a result and a duration in [0, :data:`MAX_DURATION_S`]."""
+    ids = [f.request_id for f in fields]
+    if {type(i) for i in ids} != {str}:
+        return None
+    joined = "\n".join(ids) + "\n"
+    if (
+        joined.count("\n") != len(ids)  # an id holds a newline
+        or _REQUEST_IDS.fullmatch(joined) is None
+        or [f.operation for f in fields] != [m[1] for m in messages]
+    ):
+        return None
+    requests = [f for f, m in zip(fields, messages, strict=True) if m[0] == "request"]
+    responses = [f for f, m in zip(fields, messages, strict=True) if m[0] != "request"]
+    if (
+        any(f.replay_of is not UNSET and f.replay_of is not None for f in requests)
+        or {type(f.raw) for f in requests} - {str, msgspec.UnsetType}
+        or {type(f.status) for f in responses} - {int}
+        or {type(f.duration_s) for f in responses} - {int, float}
+        or any(f.result is UNSET for f in responses)
+    ):
+        return None
+    statuses = [f.status for f in responses]
+    if statuses and not (100 <= min(statuses) and max(statuses) < 400):
+        return None
+    if not all(0 <= f.duration_s <= MAX_DURATION_S for f in responses):
+        return None
+    return [
+        Envelope(f.request_id, None, None, None)
+        if m[0] == "request"
+        else Envelope(f.request_id, None, f.status, float(f.duration_s))
+        for m, f in zip(messages, fields, strict=True)
+    ]
 
 
 def check_time(log_time: int) -> str | None:
@@ -296,11 +371,12 @@ def _structure_deeper(structure: bytes) -> bool:
 
 
 def _depth(parentheses: bytes) -> int:
-    """The deepest nesting of balanced ``parentheses``, counted a mebibyte at a time."""
+    """The deepest nesting of balanced ``parentheses``, counted a mebibyte at a time (a
+    piece's running sum, at most its 2**20 steps, fits an int32: half the memory of int64)."""
     level, deepest = 0, 0
     for start in range(0, len(parentheses), 2**20):
         steps = parentheses[start : start + 2**20].translate(_STEPS)
-        run = np.cumsum(np.frombuffer(steps, np.int8), dtype=np.int64) + level
-        deepest = max(deepest, int(run.max()))
-        level = int(run[-1])
+        run = np.cumsum(np.frombuffer(steps, np.int8), dtype=np.int32)
+        deepest = max(deepest, level + int(run.max()))
+        level += int(run[-1])
     return deepest

@@ -184,6 +184,49 @@ class Pairing:
             return None
         return Pair(request, response, self._original_read(request))
 
+    def take_pair(
+        self, file: str, request: Seen, response: Seen, payloads: tuple[Any, Any]
+    ) -> list[Pair]:
+        """What :meth:`take` gives for a request and then its response (the same operation
+        and request id), read one after the other, as the recorder writes them: in one step
+        when neither record was read before and no record of their key waits (a Waiting is
+        made only for an exchange the filters take); by two calls of :meth:`take` otherwise.
+        """
+        operation, rid = request.operation, request.request_id
+        key = (operation, rid)
+        asked = ("request", operation, rid, request.log_time)
+        answered = ("response", operation, rid, response.log_time)
+        seen, recent = self._seen, self._recent
+        if (
+            key in self._requests
+            or key in self._responses
+            or asked in seen
+            or asked in recent
+            or answered in seen
+            or answered in recent
+        ):
+            pairs = (
+                self.take(None, file, request, payloads[0]),
+                self.take(None, file, response, payloads[1]),
+            )
+            return [pair for pair in pairs if pair is not None]
+        if request.replay_of is None:
+            self._originals.add(key)
+        recent[asked] = (file, request)
+        recent[answered] = (file, response)
+        while len(recent) > RECENT:
+            recent.popitem(last=False)
+        if not self.filters.admit(operation, request.log_time):
+            return []
+        waiting = Waiting(None, file, request, True, payloads[0])
+        return [
+            Pair(
+                waiting,
+                Waiting(None, file, response, True, payloads[1]),
+                self._original_read(waiting),
+            )
+        ]
+
     def leftovers(self) -> Iterator[Pair]:
         """Requests never answered, then answers whose request is lost (those the filters
         take), and forget them."""

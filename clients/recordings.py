@@ -410,24 +410,29 @@ class Reader:
     def _messages(
         self, rec: Recording, channels: dict[int, tuple[str, str] | str], runs: list[Messages]
     ) -> Iterator[Exchange]:
-        """Check runs of messages together, then pair each in file order."""
+        """Check runs of messages together, then pair them in file order: a request and its
+        response read one after the other (as the recorder writes them) in one step."""
         places = [(run, i) for run in runs for i in range(len(run.records))]
         if not places:
             return
         records = [run.records[i] for run, i in places]
         rec.messages += len(records)
-        on: list[tuple[str, str] | str] = []
+        times = [r[3] for r in records]
+        first, last = min(times), max(times)
+        on: list[tuple[str, str] | str]
         """Each message's (operation, kind), or why it is not a plotgate one (its channel,
         or a time out of range)."""
-        for _, channel_id, _, log_time, _, _ in records:
-            channel = channels.get(channel_id)
-            if channel is None:
-                channel = f"channel {channel_id}, which no Channel record declared"
-            late = check_time(log_time)
-            on.append(late or (f"a message on {channel}" if isinstance(channel, str) else channel))
-        times = [r[3] for r in records if check_time(r[3]) is None]
-        if times:
-            first, last = min(times), max(times)
+        named = {
+            channel_id: channel if type(channel) is tuple else f"a message on {channel}"
+            for channel_id, channel in channels.items()
+        }
+        if check_time(first) is None and check_time(last) is None:  # every time is
+            on = [named.get(r[1]) or _undeclared(r[1]) for r in records]
+        else:
+            on = [check_time(r[3]) or named.get(r[1]) or _undeclared(r[1]) for r in records]
+            times = [t for t in times if check_time(t) is None]
+            first, last = min(times, default=None), max(times, default=None)
+        if first is not None and last is not None:
             rec.first_time = first if rec.first_time is None else min(rec.first_time, first)
             rec.last_time = last if rec.last_time is None else max(rec.last_time, last)
         checked = iter(
@@ -439,45 +444,62 @@ class Reader:
                 ]
             )
         )
-        file = str(rec.path)
+        read: list[tuple[Seen, tuple[Envelope, bytes]]] = []
+        """Each message that checked out, described, with its envelope and bytes."""
+        digest = self.digest
         for (run, i), channel in zip(places, on, strict=True):
-            if channel in (SCENE, TRANSFORM):
-                rec.scene_messages += channel == SCENE
-                continue
-            if isinstance(channel, tuple):
+            if type(channel) is tuple:
+                if channel in (SCENE, TRANSFORM):
+                    rec.scene_messages += channel == SCENE
+                    continue
                 verdict = next(checked)
-                if isinstance(verdict, Envelope):
-                    exchange = self._pair(file, run, i, channel, verdict)
-                    if exchange is not None:
-                        yield exchange
+                if type(verdict) is Envelope:
+                    _, _, _, t, _, data = run.records[i]
+                    operation, kind = channel
+                    offset, inner = run.located(i)
+                    replay_of = verdict.replay_of if kind == "request" else None
+                    seen = Seen(
+                        kind,
+                        operation,
+                        verdict.request_id,
+                        t,
+                        digest(data),
+                        offset,
+                        inner,
+                        replay_of,
+                    )
+                    read.append((seen, (verdict, data)))
                     continue
             else:
                 verdict = channel
             offset, inner = run.located(i)
             rec.add_damage(Damage(offset, verdict, inner))
+        yield from self._paired(str(rec.path), read)
 
-    def _pair(
-        self,
-        file: str,
-        run: Messages,
-        index: int,
-        channel: tuple[str, str],
-        envelope: Envelope,
-    ) -> Exchange | None:
-        """Pair one checked message: the exchange it completes, if it completes one the
-        filters take."""
-        _, _, _, t, _, data = run.records[index]
-        operation, kind = channel
-        offset, inner = run.located(index)
-        replay_of = envelope.replay_of if kind == "request" else None
-        seen = Seen(
-            kind, operation, envelope.request_id, t, self.digest(data), offset, inner, replay_of
-        )
+    def _paired(
+        self, file: str, read: list[tuple[Seen, tuple[Envelope, bytes]]]
+    ) -> Iterator[Exchange]:
+        """Pair the records read, in file order: the exchanges they complete that the
+        filters take (or each record to ``on_record``, unpaired)."""
         if self.on_record is not None:
-            self.on_record(seen, envelope, data)
-            return None
-        pair = self._pairing.take(None, file, seen, (envelope, data))
-        return None if pair is None else exchange_of(pair)
+            for seen, (envelope, data) in read:
+                self.on_record(seen, envelope, data)
+            return
+        take, take_pair = self._pairing.take, self._pairing.take_pair
+        at, count = 0, len(read)
+        while at < count:
+            seen, payload = read[at]
+            if at + 1 < count and seen.kind == "request":
+                answer, answered = read[at + 1]
+                if answer.kind == "response" and answer[1:3] == seen[1:3]:
+                    for pair in take_pair(file, seen, answer, (payload, answered)):
+                        yield exchange_of(pair)
+                    at += 2
+                    continue
+            pair = take(None, file, seen, payload)
+            if pair is not None:
+                yield exchange_of(pair)
+            at += 1
 
     @property
     def written_twice(self) -> int:
@@ -491,6 +513,10 @@ class Reader:
     @property
     def conflicts(self) -> list[str]:
         return self._pairing.conflicts
+
+
+def _undeclared(channel_id: int) -> str:
+    return f"a message on channel {channel_id}, which no Channel record declared"
 
 
 def exchange_of(pair: Pair) -> Exchange:

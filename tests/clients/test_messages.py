@@ -214,3 +214,47 @@ def test_any_damage_gets_the_reference_verdict(data):
         else:
             del text[at:]
     _check("request", bytes(text))
+
+
+USUAL_REQUEST = HEAD + b'"body": {"covariance": [[1, 0], [0, 1]]}}'
+USUAL_RESPONSE = RESPONSE + b'200, "duration_s": 0.5, "result": {"inside": [true]}}'
+ONE_AMONG_USUAL = [("request", text) for text in DIFFERENCES.values()] + [
+    ("response", text) for text in RESPONSES.values()
+]
+
+
+@pytest.mark.parametrize("kind, text", ONE_AMONG_USUAL)
+def test_one_unusual_message_in_a_usual_batch_gets_its_own_verdict(kind, text):
+    """A batch is checked together (its screens, its envelopes) only while every message is
+    usual: one that is not, anywhere in it, gets the reference verdict, the others theirs."""
+    usual = [("request", USUAL_REQUEST), ("response", USUAL_RESPONSE)] * 3
+    batch = usual[:3] + [(kind, text)] + usual[3:]
+    verdicts = check_messages([(k, "gates.test", t) for k, t in batch])
+    for (k, t), verdict in zip(batch, verdicts, strict=True):
+        _agree(k, t, verdict)
+
+
+def test_a_usual_batch_is_checked_together_with_the_verdicts_of_one_by_one():
+    ids = [b"r1", b"a.b:c-D_9", b"x" * 128]
+    batch = [
+        (kind, text.replace(b'"r1"', b'"' + rid + b'"'))
+        for rid in ids
+        for kind, text in (("request", USUAL_REQUEST), ("response", USUAL_RESPONSE))
+    ]
+    verdicts = check_messages([(k, "gates.test", t) for k, t in batch])
+    assert all(isinstance(v, Envelope) for v in verdicts)
+    for (k, t), verdict in zip(batch, verdicts, strict=True):
+        _agree(k, t, verdict)
+        assert [verdict] == check_messages([(k, "gates.test", t)])
+
+
+@pytest.mark.parametrize("rid", ["a\nb", "ab\n", "a b", "x" * 129, "", "r\u00e9"])
+def test_request_ids_the_bulk_check_does_not_take_are_judged_one_by_one(rid):
+    """The ids of a batch are matched together, a newline after each: an id the pattern
+    refuses, or one holding or ending with a newline (which the pattern's ``$`` takes), gets
+    the verdict it gets alone."""
+    text = USUAL_REQUEST.replace(b'"r1"', json.dumps(rid).encode())
+    batch = [("request", USUAL_REQUEST), ("request", text)]
+    verdicts = check_messages([(k, "gates.test", t) for k, t in batch])
+    for (k, t), verdict in zip(batch, verdicts, strict=True):
+        _agree(k, t, verdict)
