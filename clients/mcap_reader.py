@@ -105,6 +105,8 @@ RESYNC = {FOOTER, SCHEMA, CHANNEL, CHUNK, METADATA, DATA_END}
 """Records whose fields must add up to their declared length: where reading starts again."""
 _RESYNC_BYTES = re.compile(b"[" + b"".join(re.escape(bytes([op])) for op in RESYNC) + b"]")
 FOOTER_BYTES = 9 + 20
+_MESSAGE_HEAD = struct.Struct("<BQHIQQ").unpack_from
+"""A record's opcode and length, and a Message record's fields before its data."""
 COMPRESSIONS = ("", "lz4", "zstd")
 
 
@@ -766,11 +768,14 @@ class RecordReader:
         while inner < size:
             if size - inner < 9:
                 break
-            opcode, length = struct.unpack_from("<BQ", data, inner)
+            if size - inner >= 31:  # room for a Message record's head: read it in one call
+                opcode, length, channel, sequence, log_time, published = _MESSAGE_HEAD(data, inner)
+            else:
+                opcode, length = struct.unpack_from("<BQ", data, inner)
             end = inner + 9 + length
             if opcode == MESSAGE and 22 <= length <= most and end <= size:
                 batch.append(
-                    (inner, *struct.unpack_from("<HIQQ", data, inner + 9), data[inner + 31 : end])
+                    (inner, channel, sequence, log_time, published, data[inner + 31 : end])
                 )
                 batched += length - 22
                 inner = end

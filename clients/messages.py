@@ -34,7 +34,7 @@ import json
 import re
 import sys
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import msgspec
 import numpy as np
@@ -204,7 +204,7 @@ def check_messages(messages: Sequence[tuple[str, str, bytes]]) -> list[Envelope 
             and not (limit and len(batch) > limit and _long_digits(batch, limit))
             and not _structure_deeper(batch.translate(_PARENTHESES, _NOT_STRUCTURE))
         ):
-            usual = _usual(messages, fields)  # type: ignore[arg-type]
+            usual = _usual(messages, cast("list[_Fields]", fields))
             if usual is not None:
                 return usual
             return [_verdict(m, f, False) for m, f in zip(messages, fields, strict=True)]
@@ -252,7 +252,7 @@ one (an id the pattern's ``$`` lets end with a newline, or holding one, sends th
 
 def _usual(
     messages: Sequence[tuple[str, str, bytes]], fields: list[_Fields]
-) -> list[Envelope] | None:
+) -> list[Envelope | str] | None:
     """The envelopes of a batch whose every message is usual, checked together: what
     :func:`_shape` gives each; None when any is not (a replay, an error response, a
     request id or field the bulk checks do not take), and then :func:`_shape` judges each.
@@ -319,7 +319,7 @@ def body_bytes(data: bytes) -> bytes | None:
         body = _BODY.decode(data).body
     except Exception:  # noqa: BLE001 - checked already: json takes what msgspec refuses
         return None
-    return None if body is UNSET else bytes(body)
+    return bytes(body) if isinstance(body, msgspec.Raw) else None
 
 
 def _long_digits(text: bytes, limit: int) -> bool:

@@ -412,10 +412,9 @@ class Reader:
     ) -> Iterator[Exchange]:
         """Check runs of messages together, then pair them in file order: a request and its
         response read one after the other (as the recorder writes them) in one step."""
-        places = [(run, i) for run in runs for i in range(len(run.records))]
-        if not places:
+        records = [r for run in runs for r in run.records]
+        if not records:
             return
-        records = [run.records[i] for run, i in places]
         rec.messages += len(records)
         times = [r[3] for r in records]
         first, last = min(times), max(times)
@@ -431,8 +430,8 @@ class Reader:
         else:
             on = [check_time(r[3]) or named.get(r[1]) or _undeclared(r[1]) for r in records]
             times = [t for t in times if check_time(t) is None]
-            first, last = min(times, default=None), max(times, default=None)
-        if first is not None and last is not None:
+        if times:
+            first, last = min(times), max(times)
             rec.first_time = first if rec.first_time is None else min(rec.first_time, first)
             rec.last_time = last if rec.last_time is None else max(rec.last_time, last)
         checked = iter(
@@ -447,33 +446,37 @@ class Reader:
         read: list[tuple[Seen, tuple[Envelope, bytes]]] = []
         """Each message that checked out, described, with its envelope and bytes."""
         digest = self.digest
-        for (run, i), channel in zip(places, on, strict=True):
-            if type(channel) is tuple:
-                if channel in (SCENE, TRANSFORM):
-                    rec.scene_messages += channel == SCENE
-                    continue
-                verdict = next(checked)
-                if type(verdict) is Envelope:
-                    _, _, _, t, _, data = run.records[i]
-                    operation, kind = channel
-                    offset, inner = run.located(i)
-                    replay_of = verdict.replay_of if kind == "request" else None
-                    seen = Seen(
-                        kind,
-                        operation,
-                        verdict.request_id,
-                        t,
-                        digest(data),
-                        offset,
-                        inner,
-                        replay_of,
-                    )
-                    read.append((seen, (verdict, data)))
-                    continue
-            else:
-                verdict = channel
-            offset, inner = run.located(i)
-            rec.add_damage(Damage(offset, verdict, inner))
+        ons = iter(on)
+        for run in runs:
+            chunk = run.chunk
+            for where, _, _, t, _, data in run.records:
+                channel = next(ons)
+                verdict: Envelope | str
+                if isinstance(channel, tuple):
+                    if channel in (SCENE, TRANSFORM):
+                        rec.scene_messages += channel == SCENE
+                        continue
+                    verdict = next(checked)
+                    if isinstance(verdict, Envelope):
+                        operation, kind = channel
+                        offset, inner = (where, None) if chunk is None else (chunk, where)
+                        # a response's envelope has no replay_of
+                        seen = Seen(
+                            kind,
+                            operation,
+                            verdict.request_id,
+                            t,
+                            digest(data),
+                            offset,
+                            inner,
+                            verdict.replay_of,
+                        )
+                        read.append((seen, (verdict, data)))
+                        continue
+                else:
+                    verdict = channel
+                offset, inner = (where, None) if chunk is None else (chunk, where)
+                rec.add_damage(Damage(offset, verdict, inner))
         yield from self._paired(str(rec.path), read)
 
     def _paired(
@@ -496,9 +499,9 @@ class Reader:
                         yield exchange_of(pair)
                     at += 2
                     continue
-            pair = take(None, file, seen, payload)
-            if pair is not None:
-                yield exchange_of(pair)
+            taken = take(None, file, seen, payload)
+            if taken is not None:
+                yield exchange_of(taken)
             at += 1
 
     @property
