@@ -26,9 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO, Protocol
 
-from mcap.writer import CompressionType, Writer
-
 from plotgate.clients.recordings import Exchange, Filters, Reader
+from plotgate.clients.scene_file import SceneFile
 from plotgate.files import atomic_write, check_target
 from plotgate.service.schemas import request_schema, response_schema
 from plotgate.service.table import ENDPOINTS
@@ -77,7 +76,7 @@ class ViewReport:
 class _Channels:
     """The output's schemas and channels, registered as first met."""
 
-    def __init__(self, writer: Writer, scene_schemas: dict[str, tuple[str, bytes]]) -> None:
+    def __init__(self, writer: SceneFile, scene_schemas: dict[str, tuple[str, bytes]]) -> None:
         self.writer = writer
         self.scene_schemas = scene_schemas
         self.schemas: dict[str, int] = {}
@@ -96,10 +95,10 @@ class _Channels:
                     if kind == "request"
                     else response_schema(endpoint.response)
                 )
-                schema_id = self.writer.register_schema(
+                schema_id = self.writer.schema(
                     f"plotgate.{operation}.{kind}", "jsonschema", json.dumps(schema).encode()
                 )
-            self.channels[topic] = self.writer.register_channel(topic, "json", schema_id)
+            self.channels[topic] = self.writer.channel(topic, "json", schema_id)
         return self.channels[topic]
 
     def scene(self, topic: str, schema_name: str) -> int:
@@ -107,10 +106,8 @@ class _Channels:
         if topic not in self.channels:
             if schema_name not in self.schemas:
                 encoding, data = self.scene_schemas[schema_name]
-                self.schemas[schema_name] = self.writer.register_schema(
-                    schema_name, encoding, data
-                )
-            self.channels[topic] = self.writer.register_channel(
+                self.schemas[schema_name] = self.writer.schema(schema_name, encoding, data)
+            self.channels[topic] = self.writer.channel(
                 topic, "protobuf", self.schemas[schema_name]
             )
         return self.channels[topic]
@@ -156,31 +153,30 @@ class _NothingToWrite(Exception):
 
 
 def _write(stream: BinaryIO, reader: Reader, scenes: Scenes, report: ViewReport) -> None:
-    writer = Writer(stream, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
-    writer.start(profile="", library="plotgate view")
+    writer = SceneFile(stream, "plotgate view", CHUNK_BYTES)
     channels = _Channels(writer, scenes.schemas())
     last_transform: int | None = None
     for ex in reader:
         t = ex.log_time
         if last_transform is None or abs(t - last_transform) >= TRANSFORM_EVERY_NS:
             for topic, schema, data in scenes.transform(t):
-                writer.add_message(channels.scene(topic, schema), t, data, t)
+                writer.message(channels.scene(topic, schema), t, data)
             last_transform = t
         _copy(writer, channels, ex)
         for topic, schema, data in scenes.exchange(ex.operation, ex.request, ex.response, t):
-            writer.add_message(channels.scene(topic, schema), t, data, t)
+            writer.message(channels.scene(topic, schema), t, data)
             report.scene_messages += 1
             report.topics.add(topic)
         report.exchanges += 1
     writer.finish()
 
 
-def _copy(writer: Writer, channels: _Channels, ex: Exchange) -> None:
+def _copy(writer: SceneFile, channels: _Channels, ex: Exchange) -> None:
     """The exchange's original records, as they were recorded."""
     t = ex.log_time
     if ex.request_bytes is not None:
-        writer.add_message(channels.original(ex.operation, "request"), t, ex.request_bytes, t)
+        writer.message(channels.original(ex.operation, "request"), t, ex.request_bytes)
     if ex.response_bytes is not None:
         answered = t + int((ex.duration_s or 0.0) * 1e9)
         channel = channels.original(ex.operation, "response")
-        writer.add_message(channel, answered, ex.response_bytes, answered)
+        writer.message(channel, answered, ex.response_bytes)
