@@ -35,6 +35,8 @@ from plotgate.service.table import ENDPOINTS
 __all__ = ["Scenes", "ViewReport", "view"]
 
 CHUNK_BYTES = 4 * 2**20
+BATCH = 64
+"""Exchanges handed to the scene builder at once (it draws those of an operation together)."""
 TRANSFORM_EVERY_NS = 1_000_000_000
 
 
@@ -50,6 +52,8 @@ class Scenes(Protocol):
         response: dict[str, Any] | None,
         log_time: int,
     ) -> list[tuple[str, str, bytes]]: ...
+
+    def exchanges(self, batch: list[Exchange]) -> list[list[tuple[str, str, bytes]]]: ...
 
     def transform(self, log_time: int) -> list[tuple[str, str, bytes]]: ...
 
@@ -155,20 +159,38 @@ class _NothingToWrite(Exception):
 def _write(stream: BinaryIO, reader: Reader, scenes: Scenes, report: ViewReport) -> None:
     writer = SceneFile(stream, "plotgate view", CHUNK_BYTES)
     channels = _Channels(writer, scenes.schemas())
-    last_transform: int | None = None
+    last_transform: list[int | None] = [None]
+    batch: list[Exchange] = []
     for ex in reader:
+        batch.append(ex)
+        if len(batch) == BATCH:
+            _batch(writer, channels, scenes, batch, report, last_transform)
+            batch = []
+    _batch(writer, channels, scenes, batch, report, last_transform)
+    writer.finish()
+
+
+def _batch(
+    writer: SceneFile,
+    channels: _Channels,
+    scenes: Scenes,
+    batch: list[Exchange],
+    report: ViewReport,
+    last_transform: list[int | None],
+) -> None:
+    """Write a batch of exchanges, drawn together (``scenes.exchanges``), in the order read."""
+    for ex, messages in zip(batch, scenes.exchanges(batch), strict=True):
         t = ex.log_time
-        if last_transform is None or abs(t - last_transform) >= TRANSFORM_EVERY_NS:
+        if last_transform[0] is None or abs(t - last_transform[0]) >= TRANSFORM_EVERY_NS:
             for topic, schema, data in scenes.transform(t):
                 writer.message(channels.scene(topic, schema), t, data)
-            last_transform = t
+            last_transform[0] = t
         _copy(writer, channels, ex)
-        for topic, schema, data in scenes.exchange(ex.operation, ex.request, ex.response, t):
+        for topic, schema, data in messages:
             writer.message(channels.scene(topic, schema), t, data)
             report.scene_messages += 1
             report.topics.add(topic)
         report.exchanges += 1
-    writer.finish()
 
 
 def _copy(writer: SceneFile, channels: _Channels, ex: Exchange) -> None:

@@ -20,7 +20,7 @@ import struct
 
 import numpy as np
 
-__all__ = ["Line", "Text", "scene_update"]
+__all__ = ["Line", "Text", "point_fields", "scene_update", "split_points"]
 
 Color = tuple[float, float, float, float]
 Line = tuple[int, np.ndarray, Color]
@@ -99,17 +99,35 @@ def _points(lines: list[Line]) -> list[bytes]:
     for size, (_, xyz, _) in zip(sizes, lines, strict=True):
         coords[start : start + size, : xyz.shape[1]] = xyz[:, :3]
         start += size
+    return split_points(*point_fields(coords), sizes)
+
+
+def point_fields(coords: np.ndarray) -> tuple[bytes, np.ndarray]:
+    """Every point of the (N, 3) ``coords`` as a Point3 in field 5, and each point's end in
+    the bytes: the points of many lines, or of many exchanges' lines, in one pass."""
     present = coords != 0.0
     lengths = 9 * present.sum(axis=1)  # at most 27: a one-byte length
     axes = np.flatnonzero(present.any(axis=0)).tolist()
     odd = np.flatnonzero(lengths != 9 * len(axes)).tolist()
-    if 64 * len(odd) > n:  # more than a few points with a zero others do not have
+    if 64 * len(odd) > len(coords):  # more than a few points with a zero others do not have
         data = _masked(coords, present, lengths)
     else:
         data = _patched(_same_fields(coords, axes), odd, present[:, axes], lengths)
-    ends = np.cumsum(lengths + 2)[np.cumsum(sizes) - 1].tolist()
-    starts = [0, *ends[:-1]]
-    return [data[a:b] if size else b"" for a, b, size in zip(starts, ends, sizes, strict=True)]
+    return data, np.cumsum(lengths + 2)
+
+
+def split_points(data: bytes, ends: np.ndarray, sizes: list[int]) -> list[bytes]:
+    """The bytes of :func:`point_fields` cut into lines of ``sizes`` points each."""
+    cuts = np.cumsum(sizes) - 1
+    stops = ends[np.maximum(cuts, 0)].tolist()
+    out, start = [], 0
+    for stop, size in zip(stops, sizes, strict=True):
+        if size:
+            out.append(data[start:stop])
+            start = stop
+        else:
+            out.append(b"")
+    return out
 
 
 def _same_fields(coords: np.ndarray, axes: list[int]) -> np.ndarray:
@@ -188,14 +206,17 @@ def scene_update(
     texts: list[Text],
     thickness: float,
     font_px: float,
+    points: list[bytes] | None = None,
 ) -> bytes:
     """The SceneUpdate of one entity (entities: field 2): timestamp 1, frame_id 2, id 3,
     lifetime 4 (zero: present, empty), metadata 6, lines 11, texts 13 (frame_locked 5 is
-    false, left out)."""
+    false, left out). ``points`` are the lines' points already encoded
+    (:func:`split_points`), or None to encode them here."""
     entity = _time(1, log_time) + _string(2, frame) + _string(3, entity_id) + _message(4, b"")
     for key, value in metadata.items():
         entity += _message(6, _string(1, key) + _string(2, value))
-    points = _points(lines)
+    if points is None:
+        points = _points(lines)
     entity += b"".join(
         _message(11, _line(k, p, c, thickness)) for (k, _, c), p in zip(lines, points, strict=True)
     )
