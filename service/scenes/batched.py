@@ -37,7 +37,7 @@ from plotgate.service.scenes.draw import (
     UNIT_CIRCLE,
     colors,
 )
-from plotgate.service.scenes.wire import Line, point_fields, scene_update, split_points
+from plotgate.service.scenes.wire import Color, Line, point_fields, scene_update, split_points
 
 __all__ = ["BATCH", "Plan", "draw_tests", "plan"]
 
@@ -171,23 +171,35 @@ def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
 
 
 def _ellipses(plans: list[Plan]) -> list[list[np.ndarray]]:
-    """Each plan's outlines as points (:meth:`~plotgate.service.scenes.draw.Canvas.ellipse`),
-    every ``eigh`` of the batch in one call; an outline it would not draw is left out."""
+    """Each plan's outlines as points (:meth:`~plotgate.service.scenes.draw.Canvas.ellipse`
+    then :meth:`~plotgate.service.scenes.draw.Canvas.line`), every ``eigh`` of the batch in
+    one call; an outline the canvas would not draw is left out."""
     covs = [cov for p in plans for cov, _ in p.outlines]
     if not covs:
         return [[] for _ in plans]
     values, vectors = np.linalg.eigh(np.array(covs))
+    drawable = (values.min(axis=1) >= 0).tolist()
     roots = np.sqrt(np.maximum(values, 0.0))
+    drawn: list[np.ndarray | None] = []
+    i = 0
+    for p in plans:
+        centre = np.asarray(p.centre)
+        for _, k in p.outlines:
+            ok = drawable[i] and math.isfinite(k)
+            drawn.append(centre + k * (UNIT_CIRCLE * roots[i]) @ vectors[i].T if ok else None)
+            i += 1
+    finite = [xy for xy in drawn if xy is not None]
+    whole = np.isfinite(np.array(finite)).all(axis=(1, 2)).tolist() if finite else []
+    kept: list[np.ndarray | None] = []
+    for xy in drawn:
+        if xy is not None and not whole.pop(0):
+            xy = xy[np.isfinite(xy).all(axis=1)]
+        kept.append(xy if xy is not None and len(xy) >= 2 else None)
     out: list[list[np.ndarray]] = []
     i = 0
     for p in plans:
-        drawn = []
-        for _, k in p.outlines:
-            if values[i].min() >= 0 and np.isfinite(k):
-                xy = np.asarray(p.centre) + k * (UNIT_CIRCLE * roots[i]) @ vectors[i].T
-                drawn.append(xy[np.isfinite(xy).all(axis=1)])
-            i += 1
-        out.append([xy for xy in drawn if len(xy) >= 2])
+        out.append([xy for xy in kept[i : i + len(p.outlines)] if xy is not None])
+        i += len(p.outlines)
     return out
 
 
@@ -196,58 +208,78 @@ def draw_tests(plans: list[Plan], entity_id: str, operation: str) -> list[bytes]
     canvas's (:func:`plotgate.service.scenes.gates.test` then
     :meth:`~plotgate.service.scenes.draw.Canvas.encoded`)."""
     outlines = _ellipses(plans)
-    marks, arms, groups = [], [], []
-    for p, lines in zip(plans, outlines, strict=True):
-        centre = np.asarray([p.centre])
-        extent = max(
-            float(np.ptp(np.concatenate([*lines, p.candidates, centre]), axis=0).max()), MIN_EXTENT
-        )
-        arm = CROSS_FRACTION * extent
-        kept = [
-            (xy, color, size)
-            for xy, color, size in (
-                (centre, colors.MARK, arm * 1.5),
-                (p.candidates[p.inside], colors.INSIDE, arm),
-                (p.candidates[~p.inside], colors.OUTSIDE, arm),
-            )
-            if len(xy)
+    n = len(plans)
+    centres = np.array([p.centre for p in plans], dtype=float)
+    counts = np.array([len(p.candidates) for p in plans])
+    candidates = np.concatenate([p.candidates for p in plans])
+    inside = np.concatenate([p.inside for p in plans])
+    # the picture's extent: the span of its outlines, candidates and first mark (the label
+    # is at the mark), each plan's points one group of a reduceat
+    everything = np.concatenate(
+        [
+            piece
+            for i, p in enumerate(plans)
+            for piece in (centres[i : i + 1], *outlines[i], p.candidates)
         ]
-        groups.append([(len(xy), color) for xy, color, _ in kept])
-        marks += [xy for xy, _, _ in kept]
-        arms += [np.full(len(xy), size) for xy, _, size in kept]
-    crosses = _crosses(np.concatenate(marks), np.concatenate(arms))
-    pieces: list[np.ndarray] = []
-    plan_lines: list[list[Line]] = []
+    )
+    sizes = 1 + counts + np.array([sum(len(xy) for xy in lines) for lines in outlines], dtype=int)
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    span = np.maximum.reduceat(everything, starts, axis=0) - np.minimum.reduceat(
+        everything, starts, axis=0
+    )
+    arm = CROSS_FRACTION * np.maximum(span.max(axis=1), MIN_EXTENT)
+    # the crosses, plan by plan: its first mark, its candidates inside, then outside
+    owner = np.repeat(np.arange(n), counts)
+    keys = np.concatenate([3 * np.arange(n), 3 * owner + 2 - inside.astype(int)])
+    order = np.argsort(keys, kind="stable")
+    marks = np.concatenate([centres, candidates])[order]
+    arms = np.concatenate([arm * 1.5, arm[owner]])[order]
+    crosses = _crosses(marks, arms)
+    per_group = np.bincount(keys, minlength=3 * n).reshape(n, 3).tolist()
     at = 0
-    for lines, kept_groups in zip(outlines, groups, strict=True):
-        drawn: list[Line] = [(LINE_LOOP, xy, colors.GATE) for xy in lines]
-        for n, color in kept_groups:
-            drawn.append((LINE_LIST, crosses[at : at + 4 * n], color))
-            at += 4 * n
-        pieces += [xy for _, xy, _ in drawn]
-        plan_lines.append(drawn)
-    coords = np.zeros((sum(len(xy) for xy in pieces), 3), dtype="<f8")
+    pieces: list[np.ndarray] = []
+    line_sizes: list[int] = []
+    kinds: list[list[tuple[int, Color]]] = []
+    for i, lines in enumerate(outlines):
+        pieces += lines
+        marked = 4 * sum(per_group[i])
+        pieces.append(crosses[at : at + marked])
+        at += marked
+        plan_kinds = [(LINE_LOOP, colors.GATE)] * len(lines)
+        line_sizes += [len(xy) for xy in lines]
+        for count, color in zip(per_group[i], _MARK_COLORS, strict=True):
+            if count:
+                plan_kinds.append((LINE_LIST, color))
+                line_sizes.append(4 * count)
+        kinds.append(plan_kinds)
+    coords = np.zeros((sum(line_sizes), 3), dtype="<f8")
     coords[:, :2] = np.concatenate(pieces)
-    points = split_points(*point_fields(coords), [len(xy) for xy in pieces])
+    points = split_points(*point_fields(coords), line_sizes)
     out, first = [], 0
-    for p, drawn in zip(plans, plan_lines, strict=True):
+    for p, plan_kinds in zip(plans, kinds, strict=True):
         metadata = {"request_id": p.request_id, "status": str(p.status), "operation": operation}
         text = (p.centre[0], p.centre[1], p.label[:200], colors.TEXT)
+        lines: list[Line] = [(kind, _NO_POINTS, color) for kind, color in plan_kinds]
         out.append(
             scene_update(
                 FRAME,
                 entity_id,
                 p.log_time,
                 metadata,
-                drawn,
+                lines,
                 [text],
                 LINE_PX,
                 TEXT_PX,
-                points[first : first + len(drawn)],
+                points[first : first + len(lines)],
             )
         )
-        first += len(drawn)
+        first += len(lines)
     return out
+
+
+_MARK_COLORS = (colors.MARK, colors.INSIDE, colors.OUTSIDE)
+_NO_POINTS = np.zeros((0, 2))
+"""A line's points once they are encoded (:func:`scene_update` is handed their bytes)."""
 
 
 def _crosses(xy: np.ndarray, arms: np.ndarray) -> np.ndarray:

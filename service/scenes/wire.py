@@ -45,6 +45,8 @@ def _varint(value: int) -> bytes:
 
 
 _BYTES = [bytes([b]) for b in range(0x80)]
+_FIELD_TAGS = [_varint(field << 3 | _LENGTH_DELIMITED) for field in range(16)]
+"""The tag of a length-delimited field, by field number (every one here is below 16)."""
 
 
 @functools.lru_cache(maxsize=64)
@@ -53,7 +55,7 @@ def _tag(field: int, wire: int) -> bytes:
 
 
 def _message(field: int, payload: bytes) -> bytes:
-    return _tag(field, _LENGTH_DELIMITED) + _varint(len(payload)) + payload
+    return _FIELD_TAGS[field] + _varint(len(payload)) + payload
 
 
 def _doubles(values: tuple[float, ...]) -> bytes:
@@ -78,9 +80,10 @@ def _time(field: int, log_time: int) -> bytes:
 
 def _pose(field: int, x: float = 0.0, y: float = 0.0) -> bytes:
     """A Pose (position 1, orientation 2) at (x, y, 0), unrotated."""
-    return _message(
-        field, _message(1, _doubles((x, y, 0.0))) + _message(2, _doubles((0, 0, 0, 1)))
-    )
+    return _message(field, _message(1, _doubles((x, y, 0.0))) + _UNROTATED)
+
+
+_UNROTATED = _message(2, _doubles((0, 0, 0, 1)))
 
 
 _POINT_TAGS = np.array([_tag(i, _DOUBLE)[0] for i in (1, 2, 3)], dtype=np.uint8)
@@ -106,13 +109,14 @@ def point_fields(coords: np.ndarray) -> tuple[bytes, np.ndarray]:
     """Every point of the (N, 3) ``coords`` as a Point3 in field 5, and each point's end in
     the bytes: the points of many lines, or of many exchanges' lines, in one pass."""
     present = coords != 0.0
-    lengths = 9 * present.sum(axis=1)  # at most 27: a one-byte length
-    axes = np.flatnonzero(present.any(axis=0)).tolist()
+    flags = present.view(np.uint8)  # sums of columns, not numpy's slower bool reductions
+    lengths = 9 * (flags[:, 0] + flags[:, 1] + flags[:, 2]).astype(np.int64)  # at most 27
+    axes = [axis for axis in range(3) if present[:, axis].any()]
     odd = np.flatnonzero(lengths != 9 * len(axes)).tolist()
     if 64 * len(odd) > len(coords):  # more than a few points with a zero others do not have
         data = _masked(coords, present, lengths)
     else:
-        data = _patched(_same_fields(coords, axes), odd, present[:, axes], lengths)
+        data = _patched(_same_fields(coords, axes), odd, coords, present, lengths)
     return data, np.cumsum(lengths + 2)
 
 
@@ -132,26 +136,39 @@ def split_points(data: bytes, ends: np.ndarray, sizes: list[int]) -> list[bytes]
 
 def _same_fields(coords: np.ndarray, axes: list[int]) -> np.ndarray:
     """Every point as if each of ``axes`` were non-zero in it (a 2D picture: x and y, z
-    left out): rows of a fixed width, a column of bytes at a time."""
-    rows = np.empty((len(coords), 2 + 9 * len(axes)), dtype=np.uint8)
-    rows[:, 0] = _POINT_TAG
-    rows[:, 1] = 9 * len(axes)
+    left out): rows of a fixed width, written as a packed record array a field at a time."""
+    width = 2 + 9 * len(axes)
+    names, formats, offsets = ["tag", "length"], ["u1", "u1"], [0, 1]
+    for i in range(len(axes)):
+        names += [f"tag{i}", f"value{i}"]
+        formats += ["u1", "<f8"]
+        offsets += [2 + 9 * i, 3 + 9 * i]
+    layout = np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": width})
+    rows = np.empty(len(coords), dtype=layout)
+    rows["tag"] = _POINT_TAG
+    rows["length"] = 9 * len(axes)
     for i, axis in enumerate(axes):
-        rows[:, 2 + 9 * i] = _POINT_TAGS[axis]
-        rows[:, 3 + 9 * i : 11 + 9 * i] = coords[:, axis : axis + 1].view(np.uint8)
-    return rows
+        rows[f"tag{i}"] = _POINT_TAGS[axis]
+        rows[f"value{i}"] = coords[:, axis]
+    return rows.view(np.uint8).reshape(len(coords), width)
 
 
-def _patched(rows: np.ndarray, odd: list[int], present: np.ndarray, lengths: np.ndarray) -> bytes:
+def _patched(
+    rows: np.ndarray, odd: list[int], coords: np.ndarray, present: np.ndarray, lengths: np.ndarray
+) -> bytes:
     """The fixed-width ``rows`` as bytes, the few ``odd`` ones (a zero among their
-    ``axes``: a cross's arm on x = 0) rewritten without their zero fields."""
-    width, flat = rows.shape[1], rows.tobytes()
-    pieces, done = [], 0
-    for i in odd:
-        row = flat[i * width : (i + 1) * width]
-        fields = [row[2 + 9 * j : 11 + 9 * j] for j, keep in enumerate(present[i]) if keep]
-        pieces += [flat[done * width : i * width], row[:1], bytes([int(lengths[i])]), *fields]
-        done = i + 1
+    axes: a cross's arm on x = 0) written again without their zero fields
+    (:func:`_masked`, all at once) and put in their place."""
+    width = rows.shape[1]
+    if not odd:
+        return rows.tobytes()
+    flat = memoryview(rows).cast("B")  # slices of it are not copies
+    fixed = _masked(coords[odd], present[odd], lengths[odd])
+    ends = np.cumsum(lengths[odd] + 2).tolist()
+    pieces, done, start = [], 0, 0
+    for i, end in zip(odd, ends, strict=True):
+        pieces += [flat[done * width : i * width], fixed[start:end]]
+        done, start = i + 1, end
     pieces.append(flat[done * width :])
     return b"".join(pieces)
 
@@ -192,9 +209,28 @@ def _line(kind: int, points: bytes, color: Color, thickness: float) -> bytes:
 def _text(x: float, y: float, text: str, color: Color, font_px: float) -> bytes:
     """A TextPrimitive: pose 1, billboard 2, font_size 3, scale_invariant 4, color 5,
     text 6."""
-    body = _pose(1, x, y) + _tag(2, _VARINT) + b"\x01" + _tag(3, _DOUBLE)
+    return _pose(1, x, y) + _text_middle(font_px, color) + _string(6, text)
+
+
+@functools.lru_cache(maxsize=64)
+def _text_middle(font_px: float, color: Color) -> bytes:
+    """A TextPrimitive's fields between its pose and its text: the same for every label
+    of a color."""
+    body = _tag(2, _VARINT) + b"\x01" + _tag(3, _DOUBLE)
     body += struct.pack("<d", font_px) + _tag(4, _VARINT) + b"\x01"
-    return body + _color(5, color) + _string(6, text)
+    return body + _color(5, color)
+
+
+@functools.lru_cache(maxsize=16)
+def _entity_head(frame: str, entity_id: str) -> bytes:
+    """An entity's frame_id 2, id 3 and lifetime 4 (zero: present, empty)."""
+    return _string(2, frame) + _string(3, entity_id) + _message(4, b"")
+
+
+@functools.lru_cache(maxsize=1024)
+def _pair(key: str, value: str) -> bytes:
+    """A metadata KeyValuePair in field 6 (cached: a status and an operation repeat)."""
+    return _message(6, _string(1, key) + _string(2, value))
 
 
 def scene_update(
@@ -212,9 +248,8 @@ def scene_update(
     lifetime 4 (zero: present, empty), metadata 6, lines 11, texts 13 (frame_locked 5 is
     false, left out). ``points`` are the lines' points already encoded
     (:func:`split_points`), or None to encode them here."""
-    entity = _time(1, log_time) + _string(2, frame) + _string(3, entity_id) + _message(4, b"")
-    for key, value in metadata.items():
-        entity += _message(6, _string(1, key) + _string(2, value))
+    entity = _time(1, log_time) + _entity_head(frame, entity_id)
+    entity += b"".join([_pair(key, value) for key, value in metadata.items()])
     if points is None:
         points = _points(lines)
     entity += b"".join(
