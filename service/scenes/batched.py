@@ -11,13 +11,14 @@ cross of the batch in one array, every point encoded in one pass
 assembled from its slices.
 
 Only the common form is drawn here: a ``gates.test`` exchange answered (status < 400) with
-its body, plots tagged ``cartesian`` or ``polar`` with finite positions, a cartesian first
-mark with a 2x2 covariance, fewer candidates than the canvas's cap, and a gate drawn as
-circles (``ring``, ``combined``, ``expanded``, ``first_association``) or an ellipse. Anything
-else (another operation, a failed exchange, a record msgspec's Structs do not take, a
-sector or rectangular gate, a value that is not finite) is :func:`fast` answering None,
-and the caller draws it the usual way, one at a time: the picture of an unusual record is
-never guessed. ``tests/service/scenes/test_batched.py`` holds the two to the same bytes.
+its body, plots tagged ``cartesian`` or ``polar`` with finite positions (a cartesian first
+mark with a 2x2 covariance, a polar one with its sigmas), fewer candidates than the
+canvas's cap, and a gate drawn as circles (``ring``, ``combined``, ``expanded``,
+``first_association``) or an ellipse. Anything else (another operation, a failed exchange,
+a record msgspec's Structs do not take, a sector or rectangular gate, a value that is not
+finite) is :func:`plan` answering None, and the caller draws it the usual way, one at a
+time: the picture of an unusual record is never guessed.
+``tests/service/scenes/test_batched.py`` holds the two to the same bytes.
 """
 
 import math
@@ -37,6 +38,7 @@ from plotgate.service.scenes.draw import (
     UNIT_CIRCLE,
     colors,
 )
+from plotgate.service.scenes.geometry import mark_position
 from plotgate.service.scenes.wire import Color, Line, point_fields, scene_update, split_points
 
 __all__ = ["BATCH", "Plan", "draw_tests", "plan"]
@@ -59,10 +61,18 @@ class _Polar(msgspec.Struct, tag_field="frame", tag="polar"):
     sensor: tuple[float, float] | None = None
 
 
-class _First(msgspec.Struct, tag_field="frame", tag="cartesian"):
+class _FirstCartesian(msgspec.Struct, tag_field="frame", tag="cartesian"):
     x: float
     y: float
     covariance: tuple[tuple[float, float], tuple[float, float]]
+
+
+class _FirstPolar(msgspec.Struct, tag_field="frame", tag="polar"):
+    r: float
+    az_deg: float
+    sigma_r: float
+    sigma_az_deg: float
+    sensor: tuple[float, float] | None = None
 
 
 class _Gate(msgspec.Struct):
@@ -74,7 +84,7 @@ class _Gate(msgspec.Struct):
 
 class _Body(msgspec.Struct):
     gate: _Gate
-    first: _First
+    first: _FirstCartesian | _FirstPolar
     candidates: list[_Cartesian | _Polar]
 
 
@@ -131,8 +141,12 @@ def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
     first = body.first
     if res.status >= 400 or len(body.candidates) >= MAX_MARKS:
         return None
-    cov = np.array(first.covariance, dtype=float)
-    if not (np.isfinite(cov).all() and math.isfinite(first.x) and math.isfinite(first.y)):
+    if type(first) is _FirstCartesian:
+        centre, cov = (first.x, first.y), np.array(first.covariance, dtype=float)
+    else:
+        at, cov = mark_position(msgspec.structs.asdict(first))
+        centre = (float(at[0]), float(at[1]))
+    if not (np.isfinite(cov).all() and math.isfinite(centre[0]) and math.isfinite(centre[1])):
         return None
     outlines: list[tuple[np.ndarray, float]] = []
     if gate.kind in _CIRCLES and gate.tau is not None:
@@ -149,8 +163,8 @@ def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
     elif gate.kind in ("rectangular", "sector"):
         return None
     candidates = np.array(
-        [(c.x, c.y) if type(c) is _Cartesian else _polar_xy(c) for c in body.candidates],
-        dtype=float,
+        [(c.x, c.y) if isinstance(c, _Cartesian) else _polar_xy(c) for c in body.candidates],
+        dtype=np.float64,
     ).reshape(-1, 2)
     if not np.isfinite(candidates).all():
         return None
@@ -162,7 +176,7 @@ def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
         req.request_id,
         res.status,
         log_time,
-        (first.x, first.y),
+        centre,
         outlines,
         candidates,
         inside,
@@ -259,21 +273,21 @@ def draw_tests(plans: list[Plan], entity_id: str, operation: str) -> list[bytes]
     for p, plan_kinds in zip(plans, kinds, strict=True):
         metadata = {"request_id": p.request_id, "status": str(p.status), "operation": operation}
         text = (p.centre[0], p.centre[1], p.label[:200], colors.TEXT)
-        lines: list[Line] = [(kind, _NO_POINTS, color) for kind, color in plan_kinds]
+        drawn: list[Line] = [(kind, _NO_POINTS, color) for kind, color in plan_kinds]
         out.append(
             scene_update(
                 FRAME,
                 entity_id,
                 p.log_time,
                 metadata,
-                lines,
+                drawn,
                 [text],
                 LINE_PX,
                 TEXT_PX,
-                points[first : first + len(lines)],
+                points[first : first + len(drawn)],
             )
         )
-        first += len(lines)
+        first += len(drawn)
     return out
 
 

@@ -162,10 +162,11 @@ def _patched(
     width = rows.shape[1]
     if not odd:
         return rows.tobytes()
-    flat = memoryview(rows).cast("B")  # slices of it are not copies
+    flat = memoryview(rows.reshape(-1).data)  # slices of it are not copies
     fixed = _masked(coords[odd], present[odd], lengths[odd])
     ends = np.cumsum(lengths[odd] + 2).tolist()
-    pieces, done, start = [], 0, 0
+    pieces: list[memoryview | bytes] = []
+    done, start = 0, 0
     for i, end in zip(odd, ends, strict=True):
         pieces += [flat[done * width : i * width], fixed[start:end]]
         done, start = i + 1, end
