@@ -21,7 +21,10 @@ time: the picture of an unusual record is never guessed.
 ``tests/service/scenes/test_batched.py`` holds the two to the same bytes.
 """
 
+import itertools
 import math
+import operator
+from typing import Any
 
 import msgspec
 import numpy as np
@@ -50,24 +53,24 @@ the records of a batch small in memory."""
 _CIRCLES = ("ring", "combined", "expanded", "first_association")
 
 
-class _Cartesian(msgspec.Struct, tag_field="frame", tag="cartesian"):
+class _Cartesian(msgspec.Struct, gc=False, tag_field="frame", tag="cartesian"):
     x: float
     y: float
 
 
-class _Polar(msgspec.Struct, tag_field="frame", tag="polar"):
+class _Polar(msgspec.Struct, gc=False, tag_field="frame", tag="polar"):
     r: float
     az_deg: float
     sensor: tuple[float, float] | None = None
 
 
-class _FirstCartesian(msgspec.Struct, tag_field="frame", tag="cartesian"):
+class _FirstCartesian(msgspec.Struct, gc=False, tag_field="frame", tag="cartesian"):
     x: float
     y: float
     covariance: tuple[tuple[float, float], tuple[float, float]]
 
 
-class _FirstPolar(msgspec.Struct, tag_field="frame", tag="polar"):
+class _FirstPolar(msgspec.Struct, gc=False, tag_field="frame", tag="polar"):
     r: float
     az_deg: float
     sigma_r: float
@@ -75,32 +78,32 @@ class _FirstPolar(msgspec.Struct, tag_field="frame", tag="polar"):
     sensor: tuple[float, float] | None = None
 
 
-class _Gate(msgspec.Struct):
+class _Gate(msgspec.Struct, gc=False):
     kind: str | None = None
     tau: float | None = None
     v_max: float | None = None
     v_min: float = 0.0
 
 
-class _Body(msgspec.Struct):
+class _Body(msgspec.Struct, gc=False):
     gate: _Gate
     first: _FirstCartesian | _FirstPolar
     candidates: list[_Cartesian | _Polar]
 
 
-class _Request(msgspec.Struct):
+class _Request(msgspec.Struct, gc=False):
     request_id: str
     body: _Body
 
 
-class _Result(msgspec.Struct):
+class _Result(msgspec.Struct, gc=False):
     kind: str
     count_inside: int
     inside: list[bool]
     threshold: float | None = None
 
 
-class _Response(msgspec.Struct):
+class _Response(msgspec.Struct, gc=False):
     status: int
     result: _Result
 
@@ -109,18 +112,25 @@ _REQUEST = msgspec.json.Decoder(_Request)
 _RESPONSE = msgspec.json.Decoder(_Response)
 
 
-class Plan(msgspec.Struct):
+class Plan(msgspec.Struct, gc=False):
     """One exchange's picture before drawing: what :func:`draw_tests` needs."""
 
     request_id: str
     status: int
     log_time: int
     centre: tuple[float, float]
-    outlines: list[tuple[np.ndarray, float]]
-    """Each outline's covariance (2x2) and its number of sigmas."""
-    candidates: np.ndarray
-    inside: np.ndarray
+    outlines: list[tuple[Any, float]]
+    """Each outline's covariance (2x2: the ellipse's, or a circle's ``radius^2 I``) and its
+    number of sigmas."""
+    xs: list[float]
+    ys: list[float]
+    """The candidates' positions."""
+    inside: list[bool]
+    """Each candidate's verdict (False where the answer's list is short)."""
     label: str
+
+
+_X, _Y = operator.attrgetter("x"), operator.attrgetter("y")
 
 
 def _polar_xy(plot: _Polar) -> tuple[float, float]:
@@ -128,6 +138,18 @@ def _polar_xy(plot: _Polar) -> tuple[float, float]:
     r, az = plot.r, math.radians(plot.az_deg)
     x0, y0 = plot.sensor or (0.0, 0.0)
     return x0 + r * math.sin(az), y0 + r * math.cos(az)
+
+
+def _positions(candidates: list[Any]) -> tuple[list[float], list[float]] | None:
+    """The candidates' x and y (msgspec's floats are finite: JSON has no infinity), None
+    when a polar one's is not finite."""
+    try:
+        return list(map(_X, candidates)), list(map(_Y, candidates))
+    except AttributeError:  # a polar plot among them
+        xy = [_polar_xy(c) if isinstance(c, _Polar) else (c.x, c.y) for c in candidates]
+        xs, ys = [x for x, _ in xy], [y for _, y in xy]
+        finite = all(map(math.isfinite, xs)) and all(map(math.isfinite, ys))
+        return (xs, ys) if finite else None
 
 
 def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
@@ -138,61 +160,59 @@ def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
     except (msgspec.ValidationError, msgspec.DecodeError):
         return None
     body, result, gate = req.body, res.result, req.body.gate
-    first = body.first
-    if res.status >= 400 or len(body.candidates) >= MAX_MARKS:
+    first, n = body.first, len(body.candidates)
+    if res.status >= 400 or n >= MAX_MARKS:
         return None
-    if type(first) is _FirstCartesian:
-        centre, cov = (first.x, first.y), np.array(first.covariance, dtype=float)
+    cov: Any
+    if isinstance(first, _FirstCartesian):
+        centre, cov = (first.x, first.y), first.covariance
     else:
         at, cov = mark_position(msgspec.structs.asdict(first))
         centre = (float(at[0]), float(at[1]))
-    if not (np.isfinite(cov).all() and math.isfinite(centre[0]) and math.isfinite(centre[1])):
-        return None
-    outlines: list[tuple[np.ndarray, float]] = []
+        if not (np.isfinite(cov).all() and np.isfinite(at).all()):
+            return None
+    outlines: list[tuple[Any, float]] = []
     if gate.kind in _CIRCLES and gate.tau is not None:
         if gate.v_max is None:
             return None
         for speed in (gate.v_max, gate.v_min)[: 2 if gate.kind in ("ring", "combined") else 1]:
             radius = speed * gate.tau
-            if np.isfinite(radius) and radius > 0:
-                outlines.append((np.eye(2) * radius**2, 1.0))
+            if math.isfinite(radius) and radius > 0:
+                if radius > _LARGEST_RADIUS:  # its square overflows: the canvas cannot draw
+                    return None
+                square = radius**2
+                outlines.append((((square, 0.0), (0.0, square)), 1.0))
     elif gate.kind == "ellipse" and result.threshold is not None:
         if result.threshold < 0:
             return None
-        outlines.append((2 * cov, math.sqrt(result.threshold)))
+        outlines.append((2 * np.asarray(cov, dtype=float), math.sqrt(result.threshold)))
     elif gate.kind in ("rectangular", "sector"):
         return None
-    candidates = np.array(
-        [(c.x, c.y) if isinstance(c, _Cartesian) else _polar_xy(c) for c in body.candidates],
-        dtype=np.float64,
-    ).reshape(-1, 2)
-    if not np.isfinite(candidates).all():
+    positions = _positions(body.candidates)
+    if positions is None:
         return None
-    inside = np.zeros(len(candidates), dtype=bool)
-    m = min(len(candidates), len(result.inside))
-    inside[:m] = result.inside[:m]
-    label = f"{result.kind} gate: {result.count_inside} of {len(body.candidates)} in"
-    return Plan(
-        req.request_id,
-        res.status,
-        log_time,
-        centre,
-        outlines,
-        candidates,
-        inside,
-        label,
-    )
+    inside = result.inside[:n]
+    if len(inside) < n:
+        inside += [False] * (n - len(inside))
+    label = f"{result.kind} gate: {result.count_inside} of {n} in"
+    return Plan(req.request_id, res.status, log_time, centre, outlines, *positions, inside, label)
+
+
+_LARGEST_RADIUS = 1e154
+"""Below the square root of the largest double: a circle's ``radius**2`` is finite."""
 
 
 def _ellipses(plans: list[Plan]) -> list[list[np.ndarray]]:
     """Each plan's outlines as points (:meth:`~plotgate.service.scenes.draw.Canvas.ellipse`
     then :meth:`~plotgate.service.scenes.draw.Canvas.line`), every ``eigh`` of the batch in
     one call; an outline the canvas would not draw is left out."""
-    covs = [cov for p in plans for cov, _ in p.outlines]
-    if not covs:
+    covs = np.array([cov for p in plans for cov, _ in p.outlines], dtype=float).reshape(-1, 2, 2)
+    if not len(covs):
         return [[] for _ in plans]
-    values, vectors = np.linalg.eigh(np.array(covs))
-    drawable = (values.min(axis=1) >= 0).tolist()
+    finite = np.isfinite(covs).all(axis=(1, 2))
+    covs[~finite] = np.eye(2)  # not drawn (the canvas's check), kept out of eigh
+    values, vectors = np.linalg.eigh(covs)
+    drawable = (finite & (values.min(axis=1) >= 0)).tolist()
     roots = np.sqrt(np.maximum(values, 0.0))
     drawn: list[np.ndarray | None] = []
     i = 0
@@ -202,18 +222,30 @@ def _ellipses(plans: list[Plan]) -> list[list[np.ndarray]]:
             ok = drawable[i] and math.isfinite(k)
             drawn.append(centre + k * (UNIT_CIRCLE * roots[i]) @ vectors[i].T if ok else None)
             i += 1
-    finite = [xy for xy in drawn if xy is not None]
-    whole = np.isfinite(np.array(finite)).all(axis=(1, 2)).tolist() if finite else []
-    kept: list[np.ndarray | None] = []
-    for xy in drawn:
-        if xy is not None and not whole.pop(0):
-            xy = xy[np.isfinite(xy).all(axis=1)]
-        kept.append(xy if xy is not None and len(xy) >= 2 else None)
+    kept = [xy for xy in drawn if xy is not None]
+    whole = iter(np.isfinite(np.array(kept)).all(axis=(1, 2)).tolist() if kept else [])
     out: list[list[np.ndarray]] = []
     i = 0
     for p in plans:
-        out.append([xy for xy in kept[i : i + len(p.outlines)] if xy is not None])
+        lines = []
+        for xy in drawn[i : i + len(p.outlines)]:
+            if xy is not None and not next(whole):
+                xy = xy[np.isfinite(xy).all(axis=1)]
+            if xy is not None and len(xy) >= 2:
+                lines.append(xy)
+        out.append(lines)
         i += len(p.outlines)
+    return out
+
+
+def _groups(values: np.ndarray, counts: np.ndarray, empty: float, reduce: Any) -> np.ndarray:
+    """``reduce`` (``np.minimum`` or ``np.maximum``) over each of the consecutive groups of
+    ``counts`` rows of ``values``; ``empty`` for a group of none."""
+    out = np.full((len(counts), values.shape[1]), empty)
+    if len(values):
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        some = counts > 0
+        out[some] = reduce.reduceat(values, starts[some], axis=0)
     return out
 
 
@@ -224,24 +256,25 @@ def draw_tests(plans: list[Plan], entity_id: str, operation: str) -> list[bytes]
     outlines = _ellipses(plans)
     n = len(plans)
     centres = np.array([p.centre for p in plans], dtype=float)
-    counts = np.array([len(p.candidates) for p in plans])
-    candidates = np.concatenate([p.candidates for p in plans])
-    inside = np.concatenate([p.inside for p in plans])
+    counts = np.array([len(p.xs) for p in plans])
+    candidates = np.empty((int(counts.sum()), 2))
+    candidates[:, 0] = list(itertools.chain.from_iterable(p.xs for p in plans))
+    candidates[:, 1] = list(itertools.chain.from_iterable(p.ys for p in plans))
+    inside = np.array(list(itertools.chain.from_iterable(p.inside for p in plans)), dtype=bool)
     # the picture's extent: the span of its outlines, candidates and first mark (the label
-    # is at the mark), each plan's points one group of a reduceat
-    everything = np.concatenate(
-        [
-            piece
-            for i, p in enumerate(plans)
-            for piece in (centres[i : i + 1], *outlines[i], p.candidates)
-        ]
+    # is at the mark)
+    rims = [xy for lines in outlines for xy in lines]
+    rim = np.concatenate(rims) if rims else np.zeros((0, 2))
+    rim_counts = np.array([sum(len(xy) for xy in lines) for lines in outlines])
+    low = np.minimum(
+        np.minimum(_groups(candidates, counts, np.inf, np.minimum), centres),
+        _groups(rim, rim_counts, np.inf, np.minimum),
     )
-    sizes = 1 + counts + np.array([sum(len(xy) for xy in lines) for lines in outlines], dtype=int)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    span = np.maximum.reduceat(everything, starts, axis=0) - np.minimum.reduceat(
-        everything, starts, axis=0
+    high = np.maximum(
+        np.maximum(_groups(candidates, counts, -np.inf, np.maximum), centres),
+        _groups(rim, rim_counts, -np.inf, np.maximum),
     )
-    arm = CROSS_FRACTION * np.maximum(span.max(axis=1), MIN_EXTENT)
+    arm = CROSS_FRACTION * np.maximum((high - low).max(axis=1), MIN_EXTENT)
     # the crosses, plan by plan: its first mark, its candidates inside, then outside
     owner = np.repeat(np.arange(n), counts)
     keys = np.concatenate([3 * np.arange(n), 3 * owner + 2 - inside.astype(int)])

@@ -161,3 +161,14 @@ def test_other_operations_and_lost_records_are_drawn_one_at_a_time():
     batch = [pairs, unanswered, late, *random_batch(3, 4)]
     assert Encoded().exchanges(batch) == one_at_a_time(batch)
     assert Encoded().exchanges([]) == []
+
+
+def test_values_past_a_doubles_range_are_drawn_one_at_a_time():
+    far = {"frame": "polar", "r": 1.5e308, "az_deg": 45.0, "sensor": [1.5e308, 0.0]}
+    rng = np.random.default_rng(2)
+    body = {"gate": GATES[2], "first": plot(rng, False), "candidates": [far, far]}
+    huge = {"kind": "ring", "v_max": 1e200, "tau": 1e10}  # its radius squared overflows
+    batch = [exchange(0, body), exchange(1, body | {"gate": huge, "candidates": []})]
+    for ex in batch:
+        assert batched.plan(ex.request_bytes, ex.response_bytes, T) is None
+    assert Encoded().exchanges(batch) == one_at_a_time(batch)
