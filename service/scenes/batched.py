@@ -212,26 +212,19 @@ def _ellipses(plans: list[Plan]) -> list[list[np.ndarray]]:
     finite = np.isfinite(covs).all(axis=(1, 2))
     covs[~finite] = np.eye(2)  # not drawn (the canvas's check), kept out of eigh
     values, vectors = np.linalg.eigh(covs)
-    drawable = (finite & (values.min(axis=1) >= 0)).tolist()
-    roots = np.sqrt(np.maximum(values, 0.0))
-    drawn: list[np.ndarray | None] = []
-    i = 0
-    for p in plans:
-        centre = np.asarray(p.centre)
-        for _, k in p.outlines:
-            ok = drawable[i] and math.isfinite(k)
-            drawn.append(centre + k * (UNIT_CIRCLE * roots[i]) @ vectors[i].T if ok else None)
-            i += 1
-    kept = [xy for xy in drawn if xy is not None]
-    whole = iter(np.isfinite(np.array(kept)).all(axis=(1, 2)).tolist() if kept else [])
+    ks = np.array([k for p in plans for _, k in p.outlines], dtype=float)
+    drawable = (finite & (values.min(axis=1) >= 0) & np.isfinite(ks)).tolist()
+    centres = np.array([p.centre for p in plans for _ in p.outlines], dtype=float)
+    scaled = ks[:, None, None] * (UNIT_CIRCLE * np.sqrt(np.maximum(values, 0.0))[:, None, :])
+    rims = centres[:, None, :] + scaled @ vectors.transpose(0, 2, 1)
+    whole = np.isfinite(rims).all(axis=(1, 2)).tolist()
     out: list[list[np.ndarray]] = []
     i = 0
     for p in plans:
         lines = []
-        for xy in drawn[i : i + len(p.outlines)]:
-            if xy is not None and not next(whole):
-                xy = xy[np.isfinite(xy).all(axis=1)]
-            if xy is not None and len(xy) >= 2:
+        for j in range(i, i + len(p.outlines)):
+            xy = rims[j] if whole[j] else rims[j][np.isfinite(rims[j]).all(axis=1)]
+            if drawable[j] and len(xy) >= 2:
                 lines.append(xy)
         out.append(lines)
         i += len(p.outlines)

@@ -20,13 +20,15 @@ import struct
 
 import numpy as np
 
-__all__ = ["Line", "Text", "point_fields", "scene_update", "split_points"]
+__all__ = ["Line", "Points", "Text", "point_fields", "scene_update", "split_points"]
 
 Color = tuple[float, float, float, float]
 Line = tuple[int, np.ndarray, Color]
 """A line primitive: its type (0 strip, 1 loop, 2 list), its (N, 2 or 3) points, color."""
 Text = tuple[float, float, str, Color]
 """A label: x, y, text, color."""
+Points = bytes | memoryview
+"""A line's encoded points (a view into the points of many lines)."""
 
 _LENGTH_DELIMITED = 2
 _DOUBLE = 1
@@ -90,7 +92,7 @@ _POINT_TAGS = np.array([_tag(i, _DOUBLE)[0] for i in (1, 2, 3)], dtype=np.uint8)
 _POINT_TAG = _tag(5, _LENGTH_DELIMITED)[0]
 
 
-def _points(lines: list[Line]) -> list[bytes]:
+def _points(lines: list[Line]) -> list[Points]:
     """Each line's repeated Point3 (x 1, y 2, z 3) in field 5, all lines at once (a few
     numpy calls per exchange, not per line)."""
     sizes = [len(xyz) for _, xyz, _ in lines]
@@ -120,14 +122,17 @@ def point_fields(coords: np.ndarray) -> tuple[bytes, np.ndarray]:
     return data, np.cumsum(lengths + 2)
 
 
-def split_points(data: bytes, ends: np.ndarray, sizes: list[int]) -> list[bytes]:
-    """The bytes of :func:`point_fields` cut into lines of ``sizes`` points each."""
+def split_points(data: bytes, ends: np.ndarray, sizes: list[int]) -> list[Points]:
+    """The bytes of :func:`point_fields` cut into lines of ``sizes`` points each (views of
+    ``data``, not copies: :func:`scene_update` copies each once, into its message)."""
     cuts = np.cumsum(sizes) - 1
     stops = ends[np.maximum(cuts, 0)].tolist()
-    out, start = [], 0
+    view = memoryview(data)
+    out: list[Points] = []
+    start = 0
     for stop, size in zip(stops, sizes, strict=True):
         if size:
-            out.append(data[start:stop])
+            out.append(view[start:stop])
             start = stop
         else:
             out.append(b"")
@@ -191,7 +196,8 @@ def _masked(coords: np.ndarray, present: np.ndarray, lengths: np.ndarray) -> byt
 
 @functools.lru_cache(maxsize=16)
 def _line_head(kind: int, thickness: float) -> bytes:
-    """A line's fields before its points: the same for every line of a type."""
+    """A LinePrimitive's fields before its points (type 1, pose 2, thickness 3,
+    scale_invariant 4; then points 5 and color 6): the same for every line of a type."""
     head = (_tag(1, _VARINT) + _varint(kind) if kind else b"") + _pose(2)
     return head + _tag(3, _DOUBLE) + struct.pack("<d", thickness) + _tag(4, _VARINT) + b"\x01"
 
@@ -200,11 +206,6 @@ def _line_head(kind: int, thickness: float) -> bytes:
 def _color(field: int, color: Color) -> bytes:
     """A Color in ``field``: the palette's few, written thousands of times (cached)."""
     return _message(field, _doubles(color))
-
-
-def _line(kind: int, points: bytes, color: Color, thickness: float) -> bytes:
-    """A LinePrimitive: type 1, pose 2, thickness 3, scale_invariant 4, points 5, color 6."""
-    return _line_head(kind, thickness) + points + _color(6, color)
 
 
 def _text(x: float, y: float, text: str, color: Color, font_px: float) -> bytes:
@@ -243,18 +244,22 @@ def scene_update(
     texts: list[Text],
     thickness: float,
     font_px: float,
-    points: list[bytes] | None = None,
+    points: list[Points] | None = None,
 ) -> bytes:
     """The SceneUpdate of one entity (entities: field 2): timestamp 1, frame_id 2, id 3,
     lifetime 4 (zero: present, empty), metadata 6, lines 11, texts 13 (frame_locked 5 is
     false, left out). ``points`` are the lines' points already encoded
     (:func:`split_points`), or None to encode them here."""
-    entity = _time(1, log_time) + _entity_head(frame, entity_id)
-    entity += b"".join([_pair(key, value) for key, value in metadata.items()])
+    parts: list[Points] = [_time(1, log_time), _entity_head(frame, entity_id)]
+    parts += [_pair(key, value) for key, value in metadata.items()]
     if points is None:
         points = _points(lines)
-    entity += b"".join(
-        _message(11, _line(k, p, c, thickness)) for (k, _, c), p in zip(lines, points, strict=True)
-    )
-    entity += b"".join(_message(13, _text(*t, font_px)) for t in texts)
-    return _message(2, entity)
+    for (kind, _, color), line_points in zip(lines, points, strict=True):
+        head, tail = _line_head(kind, thickness), _color(6, color)
+        size = len(head) + len(line_points) + len(tail)
+        parts += [_FIELD_TAGS[11], _varint(size), head, line_points, tail]
+    for text in texts:
+        body = _text(*text, font_px)
+        parts += [_FIELD_TAGS[13], _varint(len(body)), body]
+    entity = b"".join(parts)  # each line's points copied once
+    return _FIELD_TAGS[2] + _varint(len(entity)) + entity
