@@ -85,10 +85,17 @@ class _Channels:
         self.scene_schemas = scene_schemas
         self.schemas: dict[str, int] = {}
         self.channels: dict[str, int] = {}
+        self.originals: dict[tuple[str, str], int] = {}
 
     def original(self, operation: str, kind: str) -> int:
         """The channel of ``<operation>/<kind>`` records (no schema for an operation this
         build does not know)."""
+        channel = self.originals.get((operation, kind))
+        if channel is None:
+            channel = self.originals[operation, kind] = self._original(operation, kind)
+        return channel
+
+    def _original(self, operation: str, kind: str) -> int:
         topic = f"{operation}/{kind}"
         if topic not in self.channels:
             endpoint = ENDPOINTS.get(operation)
@@ -158,39 +165,43 @@ class _NothingToWrite(Exception):
 
 def _write(stream: BinaryIO, reader: Reader, scenes: Scenes, report: ViewReport) -> None:
     writer = SceneFile(stream, "plotgate view", CHUNK_BYTES)
-    channels = _Channels(writer, scenes.schemas())
-    last_transform: list[int | None] = [None]
+    out = _Out(writer, _Channels(writer, scenes.schemas()), scenes, report)
     batch: list[Exchange] = []
     for ex in reader:
         batch.append(ex)
         if len(batch) == BATCH:
-            _batch(writer, channels, scenes, batch, report, last_transform)
+            out.write(batch)
             batch = []
-    _batch(writer, channels, scenes, batch, report, last_transform)
+    out.write(batch)
     writer.finish()
 
 
-def _batch(
-    writer: SceneFile,
-    channels: _Channels,
-    scenes: Scenes,
-    batch: list[Exchange],
-    report: ViewReport,
-    last_transform: list[int | None],
-) -> None:
-    """Write a batch of exchanges, drawn together (``scenes.exchanges``), in the order read."""
-    for ex, messages in zip(batch, scenes.exchanges(batch), strict=True):
-        t = ex.log_time
-        if last_transform[0] is None or abs(t - last_transform[0]) >= TRANSFORM_EVERY_NS:
-            for topic, schema, data in scenes.transform(t):
+@dataclass
+class _Out:
+    """Batches of exchanges written in the order read, each batch drawn together
+    (``scenes.exchanges``); the radar frame's transform before the first exchange and
+    then once a second of recording time."""
+
+    writer: SceneFile
+    channels: _Channels
+    scenes: Scenes
+    report: ViewReport
+    last_transform: int | None = None
+
+    def write(self, batch: list[Exchange]) -> None:
+        writer, channels, report = self.writer, self.channels, self.report
+        for ex, messages in zip(batch, self.scenes.exchanges(batch), strict=True):
+            t = ex.log_time
+            if self.last_transform is None or abs(t - self.last_transform) >= TRANSFORM_EVERY_NS:
+                for topic, schema, data in self.scenes.transform(t):
+                    writer.message(channels.scene(topic, schema), t, data)
+                self.last_transform = t
+            _copy(writer, channels, ex)
+            for topic, schema, data in messages:
                 writer.message(channels.scene(topic, schema), t, data)
-            last_transform[0] = t
-        _copy(writer, channels, ex)
-        for topic, schema, data in messages:
-            writer.message(channels.scene(topic, schema), t, data)
-            report.scene_messages += 1
-            report.topics.add(topic)
-        report.exchanges += 1
+                report.topics.add(topic)
+            report.scene_messages += len(messages)
+            report.exchanges += 1
 
 
 def _copy(writer: SceneFile, channels: _Channels, ex: Exchange) -> None:
