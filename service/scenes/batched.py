@@ -119,9 +119,10 @@ class Plan(msgspec.Struct, gc=False):
     status: int
     log_time: int
     centre: tuple[float, float]
-    outlines: list[tuple[Any, float]]
-    """Each outline's covariance (2x2: the ellipse's, or a circle's ``radius^2 I``) and its
-    number of sigmas."""
+    outlines: list[tuple[Any, float, float]]
+    """Each outline's covariance (2x2: the first mark's, or a circle's ``radius^2 I``), its
+    number of sigmas, and the factor on the covariance (2 for an ellipse gate's
+    ``S = 2 P1``)."""
     xs: list[float]
     ys: list[float]
     """The candidates' positions."""
@@ -171,7 +172,7 @@ def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
         centre = (float(at[0]), float(at[1]))
         if not (np.isfinite(cov).all() and np.isfinite(at).all()):
             return None
-    outlines: list[tuple[Any, float]] = []
+    outlines: list[tuple[Any, float, float]] = []
     if gate.kind in _CIRCLES and gate.tau is not None:
         if gate.v_max is None:
             return None
@@ -181,11 +182,11 @@ def plan(request: bytes, response: bytes, log_time: int) -> Plan | None:
                 if radius > _LARGEST_RADIUS:  # its square overflows: the canvas cannot draw
                     return None
                 square = radius**2
-                outlines.append((((square, 0.0), (0.0, square)), 1.0))
+                outlines.append((((square, 0.0), (0.0, square)), 1.0, 1.0))
     elif gate.kind == "ellipse" and result.threshold is not None:
         if result.threshold < 0:
             return None
-        outlines.append((2 * np.asarray(cov, dtype=float), math.sqrt(result.threshold)))
+        outlines.append((cov, math.sqrt(result.threshold), 2.0))
     elif gate.kind in ("rectangular", "sector"):
         return None
     positions = _positions(body.candidates)
@@ -206,13 +207,15 @@ def _ellipses(plans: list[Plan]) -> list[list[np.ndarray]]:
     """Each plan's outlines as points (:meth:`~plotgate.service.scenes.draw.Canvas.ellipse`
     then :meth:`~plotgate.service.scenes.draw.Canvas.line`), every ``eigh`` of the batch in
     one call; an outline the canvas would not draw is left out."""
-    covs = np.array([cov for p in plans for cov, _ in p.outlines], dtype=float).reshape(-1, 2, 2)
-    if not len(covs):
+    outlines = [outline for p in plans for outline in p.outlines]
+    if not outlines:
         return [[] for _ in plans]
+    covs = np.array([cov for cov, _, _ in outlines], dtype=float).reshape(-1, 2, 2)
+    covs *= np.array([factor for _, _, factor in outlines])[:, None, None]
     finite = np.isfinite(covs).all(axis=(1, 2))
     covs[~finite] = np.eye(2)  # not drawn (the canvas's check), kept out of eigh
     values, vectors = np.linalg.eigh(covs)
-    ks = np.array([k for p in plans for _, k in p.outlines], dtype=float)
+    ks = np.array([k for _, k, _ in outlines], dtype=float)
     drawable = (finite & (values.min(axis=1) >= 0) & np.isfinite(ks)).tolist()
     centres = np.array([p.centre for p in plans for _ in p.outlines], dtype=float)
     scaled = ks[:, None, None] * (UNIT_CIRCLE * np.sqrt(np.maximum(values, 0.0))[:, None, :])
