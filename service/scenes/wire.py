@@ -38,6 +38,8 @@ _VARINT = 0
 def _varint(value: int) -> bytes:
     if value < 0x80:  # most lengths and every tag here: one byte
         return _BYTES[value]
+    if value < 0x4000:  # a line's points, an entity: two
+        return bytes(((value & 0x7F) | 0x80, value >> 7))
     out = bytearray()
     while value > 0x7F:
         out.append((value & 0x7F) | 0x80)
