@@ -26,9 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO, Protocol
 
-from mcap.writer import CompressionType, Writer
-
 from plotgate.clients.recordings import Exchange, Filters, Reader
+from plotgate.clients.scene_file import SceneFile
 from plotgate.files import atomic_write, check_target
 from plotgate.service.schemas import request_schema, response_schema
 from plotgate.service.table import ENDPOINTS
@@ -36,6 +35,8 @@ from plotgate.service.table import ENDPOINTS
 __all__ = ["Scenes", "ViewReport", "view"]
 
 CHUNK_BYTES = 4 * 2**20
+BATCH = 64
+"""Exchanges handed to the scene builder at once (it draws those of an operation together)."""
 TRANSFORM_EVERY_NS = 1_000_000_000
 
 
@@ -51,6 +52,8 @@ class Scenes(Protocol):
         response: dict[str, Any] | None,
         log_time: int,
     ) -> list[tuple[str, str, bytes]]: ...
+
+    def exchanges(self, batch: list[Exchange]) -> list[list[tuple[str, str, bytes]]]: ...
 
     def transform(self, log_time: int) -> list[tuple[str, str, bytes]]: ...
 
@@ -77,15 +80,22 @@ class ViewReport:
 class _Channels:
     """The output's schemas and channels, registered as first met."""
 
-    def __init__(self, writer: Writer, scene_schemas: dict[str, tuple[str, bytes]]) -> None:
+    def __init__(self, writer: SceneFile, scene_schemas: dict[str, tuple[str, bytes]]) -> None:
         self.writer = writer
         self.scene_schemas = scene_schemas
         self.schemas: dict[str, int] = {}
         self.channels: dict[str, int] = {}
+        self.originals: dict[tuple[str, str], int] = {}
 
     def original(self, operation: str, kind: str) -> int:
         """The channel of ``<operation>/<kind>`` records (no schema for an operation this
         build does not know)."""
+        channel = self.originals.get((operation, kind))
+        if channel is None:
+            channel = self.originals[operation, kind] = self._original(operation, kind)
+        return channel
+
+    def _original(self, operation: str, kind: str) -> int:
         topic = f"{operation}/{kind}"
         if topic not in self.channels:
             endpoint = ENDPOINTS.get(operation)
@@ -96,10 +106,10 @@ class _Channels:
                     if kind == "request"
                     else response_schema(endpoint.response)
                 )
-                schema_id = self.writer.register_schema(
+                schema_id = self.writer.schema(
                     f"plotgate.{operation}.{kind}", "jsonschema", json.dumps(schema).encode()
                 )
-            self.channels[topic] = self.writer.register_channel(topic, "json", schema_id)
+            self.channels[topic] = self.writer.channel(topic, "json", schema_id)
         return self.channels[topic]
 
     def scene(self, topic: str, schema_name: str) -> int:
@@ -107,10 +117,8 @@ class _Channels:
         if topic not in self.channels:
             if schema_name not in self.schemas:
                 encoding, data = self.scene_schemas[schema_name]
-                self.schemas[schema_name] = self.writer.register_schema(
-                    schema_name, encoding, data
-                )
-            self.channels[topic] = self.writer.register_channel(
+                self.schemas[schema_name] = self.writer.schema(schema_name, encoding, data)
+            self.channels[topic] = self.writer.channel(
                 topic, "protobuf", self.schemas[schema_name]
             )
         return self.channels[topic]
@@ -156,31 +164,52 @@ class _NothingToWrite(Exception):
 
 
 def _write(stream: BinaryIO, reader: Reader, scenes: Scenes, report: ViewReport) -> None:
-    writer = Writer(stream, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
-    writer.start(profile="", library="plotgate view")
-    channels = _Channels(writer, scenes.schemas())
-    last_transform: int | None = None
+    writer = SceneFile(stream, "plotgate view", CHUNK_BYTES)
+    out = _Out(writer, _Channels(writer, scenes.schemas()), scenes, report)
+    batch: list[Exchange] = []
     for ex in reader:
-        t = ex.log_time
-        if last_transform is None or abs(t - last_transform) >= TRANSFORM_EVERY_NS:
-            for topic, schema, data in scenes.transform(t):
-                writer.add_message(channels.scene(topic, schema), t, data, t)
-            last_transform = t
-        _copy(writer, channels, ex)
-        for topic, schema, data in scenes.exchange(ex.operation, ex.request, ex.response, t):
-            writer.add_message(channels.scene(topic, schema), t, data, t)
-            report.scene_messages += 1
-            report.topics.add(topic)
-        report.exchanges += 1
+        batch.append(ex)
+        if len(batch) == BATCH:
+            out.write(batch)
+            batch = []
+    out.write(batch)
     writer.finish()
 
 
-def _copy(writer: Writer, channels: _Channels, ex: Exchange) -> None:
+@dataclass
+class _Out:
+    """Batches of exchanges written in the order read, each batch drawn together
+    (``scenes.exchanges``); the radar frame's transform before the first exchange and
+    then once a second of recording time."""
+
+    writer: SceneFile
+    channels: _Channels
+    scenes: Scenes
+    report: ViewReport
+    last_transform: int | None = None
+
+    def write(self, batch: list[Exchange]) -> None:
+        writer, channels, report = self.writer, self.channels, self.report
+        for ex, messages in zip(batch, self.scenes.exchanges(batch), strict=True):
+            t = ex.log_time
+            if self.last_transform is None or abs(t - self.last_transform) >= TRANSFORM_EVERY_NS:
+                for topic, schema, data in self.scenes.transform(t):
+                    writer.message(channels.scene(topic, schema), t, data)
+                self.last_transform = t
+            _copy(writer, channels, ex)
+            for topic, schema, data in messages:
+                writer.message(channels.scene(topic, schema), t, data)
+                report.topics.add(topic)
+            report.scene_messages += len(messages)
+            report.exchanges += 1
+
+
+def _copy(writer: SceneFile, channels: _Channels, ex: Exchange) -> None:
     """The exchange's original records, as they were recorded."""
     t = ex.log_time
     if ex.request_bytes is not None:
-        writer.add_message(channels.original(ex.operation, "request"), t, ex.request_bytes, t)
+        writer.message(channels.original(ex.operation, "request"), t, ex.request_bytes)
     if ex.response_bytes is not None:
         answered = t + int((ex.duration_s or 0.0) * 1e9)
         channel = channels.original(ex.operation, "response")
-        writer.add_message(channel, answered, ex.response_bytes, answered)
+        writer.message(channel, answered, ex.response_bytes)

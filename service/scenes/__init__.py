@@ -24,12 +24,13 @@ hand-written schemas. Imported only by ``plotgate view`` and by a server given
 ``--foxglove-port``: foxglove-sdk is the optional extra ``plotgate[view]``.
 """
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import foxglove.messages as fm
 
+from plotgate.service.scenes import batched
 from plotgate.service.scenes.draw import FRAME, Canvas, colors, timestamp
 from plotgate.service.table import ENDPOINTS
 
@@ -44,6 +45,7 @@ __all__ = [
     "SCENE_PREFIX",
     "TRANSFORM_TOPIC",
     "Message",
+    "Recorded",
     "draw",
     "log",
     "radar_transform",
@@ -173,6 +175,22 @@ def _problem(response: dict[str, Any]) -> str:
     return text[:1000]
 
 
+class Recorded(Protocol):
+    """An exchange as a reader gives it (``plotgate.clients.recordings.Exchange``): its
+    records' bytes, and their values built on first use."""
+
+    operation: str
+    log_time: int
+    request_bytes: bytes | None
+    response_bytes: bytes | None
+
+    @property
+    def request(self) -> dict[str, Any] | None: ...
+
+    @property
+    def response(self) -> dict[str, Any] | None: ...
+
+
 class Encoded:
     """The scenes as bytes, for writers that know nothing of foxglove-sdk (``plotgate
     view``'s, in the clients layer, which is handed one): schemas by name, and each
@@ -215,3 +233,32 @@ class Encoded:
         if not 0 <= log_time <= MAX_TIME_NS:
             return []
         return [self._encoded(TRANSFORM_TOPIC, radar_transform(log_time))]
+
+    def exchanges(self, batch: Sequence[Recorded]) -> list[list[tuple[str, str, bytes]]]:
+        """:meth:`exchange` of each exchange of ``batch``: the ``gates.test`` exchanges of
+        the common form drawn together from their bytes
+        (:mod:`~plotgate.service.scenes.batched`), the others one at a time from their
+        values."""
+        out: list[list[tuple[str, str, bytes]] | None] = [None] * len(batch)
+        plans, places = [], []
+        for i, ex in enumerate(batch):
+            if (
+                ex.operation == "gates.test"
+                and ex.request_bytes is not None
+                and ex.response_bytes is not None
+                and 0 <= ex.log_time <= MAX_TIME_NS
+            ):
+                plan = batched.plan(ex.request_bytes, ex.response_bytes, ex.log_time)
+                if plan is not None:
+                    plans.append(plan)
+                    places.append(i)
+                    continue
+            out[i] = self.exchange(ex.operation, ex.request, ex.response, ex.log_time)
+        if plans:
+            name = self._schemas[fm.SceneUpdate].name
+            topic = SCENE_PREFIX + "gates.test"
+            for i, scene in zip(
+                places, batched.draw_tests(plans, ENTITY_ID, "gates.test"), strict=True
+            ):
+                out[i] = [(topic, name, scene)]
+        return [messages or [] for messages in out]

@@ -44,7 +44,7 @@ TEXT_PX = 14.0
 MIN_EXTENT = 500.0
 
 _ANGLES = np.linspace(0.0, 2 * np.pi, ELLIPSE_SEGMENTS, endpoint=False)
-_UNIT_CIRCLE = np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=1)
+UNIT_CIRCLE = np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=1)
 """An ellipse's points on the unit circle, computed once (every gate draws one)."""
 
 LINE_STRIP, LINE_LOOP, LINE_LIST = 0, 1, 2
@@ -191,7 +191,7 @@ class Canvas:
         values, vectors = np.linalg.eigh(cov[:2, :2])
         if values.min() < 0 or not np.isfinite(k):
             return
-        xy = np.asarray(centre, dtype=float)[:2] + k * (_UNIT_CIRCLE * np.sqrt(values)) @ vectors.T
+        xy = np.asarray(centre, dtype=float)[:2] + k * (UNIT_CIRCLE * np.sqrt(values)) @ vectors.T
         self.line(xy, color, closed=True)
 
     def sector(

@@ -15,6 +15,7 @@ from plotgate.service.recording import Recorder, request_record, response_record
 from plotgate.service.registry import OPERATIONS, execute
 from plotgate.service.scenes import LOG_TOPIC, SCENE_PREFIX, TRANSFORM_TOPIC, Encoded
 from plotgate.service.table import ENDPOINTS
+from tests.support.view_reference import content, reference
 
 EXAMPLES = {name: e.example for name, e in ENDPOINTS.items()}
 
@@ -150,3 +151,42 @@ def test_the_layout_shows_every_scene_topic_top_down():
     for path in layout["configById"]["Plot!plotgate"]["paths"]:
         topic = path["value"].split('"')[1]
         assert topic.split("/")[0] in OPERATIONS and topic.endswith("/response")
+
+
+def _many(folder: Path, n: int) -> Path:
+    """``n`` gates.test exchanges of assorted gates and plots, a second apart in places (the
+    transforms), a few failed or odd: more than one batch of view's drawing."""
+    recorder = Recorder(folder, OPERATIONS.values()).start()
+    base = EXAMPLES["gates.test"]
+    gates = [
+        {"kind": "ellipse", "P_G": 0.9},
+        {"kind": "ring", "v_min": 50.0, "v_max": 300.0, "tau": 2.0},
+        {"kind": "expanded", "v_max": 300.0, "tau": 1.0},
+        {"kind": "rectangular", "k": 3.0},
+    ]
+    t = 1_764_000_000_000_000_000
+    for i in range(n):
+        body = dict(base, gate=gates[i % len(gates)])
+        if i % 17 == 5:
+            body = {"gate": {"kind": "ellipse"}}  # refused: 422
+        data = json.dumps(body).encode()
+        answer = execute(OPERATIONS["gates.test"], data)
+        t += 700_000_000 if i % 9 == 0 else 1_000_000
+        written = recorder.request("gates.test", request_record(f"r{i}", "gates.test", data), t)
+        record = response_record(f"r{i}", "gates.test", answer.status, 0.002, answer.content)
+        recorder.response(written, record, t + 2_000_000)
+        recorder.flush()
+        recorder.forget(written)
+    recorder.close()
+    return folder
+
+
+@pytest.mark.parametrize("recording", ["session", "many"])
+def test_the_scenes_are_those_of_the_writer_before_issue_40(recording, session, tmp_path):
+    folder = session if recording == "session" else _many(tmp_path / "many", 150)
+    out, before = tmp_path / "scene.mcap", tmp_path / "reference.mcap"
+    report = view(folder, out, Encoded())
+    reference(folder, before)
+    messages, statistics = content(out)
+    assert (messages, statistics) == content(before)
+    assert report.scene_messages == sum(m[0].startswith(("/scene/", "/log")) for m in messages)
