@@ -67,13 +67,20 @@ from plotgate.core.gates.heading import (
 from plotgate.core.gates.kinds import Gate
 from plotgate.core.gates.parameters import ring_radii
 from plotgate.core.gates.quadrature import (
+    RATIO,
     adaptive_panels,
     angle_breaks,
     breakpoints,
     gauss_legendre,
     panel_rule,
 )
-from plotgate.core.gates.regions import RADIAL_FORM, MarkGeometry, StarRegion, radial_radii
+from plotgate.core.gates.regions import (
+    RADIAL_FORM,
+    MarkGeometry,
+    StarRegion,
+    radial_radii,
+    radial_radii_along,
+)
 from plotgate.core.sym2 import Sym2, inverse
 from plotgate.core.validation import as_points, pair_count
 
@@ -175,7 +182,7 @@ def _ray_integral(
 ) -> float:
     """M1 of problem i along direction theta, over the gate's radii."""
     ux, uy = math.cos(theta), math.sin(theta)
-    lo, hi = radial_radii(form, i, theta)
+    lo, hi = radial_radii_along(form, i, ux, uy)
     gauss = (problems[2][i], problems[3][i], problems[4][i], problems[5][i], 0.0, 0.0, 0.0)
     return ray_moments(ux, uy, problems[0][i], problems[1][i], gauss, lo, hi)[1]
 
@@ -265,6 +272,157 @@ def conditional_integral_reference(
     )
 
 
+_READ_1D = "Array(float64, 1, 'A', readonly=True)"
+_READ_2D = "Array(float64, 2, 'A', readonly=True)"
+MEAN_AND_B = f"UniTuple({_READ_1D}, 5)"
+"""numba type of N conditional problems as :func:`conditional_quadrature` reads them
+((N,) each): the mean of d relative to the region's origin (x, y), and B (xx, xy, yy)."""
+_UNIFORM = 4
+_TWO_PI = 2.0 * math.pi
+"""Equal starting panels of the conditional probability's full turn."""
+
+
+def conditional_edges_reference(region: StarRegion, B: Sym2, rel: np.ndarray) -> np.ndarray:
+    """Starting panels of the conditional probability, (N, E), with numpy.
+
+    The Gaussian subtends about sigma / |m| seen from the origin, or sigma / lo where the
+    inner edge lo of the gate cuts it (then about B's major axis): panels graded about
+    the mean's direction and B's major axis by that width
+    (:func:`plotgate.core.gates.quadrature.angle_breaks`), plus the region's kinks.
+    """
+    lam_min, _, major = principal_axes(B)
+    centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
+    inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
+    reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
+    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
+        width = np.sqrt(lam_min) / reach
+    return angle_breaks(
+        region.start, region.span, centres, [width] * 3, region.kinks, uniform=_UNIFORM
+    )
+
+
+@kernel(f"float64[:, :]({MEAN_AND_B}, {RADIAL_FORM}, {_READ_1D}, {_READ_1D}, {_READ_2D})")
+def conditional_edges(
+    problems: tuple[np.ndarray, ...],
+    form: tuple[np.ndarray, ...],
+    start: np.ndarray,
+    span: np.ndarray,
+    kinks: np.ndarray,
+) -> np.ndarray:
+    """:func:`conditional_edges_reference` compiled: the same centres, widths, grading
+    levels (over the whole batch, as :func:`plotgate.core.gates.quadrature.breakpoints`
+    counts them), wrapping, clipping and merging of edges within 1e-12 of the span, so
+    the same panels; each row padded with its last edge to the widest row."""
+    mx, my, bxx, bxy, byy = problems
+    n = mx.size
+    centres = np.empty((n, 3))
+    width = np.empty(n)
+    ratio = 0.0
+    graded = False
+    for i in range(n):
+        half_diff = 0.5 * (bxx[i] - byy[i])
+        lam_max = 0.5 * (bxx[i] + byy[i]) + math.hypot(half_diff, bxy[i])
+        lam_min = (bxx[i] * byy[i] - bxy[i] * bxy[i]) / lam_max
+        major = 0.5 * math.atan2(bxy[i], half_diff)
+        centres[i, 0] = math.atan2(my[i], mx[i])
+        centres[i, 1] = major
+        centres[i, 2] = major + math.pi
+        inner = math.inf
+        for c in range(3):
+            inner = min(inner, radial_radii(form, i, centres[i, c])[0])
+        reach = max(math.hypot(mx[i], my[i]), max(inner, 1e-300))
+        width[i] = math.sqrt(lam_min) / reach
+        if math.isfinite(width[i]) and width[i] > 0.0:
+            graded = True
+            ratio = max(ratio, ((start[i] + span[i]) - start[i]) / width[i])
+    levels = 0
+    if graded:
+        levels = (
+            1 if ratio <= 1.0 else min(40, int(math.ceil(math.log(ratio) / math.log(RATIO))) + 1)
+        )
+    count = 2 + 3 * (1 + 2 * levels) + kinks.shape[1] + _UNIFORM - 1
+    pts = np.empty((n, count))
+    most = 1
+    for i in range(n):
+        lo, hi = start[i], start[i] + span[i]
+        full = hi - lo
+        row = pts[i]
+        row[0], row[1] = lo, hi
+        k = 2
+        for c in range(3):
+            row[k] = centres[i, c]
+            k += 1
+        for c in range(3):
+            for sign in (1.0, -1.0):
+                for j in range(levels):
+                    offset = width[i] * RATIO**j
+                    if not (math.isfinite(offset) and offset > 0.0):
+                        offset = 0.0
+                    row[k] = centres[i, c] + sign * min(offset, math.pi)
+                    k += 1
+        for j in range(kinks.shape[1]):
+            row[k] = kinks[i, j]
+            k += 1
+        for j in range(1, _UNIFORM):
+            row[k] = lo + full * (j / _UNIFORM)
+            k += 1
+        for j in range(2, count):
+            x = lo if math.isnan(row[j]) else row[j]
+            row[j] = min(max(lo + (x - lo) % _TWO_PI, lo), hi)
+        row.sort()
+        tol = 1e-12 * (row[-1] - row[0])
+        kept = 1
+        for j in range(1, count):
+            if row[j] - row[j - 1] > tol:
+                row[kept] = row[j]
+                kept += 1
+        row[kept:] = row[kept - 1]
+        most = max(most, kept)
+    return pts[:, :most].copy()
+
+
+@kernel(
+    f"UniTuple(float64[:], 2)({MEAN_AND_B}, {RADIAL_FORM}, {_READ_1D}, {_READ_1D}, "
+    f"{_READ_2D}, {_PANEL_RULES}, float64)"
+)
+def conditional_quadrature(
+    problems: tuple[np.ndarray, ...],
+    form: tuple[np.ndarray, ...],
+    start: np.ndarray,
+    span: np.ndarray,
+    kinks: np.ndarray,
+    rules: tuple[np.ndarray, ...],
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`conditional_quadrature_reference` compiled: the starting panels
+    (:func:`conditional_edges`), B^-1, the bisection (:func:`conditional_integral`) of
+    ``rules`` to ``tol`` of the probability, and the Gaussian's normalization in one
+    call: the probabilities and their errors."""
+    mx, my, bxx, bxy, byy = problems
+    edges = conditional_edges(problems, form, start, span, kinks)
+    det = bxx * byy - bxy * bxy
+    norm = 2.0 * np.pi * np.sqrt(det)
+    Q = (byy / det, -bxy / det, bxx / det, 1.0 / det)
+    gauss = (mx.copy(), my.copy(), *Q)
+    integral, error = conditional_integral(gauss, form, edges, tol * norm, rules)
+    return integral / norm, error / norm
+
+
+def conditional_quadrature_reference(
+    region: StarRegion, B: Sym2, rel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The probability that the second mark, N(rel, B) about the region's origin, falls in
+    the region, and its error, with numpy: :func:`conditional_edges_reference`'s panels
+    bisected by :func:`conditional_integral_reference` to 1e-10, over the Gaussian's
+    normalization 2 pi sqrt(|B|) (Konovalov, eq. 2)."""
+    edges = conditional_edges_reference(region, B, rel)
+    norm = 2.0 * np.pi * np.sqrt(B.det)
+    integral, error = conditional_integral_reference(
+        region, inverse(B), rel, edges, _CONDITIONAL_TOL * norm
+    )
+    return integral / norm, error / norm
+
+
 def _conditional(
     gate: Gate, geometry: MarkGeometry, velocity: ArrayLike, reference: bool
 ) -> GateProbability:
@@ -275,32 +433,22 @@ def _conditional(
     if geometry.n != n:  # one geometry, many velocities (a curve against speed)
         geometry = geometry.take(np.zeros(n, dtype=int))
     region = gate.region(geometry)
-    mean = np.broadcast_to(v * geometry.tau, (n, 2))
-    rel = mean - region.origin
-    lam_min, _, major = principal_axes(geometry.B)
-    centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
-    # starting panels: the Gaussian subtends about sigma / |m| seen from the origin, or
-    # sigma / lo where the inner edge lo of the gate cuts it (then about B's major axis);
-    # panels are then bisected until two rules agree
-    inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
-    reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
-    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
-        width = np.sqrt(lam_min) / reach
-    edges = angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
-    norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
-    tol = _CONDITIONAL_TOL * norm
-    Q = inverse(geometry.B)
+    rel = np.broadcast_to(v * geometry.tau, (n, 2)) - region.origin
     if reference or region.form is None:
-        integral, error = conditional_integral_reference(region, Q, rel, edges, tol)
-    else:
-        problems = ConditionalProblems(
-            *(np.ascontiguousarray(x, dtype=float) for x in (rel[:, 0], rel[:, 1], *Q))
+        return GateProbability(*conditional_quadrature_reference(region, geometry.B, rel))
+    B = geometry.B
+    problems = (rel[:, 0], rel[:, 1], B.xx, B.xy, B.yy)
+    return GateProbability(
+        *conditional_quadrature(
+            problems,
+            tuple(region.form),
+            region.start,
+            region.span,
+            region.kinks,
+            tuple(x for m in M_CONDITIONAL for x in gauss_legendre(m)),
+            _CONDITIONAL_TOL,
         )
-        rules = tuple(x for m in M_CONDITIONAL for x in gauss_legendre(m))
-        integral, error = conditional_integral(
-            tuple(problems), tuple(region.form), np.ascontiguousarray(edges), tol, rules
-        )
-    return GateProbability(integral / norm, error / norm)
+    )
 
 
 def conditional_probability(

@@ -67,6 +67,7 @@ __all__ = [
     "axes_covariance",
     "radial_form",
     "radial_radii",
+    "radial_radii_along",
     "radial_radii_reference",
     "radial_region",
     "rows_of",
@@ -166,6 +167,11 @@ def mark_geometry(
     >>> g.n, np.round(g.B.xx), np.round(g.B.yy)
     (1, array([380772.]), array([80000.]))
     """
+    scalars = (r, az, sigma_r, sigma_az, sigma_r2, sigma_az2)
+    if all(type(x) is float or x is None for x in scalars) and type(tau) is float:
+        one = _one_geometry(*scalars, tau)  # type: ignore[arg-type]
+        if one is not None:
+            return one
     r = as_array("r", r)
     az = as_array("az", az)
     s_r1 = standard_deviation("sigma_r", sigma_r)
@@ -205,6 +211,44 @@ def mark_geometry(
         P2,
         sym2(as_covariance("B", B)),
     )
+
+
+def _one_geometry(
+    r: float,
+    az: float,
+    sigma_r: float,
+    sigma_az: float,
+    sigma_r2: float | None,
+    sigma_az2: float | None,
+    tau: float,
+) -> MarkGeometry | None:
+    """:func:`mark_geometry` of one problem given as Python floats (a request's mark),
+    without its array checks; None when a value would fail one (the full path then
+    raises its error). The same numpy arithmetic on the same (1,) arrays as
+    :func:`plotgate.core.frames.polar_covariance_to_cartesian` and
+    :func:`plotgate.core.frames.polar_to_cartesian`, so the geometry is the same to the
+    bit; both marks' covariances in one (2, 2, 2) pass."""
+    s_r2 = sigma_r if sigma_r2 is None else sigma_r2
+    s_az2 = sigma_az if sigma_az2 is None else sigma_az2
+    finite = math.isfinite(r + az + sigma_r + sigma_az + s_r2 + s_az2 + tau)
+    if not (finite and r > 0.0 and min(sigma_r, sigma_az, s_r2, s_az2, tau) > 0.0):
+        return None
+    values = np.array([r, az, sigma_r, sigma_az, s_r2, s_az2])
+    r_, az_ = values[0:1], values[1:2]
+    s, c = np.sin(az_), np.cos(az_)
+    var_r = values[2:6:2] * values[2:6:2]
+    var_t = (r_ * values[3:6:2]) ** 2  # cross-range variance of each mark
+    P = np.empty((2, 2, 2))
+    P[:, 0, 0] = s * s * var_r + c * c * var_t
+    P[:, 1, 1] = c * c * var_r + s * s * var_t
+    P[:, 0, 1] = P[:, 1, 0] = s * c * (var_r - var_t)
+    P1, P2 = P[0:1], P[1:2]
+    z1 = np.empty((1, 2))
+    z1[:, 0] = r_ * s
+    z1[:, 1] = r_ * c
+    B = sym2(as_covariance("B", P1 + P2))
+    sigmas = (values[2:3], values[3:4], values[4:5], values[5:6])
+    return MarkGeometry(r_, az_, *sigmas, tau, z1, P1, P2, B)
 
 
 class RadialForm(NamedTuple):
@@ -271,12 +315,20 @@ def radial_radii_reference(
     return np.maximum(a_lo + k_lo * h, 0.0), a_hi + k_hi * h
 
 
+@kernel(f"UniTuple(float64, 2)({RADIAL_FORM}, int64, float64, float64)")
+def radial_radii_along(
+    form: tuple[np.ndarray, ...], i: int, c: float, s: float
+) -> tuple[float, float]:
+    """:func:`radial_radii` along u = (c, s) = (cos theta, sin theta), for a caller that
+    has the direction's cosine and sine already (the conditional probability's rays)."""
+    h = 1.0 / math.sqrt(form[4][i] * c * c + 2.0 * form[5][i] * c * s + form[6][i] * s * s)
+    return max(form[0][i] + form[1][i] * h, 0.0), form[2][i] + form[3][i] * h
+
+
 @kernel(f"UniTuple(float64, 2)({RADIAL_FORM}, int64, float64)")
 def radial_radii(form: tuple[np.ndarray, ...], i: int, theta: float) -> tuple[float, float]:
     """:func:`radial_radii_reference` of problem i at one direction, compiled: (lo, hi)."""
-    c, s = math.cos(theta), math.sin(theta)
-    h = 1.0 / math.sqrt(form[4][i] * c * c + 2.0 * form[5][i] * c * s + form[6][i] * s * s)
-    return max(form[0][i] + form[1][i] * h, 0.0), form[2][i] + form[3][i] * h
+    return radial_radii_along(form, i, math.cos(theta), math.sin(theta))
 
 
 class StarRegion(NamedTuple):
