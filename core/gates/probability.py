@@ -433,7 +433,7 @@ def _conditional(
     if geometry.n != n:  # one geometry, many velocities (a curve against speed)
         geometry = geometry.take(np.zeros(n, dtype=int))
     region = gate.region(geometry)
-    rel = np.broadcast_to(v * geometry.tau, (n, 2)) - region.origin
+    rel = v * geometry.tau - region.origin  # (N, 2): the region has N origins
     if reference or region.form is None:
         return GateProbability(*conditional_quadrature_reference(region, geometry.B, rel))
     B = geometry.B

@@ -47,6 +47,7 @@ from plotgate.core.validation import (
     as_covariance,
     as_scalar,
     first_index,
+    is_valid_covariance,
     pair_count,
     require_positive,
     to_pairs,
@@ -224,31 +225,32 @@ def _one_geometry(
 ) -> MarkGeometry | None:
     """:func:`mark_geometry` of one problem given as Python floats (a request's mark),
     without its array checks; None when a value would fail one (the full path then
-    raises its error). The same numpy arithmetic on the same (1,) arrays as
-    :func:`plotgate.core.frames.polar_covariance_to_cartesian` and
-    :func:`plotgate.core.frames.polar_to_cartesian`, so the geometry is the same to the
-    bit; both marks' covariances in one (2, 2, 2) pass."""
+    raises its error). sin and cos are numpy's on the same (1,) array, the rest the
+    arithmetic of :func:`plotgate.core.frames.polar_covariance_to_cartesian` and
+    :func:`plotgate.core.frames.polar_to_cartesian` in the same order on Python floats
+    (IEEE doubles, as numpy's), so the geometry is the same to the bit."""
     s_r2 = sigma_r if sigma_r2 is None else sigma_r2
     s_az2 = sigma_az if sigma_az2 is None else sigma_az2
     finite = math.isfinite(r + az + sigma_r + sigma_az + s_r2 + s_az2 + tau)
     if not (finite and r > 0.0 and min(sigma_r, sigma_az, s_r2, s_az2, tau) > 0.0):
         return None
     values = np.array([r, az, sigma_r, sigma_az, s_r2, s_az2])
-    r_, az_ = values[0:1], values[1:2]
-    s, c = np.sin(az_), np.cos(az_)
-    var_r = values[2:6:2] * values[2:6:2]
-    var_t = (r_ * values[3:6:2]) ** 2  # cross-range variance of each mark
-    P = np.empty((2, 2, 2))
-    P[:, 0, 0] = s * s * var_r + c * c * var_t
-    P[:, 1, 1] = c * c * var_r + s * s * var_t
-    P[:, 0, 1] = P[:, 1, 0] = s * c * (var_r - var_t)
-    P1, P2 = P[0:1], P[1:2]
-    z1 = np.empty((1, 2))
-    z1[:, 0] = r_ * s
-    z1[:, 1] = r_ * c
-    B = sym2(as_covariance("B", P1 + P2))
+    az_ = values[1:2]
+    s, c = float(np.sin(az_)[0]), float(np.cos(az_)[0])
+    P = np.empty((3, 2, 2))  # P1, P2, B
+    for row, (s_r, s_az) in enumerate(((sigma_r, sigma_az), (s_r2, s_az2))):
+        var_r = s_r * s_r
+        cross = r * s_az
+        var_t = cross * cross  # cross-range variance
+        P[row, 0, 0] = s * s * var_r + c * c * var_t
+        P[row, 1, 1] = c * c * var_r + s * s * var_t
+        P[row, 0, 1] = P[row, 1, 0] = s * c * (var_r - var_t)
+    P[2] = P[0] + P[1]
+    if not is_valid_covariance(P[2, 0, 0], P[2, 0, 1], P[2, 1, 0], P[2, 1, 1]):
+        return None
+    z1 = np.array([[r * s, r * c]])
     sigmas = (values[2:3], values[3:4], values[4:5], values[5:6])
-    return MarkGeometry(r_, az_, *sigmas, tau, z1, P1, P2, B)
+    return MarkGeometry(values[0:1], az_, *sigmas, tau, z1, P[0:1], P[1:2], sym2(P[2:3]))
 
 
 class RadialForm(NamedTuple):
@@ -287,10 +289,12 @@ def radial_form(
     """The :class:`RadialForm` of n problems: a = (a_lo, a_hi), k = (k_lo, k_hi) in units
     of the radius of ``ellipse`` = (S, gamma), the ellipse d^T S^-1 d <= gamma (none: the
     identity, unused when k = 0)."""
-    one, zero = np.ones(1), np.zeros(1)
-    S, gamma = (Sym2(one, zero, one, one), 1.0) if ellipse is None else ellipse
-    scale = np.sqrt(gamma * S.det)
-    parts = (a[0], k[0] * scale, a[1], k[1] * scale, S.yy, -S.xy, S.xx)
+    if ellipse is None:  # the identity: W = I, scale 1
+        parts: tuple[float | np.ndarray, ...] = (a[0], k[0], a[1], k[1], 1.0, -0.0, 1.0)
+    else:
+        S, gamma = ellipse
+        scale = np.sqrt(gamma * S.det)
+        parts = (a[0], k[0] * scale, a[1], k[1] * scale, S.yy, -S.xy, S.xx)
     block = np.empty((7, n))  # one allocation: a request builds its record anew
     for row, x in zip(block, parts, strict=True):
         row[:] = x
@@ -375,9 +379,9 @@ def full_turn(
     rectangle, each centred on its origin, so the region is ``symmetric`` (the tests check
     radii(theta + pi) = radii(theta) for every such gate kind).
     """
-    return StarRegion(
-        np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI), kinks, radii, True
-    )
+    origins = np.empty((n, 2))
+    origins[:] = origin
+    return StarRegion(origins, np.zeros(n), np.full(n, TWO_PI), kinks, radii, True)
 
 
 def radial_region(n: int, origin: np.ndarray, kinks: np.ndarray, form: RadialForm) -> StarRegion:
