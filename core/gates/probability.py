@@ -27,9 +27,11 @@ gate's boundary, and the edges of the prior's ring. The conditional probability 
 its panels until a 10-point and a 5-point rule agree to 1e-10 and reports the sum of
 their differences (the error of the lower order: a bound in practice). The unconditional
 one reports its difference from a second, lower-order rule on interleaved panels: an
-estimate, not a bound. Checked against 14-point rules it was within a factor 5 of the
-true error wherever that exceeded 1e-9, and the true error stayed below 1e-7 on every
-tested case (the target is 1e-6).
+estimate, not a bound; where both rules read one density table cut to the gate's nodes,
+the table's stated error (:data:`TABLE_ERROR`) is added, which their difference cannot
+see. Checked against 14-point rules it was within a factor 5 of the true error wherever
+that exceeded 1e-9, and the true error stayed below 1e-7 on every tested case (the
+target is 1e-6).
 
 :func:`monte_carlo_probability` samples the same set-up and applies the gate tests
 themselves; it is for checking the quadrature, not for production use.
@@ -53,6 +55,7 @@ from plotgate.core.gates.heading import (
     TAIL,
     PriorRing,
     cached_table,
+    density_table,
     interpolated_density,
     principal_axes,
     prior_density,
@@ -112,6 +115,13 @@ node does) and interpolating 0.1-0.2 us a node, so below it the table would not 
 SEARCH_CALLS = 20
 """Calls on one problem a ``table=True`` quadrature expects: gates.design's search makes
 about twenty, and its table pays over all of them."""
+TABLE_ERROR = 1e-9
+"""Error of a density table cut to the gate's nodes, relative to the density's bound
+2 pi (c0 + c1 R_max) sqrt(2 pi lambda_max): B's principal axes hold 1e-9 of it and the
+interpolation 1e-10 (:func:`plotgate.core.gates.heading.density_table`,
+tests/core/gates/test_heading.py). Both rules read the one table, so their difference
+cannot see its error: the unconditional probability adds it to its estimate, times the
+gate's area over the Gaussian's normalization."""
 TABLE_MOST = 1 << 21
 """Most points of a density table (16 MiB): an extremely eccentric B (sigma_min of
 millimetres) would need millions; its nodes are evaluated directly instead."""
@@ -554,7 +564,7 @@ def _gate_nodes(
 
 def _densities(
     nodes: list[GateNodes], B: Sym2, ring: PriorRing, rules: Rules, source: str, calls: int
-) -> list[np.ndarray]:
+) -> tuple[list[np.ndarray], float]:
     """The prior-averaged density at each rule's gate nodes, from ``source``:
 
     - ``"reference"``: :func:`plotgate.core.gates.heading.prior_density_reference`;
@@ -565,19 +575,44 @@ def _densities(
       on the problem) where it pays: the gate's nodes, times the ``calls`` expected on the
       problem, number at least :data:`TABLE_GAIN` times the table's points, the table
       holds at most :data:`TABLE_MOST`, and its density holds everywhere
-      (:func:`plotgate.core.gates.heading.tabulates`); directly otherwise.
+      (:func:`plotgate.core.gates.heading.tabulates`); directly otherwise. With one call
+      expected the table is not kept, and covers only the nodes' reach (:func:`_reach`):
+      Konovalov's example needs 1,426 points where the whole density takes 6,916.
+
+    Also returns the error of the density a table cut to the nodes adds at each node
+    (:data:`TABLE_ERROR` of its bound), 0 when there is none.
     """
     if source == "reference":
         return [
             prior_density_reference(x.dx[None], x.dy[None], B, ring, rule)[0]
             for x, rule in zip(nodes, rules, strict=True)
-        ]
-    size = table_size(B, ring)
+        ], 0.0
+    reach = _reach(nodes, B) if calls == 1 else None
+    size = table_size(B, ring, reach)
     pays = TABLE_GAIN * size <= calls * sum(x.dx.size for x in nodes)
     if source == "table" and pays and size <= TABLE_MOST and tabulates(B, ring):
-        table = cached_table(B, ring, rules[0]).args()
-        return [interpolated_density(x.dx, x.dy, table) for x in nodes]
-    return [prior_density(x.dx, x.dy, B, ring, rule) for x, rule in zip(nodes, rules, strict=True)]
+        error = 0.0
+        if reach is None:
+            table = cached_table(B, ring, rules[0]).args()
+        else:
+            table = density_table(B, ring, rules[0], reach).args()
+            lam_max = float(principal_axes(B)[1][0])
+            bound = 2.0 * np.pi * (ring.c0 + ring.c1 * ring.R_max) * np.sqrt(2.0 * np.pi * lam_max)
+            error = TABLE_ERROR * float(bound)
+        return [interpolated_density(x.dx, x.dy, table) for x in nodes], error
+    return [
+        prior_density(x.dx, x.dy, B, ring, rule) for x, rule in zip(nodes, rules, strict=True)
+    ], 0.0
+
+
+def _reach(nodes: list[GateNodes], B: Sym2) -> tuple[float, float]:
+    """How far the gate's nodes reach along B's major and minor axes (m), with a margin
+    of 1e-9 of it, so that rounding cannot put a node outside a table cut to it."""
+    major = float(principal_axes(B)[2][0])
+    ex, ey = math.cos(major), math.sin(major)
+    xi = max(float(np.abs(x.dx * ex + x.dy * ey).max(initial=0.0)) for x in nodes)
+    eta = max(float(np.abs(x.dy * ex - x.dx * ey).max(initial=0.0)) for x in nodes)
+    return xi * (1.0 + 1e-9), eta * (1.0 + 1e-9)
 
 
 def _theta_edges(
@@ -667,8 +702,8 @@ def unconditional_probability(
     """
     _validate_prior(prior)
     R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
-    high, low = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "table", 1)
-    return GateProbability(high, np.abs(high - low))
+    (high, low), table = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "table", 1)
+    return GateProbability(high, np.abs(high - low) + table)
 
 
 def unconditional_quadrature(
@@ -706,7 +741,7 @@ def unconditional_quadrature(
     source = "reference" if reference else "table" if table else "direct"
     out: np.ndarray = _quadratures(
         gate, geometry, R_min, R_max, prior, (rule,), source, SEARCH_CALLS
-    )[0]
+    )[0][0]
     return out
 
 
@@ -719,21 +754,24 @@ def _quadratures(
     rules: Rules,
     source: str,
     calls: int,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """The unconditional probability by each of ``rules``, (len(rules), N), problem by
-    problem; ``source`` of the density and ``calls`` as :func:`_densities`."""
+    problem, and the error a density table adds to the first rule's, (N,); ``source`` of
+    the density and ``calls`` as :func:`_densities`."""
     out = np.empty((len(rules), geometry.n))
+    table_error = np.zeros(geometry.n)
     for i in range(geometry.n):
         part = geometry.take(slice(i, i + 1))
         region, turns = _half_turn(gate.region(part))
         lam_min = float(principal_axes(part.B)[0][0])
         ring = prior_ring(prior, R_min, R_max, lam_min)
         nodes = [_gate_nodes(region, part.B, R_min, R_max, rule) for rule in rules]
-        densities = _densities(nodes, part.B, ring, rules, source, calls)
+        densities, error = _densities(nodes, part.B, ring, rules, source, calls)
         norm = 4.0 * np.pi * np.pi * float(np.sqrt(part.B.det[0]))
         for k, (x, density) in enumerate(zip(nodes, densities, strict=True)):
             out[k, i] = turns * float(x.weights @ density) / norm
-    return out
+        table_error[i] = turns * error * float(nodes[0].weights.sum()) / norm
+    return out, table_error
 
 
 def monte_carlo_probability(
