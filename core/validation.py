@@ -194,7 +194,13 @@ def require_scalar(name: str, value: ArrayLike) -> None:
 
 
 def as_scalar(name: str, value: ArrayLike) -> float:
-    """Coerce a finite real scalar (a gate parameter such as tau or v_max)."""
+    """Coerce a finite real scalar (a gate parameter such as tau or v_max).
+
+    A finite Python float (what a request carries) is returned as it is, without the
+    array round trip: the checks below accept it unchanged.
+    """
+    if type(value) is float and math.isfinite(value):
+        return value
     require_scalar(name, value)
     return float(as_array(name, value))
 
@@ -231,11 +237,15 @@ def _require(name: str, x: np.ndarray | float, valid: np.ndarray | np.bool_, wha
 
 def require_positive(name: str, x: np.ndarray | float) -> None:
     """Raise ParameterError unless every value of x is > 0."""
+    if type(x) is float and x > 0.0:  # a checked scalar: no array pass
+        return
     _require(name, x, np.greater(x, 0.0), "positive")
 
 
 def require_nonnegative(name: str, x: np.ndarray | float) -> None:
     """Raise ParameterError unless every value of x is >= 0."""
+    if type(x) is float and x >= 0.0:
+        return
     _require(name, x, np.greater_equal(x, 0.0), "non-negative")
 
 

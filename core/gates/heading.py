@@ -548,11 +548,21 @@ def _lobatto(order: int) -> np.ndarray:
     return 0.5 - 0.5 * np.cos(np.pi * np.arange(order) / (order - 1))
 
 
-def table_shape(B: Sym2, ring: PriorRing) -> tuple[tuple[float, float], tuple[int, int]]:
-    """The lengths and panel counts of the density table of one problem (B of length 1)."""
+Reach = tuple[float, float] | None
+"""How far the points a table serves reach along B's major and minor axes (m), or None:
+everywhere the density is not negligible."""
+
+
+def table_shape(
+    B: Sym2, ring: PriorRing, reach: Reach = None
+) -> tuple[tuple[float, float], tuple[int, int]]:
+    """The lengths and panel counts of the density table of one problem (B of length 1),
+    cut to ``reach`` if given (the same panel widths: the same interpolation error)."""
     g = gaussian(B)
     sigmas = (math.sqrt(g.lam_max), math.sqrt(g.lam_min))
     lengths = (ring.R_max + TAIL * sigmas[0], ring.R_max + TAIL * sigmas[1])
+    if reach is not None:
+        lengths = (min(lengths[0], reach[0]), min(lengths[1], reach[1]))
     panels = (
         max(1, math.ceil(lengths[0] / (TABLE_PANEL * sigmas[0]))),
         max(1, math.ceil(lengths[1] / (TABLE_PANEL * sigmas[1]))),
@@ -574,14 +584,17 @@ def tabulates(B: Sym2, ring: PriorRing) -> bool:
     return ring.closed_form and (ring.c0 == 0.0 or g.lam_max < ECCENTRIC**2 * g.lam_min)
 
 
-def table_size(B: Sym2, ring: PriorRing) -> int:
+def table_size(B: Sym2, ring: PriorRing, reach: Reach = None) -> int:
     """Grid points of the density table of one problem: the densities it costs."""
-    _, panels = table_shape(B, ring)
+    _, panels = table_shape(B, ring, reach)
     return (panels[0] * (TABLE_ORDER - 1) + 1) * (panels[1] * (TABLE_ORDER - 1) + 1)
 
 
-def density_table(B: Sym2, ring: PriorRing, rule: tuple[int, float]) -> DensityTable:
-    """Tabulate :func:`prior_density` (with ``rule``) for one problem (B of length 1).
+def density_table(
+    B: Sym2, ring: PriorRing, rule: tuple[int, float], reach: Reach = None
+) -> DensityTable:
+    """Tabulate :func:`prior_density` (with ``rule``) for one problem (B of length 1), on
+    the points within ``reach`` (:func:`table_shape`).
 
     The area prior is tabulated in B's principal axes whatever B's axis ratio: there it
     holds 1e-9 of the density's bound, where the mapped heading rule holds about 1e-8
@@ -589,7 +602,7 @@ def density_table(B: Sym2, ring: PriorRing, rule: tuple[int, float]) -> DensityT
     unconditional probability, so its error estimate cannot see it.
     """
     g = gaussian(B)
-    lengths, panels = table_shape(B, ring)
+    lengths, panels = table_shape(B, ring, reach)
     unit = _lobatto(TABLE_ORDER)[:-1]
     axes = [
         np.append((np.arange(p)[:, None] + unit).ravel() * (L / p), L)

@@ -27,9 +27,11 @@ gate's boundary, and the edges of the prior's ring. The conditional probability 
 its panels until a 10-point and a 5-point rule agree to 1e-10 and reports the sum of
 their differences (the error of the lower order: a bound in practice). The unconditional
 one reports its difference from a second, lower-order rule on interleaved panels: an
-estimate, not a bound. Checked against 14-point rules it was within a factor 5 of the
-true error wherever that exceeded 1e-9, and the true error stayed below 1e-7 on every
-tested case (the target is 1e-6).
+estimate, not a bound; where both rules read one density table cut to the gate's nodes,
+the table's stated error (:data:`TABLE_ERROR`) is added, which their difference cannot
+see. Checked against 14-point rules it was within a factor 5 of the true error wherever
+that exceeded 1e-9, and the true error stayed below 1e-7 on every tested case (the
+target is 1e-6).
 
 :func:`monte_carlo_probability` samples the same set-up and applies the gate tests
 themselves; it is for checking the quadrature, not for production use.
@@ -53,6 +55,7 @@ from plotgate.core.gates.heading import (
     TAIL,
     PriorRing,
     cached_table,
+    density_table,
     interpolated_density,
     principal_axes,
     prior_density,
@@ -67,13 +70,20 @@ from plotgate.core.gates.heading import (
 from plotgate.core.gates.kinds import Gate
 from plotgate.core.gates.parameters import ring_radii
 from plotgate.core.gates.quadrature import (
+    RATIO,
     adaptive_panels,
     angle_breaks,
     breakpoints,
     gauss_legendre,
     panel_rule,
 )
-from plotgate.core.gates.regions import RADIAL_FORM, MarkGeometry, StarRegion, radial_radii
+from plotgate.core.gates.regions import (
+    RADIAL_FORM,
+    MarkGeometry,
+    StarRegion,
+    radial_radii,
+    radial_radii_along,
+)
 from plotgate.core.sym2 import Sym2, inverse
 from plotgate.core.validation import as_points, pair_count
 
@@ -105,6 +115,13 @@ node does) and interpolating 0.1-0.2 us a node, so below it the table would not 
 SEARCH_CALLS = 20
 """Calls on one problem a ``table=True`` quadrature expects: gates.design's search makes
 about twenty, and its table pays over all of them."""
+TABLE_ERROR = 1e-9
+"""Error of a density table cut to the gate's nodes, relative to the density's bound
+2 pi (c0 + c1 R_max) sqrt(2 pi lambda_max): B's principal axes hold 1e-9 of it and the
+interpolation 1e-10 (:func:`plotgate.core.gates.heading.density_table`,
+tests/core/gates/test_heading.py). Both rules read the one table, so their difference
+cannot see its error: the unconditional probability adds it to its estimate, times the
+gate's area over the Gaussian's normalization."""
 TABLE_MOST = 1 << 21
 """Most points of a density table (16 MiB): an extremely eccentric B (sigma_min of
 millimetres) would need millions; its nodes are evaluated directly instead."""
@@ -175,7 +192,7 @@ def _ray_integral(
 ) -> float:
     """M1 of problem i along direction theta, over the gate's radii."""
     ux, uy = math.cos(theta), math.sin(theta)
-    lo, hi = radial_radii(form, i, theta)
+    lo, hi = radial_radii_along(form, i, ux, uy)
     gauss = (problems[2][i], problems[3][i], problems[4][i], problems[5][i], 0.0, 0.0, 0.0)
     return ray_moments(ux, uy, problems[0][i], problems[1][i], gauss, lo, hi)[1]
 
@@ -265,6 +282,157 @@ def conditional_integral_reference(
     )
 
 
+_READ_1D = "Array(float64, 1, 'A', readonly=True)"
+_READ_2D = "Array(float64, 2, 'A', readonly=True)"
+MEAN_AND_B = f"UniTuple({_READ_1D}, 5)"
+"""numba type of N conditional problems as :func:`conditional_quadrature` reads them
+((N,) each): the mean of d relative to the region's origin (x, y), and B (xx, xy, yy)."""
+_UNIFORM = 4
+_TWO_PI = 2.0 * math.pi
+"""Equal starting panels of the conditional probability's full turn."""
+
+
+def conditional_edges_reference(region: StarRegion, B: Sym2, rel: np.ndarray) -> np.ndarray:
+    """Starting panels of the conditional probability, (N, E), with numpy.
+
+    The Gaussian subtends about sigma / |m| seen from the origin, or sigma / lo where the
+    inner edge lo of the gate cuts it (then about B's major axis): panels graded about
+    the mean's direction and B's major axis by that width
+    (:func:`plotgate.core.gates.quadrature.angle_breaks`), plus the region's kinks.
+    """
+    lam_min, _, major = principal_axes(B)
+    centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
+    inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
+    reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
+    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
+        width = np.sqrt(lam_min) / reach
+    return angle_breaks(
+        region.start, region.span, centres, [width] * 3, region.kinks, uniform=_UNIFORM
+    )
+
+
+@kernel(f"float64[:, :]({MEAN_AND_B}, {RADIAL_FORM}, {_READ_1D}, {_READ_1D}, {_READ_2D})")
+def conditional_edges(
+    problems: tuple[np.ndarray, ...],
+    form: tuple[np.ndarray, ...],
+    start: np.ndarray,
+    span: np.ndarray,
+    kinks: np.ndarray,
+) -> np.ndarray:
+    """:func:`conditional_edges_reference` compiled: the same centres, widths, grading
+    levels (over the whole batch, as :func:`plotgate.core.gates.quadrature.breakpoints`
+    counts them), wrapping, clipping and merging of edges within 1e-12 of the span, so
+    the same panels; each row padded with its last edge to the widest row."""
+    mx, my, bxx, bxy, byy = problems
+    n = mx.size
+    centres = np.empty((n, 3))
+    width = np.empty(n)
+    ratio = 0.0
+    graded = False
+    for i in range(n):
+        half_diff = 0.5 * (bxx[i] - byy[i])
+        lam_max = 0.5 * (bxx[i] + byy[i]) + math.hypot(half_diff, bxy[i])
+        lam_min = (bxx[i] * byy[i] - bxy[i] * bxy[i]) / lam_max
+        major = 0.5 * math.atan2(bxy[i], half_diff)
+        centres[i, 0] = math.atan2(my[i], mx[i])
+        centres[i, 1] = major
+        centres[i, 2] = major + math.pi
+        inner = math.inf
+        for c in range(3):
+            inner = min(inner, radial_radii(form, i, centres[i, c])[0])
+        reach = max(math.hypot(mx[i], my[i]), max(inner, 1e-300))
+        width[i] = math.sqrt(lam_min) / reach
+        if math.isfinite(width[i]) and width[i] > 0.0:
+            graded = True
+            ratio = max(ratio, ((start[i] + span[i]) - start[i]) / width[i])
+    levels = 0
+    if graded:
+        levels = (
+            1 if ratio <= 1.0 else min(40, int(math.ceil(math.log(ratio) / math.log(RATIO))) + 1)
+        )
+    count = 2 + 3 * (1 + 2 * levels) + kinks.shape[1] + _UNIFORM - 1
+    pts = np.empty((n, count))
+    most = 1
+    for i in range(n):
+        lo, hi = start[i], start[i] + span[i]
+        full = hi - lo
+        row = pts[i]
+        row[0], row[1] = lo, hi
+        k = 2
+        for c in range(3):
+            row[k] = centres[i, c]
+            k += 1
+        for c in range(3):
+            for sign in (1.0, -1.0):
+                for j in range(levels):
+                    offset = width[i] * RATIO**j
+                    if not (math.isfinite(offset) and offset > 0.0):
+                        offset = 0.0
+                    row[k] = centres[i, c] + sign * min(offset, math.pi)
+                    k += 1
+        for j in range(kinks.shape[1]):
+            row[k] = kinks[i, j]
+            k += 1
+        for j in range(1, _UNIFORM):
+            row[k] = lo + full * (j / _UNIFORM)
+            k += 1
+        for j in range(2, count):
+            x = lo if math.isnan(row[j]) else row[j]
+            row[j] = min(max(lo + (x - lo) % _TWO_PI, lo), hi)
+        row.sort()
+        tol = 1e-12 * (row[-1] - row[0])
+        kept = 1
+        for j in range(1, count):
+            if row[j] - row[j - 1] > tol:
+                row[kept] = row[j]
+                kept += 1
+        row[kept:] = row[kept - 1]
+        most = max(most, kept)
+    return pts[:, :most].copy()
+
+
+@kernel(
+    f"UniTuple(float64[:], 2)({MEAN_AND_B}, {RADIAL_FORM}, {_READ_1D}, {_READ_1D}, "
+    f"{_READ_2D}, {_PANEL_RULES}, float64)"
+)
+def conditional_quadrature(
+    problems: tuple[np.ndarray, ...],
+    form: tuple[np.ndarray, ...],
+    start: np.ndarray,
+    span: np.ndarray,
+    kinks: np.ndarray,
+    rules: tuple[np.ndarray, ...],
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`conditional_quadrature_reference` compiled: the starting panels
+    (:func:`conditional_edges`), B^-1, the bisection (:func:`conditional_integral`) of
+    ``rules`` to ``tol`` of the probability, and the Gaussian's normalization in one
+    call: the probabilities and their errors."""
+    mx, my, bxx, bxy, byy = problems
+    edges = conditional_edges(problems, form, start, span, kinks)
+    det = bxx * byy - bxy * bxy
+    norm = 2.0 * np.pi * np.sqrt(det)
+    Q = (byy / det, -bxy / det, bxx / det, 1.0 / det)
+    gauss = (mx.copy(), my.copy(), *Q)
+    integral, error = conditional_integral(gauss, form, edges, tol * norm, rules)
+    return integral / norm, error / norm
+
+
+def conditional_quadrature_reference(
+    region: StarRegion, B: Sym2, rel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The probability that the second mark, N(rel, B) about the region's origin, falls in
+    the region, and its error, with numpy: :func:`conditional_edges_reference`'s panels
+    bisected by :func:`conditional_integral_reference` to 1e-10, over the Gaussian's
+    normalization 2 pi sqrt(|B|) (Konovalov, eq. 2)."""
+    edges = conditional_edges_reference(region, B, rel)
+    norm = 2.0 * np.pi * np.sqrt(B.det)
+    integral, error = conditional_integral_reference(
+        region, inverse(B), rel, edges, _CONDITIONAL_TOL * norm
+    )
+    return integral / norm, error / norm
+
+
 def _conditional(
     gate: Gate, geometry: MarkGeometry, velocity: ArrayLike, reference: bool
 ) -> GateProbability:
@@ -275,32 +443,22 @@ def _conditional(
     if geometry.n != n:  # one geometry, many velocities (a curve against speed)
         geometry = geometry.take(np.zeros(n, dtype=int))
     region = gate.region(geometry)
-    mean = np.broadcast_to(v * geometry.tau, (n, 2))
-    rel = mean - region.origin
-    lam_min, _, major = principal_axes(geometry.B)
-    centres = [np.arctan2(rel[:, 1], rel[:, 0]), major, major + np.pi]
-    # starting panels: the Gaussian subtends about sigma / |m| seen from the origin, or
-    # sigma / lo where the inner edge lo of the gate cuts it (then about B's major axis);
-    # panels are then bisected until two rules agree
-    inner = region.radii(np.stack(centres, axis=-1))[0].min(axis=-1)
-    reach = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), np.maximum(inner, 1e-300))
-    with np.errstate(over="ignore"):  # a Gaussian about the origin: infinitely wide, no grading
-        width = np.sqrt(lam_min) / reach
-    edges = angle_breaks(region.start, region.span, centres, [width] * 3, region.kinks, uniform=4)
-    norm = 2.0 * np.pi * np.sqrt(geometry.B.det)
-    tol = _CONDITIONAL_TOL * norm
-    Q = inverse(geometry.B)
+    rel = v * geometry.tau - region.origin  # (N, 2): the region has N origins
     if reference or region.form is None:
-        integral, error = conditional_integral_reference(region, Q, rel, edges, tol)
-    else:
-        problems = ConditionalProblems(
-            *(np.ascontiguousarray(x, dtype=float) for x in (rel[:, 0], rel[:, 1], *Q))
+        return GateProbability(*conditional_quadrature_reference(region, geometry.B, rel))
+    B = geometry.B
+    problems = (rel[:, 0], rel[:, 1], B.xx, B.xy, B.yy)
+    return GateProbability(
+        *conditional_quadrature(
+            problems,
+            tuple(region.form),
+            region.start,
+            region.span,
+            region.kinks,
+            tuple(x for m in M_CONDITIONAL for x in gauss_legendre(m)),
+            _CONDITIONAL_TOL,
         )
-        rules = tuple(x for m in M_CONDITIONAL for x in gauss_legendre(m))
-        integral, error = conditional_integral(
-            tuple(problems), tuple(region.form), np.ascontiguousarray(edges), tol, rules
-        )
-    return GateProbability(integral / norm, error / norm)
+    )
 
 
 def conditional_probability(
@@ -406,7 +564,7 @@ def _gate_nodes(
 
 def _densities(
     nodes: list[GateNodes], B: Sym2, ring: PriorRing, rules: Rules, source: str, calls: int
-) -> list[np.ndarray]:
+) -> tuple[list[np.ndarray], float]:
     """The prior-averaged density at each rule's gate nodes, from ``source``:
 
     - ``"reference"``: :func:`plotgate.core.gates.heading.prior_density_reference`;
@@ -417,19 +575,44 @@ def _densities(
       on the problem) where it pays: the gate's nodes, times the ``calls`` expected on the
       problem, number at least :data:`TABLE_GAIN` times the table's points, the table
       holds at most :data:`TABLE_MOST`, and its density holds everywhere
-      (:func:`plotgate.core.gates.heading.tabulates`); directly otherwise.
+      (:func:`plotgate.core.gates.heading.tabulates`); directly otherwise. With one call
+      expected the table is not kept, and covers only the nodes' reach (:func:`_reach`):
+      Konovalov's example needs 1,426 points where the whole density takes 6,916.
+
+    Also returns the error of the density a table cut to the nodes adds at each node
+    (:data:`TABLE_ERROR` of its bound), 0 when there is none.
     """
     if source == "reference":
         return [
             prior_density_reference(x.dx[None], x.dy[None], B, ring, rule)[0]
             for x, rule in zip(nodes, rules, strict=True)
-        ]
-    size = table_size(B, ring)
+        ], 0.0
+    reach = _reach(nodes, B) if calls == 1 else None
+    size = table_size(B, ring, reach)
     pays = TABLE_GAIN * size <= calls * sum(x.dx.size for x in nodes)
     if source == "table" and pays and size <= TABLE_MOST and tabulates(B, ring):
-        table = cached_table(B, ring, rules[0]).args()
-        return [interpolated_density(x.dx, x.dy, table) for x in nodes]
-    return [prior_density(x.dx, x.dy, B, ring, rule) for x, rule in zip(nodes, rules, strict=True)]
+        error = 0.0
+        if reach is None:
+            table = cached_table(B, ring, rules[0]).args()
+        else:
+            table = density_table(B, ring, rules[0], reach).args()
+            lam_max = float(principal_axes(B)[1][0])
+            bound = 2.0 * np.pi * (ring.c0 + ring.c1 * ring.R_max) * np.sqrt(2.0 * np.pi * lam_max)
+            error = TABLE_ERROR * float(bound)
+        return [interpolated_density(x.dx, x.dy, table) for x in nodes], error
+    return [
+        prior_density(x.dx, x.dy, B, ring, rule) for x, rule in zip(nodes, rules, strict=True)
+    ], 0.0
+
+
+def _reach(nodes: list[GateNodes], B: Sym2) -> tuple[float, float]:
+    """How far the gate's nodes reach along B's major and minor axes (m), with a margin
+    of 1e-9 of it, so that rounding cannot put a node outside a table cut to it."""
+    major = float(principal_axes(B)[2][0])
+    ex, ey = math.cos(major), math.sin(major)
+    xi = max(float(np.abs(x.dx * ex + x.dy * ey).max(initial=0.0)) for x in nodes)
+    eta = max(float(np.abs(x.dy * ex - x.dx * ey).max(initial=0.0)) for x in nodes)
+    return xi * (1.0 + 1e-9), eta * (1.0 + 1e-9)
 
 
 def _theta_edges(
@@ -519,8 +702,8 @@ def unconditional_probability(
     """
     _validate_prior(prior)
     R_min, R_max = ring_radii(geometry.tau, v_min, v_max)
-    high, low = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "table", 1)
-    return GateProbability(high, np.abs(high - low))
+    (high, low), table = _quadratures(gate, geometry, R_min, R_max, prior, RULES, "table", 1)
+    return GateProbability(high, np.abs(high - low) + table)
 
 
 def unconditional_quadrature(
@@ -558,7 +741,7 @@ def unconditional_quadrature(
     source = "reference" if reference else "table" if table else "direct"
     out: np.ndarray = _quadratures(
         gate, geometry, R_min, R_max, prior, (rule,), source, SEARCH_CALLS
-    )[0]
+    )[0][0]
     return out
 
 
@@ -571,21 +754,24 @@ def _quadratures(
     rules: Rules,
     source: str,
     calls: int,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """The unconditional probability by each of ``rules``, (len(rules), N), problem by
-    problem; ``source`` of the density and ``calls`` as :func:`_densities`."""
+    problem, and the error a density table adds to the first rule's, (N,); ``source`` of
+    the density and ``calls`` as :func:`_densities`."""
     out = np.empty((len(rules), geometry.n))
+    table_error = np.zeros(geometry.n)
     for i in range(geometry.n):
         part = geometry.take(slice(i, i + 1))
         region, turns = _half_turn(gate.region(part))
         lam_min = float(principal_axes(part.B)[0][0])
         ring = prior_ring(prior, R_min, R_max, lam_min)
         nodes = [_gate_nodes(region, part.B, R_min, R_max, rule) for rule in rules]
-        densities = _densities(nodes, part.B, ring, rules, source, calls)
+        densities, error = _densities(nodes, part.B, ring, rules, source, calls)
         norm = 4.0 * np.pi * np.pi * float(np.sqrt(part.B.det[0]))
         for k, (x, density) in enumerate(zip(nodes, densities, strict=True)):
             out[k, i] = turns * float(x.weights @ density) / norm
-    return out
+        table_error[i] = turns * error * float(nodes[0].weights.sum()) / norm
+    return out, table_error
 
 
 def monte_carlo_probability(

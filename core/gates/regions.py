@@ -47,6 +47,7 @@ from plotgate.core.validation import (
     as_covariance,
     as_scalar,
     first_index,
+    is_valid_covariance,
     pair_count,
     require_positive,
     to_pairs,
@@ -67,6 +68,7 @@ __all__ = [
     "axes_covariance",
     "radial_form",
     "radial_radii",
+    "radial_radii_along",
     "radial_radii_reference",
     "radial_region",
     "rows_of",
@@ -166,6 +168,11 @@ def mark_geometry(
     >>> g.n, np.round(g.B.xx), np.round(g.B.yy)
     (1, array([380772.]), array([80000.]))
     """
+    scalars = (r, az, sigma_r, sigma_az, sigma_r2, sigma_az2)
+    if all(type(x) is float or x is None for x in scalars) and type(tau) is float:
+        one = _one_geometry(*scalars, tau)  # type: ignore[arg-type]
+        if one is not None:
+            return one
     r = as_array("r", r)
     az = as_array("az", az)
     s_r1 = standard_deviation("sigma_r", sigma_r)
@@ -207,6 +214,45 @@ def mark_geometry(
     )
 
 
+def _one_geometry(
+    r: float,
+    az: float,
+    sigma_r: float,
+    sigma_az: float,
+    sigma_r2: float | None,
+    sigma_az2: float | None,
+    tau: float,
+) -> MarkGeometry | None:
+    """:func:`mark_geometry` of one problem given as Python floats (a request's mark),
+    without its array checks; None when a value would fail one (the full path then
+    raises its error). sin and cos are numpy's on the same (1,) array, the rest the
+    arithmetic of :func:`plotgate.core.frames.polar_covariance_to_cartesian` and
+    :func:`plotgate.core.frames.polar_to_cartesian` in the same order on Python floats
+    (IEEE doubles, as numpy's), so the geometry is the same to the bit."""
+    s_r2 = sigma_r if sigma_r2 is None else sigma_r2
+    s_az2 = sigma_az if sigma_az2 is None else sigma_az2
+    finite = math.isfinite(r + az + sigma_r + sigma_az + s_r2 + s_az2 + tau)
+    if not (finite and r > 0.0 and min(sigma_r, sigma_az, s_r2, s_az2, tau) > 0.0):
+        return None
+    values = np.array([r, az, sigma_r, sigma_az, s_r2, s_az2])
+    az_ = values[1:2]
+    s, c = float(np.sin(az_)[0]), float(np.cos(az_)[0])
+    P = np.empty((3, 2, 2))  # P1, P2, B
+    for row, (s_r, s_az) in enumerate(((sigma_r, sigma_az), (s_r2, s_az2))):
+        var_r = s_r * s_r
+        cross = r * s_az
+        var_t = cross * cross  # cross-range variance
+        P[row, 0, 0] = s * s * var_r + c * c * var_t
+        P[row, 1, 1] = c * c * var_r + s * s * var_t
+        P[row, 0, 1] = P[row, 1, 0] = s * c * (var_r - var_t)
+    P[2] = P[0] + P[1]
+    if not is_valid_covariance(P[2, 0, 0], P[2, 0, 1], P[2, 1, 0], P[2, 1, 1]):
+        return None
+    z1 = np.array([[r * s, r * c]])
+    sigmas = (values[2:3], values[3:4], values[4:5], values[5:6])
+    return MarkGeometry(values[0:1], az_, *sigmas, tau, z1, P[0:1], P[1:2], sym2(P[2:3]))
+
+
 class RadialForm(NamedTuple):
     """Radii of the form every gate but the rectangle has, for N problems ((N,) each):
 
@@ -243,10 +289,12 @@ def radial_form(
     """The :class:`RadialForm` of n problems: a = (a_lo, a_hi), k = (k_lo, k_hi) in units
     of the radius of ``ellipse`` = (S, gamma), the ellipse d^T S^-1 d <= gamma (none: the
     identity, unused when k = 0)."""
-    one, zero = np.ones(1), np.zeros(1)
-    S, gamma = (Sym2(one, zero, one, one), 1.0) if ellipse is None else ellipse
-    scale = np.sqrt(gamma * S.det)
-    parts = (a[0], k[0] * scale, a[1], k[1] * scale, S.yy, -S.xy, S.xx)
+    if ellipse is None:  # the identity: W = I, scale 1
+        parts: tuple[float | np.ndarray, ...] = (a[0], k[0], a[1], k[1], 1.0, -0.0, 1.0)
+    else:
+        S, gamma = ellipse
+        scale = np.sqrt(gamma * S.det)
+        parts = (a[0], k[0] * scale, a[1], k[1] * scale, S.yy, -S.xy, S.xx)
     block = np.empty((7, n))  # one allocation: a request builds its record anew
     for row, x in zip(block, parts, strict=True):
         row[:] = x
@@ -271,12 +319,20 @@ def radial_radii_reference(
     return np.maximum(a_lo + k_lo * h, 0.0), a_hi + k_hi * h
 
 
+@kernel(f"UniTuple(float64, 2)({RADIAL_FORM}, int64, float64, float64)")
+def radial_radii_along(
+    form: tuple[np.ndarray, ...], i: int, c: float, s: float
+) -> tuple[float, float]:
+    """:func:`radial_radii` along u = (c, s) = (cos theta, sin theta), for a caller that
+    has the direction's cosine and sine already (the conditional probability's rays)."""
+    h = 1.0 / math.sqrt(form[4][i] * c * c + 2.0 * form[5][i] * c * s + form[6][i] * s * s)
+    return max(form[0][i] + form[1][i] * h, 0.0), form[2][i] + form[3][i] * h
+
+
 @kernel(f"UniTuple(float64, 2)({RADIAL_FORM}, int64, float64)")
 def radial_radii(form: tuple[np.ndarray, ...], i: int, theta: float) -> tuple[float, float]:
     """:func:`radial_radii_reference` of problem i at one direction, compiled: (lo, hi)."""
-    c, s = math.cos(theta), math.sin(theta)
-    h = 1.0 / math.sqrt(form[4][i] * c * c + 2.0 * form[5][i] * c * s + form[6][i] * s * s)
-    return max(form[0][i] + form[1][i] * h, 0.0), form[2][i] + form[3][i] * h
+    return radial_radii_along(form, i, math.cos(theta), math.sin(theta))
 
 
 class StarRegion(NamedTuple):
@@ -323,9 +379,9 @@ def full_turn(
     rectangle, each centred on its origin, so the region is ``symmetric`` (the tests check
     radii(theta + pi) = radii(theta) for every such gate kind).
     """
-    return StarRegion(
-        np.broadcast_to(origin, (n, 2)), np.zeros(n), np.full(n, TWO_PI), kinks, radii, True
-    )
+    origins = np.empty((n, 2))
+    origins[:] = origin
+    return StarRegion(origins, np.zeros(n), np.full(n, TWO_PI), kinks, radii, True)
 
 
 def radial_region(n: int, origin: np.ndarray, kinks: np.ndarray, form: RadialForm) -> StarRegion:

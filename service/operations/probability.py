@@ -93,17 +93,31 @@ def _geometry(
     where: Callable[[int], str] = lambda _: "mark",
 ) -> core.MarkGeometry:
     """The mark's geometry; ``r`` (an array: one problem per range, problem i named
-    ``where(i)``) replaces ``mark.r``."""
-    _own_covariances(mark, np.array([mark.r]) if r is None else r, where)
-    return core.mark_geometry(
-        mark.r if r is None else r,
-        math.radians(mark.az_deg),
-        mark.sigma_r,
-        math.radians(mark.sigma_az_deg),
-        tau,
-        mark.sigma_r2,
-        None if mark.sigma_az2_deg is None else math.radians(mark.sigma_az2_deg),
-    )
+    ``where(i)``) replaces ``mark.r``.
+
+    Each mark's own covariance is checked (:func:`_own_covariances`) before core's
+    errors: core computes both covariances (P1, P2) with the same arithmetic, so the
+    geometry is built first and its P1, P2 checked in one compiled pass; only when that
+    or core refuses does the per-mark check run, to raise the error it always raised."""
+    ranges = np.array([mark.r]) if r is None else r
+    try:
+        geometry = core.mark_geometry(
+            mark.r if r is None else r,
+            math.radians(mark.az_deg),
+            mark.sigma_r,
+            math.radians(mark.sigma_az_deg),
+            tau,
+            mark.sigma_r2,
+            None if mark.sigma_az2_deg is None else math.radians(mark.sigma_az2_deg),
+        )
+    except PlotgateError:
+        _own_covariances(mark, ranges, where)
+        raise
+    try:
+        core.check_covariance(np.concatenate([geometry.P1, geometry.P2]))
+    except PlotgateError:
+        _own_covariances(mark, ranges, where)
+    return geometry
 
 
 def _velocity(speed: float | np.ndarray, course_deg: float) -> np.ndarray:

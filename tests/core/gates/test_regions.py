@@ -69,3 +69,35 @@ def test_form_is_the_gates_test(gate):
 
 def test_rectangle_has_no_form():
     assert RectangularGate(3.0).region(geometry()).form is None
+
+
+@pytest.mark.parametrize("second", [False, True], ids=["same-sigmas", "own-sigmas"])
+def test_one_mark_of_floats_is_the_array_geometry_to_the_bit(second):
+    """A mark of Python floats (a request's) takes the scalar path; it builds the geometry
+    the array path does, bit for bit, field by field."""
+    rng = np.random.default_rng(33)
+    for _ in range(200):
+        r, az = float(rng.uniform(100.0, 2e5)), float(rng.uniform(-7.0, 7.0))
+        sigma_r, sigma_az = float(rng.uniform(0.1, 500.0)), float(rng.uniform(1e-5, 0.05))
+        extra = (float(rng.uniform(0.1, 500.0)), float(rng.uniform(1e-5, 0.05)))
+        tau = float(rng.uniform(0.1, 10.0))
+        extra = extra if second else (None, None)
+        fast = mark_geometry(r, az, sigma_r, sigma_az, tau, *extra)
+        slow = mark_geometry(np.array(r), az, sigma_r, sigma_az, tau, *extra)
+        for name in (
+            "r",
+            "az",
+            "sigma_r1",
+            "sigma_az1",
+            "sigma_r2",
+            "sigma_az2",
+            "z1",
+            "P1",
+            "P2",
+        ):
+            a, b = getattr(fast, name), getattr(slow, name)
+            assert a.shape == b.shape and a.dtype == b.dtype
+            np.testing.assert_array_equal(a, b, strict=True)
+        for a, b in zip(fast.B, slow.B, strict=True):
+            np.testing.assert_array_equal(a, b, strict=True)
+        assert fast.tau == slow.tau
