@@ -119,6 +119,21 @@ BENCHES: tuple[Bench, ...] = (
         QUICK,
         ("initiation.logic", "initiation.polar", "initiation.stonesoup"),
     ),
+    Bench(
+        "bench/bench_existence.py",
+        ("--clutter", "250", "--runs", "500", "--score"),
+        QUICK,
+        ("existence.clutter250",),
+    ),
+    Bench("bench/bench_identification.py", ("--no-png",), QUICK, ("identification.picture",)),
+    Bench("bench/bench_replay_start.py", (), QUICK, ("replay_start.first_exchange",)),
+    Bench("bench/bench_lanes.py", (), QUICK, ("lanes.small_behind_large",)),
+    Bench(
+        "bench/bench_live_subscribers.py",
+        (),
+        QUICK,
+        ("live_subscribers.memory", "live_subscribers.p50"),
+    ),
 )
 """The benches of the front table, in its order."""
 
