@@ -4,7 +4,7 @@ Run from the repository root::
 
     python bench/bench_initiation.py                    # 500 runs, Stone Soup too (~4 min)
     python bench/bench_initiation.py --runs 50 --no-stonesoup --max-plots 10000
-    python bench/bench_initiation.py --quick    # 10 runs, best of 1 (CI; ~20 s)
+    python bench/bench_initiation.py --quick    # 5 runs, to 10^4 plots, best of 1 (CI)
 
 1. Mu et al.'s evaluation: 5 ground targets at 25 m/s, radar at the
    origin, a 15 km square, P_D 0.8, sigma_r 5 m, sigma_az 0.2 deg, 1 s scans, Poisson
@@ -202,11 +202,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--repeats", type=int, default=3, help="best of this many (3)")
     parser.add_argument(
-        "--quick", action="store_true", help="10 runs and best of 1 (CI; every path, 10^5 plots)"
+        "--quick", action="store_true", help="5 runs, to 10^4 plots, best of 1 (CI; every path)"
     )
     args = parser.parse_args(argv)
     if args.quick:
-        args.runs, args.repeats = 10, 1
+        args.runs, args.repeats, args.max_plots = 5, 1, 10_000
     if args.stonesoup and importlib.util.find_spec("stonesoup") is None:
         print('note: Stone Soup is not installed (pip install -e ".[bench]"): its rows skipped')
         args.stonesoup = False

@@ -12,7 +12,7 @@ The aim (issue 35): with 300 subscribers the publisher grows at most 150 MB and 
 clients' p50 stays under 100 ms.
 
     nice .venv/bin/python bench/bench_live_subscribers.py --subscribers 300 --requests 2000
-    python bench/bench_live_subscribers.py --quick     # 20 subscribers, 200 requests (CI)
+    python bench/bench_live_subscribers.py --quick     # 10 subscribers, 100 requests (CI)
 
 Ends with the ``SUMMARY`` lines of the front table (bench/README.md): the publisher's growth
 and the HTTP p50 against the aims (judged at 300 subscribers only).
@@ -66,10 +66,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--subscribers", type=int, default=300)
     parser.add_argument("--requests", type=int, default=2000)
-    parser.add_argument("--quick", action="store_true", help="20 subscribers, 200 requests (CI)")
+    parser.add_argument("--quick", action="store_true", help="10 subscribers, 100 requests (CI)")
     args = parser.parse_args()
     if args.quick:
-        args.subscribers, args.requests = 20, 200
+        args.subscribers, args.requests = 10, 100
     port = free_port()
     env = {"PLOTGATE_LIVE_MAX_CLIENTS": str(args.subscribers + 10)}
     with (

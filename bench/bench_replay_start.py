@@ -10,7 +10,7 @@ each run is paired with one of that tree, in the same minutes: on a shared machi
 ratio is the figure to keep. The numba cache of each tree is warmed first.
 
     python bench/bench_replay_start.py [--exchanges 10 --repeat 5 --tree ../main]
-    python bench/bench_replay_start.py --quick     # 2 runs (CI)
+    python bench/bench_replay_start.py --quick     # 1 run (CI)
 
 Ends with the ``SUMMARY`` line of the front table (bench/README.md): this tree's median
 seconds to the first exchange (and, with ``--tree``, the ratio to the other tree's).
@@ -92,10 +92,10 @@ def main() -> None:
     parser.add_argument("--exchanges", type=int, default=10)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--tree", type=Path, help="another checkout to pair each run with")
-    parser.add_argument("--quick", action="store_true", help="2 runs (CI)")
+    parser.add_argument("--quick", action="store_true", help="1 run (CI)")
     args = parser.parse_args()
     if args.quick:
-        args.repeat = 2
+        args.repeat = 1
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "recording"
         record(folder, args.exchanges)

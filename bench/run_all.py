@@ -134,6 +134,19 @@ BENCHES: tuple[Bench, ...] = (
         QUICK,
         ("live_subscribers.memory", "live_subscribers.p50"),
     ),
+    Bench(
+        "bench/bench_bodies.py",
+        (),
+        QUICK,
+        ("bodies.healthz", "bodies.peak_rss", "bodies.half_sent"),
+    ),
+    Bench(
+        "bench/bench_worst_requests.py",
+        (),
+        QUICK,
+        ("worst_requests.cpu", "worst_requests.memory"),
+        timeout_s=3600.0,
+    ),
 )
 """The benches of the front table, in its order."""
 
