@@ -201,14 +201,17 @@ def run(bench: Bench, quick: bool, root: Path = ROOT) -> Outcome:
     argv = [sys.executable, *bench.command(quick)[1:]]
     timeout = QUICK_TIMEOUT_S if quick else bench.timeout_s
     start = time.perf_counter()
-    proc = subprocess.Popen(
-        argv,
-        cwd=root,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
+    try:
+        proc = subprocess.Popen(
+            argv,
+            cwd=root,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
+    except OSError as error:
+        return Outcome(bench, [], 0.0, f"did not start: {error}")
     try:
         stdout, stderr = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:

@@ -197,3 +197,10 @@ def test_every_bench_exists_and_takes_quick(bench):
     )
     assert done.returncode == 0, done.stderr
     assert "--quick" in done.stdout
+
+
+def test_a_bench_that_cannot_start_is_a_failure_not_a_traceback(tmp_path, monkeypatch):
+    ok = _fake(tmp_path, "ok", "summary('ok.x')\n", ("ok.x",))
+    monkeypatch.setattr(sys, "executable", str(tmp_path / "no-python"))
+    outcome = run_all.run(ok, quick=True, root=tmp_path)
+    assert outcome.failure is not None and outcome.failure.startswith("did not start:")
