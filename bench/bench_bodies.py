@@ -13,6 +13,11 @@ For each server (this checkout, and ``--before DIR``: another checkout of plotga
    plus 3 s, how many the server still holds open.
 
     python bench/bench_bodies.py [--before DIR] [--half-sent 2000]
+    python bench/bench_bodies.py --quick     # no legal body, 100 half-sent connections (CI)
+
+Ends with the ``SUMMARY`` lines of the front table (bench/README.md), for this checkout:
+/healthz's worst wait during the absurd bodies, the peak RSS against the body size, and the
+half-sent connections still held.
 """
 
 import argparse
@@ -121,7 +126,9 @@ def _legal_body() -> bytes:
     ).encode()
 
 
-def _run(name: str, src: Path, half_sent: int) -> None:
+def _run(name: str, src: Path, half_sent: int, legal: bool = True) -> dict[str, float]:
+    """Print the server's table; return its figures (the worst /healthz wait in ms over the
+    absurd bodies, the peak RSS in MiB and as a multiple of the body size, held bodies)."""
     with (
         tempfile.TemporaryDirectory() as tmp,
         serve(
@@ -134,40 +141,76 @@ def _run(name: str, src: Path, half_sent: int) -> None:
         print(f"\n### {name} ({src})\n")
         print("| body | MiB | status | answered in, s | /healthz worst, ms | p99, ms |")
         print("|---|---:|---:|---:|---:|---:|")
-        sizes = []
+        sizes, worsts = [], []
         for shape, (body, _) in SHAPES.items():
             status, took, worst, p99 = _post_timed(url, body, Path(tmp))
             sizes.append(len(body))
+            worsts.append(worst)
             print(
                 f"| {shape} | {len(body) / 2**20:.0f} | {status} | {took:.2f} | "
                 f"{worst:.0f} | {p99:.0f} |"
             )
         peak = _peak_mib(proc.pid)
-        legal = _legal_body()
-        status, took, worst, p99 = _post_timed(url, legal, Path(tmp))
-        print(
-            f"| legal: 100,000 candidates | {len(legal) / 2**20:.1f} | {status} | "
-            f"{took:.2f} | {worst:.0f} | {p99:.0f} |"
-        )
+        if legal:
+            body = _legal_body()
+            status, took, worst, p99 = _post_timed(url, body, Path(tmp))
+            print(
+                f"| legal: 100,000 candidates | {len(body) / 2**20:.1f} | {status} | "
+                f"{took:.2f} | {worst:.0f} | {p99:.0f} |"
+            )
         print(
             f"\npeak RSS over the absurd bodies: {peak:.0f} MiB = "
             f"{peak * 2**20 / statistics.mean(sizes):.1f} x the body size"
         )
         print(f"peak RSS after the legal body too: {_peak_mib(proc.pid):.0f} MiB")
+        held = _held(url, half_sent) if half_sent else 0
         if half_sent:
-            print(f"half-sent bodies still held 5 s later: {_held(url, half_sent)} of {half_sent}")
+            print(f"half-sent bodies still held 5 s later: {held} of {half_sent}")
+    ratio = peak * 2**20 / statistics.mean(sizes)
+    return {"worst_ms": max(worsts), "peak_mib": peak, "ratio": ratio, "held": held}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--before", type=Path, help="an older plotgate checkout to compare")
     parser.add_argument("--half-sent", type=int, default=2000)
+    parser.add_argument(
+        "--quick", action="store_true", help="no legal body, 100 half-sent connections (CI)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.half_sent = 100
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, max(soft, 4 * args.half_sent)), hard))
-    if args.before is not None:
-        _run("before", args.before.resolve(), args.half_sent)
-    _run("after", ROOT, args.half_sent)
+    before = None if args.before is None else _run("before", args.before.resolve(), args.half_sent)
+    after = _run("after", ROOT, args.half_sent, legal=not args.quick)
+    print()
+    peer = f"the checkout {args.before}, same run" if before else "—"
+
+    def vs(key: str, unit: str) -> str:
+        return f"{after[key]:.{1 if unit == 'x' else 0}f}{unit}" + (
+            f" (peer {before[key]:.{1 if unit == 'x' else 0}f}{unit})" if before else ""
+        )
+
+    absurd = f"{len(SHAPES)} absurd bodies of about 60 MiB posted to a live server"
+    summary("bodies.healthz", absurd + ": GET /healthz's worst wait", peer, vs("worst_ms", " ms"),
+            "—", None)  # fmt: skip
+    summary("bodies.peak_rss", absurd + ": the server's peak RSS over the body size", peer,
+            vs("ratio", "x"), "—", None)  # fmt: skip
+    summary(
+        "bodies.half_sent",
+        f"{args.half_sent} connections that send half a body: held 5 s after the 2 s deadline",
+        peer,
+        vs("held", ""),
+        "0",
+        after["held"] == 0,
+    )
+
+
+def summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bool | None) -> None:
+    """One front-table row of bench/README.md, as bench/run_all.py reads it."""
+    fields = {"workload": workload, "peer": peer, "measured": measured, "aim": aim, "met": met}
+    print("SUMMARY " + json.dumps({"row": row, **fields}))
 
 
 if __name__ == "__main__":

@@ -6,13 +6,14 @@ Run from the repository root::
     python bench/bench_curves.py --runs 50 --seeds 11 --clutter 250      # quick
     python bench/bench_curves.py --curves score --clutter 250   # only the curves named so
     python bench/bench_curves.py --plot-only          # redraw from bench/results
+    python bench/bench_curves.py --runs 5 --seeds 11 --clutter 250 --out /tmp/c.json --no-figure
 
 Each curve is one :func:`plotgate.core.initiation.evaluate.sweep` per seed: the same runs
 (run r of seed s simulates ``mu_scenario(clutter)`` with ``SeedSequence(s).spawn(runs)[r]``)
 under every value of one setting, scored by plot labels (a confirmed track is true when
 more than half of its plots come from one target, each target once; every other confirmed
 track is false). The seeds are the held-out report seeds, :data:`HELD_OUT`, never the
-tuning seeds :data:`TUNING` (bench/README.md, "Track initiation on held-out seeds"): each
+tuning seeds :data:`TUNING` (bench/HISTORY.md, "Track initiation on held-out seeds"): each
 point pools their runs, its standard error the sample standard deviation over the pooled
 runs over their square root. The curves:
 
@@ -297,6 +298,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plot-only", action="store_true", help="redraw from bench/results")
     parser.add_argument("--out", type=Path, default=RESULTS / "curves.json")
     parser.add_argument("--figure", type=Path, default=ROOT / "docs/figures/initiation_curves.png")
+    parser.add_argument("--no-figure", dest="figure", action="store_const", const=None)
     args = parser.parse_args(argv)
     seeds = [int(s) for s in args.seeds.split(",")]
     if set(seeds) & set(TUNING):
@@ -318,8 +320,9 @@ def main(argv: list[str] | None = None) -> int:
     print(table(rows, stone))
     print()
     print(dominated(rows, stone))
-    figure(rows, stone, args.figure)
-    print(f"\nfigure: {args.figure}")
+    if args.figure is not None:
+        figure(rows, stone, args.figure)
+        print(f"\nfigure: {args.figure}")
     return 0
 
 

@@ -12,9 +12,14 @@ The aim (issue 35): with 300 subscribers the publisher grows at most 150 MB and 
 clients' p50 stays under 100 ms.
 
     nice .venv/bin/python bench/bench_live_subscribers.py --subscribers 300 --requests 2000
+    python bench/bench_live_subscribers.py --quick     # 10 subscribers, 100 requests (CI)
+
+Ends with the ``SUMMARY`` lines of the front table (bench/README.md): the publisher's growth
+and the HTTP p50 against the aims (judged at 300 subscribers only).
 """
 
 import argparse
+import json
 import re
 import statistics
 import sys
@@ -29,6 +34,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from plotgate.service.table import ENDPOINTS  # noqa: E402
 from tests.support.live_clients import stalled_subscriber  # noqa: E402
 from tests.support.servers import free_port, serve  # noqa: E402
+
+AIM_SUBSCRIBERS, AIM_GROWTH_MB, AIM_P50_MS = 300, 150, 100
+"""Issue 35's aim: with 300 stalled subscribers, growth and p50 within these."""
 
 
 def _publisher(server_pid: int) -> int:
@@ -58,7 +66,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--subscribers", type=int, default=300)
     parser.add_argument("--requests", type=int, default=2000)
+    parser.add_argument("--quick", action="store_true", help="10 subscribers, 100 requests (CI)")
     args = parser.parse_args()
+    if args.quick:
+        args.subscribers, args.requests = 10, 100
     port = free_port()
     env = {"PLOTGATE_LIVE_MAX_CLIENTS": str(args.subscribers + 10)}
     with (
@@ -91,6 +102,31 @@ def main() -> None:
         f"| {_metric(metrics, 'plotgate_foxglove_client_dropped_total'):.0f} "
         f"| {_metric(metrics, 'plotgate_foxglove_published_total'):.0f} |"
     )
+    judged = args.subscribers == AIM_SUBSCRIBERS
+    workload = f"{args.subscribers} stalled live view subscribers, {args.requests} gate tests"
+    print()
+    summary(
+        "live_subscribers.memory",
+        workload + ": the publisher's growth",
+        "—",
+        f"{peak - before:.0f} MB",
+        f"<= {AIM_GROWTH_MB} MB at {AIM_SUBSCRIBERS}",
+        peak - before <= AIM_GROWTH_MB if judged else None,
+    )
+    summary(
+        "live_subscribers.p50",
+        workload + ": the HTTP client's p50",
+        "—",
+        f"{quantiles[49] * 1e3:.2f} ms",
+        f"< {AIM_P50_MS} ms at {AIM_SUBSCRIBERS}",
+        quantiles[49] * 1e3 < AIM_P50_MS if judged else None,
+    )
+
+
+def summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bool | None) -> None:
+    """One front-table row of bench/README.md, as bench/run_all.py reads it."""
+    fields = {"workload": workload, "peer": peer, "measured": measured, "aim": aim, "met": met}
+    print("SUMMARY " + json.dumps({"row": row, **fields}))
 
 
 if __name__ == "__main__":

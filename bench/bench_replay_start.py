@@ -10,9 +10,14 @@ each run is paired with one of that tree, in the same minutes: on a shared machi
 ratio is the figure to keep. The numba cache of each tree is warmed first.
 
     python bench/bench_replay_start.py [--exchanges 10 --repeat 5 --tree ../main]
+    python bench/bench_replay_start.py --quick     # 1 run (CI)
+
+Ends with the ``SUMMARY`` line of the front table (bench/README.md): this tree's median
+seconds to the first exchange (and, with ``--tree``, the ratio to the other tree's).
 """
 
 import argparse
+import json
 import statistics
 import subprocess
 import sys
@@ -87,7 +92,10 @@ def main() -> None:
     parser.add_argument("--exchanges", type=int, default=10)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--tree", type=Path, help="another checkout to pair each run with")
+    parser.add_argument("--quick", action="store_true", help="1 run (CI)")
     args = parser.parse_args()
+    if args.quick:
+        args.repeat = 1
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "recording"
         record(folder, args.exchanges)
@@ -108,6 +116,25 @@ def main() -> None:
         for column in zip(*times, strict=True):
             cells.append(f"{statistics.median(column):.2f} [{min(column):.2f}-{max(column):.2f}]")
         print(f"{name:<28}{cells[0]:<21}{cells[1]:<18}{cells[2]}")
+    first = {name: statistics.median(t[0] for t in times) for name, times in runs.items()}
+    ours = first.pop("this tree")
+    other = next(iter(first.items()), None)
+    print()
+    summary(
+        "replay_start.first_exchange",
+        f"`plotgate replay` of {args.exchanges} gates.test exchanges: first exchange answered,"
+        f" fresh interpreter, warm cache, median of {args.repeat}",
+        f"the tree {other[0]}, same minutes" if other else "—",
+        f"{ours:.2f} s" + (f", {ours / other[1]:.2f}x the peer" if other else ""),
+        "—",
+        None,
+    )
+
+
+def summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bool | None) -> None:
+    """One front-table row of bench/README.md, as bench/run_all.py reads it."""
+    fields = {"workload": workload, "peer": peer, "measured": measured, "aim": aim, "met": met}
+    print("SUMMARY " + json.dumps({"row": row, **fields}))
 
 
 if __name__ == "__main__":

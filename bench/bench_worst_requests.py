@@ -17,6 +17,11 @@ under ``TIME_BUDGET_S`` (10 s on one core) and ``MEMORY_BUDGET_MIB``; the last t
 names each operation's slowest accepted request.
 
     python bench/bench_worst_requests.py [--only OPERATION ...] [--no-limits]
+    python bench/bench_worst_requests.py --quick   # every body built, gates.test's measured
+
+A full run (every operation, the caps in force) ends with the ``SUMMARY`` lines of the front
+table (bench/README.md): the slowest accepted request's CPU time and the largest one's peak
+RSS against the budgets.
 
 ``--no-limits`` runs the same requests without the caps (the schema's bounds alone): on a
 build without default caps, or to see what a cap saves. A request the caps refuse shows its
@@ -128,7 +133,7 @@ GATES: dict[str, Body] = {
     "expanded": {"kind": "expanded"},
     "first_association": {"kind": "first_association"},
 }
-"""The gate kinds whose unconditional probability costs most (bench/README.md)."""
+"""The gate kinds whose unconditional probability costs most (bench/HISTORY.md)."""
 
 PRIORS: dict[str, tuple[float, float, str, float]] = {
     "paper's prior": (5.0, 100.0, "area", 500.0),
@@ -140,7 +145,7 @@ ring far wider than B costs more grading levels)."""
 
 def _unconditional(name: str, kind: str, prior: str) -> Candidate:
     """The operation's example with ``kind``'s gate over ``prior``, sigma_r cut until B's
-    axis ratio reaches the cap (default: 30, the seconds of bench/README.md's axis-ratio
+    axis ratio reaches the cap (default: 30, the seconds of bench/HISTORY.md's axis-ratio
     table, when no cap is set)."""
 
     def build() -> tuple[str, Body]:
@@ -322,7 +327,7 @@ def _simulate() -> tuple[str, Body]:
 
 
 SCORE = json.loads((ROOT / "docs/examples/score_initiation.json").read_text())
-"""The README's score configuration (Mu et al.'s scenario, bench/README.md)."""
+"""The README's score configuration (Mu et al.'s scenario, bench/HISTORY.md)."""
 
 
 def _evaluation(
@@ -506,6 +511,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", nargs="*", help="operations to run (default: all)")
     parser.add_argument("--no-limits", action="store_true", help="run without the caps")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="build every request (the bisections against the caps) but run only gates.test's",
+    )
     args = parser.parse_args()
     header = (
         "| operation | request | body | status | wall s | CPU s | peak RSS MiB |\n"
@@ -514,11 +524,15 @@ def main() -> None:
     )
     print(header)
     slowest: dict[str, tuple[float, str]] = {}
+    accepted: list[tuple[str, dict[str, Any]]] = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, build in WORST:
             if args.only and name not in args.only:
                 continue
             label, body = build()
+            if args.quick and name != WORST[0][0]:
+                print(f"| {name} | {label} | built, not run (--quick) |", flush=True)
+                continue
             r = _measure(name, body, args.no_limits, Path(tmp))
             row = _row(name, label, r)
             print(row, flush=True)
@@ -526,6 +540,8 @@ def main() -> None:
                 print(f"<!-- {name}: {r['detail']} -->", file=sys.stderr, flush=True)
             if r["status"] == 200 and r["seconds"] > slowest.get(name, (-1.0, ""))[0]:
                 slowest[name] = (r["seconds"], row)
+            if r["status"] == 200:
+                accepted.append((f"{name}, {label}", r))
     print(
         f"\nThe slowest accepted request of each operation (budget: {TIME_BUDGET_S:g} s, "
         f"{MEMORY_BUDGET_MIB} MiB):\n"
@@ -533,6 +549,39 @@ def main() -> None:
     print(header)
     for _, row in slowest.values():
         print(row)
+    if accepted:
+        print()
+        report(accepted, judged=not (args.quick or args.only or args.no_limits))
+
+
+def report(accepted: list[tuple[str, dict[str, Any]]], judged: bool) -> None:
+    """The SUMMARY lines: the most CPU and the most memory of the accepted requests; the
+    budgets judged only for a full run with the caps in force."""
+    workload = f"the {len(accepted)} accepted worst requests of the operations"
+    cpu_label, cpu = max(accepted, key=lambda a: a[1]["cpu"])
+    mib_label, mib = max(accepted, key=lambda a: a[1]["peak_kib"])
+    summary(
+        "worst_requests.cpu",
+        workload + ", each in a fresh process: the most CPU",
+        "—",
+        f"{cpu['cpu']:.1f} s ({cpu_label})",
+        f"<= {TIME_BUDGET_S:g} s",
+        cpu["cpu"] <= TIME_BUDGET_S if judged else None,
+    )
+    summary(
+        "worst_requests.memory",
+        workload + ": the highest peak RSS",
+        "—",
+        f"{mib['peak_kib'] / 1024:.0f} MiB ({mib_label})",
+        f"<= {MEMORY_BUDGET_MIB} MiB",
+        mib["peak_kib"] / 1024 <= MEMORY_BUDGET_MIB if judged else None,
+    )
+
+
+def summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bool | None) -> None:
+    """One front-table row of bench/README.md, as bench/run_all.py reads it."""
+    fields = {"workload": workload, "peer": peer, "measured": measured, "aim": aim, "met": met}
+    print("SUMMARY " + json.dumps({"row": row, **fields}))
 
 
 if __name__ == "__main__":

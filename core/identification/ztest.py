@@ -19,7 +19,7 @@ Beyond the paper:
   beta = Phi(z - delta sqrt(m) / sigma) - Phi(-z - delta sqrt(m) / sigma), and the
   smallest m with beta <= beta_max; the pair test evaluates both with the passive mean's
   own error included (Z ~ N(delta sqrt(m) / sigma, 1 + m / n)), which the paper's n >> m
-  neglects and a Monte Carlo confirms (bench/README.md);
+  neglects and a Monte Carlo confirms (bench/HISTORY.md);
 * the paper's conditions as numbers: n / m against a wanted ratio, and the Shapiro-Wilk
   test of the passive deviations (``scipy.stats.shapiro``) with its p-value;
 * elevations, optionally: each coordinate is tested at alpha / k (Bonferroni, k = 1 or 2

@@ -30,7 +30,7 @@ EVALUATION_WORK_CAP = 1_200_000
 CLUSTER_EVALUATION_WORK = 200_000_000
 """Its ceiling on a cluster of any size: about 18 core-minutes of work. What the service
 gathers is one score a run and rule, at most 10^4 runs x 51 rules (the schema's bounds),
-a few hundred bytes each; the plots stay on the workers (``bench/README.md`` measures the
+a few hundred bytes each; the plots stay on the workers (``bench/HISTORY.md`` measures the
 service's peak RSS during a 10^4-run evaluation on a cluster)."""
 
 

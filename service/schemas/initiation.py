@@ -78,7 +78,7 @@ CONFIRMATION_COST = {"k_of_m": 1.0, "score": 2.0, "existence": 2.0}
 """The cost of a plot under each confirmation rule, relative to k/m. The score path (its
 maximum-likelihood gates, every plot no confirmed track holds an initiator living out its
 window) took 1.73-2.00x the k/m path's time a run, Mu et al.'s scenario at clutter 250 with
-the README's score configuration (bench/README.md, issue 35). Existence (IPDA) weighs every
+the README's score configuration (bench/HISTORY.md, issue 35). Existence (IPDA) weighs every
 plot of every tentative track's gate and mixes the updates: 12.7 us a plot against k/m's
 7.0 (one core, a loaded machine, 200 runs at clutter 250), 1.8x, rounded up (issue 38)."""
 MAX_SPEED = 1e6

@@ -50,7 +50,7 @@ __all__ = [
 ]
 
 MAX_STATE_TRACKS = 20_000
-"""Most tracks one state carries (bench/README.md: one call at the ceiling)."""
+"""Most tracks one state carries (bench/HISTORY.md: one call at the ceiling)."""
 MAX_HISTORY_CELLS = 160_000
 """Most plot-history cells (tracks x history) one state carries: at history 8, 20,000
 tracks; at history 64, 2,500 (the plot-reuse rules key every pair of a track's plots)."""

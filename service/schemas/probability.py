@@ -394,7 +394,7 @@ def unconditional_axis_ratio(
 
     The unconditional quadrature grades its panels towards the thin features of an
     eccentric B, so its cost grows steeply with the ratio (about 0.1 s at 2, seconds at
-    20, minutes at 10^3 and beyond; ``bench/README.md``); conditional probabilities and
+    20, minutes at 10^3 and beyond; ``bench/HISTORY.md``); conditional probabilities and
     areas cost milliseconds at any ratio.
     """
     if request.prior is None:

@@ -25,7 +25,7 @@ work sizes, so driving a work-size field (Monte Carlo ``runs``, ``scenario.scans
 for minutes; the gating probability operations cap ``mark.axis_ratio``, the
 eccentricity of the marks' error ellipse that sets the cost of the unconditional
 quadrature (0.1 s at the paper's ratio of 2, seconds at 20, minutes at the 10^5 the
-sigmas' bounds allow; ``bench/README.md``). The mark's fields still reach their bounds
+sigmas' bounds allow; ``bench/HISTORY.md``). The mark's fields still reach their bounds
 in every operation's conditional or area-only variant, which costs milliseconds at any
 ratio; a run without the caps is in docs/reliability.md.
 
