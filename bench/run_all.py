@@ -88,9 +88,9 @@ BENCHES: tuple[Bench, ...] = (
         ready=False,
     ),
     Bench("bench/bench_record_writers.py", (), QUICK, ("record_writers.commit",), ready=False),
-    Bench("bench/bench_reading.py", (), QUICK, ("reading.inspect",), ready=False),
-    Bench("bench/bench_replay.py", (), QUICK, ("replay.in_process",), ready=False),
-    Bench("bench/bench_view.py", (), QUICK, ("view.vs_reading",), ready=False),
+    Bench("bench/bench_reading.py", (), QUICK, ("reading",)),
+    Bench("bench/bench_replay.py", (), QUICK, ("replay",)),
+    Bench("bench/bench_view.py", (), QUICK, ("view-vs-read",)),
     Bench("bench/bench_multistatic.py", (), QUICK, ("multistatic.single_shot",), ready=False),
     Bench(
         "bench/bench_solver_aims.py",
@@ -104,14 +104,24 @@ BENCHES: tuple[Bench, ...] = (
         (),
         QUICK,
         (
-            "probability.conditional",
-            "probability.ring",
-            "probability.combined",
-            "probability.expanded",
+            "probability.conditional.handler",
+            "probability.conditional.core",
+            *(
+                f"probability.unconditional.konovalov.{k}"
+                for k in ("ring", "combined", "expanded")
+            ),
+            *(
+                f"probability.unconditional.axis26.{k}"
+                for k in ("ring", "combined", "expanded", "ellipse", "first_association")
+            ),
         ),
-        ready=False,
     ),
-    Bench("bench/bench_axis_ratio.py", (), QUICK, ("axis_ratio.26",), ready=False),
+    Bench(
+        "bench/bench_axis_ratio.py",
+        (),
+        QUICK,
+        tuple(f"axis_ratio.26.{k}" for k in ("ring", "combined", "expanded", "first_association")),
+    ),
     Bench("bench/bench_gates.py", (), QUICK, ("gates.EllipseGate", "gates.CombinedGate")),
     Bench(
         "bench/bench_initiation.py",
