@@ -129,7 +129,7 @@ def summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bo
         "peer": peer,
         "measured": measured,
         "aim": aim,
-        "met": met,
+        "met": None if met is None else bool(met),
     }
     return "SUMMARY " + json.dumps(fields)
 

@@ -30,6 +30,7 @@ import numba
 __all__ = ["ARRAY_1D", "ARRAY_2D", "ARRAY_3D", "kernel", "record", "rule", "tuple_of"]
 
 _types: Any = numba.types  # numba's type constructors are untyped
+_njit: Any = numba.njit  # its stubs do not list the _nrt option
 
 ARRAY_1D = numba.float64[::1]
 """numba type of a C-contiguous float64 vector."""
@@ -91,7 +92,7 @@ def kernel(
             return s
     """
     # a Dispatcher calls like the function it compiles; the kernels are typed as that function
-    jit = numba.njit(
+    jit = _njit(
         signature,
         cache=True,
         nogil=True,
