@@ -79,8 +79,8 @@ def kernel(
     numba's own tests set): no reference is counted for the arrays the kernel reads,
     slices or passes on, and it cannot allocate one. For a kernel taking only arrays
     its caller allocated, called once per problem of a batch: the atomic counts of its
-    records' arrays cost the fused single shot a third of its time. Kernels it calls
-    keep their own runtime.
+    records' arrays cost the fused single shot about a fifth of its time (0.6-0.7 us of
+    2.2-3.5 us a solve). Kernels it calls keep their own runtime.
 
     A kernel is a module-level function (numba caches by source file)::
 
