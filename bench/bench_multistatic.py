@@ -3,7 +3,7 @@
 Run from the repository root::
 
     python bench/bench_multistatic.py                  # 10^4 problems, 20 tracks
-    python bench/bench_multistatic.py --size 1000 --tracks 3 --trap-runs 100   # quick
+    python bench/bench_multistatic.py --quick          # CI: 10^3 problems, 3 tracks
     python bench/bench_multistatic.py --trap-only      # the initial-guess trap alone
 
 Problems come from the accuracy study's scenario (``clients.study.DEFAULT_REQUEST``, run
@@ -43,12 +43,15 @@ better-conditioned geometry where Gauss-Newton needs fewer steps.
   the five calls in the same run (scipy's: one pass).
   The script exits 1 when anything after is trapped.
 
-The ratio columns are scipy's time over core's (above 1: core is faster). Prints markdown.
+The ratio columns are scipy's time over core's (above 1: core is faster). Prints markdown,
+then one ``SUMMARY`` line per front-table row (bench/README.md): single shot on each batch
+(lm over ml_solve on one thread), trajectory from its own and from a given start (over lm).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import platform
 import sys
 import time
@@ -165,7 +168,8 @@ def scipy_batch(
 
 def single_shot(
     name: str, sc: Scenario, size: int, repeats: int, rng: np.random.Generator
-) -> list[str]:
+) -> tuple[list[str], float]:
+    """The batch's rows, and lm's time over ml_solve's on one thread."""
     ls, tx, rx, _ = problems(sc, size, rng)
     sol = ml_solve(ls, tx, rx, SIGMA)
     core_s = best_time(lambda: ml_solve(ls, tx, rx, SIGMA), repeats)
@@ -212,10 +216,12 @@ def single_shot(
         f"| {name} | Gauss-Newton alone, numpy reference | {numpy_s * 1e6 / size:.2f} "
         f"| {size / numpy_s:,.0f} | — | {np.mean(ref.iterations):.1f} | — |",
     ]
+    lm_ratio = 0.0
     for method in ("trf", "lm"):
         start = time.perf_counter()
         x = scipy_batch(ls, tx, rx, starts, method)
         s = time.perf_counter() - start + cf_s
+        lm_ratio = s / one_s
         dx = x - sol.x
         sigmas = np.sqrt(np.einsum("ni,nij,nj->n", dx, np.linalg.inv(sol.covariance), dx))
         metres = np.linalg.norm(dx, axis=-1)
@@ -226,7 +232,7 @@ def single_shot(
             f"max {metres.max():.1g} m = {sigmas.max():.1g} sigma; "
             f"{(sigmas > 0.1).sum()} beyond 0.1 sigma |"
         )
-    return rows
+    return rows, lm_ratio
 
 
 def line_start(sc: Scenario, ls: np.ndarray) -> np.ndarray:
@@ -237,7 +243,10 @@ def line_start(sc: Scenario, ls: np.ndarray) -> np.ndarray:
     return np.concatenate([icpt, slope])
 
 
-def trajectory(sc: Scenario, tracks: int, repeats: int, rng: np.random.Generator) -> list[str]:
+def trajectory(
+    sc: Scenario, tracks: int, repeats: int, rng: np.random.Generator
+) -> tuple[list[str], float, float]:
+    """The trajectory rows, and own start's and given start's time over lm's."""
     tau = sc.t - sc.t[0]
     n_t, p, _ = sc.tx.shape
     clean = range_sums(sc.x, sc.tx, sc.rx)
@@ -298,7 +307,7 @@ def trajectory(sc: Scenario, tracks: int, repeats: int, rng: np.random.Generator
         f"| least_squares lm, same start | {mean['lm'] * 1e3:.2f} | — | — | "
         f"max |state - core| {diffs['lm']:.1e} |",
     ]
-    return rows
+    return rows, mean["core"] / mean["lm"], mean["core_x0"] / mean["lm"]
 
 
 @dataclass(frozen=True)
@@ -415,20 +424,45 @@ def trap(sc: Scenario, runs: int, repeats: int, rng: np.random.Generator) -> tup
     return rows, trapped_after
 
 
-def sections(args: argparse.Namespace, rng: np.random.Generator) -> None:
-    """The single-shot and trajectory tables."""
+def summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bool | None) -> str:
+    """One front-table row, as bench/README.md's protocol prints it (met None: no aim)."""
+    fields = {
+        "row": row,
+        "workload": workload,
+        "peer": peer,
+        "measured": measured,
+        "aim": aim,
+        "met": None if met is None else bool(met),
+    }
+    return "SUMMARY " + json.dumps(fields)
+
+
+def sections(args: argparse.Namespace, rng: np.random.Generator) -> list[str]:
+    """The single-shot and trajectory tables; their SUMMARY lines."""
+    summaries = []
     print(f"\n## Single shot, batch of {args.size:,} problems\n")
     print(
         "| geometry | solver | us per solve | solves / s | scipy / core time "
         "| mean GN iterations | agreement with ml_solve |\n"
         "|---|---|---:|---:|---:|---:|---|"
     )
-    for name, sc in (
-        ("study (forward scatter)", scenario()),
-        ("spread receivers", spread_scenario()),
+    for key, name, sc in (
+        ("study", "study (forward scatter)", scenario()),
+        ("spread", "spread receivers", spread_scenario()),
     ):
-        for row in single_shot(name, sc, args.size, args.repeats, rng):
+        rows, ratio = single_shot(name, sc, args.size, args.repeats, rng)
+        for row in rows:
             print(row)
+        summaries.append(
+            summary(
+                f"multistatic.single_shot.{key}",
+                f"ml_solve, {args.size:,} single-shot problems, {key} batch, one thread, wall",
+                "scipy least_squares lm + the closed-form start, one call a problem",
+                f"{ratio:.1f}x lm",
+                ">= 100x",
+                ratio >= 100.0,
+            )
+        )
     sc = scenario()
     print(
         f"\n## Trajectory, {sc.t.size} samples x 3 range sums, 4 unknowns "
@@ -438,8 +472,32 @@ def sections(args: argparse.Namespace, rng: np.random.Generator) -> None:
         "| solver | ms per solve | trf / core | lm / core | GN iterations / agreement |\n"
         "|---|---:|---:|---:|---|"
     )
-    for row in trajectory(sc, args.tracks, args.repeats, rng):
+    rows, own, given = trajectory(sc, args.tracks, args.repeats, rng)
+    for row in rows:
         print(row)
+    workload = f"trajectory_solve, {sc.t.size} samples x 3 range sums, wall"
+    peer = "scipy least_squares lm from the given start"
+    summaries.append(
+        summary(
+            "multistatic.trajectory.own_start",
+            workload + ", own start",
+            peer,
+            f"{own:.2f}x lm",
+            "<= 0.3x",
+            own <= 0.3,
+        )
+    )
+    summaries.append(
+        summary(
+            "multistatic.trajectory.given_start",
+            workload + ", given start",
+            peer,
+            f"{given:.2f}x lm",
+            "none",
+            None,
+        )
+    )
+    return summaries
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -461,7 +519,14 @@ def main(argv: list[str] | None = None) -> int:
         "--trap-only", action="store_true", help="run the initial-guess trap alone"
     )
     parser.add_argument("--seed", type=int, default=SEED)
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="CI's size: --size 1000 --tracks 3 --trap-runs 100 --repeats 2",
+    )
     args = parser.parse_args(argv)
+    if args.quick:
+        args.size, args.tracks, args.trap_runs, args.repeats = 1000, 3, 100, 2
     if min(args.size, args.tracks, args.repeats, args.trap_runs) < 1:
         parser.error("--size, --tracks, --repeats and --trap-runs must be at least 1")
     rng = np.random.default_rng(args.seed)
@@ -469,8 +534,7 @@ def main(argv: list[str] | None = None) -> int:
         f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy "
         f"{scipy.__version__}, {platform.machine()}"
     )
-    if not args.trap_only:
-        sections(args, rng)
+    summaries = [] if args.trap_only else sections(args, rng)
     print(
         f"\n## Initial guesses {TRAP_OFFSET:.0f} m off on the central baseline (sample "
         f"{CROSS}), {args.trap_runs} runs\n"
@@ -485,6 +549,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     for row in rows:
         print(row)
+    print()
+    for line in summaries:
+        print(line)
     if trapped_after:
         print(f"\n{trapped_after} solves after the change are trapped", file=sys.stderr)
         return 1

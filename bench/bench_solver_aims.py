@@ -1,18 +1,24 @@
-"""Issue 27's two solver aims in one run: CPU time (process_time), one thread, peers alike.
+"""Issue 27's and 40's solver aims in one run: CPU time (process_time), one thread, peers alike.
 
-Run from the repository root (``OPENBLAS_NUM_THREADS=1 python bench/bench_solver_aims.py``):
+Run from the repository root (``OPENBLAS_NUM_THREADS=1 python bench/bench_solver_aims.py``,
+``--quick`` for CI):
 
-* single shot: ``ml_solve`` on the 10^4 study problems of ``bench_multistatic.py`` (same
-  seed) against its numpy reference and against scipy's ``least_squares(method="lm")``,
-  one call a problem from the batched sum-range closed form (whose time is added);
+* single shot: ``ml_solve`` on the two batches of 10^4 problems of
+  ``bench_multistatic.py`` (the same seed and draws, so the same problems): the
+  ``study`` batch (the study's forward-scatter geometry, drawn first) and the ``spread``
+  batch (receivers 2.5 km apart across the track, drawn next), each against its numpy
+  reference and against scipy's ``least_squares(method="lm")``, one call a problem from
+  the batched sum-range closed form (whose time is added);
 * trajectory: ``trajectory_solve`` on the study's 200 samples from its own start and
   from a given start, against ``lm`` from that given start (5 noise draws, mean of the
   least of 15).
 
 CPU time, so a shared machine's waits are not counted; one numba and one BLAS thread, as
-scipy runs.
+scipy runs. Ends with one ``SUMMARY`` line per aim (bench/README.md's front table).
 """
 
+import argparse
+import json
 import sys
 import time
 
@@ -28,6 +34,9 @@ from plotgate.core.multistatic.position import ml_solve_reference  # noqa: E402
 
 numba.set_num_threads(1)
 
+SINGLE_SHOT_AIM = 100.0  # lm's time over ml_solve's, at least
+TRAJECTORY_AIM = 0.3  # own start's time over lm's from the given start, at most
+
 
 def cpu(f, r):
     """Least CPU seconds of r calls."""
@@ -39,25 +48,28 @@ def cpu(f, r):
     return b
 
 
-def single_shot(rng: np.random.Generator) -> str:
-    """ml_solve, its reference and lm on the 10^4 study problems."""
-    ls, tx, rx, _ = bm.problems(bm.scenario(), 10_000, rng)
+def single_shot(
+    name: str, sc: bm.Scenario, size: int, repeats: int, rng: np.random.Generator
+) -> tuple[str, float]:
+    """ml_solve, its reference and lm on one batch: (line, lm / ml_solve)."""
+    ls, tx, rx, _ = bm.problems(sc, size, rng)
     ml_solve(ls, tx, rx, bm.SIGMA)
-    core = cpu(lambda: ml_solve(ls, tx, rx, bm.SIGMA), 7)
+    core = cpu(lambda: ml_solve(ls, tx, rx, bm.SIGMA), repeats)
     ref = cpu(lambda: ml_solve_reference(ls, tx, rx, bm.SIGMA), 2)
     closed = cpu(lambda: sum_range_solve(ls, tx, rx, baseline_tol=5 * bm.SIGMA), 3)
     starts = sum_range_solve(ls, tx, rx, baseline_tol=5 * bm.SIGMA).x
     began = time.process_time()
     bm.scipy_batch(ls, tx, rx, starts, "lm")
     lm = time.process_time() - began + closed
+    us = 1e6 / size
     return (
-        f"single shot, 10^4 study problems: ml_solve {core * 100:.2f} us, "
-        f"ml_solve_reference {ref * 100:.2f} us, lm + closed form {lm * 100:.1f} us; "
+        f"single shot, {size:,} {name} problems: ml_solve {core * us:.2f} us, "
+        f"ml_solve_reference {ref * us:.2f} us, lm + closed form {lm * us:.1f} us; "
         f"lm / ml_solve {lm / core:.1f}x"
-    )
+    ), lm / core
 
 
-def trajectory(rng: np.random.Generator, draws: int = 5) -> str:
+def trajectory(rng: np.random.Generator, draws: int, repeats: int) -> tuple[str, float, float]:
     """trajectory_solve, own start and given start, against lm from the given start."""
     sc = bm.scenario()
     tau = sc.t - sc.t[0]
@@ -68,15 +80,25 @@ def trajectory(rng: np.random.Generator, draws: int = 5) -> str:
         x0 = bm.line_start(sc, ls)
         fun, jac = track_residuals(sc, tau, ls.reshape(-1))
         trajectory_solve(ls, sc.t, sc.tx, sc.rx, bm.SIGMA)
-        own.append(cpu(lambda ls=ls: trajectory_solve(ls, sc.t, sc.tx, sc.rx, bm.SIGMA), 15))
+        own.append(cpu(lambda ls=ls: trajectory_solve(ls, sc.t, sc.tx, sc.rx, bm.SIGMA), repeats))
         given.append(
-            cpu(lambda ls=ls, x0=x0: trajectory_solve(ls, sc.t, sc.tx, sc.rx, bm.SIGMA, x0=x0), 15)
+            cpu(
+                lambda ls=ls, x0=x0: trajectory_solve(ls, sc.t, sc.tx, sc.rx, bm.SIGMA, x0=x0),
+                repeats,
+            )
         )
-        lms.append(cpu(lambda x0=x0, f=fun, j=jac: least_squares(f, x0, jac=j, method="lm"), 15))
+        lms.append(
+            cpu(lambda x0=x0, f=fun, j=jac: least_squares(f, x0, jac=j, method="lm"), repeats)
+        )
     o, g, m = np.mean(own), np.mean(given), np.mean(lms)
     return (
-        f"trajectory, 200 samples: own start {o * 1e3:.3f} ms, given start {g * 1e3:.3f} ms, "
-        f"lm from the given start {m * 1e3:.3f} ms; own / lm {o / m:.2f}, given / lm {g / m:.2f}"
+        (
+            f"trajectory, 200 samples: own start {o * 1e3:.3f} ms, given start {g * 1e3:.3f} ms, "
+            f"lm from the given start {m * 1e3:.3f} ms; "
+            f"own / lm {o / m:.2f}, given / lm {g / m:.2f}"
+        ),
+        o / m,
+        g / m,
     )
 
 
@@ -99,7 +121,71 @@ def track_residuals(sc, tau, flat):
     return fun, jac
 
 
-if __name__ == "__main__":
+def summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bool | None) -> str:
+    """One front-table row, as bench/README.md's protocol prints it (met None: no aim)."""
+    fields = {
+        "row": row,
+        "workload": workload,
+        "peer": peer,
+        "measured": measured,
+        "aim": aim,
+        "met": None if met is None else bool(met),
+    }
+    return "SUMMARY " + json.dumps(fields)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--quick", action="store_true", help="1,000 problems, 2 draws (CI: the same paths)"
+    )
+    args = parser.parse_args(argv)
+    size, repeats, draws = (1_000, 3, 2) if args.quick else (10_000, 7, 5)
     generator = np.random.default_rng(bm.SEED)
-    print(single_shot(generator))
-    print(trajectory(generator))
+    lines, rows = [], []
+    for name, sc in (("study", bm.scenario()), ("spread", bm.spread_scenario())):
+        line, ratio = single_shot(name, sc, size, repeats, generator)
+        lines.append(line)
+        rows.append(
+            summary(
+                f"solvers.single_shot.{name}",
+                f"ml_solve, {size:,} single-shot problems, {name} batch (bench_multistatic's "
+                "draws), one thread, CPU time",
+                "scipy least_squares lm + the closed-form start, one call a problem",
+                f"{ratio:.1f}x lm",
+                f">= {SINGLE_SHOT_AIM:.0f}x",
+                ratio >= SINGLE_SHOT_AIM,
+            )
+        )
+        print(line, flush=True)
+    line, own, given = trajectory(generator, draws, 15 if not args.quick else 5)
+    print(line)
+    workload = "trajectory_solve, 200 samples x 3 range sums, one thread, CPU time"
+    peer = "scipy least_squares lm from the given start (a line through the closed form)"
+    rows.append(
+        summary(
+            "solvers.trajectory.own_start",
+            workload + ", own start",
+            peer,
+            f"{own:.2f}x lm",
+            f"<= {TRAJECTORY_AIM}x",
+            own <= TRAJECTORY_AIM,
+        )
+    )
+    rows.append(
+        summary(
+            "solvers.trajectory.given_start",
+            workload + ", given start",
+            peer,
+            f"{given:.2f}x lm",
+            "none",
+            None,
+        )
+    )
+    for row in rows:
+        print(row)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -61,6 +61,7 @@ from plotgate.core.errors import ParameterError
 from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
     coordinate_scale,
+    copy_into,
     range_sums,
     scale_of,
     validate_problem,
@@ -372,6 +373,52 @@ def sum_range_roots_reference(
     )
 
 
+@kernel("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1])", inline=True)
+def _svd2(
+    M: np.ndarray, U: np.ndarray, V: np.ndarray, S: np.ndarray
+) -> None:  # pragma: no cover (compiled)
+    """Thin SVD of a P x 2 matrix: the eigen-decomposition of the 2 x 2 Gram matrix
+    M^T M = [[alpha, gamma], [gamma, beta]] in closed form (the Jacobi rotation
+    t = tan theta, cot 2 theta = (beta - alpha) / (2 gamma), without a trigonometric
+    function), applied to M's columns, whose norms are the singular values; no
+    allocation. As :func:`_svd`, whose first sweep it is, without the sweeps after it that
+    polish the columns' orthogonality at rounding level.
+    """
+    p = M.shape[0]
+    alpha = 0.0
+    beta = 0.0
+    gamma = 0.0
+    for k in range(p):
+        alpha += M[k, 0] * M[k, 0]
+        beta += M[k, 1] * M[k, 1]
+        gamma += M[k, 0] * M[k, 1]
+    c = 1.0
+    s = 0.0
+    if not (gamma == 0.0 or abs(gamma) <= 1e-16 * np.sqrt(alpha * beta)):
+        zeta = (beta - alpha) / (2.0 * gamma)
+        t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+        c = 1.0 / np.sqrt(1.0 + t * t)
+        s = c * t
+    n0 = 0.0
+    n1 = 0.0
+    for k in range(p):
+        w0 = c * M[k, 0] - s * M[k, 1]
+        w1 = s * M[k, 0] + c * M[k, 1]
+        n0 += w0 * w0
+        n1 += w1 * w1
+    n0, n1 = np.sqrt(n0), np.sqrt(n1)
+    first = 0 if n0 >= n1 else 1  # descending; a tie keeps the column order
+    for a in range(2):
+        i = first if a == 0 else 1 - first
+        norm = n0 if i == 0 else n1
+        S[a] = norm
+        for k in range(p):
+            w = c * M[k, 0] - s * M[k, 1] if i == 0 else s * M[k, 0] + c * M[k, 1]
+            U[k, a] = w / norm if norm > 0.0 else 0.0
+        V[0, a] = c if i == 0 else s
+        V[1, a] = -s if i == 0 else c
+
+
 @kernel("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1])")
 def _svd(
     M: np.ndarray, U: np.ndarray, V: np.ndarray, S: np.ndarray
@@ -380,9 +427,13 @@ def _svd(
 
     Hestenes' method: rotate pairs of columns until they are orthogonal; accurate to
     the rounding of M (its small singular values to their own relative precision).
-    S descending; U's column is 0 where S is 0.
+    S descending; U's column is 0 where S is 0. With D = 2 one rotation, in closed form
+    (:func:`_svd2`), orthogonalizes the two columns.
     """
     p, d = M.shape
+    if d == 2:
+        _svd2(M, U, V, S)
+        return
     W = M.copy()
     Q = np.eye(d)
     for _ in range(60):
@@ -712,7 +763,7 @@ def _chosen_into(
         dist += (x[best, i] - x[other, i]) ** 2
     has_alt = solvable and consistent[other] and np.sqrt(dist) > tol
     if solvable:
-        out[0] = x[best]
+        copy_into(x[best], out[0])
         res[0] = residual[best]
     else:
         if vertex == vertex:  # np.maximum keeps a NaN
@@ -721,13 +772,13 @@ def _chosen_into(
             vertex = 0.0
         for i in range(d):
             fallback[i] = tx[0, i] + a[i] + vertex * c[i]
-        out[0] = fallback
+        copy_into(fallback, out[0])
         res[0] = _range_sum_residual(fallback, l, tx, rx)
     if has_alt:
-        out[1] = x[other]
+        copy_into(x[other], out[1])
         res[1] = residual[other]
     else:
-        out[1] = out[0]
+        copy_into(out[0], out[1])
         res[1] = res[0]
     flags[0] = solvable
     flags[1] = has_alt

@@ -73,6 +73,7 @@ from plotgate.core.multistatic.information import (
     symmetric_eigh_into,
 )
 from plotgate.core.multistatic.model import (
+    copy_into,
     range_sum_jacobian_unchecked,
     range_sums_unchecked,
     vector_norm,
@@ -503,8 +504,8 @@ def _lower(
     rt = work.rt
     trial_cost = weighted_residuals(trial, row, rt)
     if trial_cost < cost:
-        theta[:] = trial
-        r[:] = rt
+        copy_into(trial, theta)
+        copy_into(rt, r)
         return True, trial_cost
     return False, cost
 

@@ -8,6 +8,8 @@ solve and the accuracy study.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from plotgate.core.compiled import kernel
@@ -32,8 +34,11 @@ _INFORMATION_FLOOR = 1e-150  # absolute floor (m^-2) for an all-zero information
 def symmetric_eigh(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ascending eigenvalues (..., K) and eigenvectors (..., K, K) of symmetric matrices.
 
-    K = 2 in closed form (the principal-axis angle phi, tan 2 phi = 2b / (a - d)), as
-    accurate as LAPACK's and 30 times faster on a batch; other K by np.linalg.eigh.
+    K = 2 in closed form: the principal-axis angle phi, tan 2 phi = 2b / (a - d), whose
+    cosine and sine come from the half-angle formulas (cos phi = sqrt((1 + cos 2 phi) / 2),
+    sin phi = sin 2 phi / (2 cos phi), or the same with the two swapped where a < d, so
+    nothing cancels), without a trigonometric function; as accurate as LAPACK's and 30
+    times faster on a batch. Other K by np.linalg.eigh.
 
     Parameters
     ----------
@@ -54,9 +59,17 @@ def symmetric_eigh(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return w, V
     a, d = A[..., 0, 0], A[..., 1, 1]
     b = 0.5 * (A[..., 0, 1] + A[..., 1, 0])
-    mean, r = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
-    phi = 0.5 * np.arctan2(2.0 * b, a - d)  # direction of the larger eigenvalue's vector
-    c, s = np.cos(phi), np.sin(phi)
+    half = 0.5 * (a - d)
+    mean, r = 0.5 * (a + d), np.hypot(half, b)
+    # cos and sin of phi = atan2(b, half) / 2 by the half-angle formulas, on the side
+    # without cancellation: cos phi >= 0; the other from 2 sin phi cos phi = b / r
+    zero = r == 0.0
+    r_safe = np.where(zero, 1.0, r)
+    east = half >= 0.0
+    big = np.sqrt((r_safe + np.abs(half)) / (2.0 * r_safe))
+    small = np.abs(b) / (2.0 * r_safe * big)
+    c = np.where(zero, 1.0, np.where(east, big, small))
+    s = np.where(zero, 0.0, np.copysign(np.where(east, small, big), b))
     V = np.stack([np.stack([-s, c], axis=-1), np.stack([c, s], axis=-1)], axis=-2)
     return np.stack([mean - r, mean + r], axis=-1), V
 
@@ -83,14 +96,19 @@ def symmetric_eigh_into(
 ) -> None:  # pragma: no cover (compiled)
     """:func:`symmetric_eigh` of one K x K matrix, compiled, into ev (K,) and V (K, K).
 
-    K = 2 by the principal-axis angle, as :func:`symmetric_eigh`; other K by LAPACK.
+    K = 2 by the half-angle formulas, as :func:`symmetric_eigh`; other K by LAPACK.
     """
     if A.shape[0] == 2:
         a, d = A[0, 0], A[1, 1]
         b = 0.5 * (A[0, 1] + A[1, 0])
-        mean, r = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
-        phi = 0.5 * np.arctan2(2.0 * b, a - d)
-        c, s = np.cos(phi), np.sin(phi)
+        half = 0.5 * (a - d)
+        mean, r = 0.5 * (a + d), np.hypot(half, b)
+        c, s = 1.0, 0.0
+        if r != 0.0:
+            big = np.sqrt((r + abs(half)) / (2.0 * r))
+            small = abs(b) / (2.0 * r * big)
+            c, s = (big, small) if half >= 0.0 else (small, big)
+            s = math.copysign(s, b)
         ev[0], ev[1] = mean - r, mean + r
         V[0, 0], V[0, 1], V[1, 0], V[1, 1] = -s, c, c, s
         return

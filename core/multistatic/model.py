@@ -41,6 +41,7 @@ __all__ = [
     "array_shape",
     "coerce_problem",
     "coordinate_scale",
+    "copy_into",
     "first_invalid_problem",
     "platform_positions",
     "range_sum_jacobian",
@@ -610,6 +611,15 @@ def _baseline_allowance(
         raise ParameterError(
             "baseline_tol", f"shape {allow.shape} does not broadcast with (N, P) = {(n, p)}"
         ) from None
+
+
+@kernel(numba.void(ARRAY_1D, ARRAY_1D), inline=True)
+def copy_into(src: np.ndarray, dst: np.ndarray) -> None:  # pragma: no cover (compiled)
+    """dst[:] = src, element by element: numba's slice assignment guards against
+    overlap with a copy it allocates, which a kernel compiled without references
+    (``refcounts=False``) cannot."""
+    for i in range(src.size):
+        dst[i] = src[i]
 
 
 @kernel(numba.float64(ARRAY_2D, ARRAY_2D), inline=True)

@@ -85,6 +85,7 @@ from plotgate.core.multistatic.model import (
     COINCIDENT_RTOL,
     coerce_problem,
     coordinate_scale,
+    copy_into,
     range_sums_unchecked,
     scale_of,
     valid_geometry,
@@ -389,8 +390,8 @@ def closed_form_roots(
             dist += (tx[k, j] - tx[0, j]) * (tx[k, j] - tx[0, j])
         if np.sqrt(dist) <= tol:
             pair_l[m] = l[k]
-            pair_tx[m] = tx[0]
-            pair_rx[m] = rx[k]
+            copy_into(tx[0], pair_tx[m])
+            copy_into(rx[k], pair_rx[m])
             m += 1
     if m < d:
         for j in range(d):
@@ -405,12 +406,27 @@ def closed_form_roots(
         sum_range_roots_into(
             pair_l, pair_tx, pair_rx, work, roots, runs.root_residuals, runs.root_flags
         )
-    else:  # several transmitters: the first one's pairs, in arrays of their own
+    else:  # several transmitters: the first one's pairs, in the leading rows of the space
+        pairs = RootWork(
+            work.M[:m],
+            work.U[:m],
+            work.V,
+            work.S,
+            work.h[:m],
+            work.a,
+            work.c,
+            work.s,
+            work.x,
+            work.R,
+            work.consistent,
+            work.residual,
+            work.fallback,
+        )
         sum_range_roots_into(
-            pair_l[:m].copy(),
-            pair_tx[:m].copy(),
-            pair_rx[:m].copy(),
-            root_work(m, d),
+            pair_l[:m],
+            pair_tx[:m],
+            pair_rx[:m],
+            pairs,
             roots,
             runs.root_residuals,
             runs.root_flags,
@@ -429,13 +445,13 @@ def _starts(
     """
     k = 0
     if shots.x0.shape[0] > 0:
-        runs.theta[k] = shots.x0[i]
+        copy_into(shots.x0[i], runs.theta[k])
         k += 1
     if not settings.closed_form_starts:
         return k
     ls, tx, rx = shots.data.ls[i], shots.data.tx[i], shots.data.rx[i]
     second = closed_form_roots(ls, tx, rx, runs, work)
-    runs.theta[k] = runs.roots[0]
+    copy_into(runs.roots[0], runs.theta[k])
     k += 1
     if second:
         sigma = shots.sigma[i]
@@ -443,7 +459,7 @@ def _starts(
         if _chi_square(runs.roots[0], ls, tx, rx, sigma) > threshold or (
             _chi_square(runs.roots[1], ls, tx, rx, sigma) <= SECOND_ROOT_COST * threshold
         ):
-            runs.theta[k] = runs.roots[1]
+            copy_into(runs.roots[1], runs.theta[k])
             k += 1
     return k
 
@@ -494,7 +510,7 @@ def _solve_one(
         runs.cost[j], runs.iterations[j], runs.converged[j] = cost, it, conv
         information_into(theta[j], one, work.Hw, information[j])
     best, other = _choice(k, runs, settings.threshold)
-    out.x[i] = theta[best]
+    copy_into(theta[best], out.x[i])
     out.cost[i] = runs.cost[best]
     out.iterations[i] = runs.iterations[best]
     out.converged[i] = runs.converged[best]
@@ -502,19 +518,29 @@ def _solve_one(
     for p in range(sigma.size):
         residuals[p] = r[best, p] * sigma[p]
     out.has_alternative[i] = other >= 0
-    out.alternative[i] = theta[other] if other >= 0 else theta[best]
+    copy_into(theta[other] if other >= 0 else theta[best], out.alternative[i])
     inverse_information_into(
         information[best], out.covariance[i], work.square[0], work.vec[0], work.square[1]
     )
 
 
-@kernel(numba.void(numba.int64, numba.int64, SHOTS, SETTINGS, SOLUTIONS))
+@kernel(
+    numba.void(numba.int64, numba.int64, SHOTS, SETTINGS, SOLUTIONS, RUNS, WORK, ROOT_WORK),
+    refcounts=False,
+)
 def _solve_range(
-    lo: int, hi: int, shots: Shots, settings: Settings, out: Solutions
+    lo: int,
+    hi: int,
+    shots: Shots,
+    settings: Settings,
+    out: Solutions,
+    runs: Runs,
+    work: Work,
+    roots: RootWork,
 ) -> None:  # pragma: no cover (compiled)
-    """Problems lo to hi - 1 of :func:`ml_solve`, one after the other."""
-    p, d = shots.data.tx.shape[1:]
-    runs, work, roots = run_space(p, d), work_space(p, d), root_work(p, d)
+    """Problems lo to hi - 1 of :func:`ml_solve`, one after the other, in the caller's
+    scratch space (:func:`run_space`, ``work_space``, ``root_work``), counting no
+    references."""
     for i in range(lo, hi):
         _solve_one(i, shots, settings, out, runs, work, roots)
 
@@ -528,9 +554,11 @@ def _solve_parallel(
     # a parallel loop takes flat records only: the nested one is rebuilt in each task
     ls, w, tx, rx, tau = shots.data
     sigma, allow, x0 = shots.sigma, shots.allow, shots.x0
+    p, d = tx.shape[1:]
     for c in numba.prange((n + CHUNK - 1) // CHUNK):
         chunk = Shots(Measurements(ls, w, tx, rx, tau), sigma, allow, x0)
-        _solve_range(c * CHUNK, min(n, (c + 1) * CHUNK), chunk, settings, out)
+        runs, work, roots = run_space(p, d), work_space(p, d), root_work(p, d)
+        _solve_range(c * CHUNK, min(n, (c + 1) * CHUNK), chunk, settings, out, runs, work, roots)
 
 
 def ml_solve(
@@ -658,7 +686,9 @@ def ml_solve(
     if n >= PARALLEL_MIN:
         _solve_parallel(shots, settings, out)
     else:
-        _solve_range(0, n, shots, settings, out)
+        _solve_range(
+            0, n, shots, settings, out, run_space(p, d), work_space(p, d), root_work(p, d)
+        )
     if not out.valid.all():  # the numpy checks name the field and the problem
         validate_problem_reference(l, tx, rx, sigma)
     return MLSolution(

@@ -11,7 +11,7 @@ from plotgate.core.multistatic import (
     range_sums,
     validate_problem,
 )
-from plotgate.core.multistatic.model import BASELINE_SIGMAS
+from plotgate.core.multistatic.model import BASELINE_SIGMAS, copy_into
 
 TX2 = [0.0, 0.0]
 RX2 = [[6000.0, 0.0], [0.0, 8000.0], [7000.0, 9000.0]]
@@ -312,3 +312,13 @@ def test_a_read_only_tolerance_of_every_range_sum_is_taken():
     rx = [[6000.0, 0.0], [0.0, 6000.0]]
     p = validate_problem(range_sums, [0.0, 0.0], rx, baseline_tol=tol)
     assert p.l.shape == (1, 2)
+
+
+def test_copy_into_is_numpys_slice_assignment():
+    rng = np.random.default_rng(40)
+    for size in (0, 1, 2, 7):
+        src, dst = rng.normal(size=size), rng.normal(size=size)
+        want = dst.copy()
+        want[:] = src
+        copy_into(src, dst)
+        np.testing.assert_array_equal(dst, want)
