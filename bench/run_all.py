@@ -91,13 +91,27 @@ BENCHES: tuple[Bench, ...] = (
     Bench("bench/bench_reading.py", (), QUICK, ("reading",)),
     Bench("bench/bench_replay.py", (), QUICK, ("replay",)),
     Bench("bench/bench_view.py", (), QUICK, ("view-vs-read",)),
-    Bench("bench/bench_multistatic.py", (), QUICK, ("multistatic.single_shot",), ready=False),
+    Bench(
+        "bench/bench_multistatic.py",
+        (),
+        QUICK,
+        (
+            "multistatic.single_shot.study",
+            "multistatic.single_shot.spread",
+            "multistatic.trajectory.own_start",
+            "multistatic.trajectory.given_start",
+        ),
+    ),
     Bench(
         "bench/bench_solver_aims.py",
         (),
         QUICK,
-        ("solver_aims.single_shot", "solver_aims.trajectory"),
-        ready=False,
+        (
+            "solvers.single_shot.study",
+            "solvers.single_shot.spread",
+            "solvers.trajectory.own_start",
+            "solvers.trajectory.given_start",
+        ),
     ),
     Bench(
         "bench/bench_probability.py",
