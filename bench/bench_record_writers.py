@@ -22,7 +22,13 @@ Each is timed per exchange, best of ``--repeat``.
 compact, size, and time for :class:`plotgate.clients.mcap_reader.RecordReader` and mcap's
 reader to read every message back.
 
+``--quick`` (CI: no time asserted) writes 1,000 exchanges once and compacts 300. The last
+lines are the front table's rows (``SUMMARY {json}``, no aim: ``met`` null): the
+``Recorder`` against the bare ``struct + writev`` floor per commit size, and zstd
+compaction against LZ4.
+
     python bench/bench_record_writers.py [--exchanges 10000 --bytes 1400 --per-commit 1,6]
+        [--quick]
 """
 
 import argparse
@@ -152,7 +158,17 @@ def writers() -> dict[str, Write]:
     return found
 
 
-def time_writers(folder: Path, args: argparse.Namespace) -> None:
+def _summary(row: str, workload: str, peer: str, measured: str) -> None:
+    """One row of bench/README.md's front table (no aim here: ``met`` null)."""
+    fields = {"row": row, "workload": workload, "peer": peer, "measured": measured}
+    print(
+        "SUMMARY "
+        + json.dumps({**fields, "aim": "none (issue 40's aims are end to end)", "met": None})
+    )
+
+
+def time_writers(folder: Path, args: argparse.Namespace) -> dict[tuple[str, int], float]:
+    """Seconds per exchange of every writer at every commit size, best of ``--repeat``."""
     message = b'{"request_id": "r", "body": "%s"}' % (b"x" * (args.bytes - 35))
     print(
         f"{args.exchanges} exchanges of two {len(message)}-byte messages; "
@@ -160,6 +176,7 @@ def time_writers(folder: Path, args: argparse.Namespace) -> None:
     )
     print("\n| writer | " + " | ".join(f"{n} per commit" for n in args.per_commit) + " |")
     print("|---|" + "---:|" * len(args.per_commit))
+    took: dict[tuple[str, int], float] = {}
     for name, write in writers().items():
         cells = []
         for per_commit in args.per_commit:
@@ -171,8 +188,10 @@ def time_writers(folder: Path, args: argparse.Namespace) -> None:
                 started = time.perf_counter()
                 write(path, args.exchanges, per_commit, message)
                 best = min(best, time.perf_counter() - started)
+            took[name, per_commit] = best / args.exchanges
             cells.append(f"{best / args.exchanges * 1e6:.1f}")
         print(f"| {name} | " + " | ".join(cells) + " |")
+    return took
 
 
 def _read_scan(path: Path) -> int:
@@ -184,19 +203,23 @@ def _read_mcap(path: Path) -> int:
         return sum(1 for _ in make_reader(f).iter_messages(log_time_order=False))
 
 
-def time_compaction(folder: Path, args: argparse.Namespace, source: Path) -> None:
+def time_compaction(
+    folder: Path, args: argparse.Namespace, source: Path, exchanges: int
+) -> dict[str, float]:
+    """Seconds to compact ``source`` with LZ4 and with zstd chunks."""
     size = source.stat().st_size / 2**20
-    print(f"\ncompaction of {size:.1f} MiB ({args.exchanges} gates.test exchanges), best of")
+    print(f"\ncompaction of {size:.1f} MiB ({exchanges} gates.test exchanges), best of")
     print(f"{args.repeat} reads (RecordReader: records only; mcap: make_reader().iter_messages())")
     print("| chunks | compact s | MiB | RecordReader records s | mcap messages s |")
     print("|---|---:|---:|---:|---:|")
+    took: dict[str, float] = {}
     for codec in (CompressionType.LZ4, CompressionType.ZSTD):
         path = folder / f"{codec.name}.mcap"
         path.write_bytes(source.read_bytes())
         compaction.COMPRESSION = codec
         started = time.perf_counter()
         assert compaction.compact(path)
-        took = time.perf_counter() - started
+        took[codec.name.lower()] = time.perf_counter() - started
         reads = []
         for read in (_read_scan, _read_mcap):
             best = float("inf")
@@ -206,9 +229,11 @@ def time_compaction(folder: Path, args: argparse.Namespace, source: Path) -> Non
                 best = min(best, time.perf_counter() - started)
             reads.append(best)
         print(
-            f"| {codec.name.lower()} | {took:.2f} | {path.stat().st_size / 2**20:.1f} | "
+            f"| {codec.name.lower()} | {took[codec.name.lower()]:.2f} | "
+            f"{path.stat().st_size / 2**20:.1f} | "
             f"{reads[0]:.2f} | {reads[1]:.2f} |"
         )
+    return took
 
 
 def main() -> None:
@@ -218,14 +243,33 @@ def main() -> None:
     parser.add_argument("--per-commit", default="1,6")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--folder", type=Path, default=None, help="default: a temporary one")
+    parser.add_argument("--quick", action="store_true", help="1,000 exchanges, once")
     args = parser.parse_args()
     args.per_commit = [int(n) for n in args.per_commit.split(",")]
+    if args.quick:
+        args.exchanges, args.repeat = 1000, 1
     with tempfile.TemporaryDirectory(dir=args.folder) as tmp:
         folder = Path(tmp)
-        time_writers(folder, args)
+        writing = time_writers(folder, args)
         source = folder / "recorded.mcap"
-        recorded(source, args.exchanges)
-        time_compaction(folder, args, source)
+        compacted = 300 if args.quick else args.exchanges
+        recorded(source, compacted)
+        compacting = time_compaction(folder, args, source, compacted)
+    for n in args.per_commit:
+        ours, floor = writing["Recorder (plain code)", n], writing["struct + writev", n]
+        _summary(
+            f"record_writers.recorder.per{n}",
+            f"recording {args.exchanges} exchanges ({args.bytes}-byte messages), {n} per "
+            "commit, in process",
+            "struct + writev: the headers and one writev, nothing else",
+            f"{ours * 1e6:.1f} us an exchange, {ours / floor:.2f}x the floor",
+        )
+    _summary(
+        "record_writers.compaction.zstd",
+        f"compacting {compacted} recorded gates.test exchanges (100 candidates)",
+        "the same with LZ4 chunks",
+        f"{compacting['zstd']:.2f} s, {compacting['zstd'] / compacting['lz4']:.2f}x LZ4",
+    )
 
 
 def recorded(path: Path, exchanges: int) -> None:

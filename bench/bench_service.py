@@ -1,16 +1,21 @@
 """The service hot path against a bare FastAPI app doing the same work, in one run.
 
-Three servers on loopback, each one uvicorn worker on uvloop and httptools:
+Servers on loopback, each one worker on uvloop:
 
-* ``bare``: :mod:`bench.bare_app`, the same strict parse, operation handler and JSON
-  answer, and nothing else;
+* ``bare``: :mod:`bench.bare_app` on uvicorn (httptools), the same strict parse, operation
+  handler and JSON answer, and nothing else: the bar a user feels;
 * ``off``: ``plotgate serve --no-record``;
-* ``on``: ``plotgate serve``, recording every exchange.
+* ``on``: ``plotgate serve``, recording every exchange;
+* ``rotating``: ``plotgate serve`` recording, its files rotating at the 4 MiB floor
+  (``PLOTGATE_ROTATE_BYTES``), so that files rotate and are compacted by the child
+  process all through the run (every 2-3 s at these rates): the p99 while a file compacts;
+* ``granian``: plotgate's app, recording, on Granian (``granian --interface asgi
+  --factory``, one worker, uvloop) instead of uvicorn: the server itself, against ``on``.
 
 ``wrk`` (Debian package ``wrk``: a C load generator, so the client is not the bottleneck on
 a two-core machine) posts the README's combined-gate test (3 candidates) at 1, 10 and 50
 concurrent connections, closed loop; rounds alternate the servers so drift hits all alike,
-and the best round of each is kept. Then:
+and the best round of each is kept (its p99 with it). Then, unless ``--quick``:
 
 * **open loop**: at a half and a quarter of the recording server's saturated rate (its
   best at 10 clients), 50 connections each wait an exponential time between requests
@@ -29,15 +34,20 @@ and the best round of each is kept. Then:
   are printed.
 
 Besides requests per second and latency it reports the server's CPU time per request
-(from /proc), the load-independent cost.
+(from /proc: the server's processes, its workers and compaction children included), the
+load-independent cost. ``--quick`` (CI: no time asserted) runs ``bare``, ``on`` and
+``granian`` for one round of 1 s per client count. The last lines are the
+front table's rows (``SUMMARY {json}``): recording against bare at 1, 10 and 50 clients,
+the p99 at 50 (recording and rotating) against bare, and Granian against uvicorn.
 
     python bench/bench_service.py [--seconds 10 --connections 1,10,50 --rounds 3 --profile]
-        [--profile-clients 1] [--live]
+        [--profile-clients 1] [--live] [--quick]
 """
 
 import argparse
 import collections
 import contextlib
+import json
 import os
 import re
 import shutil
@@ -72,12 +82,29 @@ function delay()
   return -math.log(1 - math.random()) * {mean_ms}
 end
 """
-SERVERS = ("bare", "off", "on")
+SERVERS = ("bare", "off", "on", "rotating", "granian")
+QUICK_SERVERS = ("bare", "on", "granian")
+ROTATE_BYTES = 4 * 2**20
+"""The ``rotating`` server's files: the floor of ``PLOTGATE_ROTATE_BYTES``."""
 
 
 def _cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    """CPU time of ``pid`` and of its descendants: those alive (Granian's worker, a
+    compaction) and those ended and reaped (their time is then their parent's)."""
+    parents: dict[int, int] = {}
+    ticks: dict[int, int] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with contextlib.suppress(OSError, IndexError, ValueError):
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            child = int(stat.parent.name)
+            parents[child] = int(fields[1])
+            ticks[child] = sum(int(f) for f in fields[11:15])  # own and reaped children's
+    tree, grew = {pid}, True
+    while grew:
+        found = {child for child, parent in parents.items() if parent in tree} - tree
+        tree |= found
+        grew = bool(found)
+    return sum(ticks.get(p, 0) for p in tree) / os.sysconf("SC_CLK_TCK")
 
 
 def _ms(text: str) -> float:
@@ -139,10 +166,88 @@ def _bare() -> Iterator[tuple[subprocess.Popen, str]]:
         proc.wait(timeout=30)
 
 
+@contextlib.contextmanager
+def _granian(folder: Path) -> Iterator[tuple[subprocess.Popen, str]]:
+    """plotgate's app, recording, on Granian: one worker, uvloop, HTTP/1."""
+    port = free_port()
+    proc = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "granian", "--interface", "asgi", "--factory"),
+            *("--host", "127.0.0.1", "--port", str(port), "--workers", "1"),
+            *("--loop", "uvloop", "--http", "1", "--no-ws", "--log-level", "warning"),
+            "plotgate.service.app:create_app",
+        ],
+        cwd=ROOT,
+        env={**os.environ, "PLOTGATE_LOG_DIR": str(folder), "PLOTGATE_RECORD": "true"},
+    )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            with contextlib.suppress(httpx.TransportError):
+                answer = httpx.get(url + "/readyz", timeout=5)
+                if answer.status_code == 200 and not answer.json()["operations"]["compiling"]:
+                    break
+            if proc.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError("granian did not start")
+            time.sleep(0.2)
+        yield proc, url
+    finally:
+        proc.terminate()
+        proc.wait(timeout=60)
+
+
 def _server(kind: str, folder: Path, *flags: str):
     if kind == "bare":
         return _bare()
+    if kind == "granian":
+        return _granian(folder / kind)
+    if kind == "rotating":
+        return serve(folder / kind, *flags, env={"PLOTGATE_ROTATE_BYTES": str(ROTATE_BYTES)})
     return serve(folder / kind, *(["--no-record"] if kind == "off" else []), *flags)
+
+
+def _summary(row: str, workload: str, peer: str, measured: str, aim: str, met: bool | None):
+    """One row of bench/README.md's front table, as ``bench/run_all.py`` reads it."""
+    fields = {"row": row, "workload": workload, "peer": peer, "measured": measured}
+    print("SUMMARY " + json.dumps({**fields, "aim": aim, "met": met}))
+
+
+def _summaries(best: dict[tuple[int, str], dict[str, float]], levels: list[int]) -> None:
+    """The front table's rows: recording against bare, its p99, Granian against uvicorn."""
+    for c in levels:
+        ratio = best[c, "on"]["rate"] / best[c, "bare"]["rate"]
+        _summary(
+            f"service.recording.c{c}",
+            f"gates.test (combined, 3 candidates), recording on, {c} client(s), requests/s",
+            "bare FastAPI app on uvicorn, same work",
+            f"{ratio:.2f}x bare",
+            ">= 0.95x",
+            ratio >= 0.95,
+        )
+    top = max(levels)
+    kinds = [kind for kind in ("on", "rotating") if (top, kind) in best]
+    p99 = {kind: best[top, kind]["p99"] / best[top, "bare"]["p99"] for kind in kinds}
+    _summary(
+        f"service.recording.p99.c{top}",
+        f"gates.test, recording on, {top} clients, p99; rotating: files rotating at 4 MiB "
+        "and compacted meanwhile",
+        "bare FastAPI app on uvicorn, same work",
+        ", ".join(f"{kind} {ratio:.2f}x bare" for kind, ratio in p99.items()),
+        "<= 1.5x",
+        max(p99.values()) <= 1.5,
+    )
+    for c in levels:
+        ratio = best[c, "granian"]["rate"] / best[c, "on"]["rate"]
+        cpu = best[c, "granian"]["cpu_ms"] / best[c, "on"]["cpu_ms"]
+        _summary(
+            f"service.granian.c{c}",
+            f"plotgate serve's app, recording, {c} client(s), on Granian",
+            "the same app on uvicorn (httptools), same run",
+            f"{ratio:.2f}x uvicorn, CPU {cpu:.2f}x",
+            "adopted as default only if faster with the same behaviour",
+            None,
+        )
 
 
 def _profile(pid: int, seconds: int, url: str, script: Path, clients: int) -> str:
@@ -255,7 +360,13 @@ def main() -> None:
     parser.add_argument(
         "--live", action="store_true", help="only the live view's cost (--foxglove-port)"
     )
+    parser.add_argument(
+        "--quick", action="store_true", help="one 1 s round of bare, on and granian"
+    )
     args = parser.parse_args()
+    servers = QUICK_SERVERS if args.quick else SERVERS
+    if args.quick:
+        args.seconds, args.rounds = 1, 1
     if not shutil.which("wrk"):
         sys.exit("wrk not found: apt-get install wrk")
     levels = [int(c) for c in args.connections.split(",")]
@@ -269,19 +380,22 @@ def main() -> None:
             _live(args, folder, script, levels)
             return
         for _ in range(args.rounds):
-            for kind in SERVERS:
+            for kind in servers:
                 with _server(kind, folder) as (proc, url):
                     url += "/v1/gates/test"
-                    _wrk(url, script, 2, max(levels))  # warm-up
+                    _wrk(url, script, 1 if args.quick else 2, max(levels))  # warm-up
                     for c in levels:
                         cpu = _cpu_seconds(proc.pid)
                         run = _wrk(url, script, args.seconds, c)
                         run["cpu_ms"] = (_cpu_seconds(proc.pid) - cpu) / run["requests"] * 1e3
                         if (c, kind) not in best or run["rate"] > best[c, kind]["rate"]:
                             best[c, kind] = run
-        saturated = best[10 if 10 in levels else max(levels), "on"]["rate"]
+        if args.quick:
+            _report(args, levels, servers, best, {}, {}, "")
+            return
+        saturated = _saturated(best, levels)
         open_loop: dict[tuple[int, str], dict[str, float]] = {}
-        for kind in SERVERS:
+        for kind in ("bare", "off", "on"):
             with _server(kind, folder) as (_, url):
                 _wrk(url + "/v1/gates/test", script, 2, 10)
                 for share in (2, 4):
@@ -303,9 +417,27 @@ def main() -> None:
                 profile = _profile(
                     proc.pid, args.seconds, url + "/v1/gates/test", script, args.profile_clients
                 )
+    _report(args, levels, servers, best, open_loop, workers, profile)
+
+
+def _saturated(best: dict[tuple[int, str], dict[str, float]], levels: list[int]) -> float:
+    """The recording server's saturated rate: its best at 10 clients (or the most)."""
+    return best[10 if 10 in levels else max(levels), "on"]["rate"]
+
+
+def _report(
+    args: argparse.Namespace,
+    levels: list[int],
+    servers: tuple[str, ...],
+    best: dict[tuple[int, str], dict[str, float]],
+    open_loop: dict[tuple[int, str], dict[str, float]],
+    workers: dict[tuple[int, int], dict[str, float]],
+    profile: str,
+) -> None:
     print(
         f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, the README's combined-gate "
-        f"test ({len(BODY)} bytes); one uvicorn worker each, uvloop and httptools"
+        f"test ({len(BODY)} bytes); one worker each, uvloop; uvicorn with httptools but "
+        "granian"
     )
     print(
         "\n| clients | server | requests/s | vs bare | p50 ms | p99 ms | p99 vs bare"
@@ -314,7 +446,7 @@ def main() -> None:
     print("|---:|---|---:|---:|---:|---:|---:|---:|")
     for c in levels:
         bare = best[c, "bare"]
-        for kind in SERVERS:
+        for kind in servers:
             r = best[c, kind]
             print(
                 f"| {c} | {kind} | {r['rate']:,.0f} | {r['rate'] / bare['rate']:.2f}x | "
@@ -323,10 +455,17 @@ def main() -> None:
             )
     print()
     for c in levels:
-        cost = 1 - best[c, "on"]["rate"] / best[c, "off"]["rate"]
-        print(f"{c} clients: recording costs {cost:.1%} of the throughput (on vs off)")
+        if "off" in servers:
+            cost = 1 - best[c, "on"]["rate"] / best[c, "off"]["rate"]
+            print(f"{c} clients: recording costs {cost:.1%} of the throughput (on vs off)")
+        server = best[c, "granian"]["rate"] / best[c, "on"]["rate"]
+        print(f"{c} clients: Granian serves {server:.2f}x uvicorn's rate (plotgate, recording)")
+    if not open_loop:
+        _summaries(best, levels)
+        return
     print(
-        f"\nopen loop, Poisson arrivals at a half and a quarter of {saturated:,.0f}/s "
+        "\nopen loop, Poisson arrivals at a half and a quarter of "
+        f"{_saturated(best, levels):,.0f}/s "
         "(recording, 10 clients), 50 connections:"
     )
     print("| share | server | requests/s | p50 ms | p99 ms |")
@@ -341,6 +480,7 @@ def main() -> None:
         print(f"| {count} | {c} | {r['rate']:,.0f} | {scaling:.2f}x | {r['p99']:.2f} |")
     if profile:
         print(f"\npy-spy, recording server under {args.profile_clients} clients:\n" + profile)
+    _summaries(best, levels)
 
 
 if __name__ == "__main__":
