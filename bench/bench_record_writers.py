@@ -18,6 +18,14 @@ alone, as at 1 client; 6: a turn of the loop at 10 clients), into a file on ``--
 
 Each is timed per exchange, best of ``--repeat``.
 
+**Steps at one client.** One exchange at a time on a running uvloop loop, as the service
+records it with one client: each step's CPU time (``time.thread_time_ns`` around it, the
+cost of reading the clock taken off), so the recording's share of a request is accounted
+for to the call: the two records built, the request added (its exchange, its header, the
+commit scheduled), the response added and committed at once (one ``writev``, one
+``fstat``, the bookkeeping), the metrics' flush histogram, the loop's turn. ``writev``
+and ``fstat`` alone, on another file, say what the system calls cost by themselves.
+
 **Compaction.** The ``Recorder`` file compacted with LZ4 and with zstd chunks: time to
 compact, size, and time for :class:`plotgate.clients.mcap_reader.RecordReader` and mcap's
 reader to read every message back.
@@ -32,8 +40,10 @@ compaction against LZ4.
 """
 
 import argparse
+import asyncio
 import contextlib
 import json
+import os
 import random
 import tempfile
 import time
@@ -41,10 +51,12 @@ from collections.abc import Callable
 from pathlib import Path
 from unittest import mock
 
+import uvloop
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.mcap_reader import RecordReader
+from plotgate.service.metrics import Metrics
 from plotgate.service.recording import Recorder, compaction, request_record, response_record
 from plotgate.service.recording.files import RecordingFile
 from plotgate.service.recording.records import file_head, message_header
@@ -194,6 +206,106 @@ def time_writers(folder: Path, args: argparse.Namespace) -> dict[tuple[str, int]
     return took
 
 
+STEP_BODY = b"""{"gate": {"kind": "combined", "tau": 5, "v_min": 100, "v_max": 500, "P_G": 0.9},
+  "first": {"frame": "polar", "r": 50000, "az_deg": 0, "sigma_r": 200, "sigma_az_deg": 0.5},
+  "candidates": [
+    {"frame": "polar", "r": 51000, "az_deg": 0.5, "sigma_r": 200, "sigma_az_deg": 0.5},
+    {"frame": "cartesian", "x": 0, "y": 52600, "covariance": [[40000, 0], [0, 40000]]},
+    {"frame": "cartesian", "x": 0, "y": 60000, "covariance": [[40000, 0], [0, 40000]]}
+  ]}"""
+"""bench/bench_service.py's request: the README's combined-gate test."""
+
+STEPS = (
+    "request_record",
+    "Recorder.arequest",
+    "response_record",
+    "Recorder.aresponse (alone: commit)",
+    "Recorder.forget",
+)
+LOOP_TURN = "the loop's next turn (the driver's own, not counted)"
+
+
+async def _steps(folder: Path, exchanges: int) -> dict[str, float]:
+    """CPU ns of each recording step of one exchange at a time, summed over ``exchanges``."""
+    metrics = Metrics(lambda: None)
+    rec = Recorder(folder, OPERATIONS.values(), on_flush=metrics.flush.observe).start()
+    answer = execute(OPERATIONS[OP], STEP_BODY).content
+    clock = time.thread_time_ns
+    spent = dict.fromkeys((*STEPS, LOOP_TURN), 0)
+    for i in range(exchanges + 1000):  # the first thousand warm up, uncounted
+        rid = f"{i:032x}"
+        t0 = clock()
+        asked = request_record(rid, OP, STEP_BODY, True, None)
+        t1 = clock()
+        exchange = await rec.arequest(OP, asked)
+        t2 = clock()
+        told = response_record(rid, OP, 200, 0.000321, answer)
+        t3 = clock()
+        await rec.aresponse(exchange, told)
+        t4 = clock()
+        rec.forget(exchange)
+        t5 = clock()
+        await asyncio.sleep(0)
+        t6 = clock()
+        if i >= 1000:
+            took = (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5)
+            for step, ns in zip((*STEPS, LOOP_TURN), took, strict=True):
+                spent[step] += ns
+    rec.close()
+    return spent
+
+
+def _syscalls(folder: Path, exchanges: int) -> dict[str, float]:
+    """CPU ns of a commit's two system calls alone: ``writev`` of an exchange's four
+    buffers to a file, and ``fstat`` of it."""
+    head, ids = file_head(_channels(), {})
+    file = RecordingFile(folder / "syscalls.mcap", 1, head)
+    buffers = [message_header(ids[TOPICS[0]], 1, 0, 560), b"x" * 560]
+    buffers += [message_header(ids[TOPICS[1]], 2, 0, 300), b"y" * 300]
+    clock = time.thread_time_ns
+    spent = {"writev alone": 0, "fstat alone": 0}
+    for _ in range(exchanges):
+        t0 = clock()
+        os.writev(file.fd, buffers)
+        t1 = clock()
+        os.fstat(file.fd)
+        t2 = clock()
+        spent["writev alone"] += t1 - t0
+        spent["fstat alone"] += t2 - t1
+    file.close()
+    return spent
+
+
+def time_steps(folder: Path, args: argparse.Namespace) -> dict[str, float]:
+    """Microseconds of CPU per exchange of every recording step at one client, best of
+    ``--repeat`` (each step its own best), the clock's own cost taken off."""
+    clock = time.thread_time_ns
+    t0 = clock()
+    for _ in range(10_000):
+        clock()
+    read_ns = (clock() - t0) / 10_000
+    best: dict[str, float] = {}
+    for _ in range(args.repeat):
+        spent = uvloop.run(_steps(folder, args.exchanges))
+        spent.update(_syscalls(folder, args.exchanges))
+        for step, ns in spent.items():
+            us = max(ns / args.exchanges - read_ns, 0.0) / 1e3
+            best[step] = min(best.get(step, us), us)
+    total = sum(best[step] for step in STEPS)
+    print(
+        f"\nrecording steps at one client, us of CPU per exchange, best of {args.repeat} "
+        f"(clock read {read_ns:.0f} ns, taken off)"
+    )
+    print("| step | us | share |")
+    print("|---|---:|---:|")
+    for step, us in best.items():
+        share = f"{us / total:.0%}" if step in STEPS else "(inside the commit)"
+        share = "" if step == LOOP_TURN else share
+        print(f"| {step} | {us:.2f} | {share} |")
+    print(f"| all steps | {total:.2f} | 100% |")
+    return {**best, "all": total}
+
+
 def _read_scan(path: Path) -> int:
     return sum(1 for _ in RecordReader(path))
 
@@ -251,6 +363,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(dir=args.folder) as tmp:
         folder = Path(tmp)
         writing = time_writers(folder, args)
+        steps = time_steps(folder, args)
         source = folder / "recorded.mcap"
         compacted = 300 if args.quick else args.exchanges
         recorded(source, compacted)
@@ -264,6 +377,14 @@ def main() -> None:
             "struct + writev: the headers and one writev, nothing else",
             f"{ours * 1e6:.1f} us an exchange, {ours / floor:.2f}x the floor",
         )
+    _summary(
+        "record_writers.steps.c1",
+        "recording one exchange at one client on a running loop (the service's request and "
+        "answer), CPU",
+        "its own writev + fstat, the system calls of a commit",
+        f"{steps['all']:.1f} us an exchange, of which writev {steps['writev alone']:.1f} "
+        f"and fstat {steps['fstat alone']:.1f}",
+    )
     _summary(
         "record_writers.compaction.zstd",
         f"compacting {compacted} recorded gates.test exchanges (100 candidates)",
