@@ -37,6 +37,7 @@ import errno
 import io
 import logging
 import os
+import select
 import struct
 import subprocess
 import sys
@@ -231,7 +232,9 @@ class Compactions:
     A child process, not a thread: the copy parses and compresses every record, which in
     a thread would take the GIL from the event loop in slices of milliseconds. The child
     runs in its own session, so a terminal's Ctrl-C goes to the server, whose shutdown
-    decides (:meth:`wait`).
+    decides (:meth:`wait`). It keeps to its :class:`Budget` until its standard input
+    closes: the server closes it when nothing is left to yield to (:meth:`wait`, at
+    shutdown; a second compaction of the same file), and so does the server's end.
     """
 
     def __init__(self) -> None:
@@ -245,10 +248,11 @@ class Compactions:
         self.reap()
         earlier = self._running.pop(path, None)
         if earlier is not None:
+            _hurry(earlier)
             earlier.wait()
         self._running[path] = subprocess.Popen(
             [sys.executable, "-P", __file__, str(path)],
-            stdin=subprocess.DEVNULL,
+            stdin=subprocess.PIPE,
             stdout=subprocess.DEVNULL,
             start_new_session=True,
         )
@@ -264,6 +268,7 @@ class Compactions:
         for path, child in list(self._running.items()):
             if child.poll() is not None:
                 del self._running[path]
+                _hurry(child)  # its end of the pipe, closed
                 if child.returncode == NO_SPACE_EXIT:
                     self.no_space.append(path)
                     log.warning("compaction of %s waits for space on the disk", path)
@@ -276,6 +281,8 @@ class Compactions:
         Returns the files left uncompacted that way."""
         deadline = time.monotonic() + timeout_s
         left = []
+        for child in self._running.values():
+            _hurry(child)  # nothing left to yield to: full speed
         for path, child in self._running.items():
             try:
                 child.wait(max(0.0, deadline - time.monotonic()))
@@ -300,23 +307,44 @@ _BUDGET_RECORDS = 256
 """Records copied between two looks at the child's CPU time."""
 
 
+def _hurry(child: "subprocess.Popen[bytes]") -> None:
+    """Close a compaction child's standard input: its budget is lifted."""
+    if child.stdin is not None:
+        with contextlib.suppress(OSError):
+            child.stdin.close()
+
+
 class Budget:
     """Keeps a process's CPU time within ``share`` of the wall time since it started:
     :meth:`spend` sleeps off what is over. The compaction child calls it as it copies, so
     besides running at the lowest priority (which yields only to runnable processes, and
     a server between requests is not one) it leaves the cores idle most of the time,
-    ready for the next burst of requests."""
+    ready for the next burst of requests.
 
-    def __init__(self, share: float) -> None:
+    ``until``: a file descriptor (the child's standard input, a pipe from the server)
+    whose end (or any byte) lifts the budget for good, even in the middle of a sleep: the
+    server is stopping and waits for the compaction (POSIX; elsewhere it is ignored).
+    """
+
+    def __init__(self, share: float, until: int | None = None) -> None:
         self.share = share
+        self.until = until if os.name == "posix" else None
+        self.lifted = False
         self.started = time.monotonic()
         self.cpu = time.process_time()
 
     def spend(self) -> None:
         """Sleep until the CPU used so far is within the share of the time elapsed."""
+        if self.lifted:
+            return
         ahead = (time.process_time() - self.cpu) / self.share - (time.monotonic() - self.started)
-        if ahead > 0:
+        if ahead <= 0:
+            return
+        if self.until is None:
             time.sleep(ahead)
+            return
+        woken, _, _ = select.select([self.until], [], [], ahead)
+        self.lifted = bool(woken)
 
 
 def _yield_to_the_server() -> None:
@@ -338,7 +366,7 @@ def main(argv: list[str]) -> int:
     _yield_to_the_server()
     [path] = argv
     try:
-        compact(Path(path), Budget(CPU_SHARE).spend)
+        compact(Path(path), Budget(CPU_SHARE, until=sys.stdin.fileno()).spend)
     except FAILURES as exc:
         with contextlib.suppress(OSError):  # a log on the full disk
             print(f"plotgate: compaction of {path} failed: {exc}", file=sys.stderr)

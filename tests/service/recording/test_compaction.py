@@ -337,3 +337,20 @@ def test_the_compaction_child_runs_at_the_lowest_priority():
     assert int(out[0]) == 19
     if sys.platform == "linux":
         assert int(out[1]) == os.SCHED_IDLE
+
+
+def test_the_budget_is_lifted_when_its_pipe_closes(monkeypatch):
+    """The server closes the child's standard input at shutdown: the sleep ends at once
+    and the budget is not consulted again."""
+    clock = {"cpu": 0.0, "wall": 0.0}
+    monkeypatch.setattr(compaction_module.time, "process_time", lambda: clock["cpu"])
+    monkeypatch.setattr(compaction_module.time, "monotonic", lambda: clock["wall"])
+    read, write = os.pipe()
+    try:
+        budget = compaction_module.Budget(0.25, until=read)
+        clock.update(cpu=100.0, wall=1.0)  # 399 s over: a sleep that would never end
+        os.close(write)
+        budget.spend()
+        assert budget.lifted
+    finally:
+        os.close(read)
