@@ -273,6 +273,7 @@ def _syscalls(folder: Path, exchanges: int) -> dict[str, float]:
         spent["writev alone"] += t1 - t0
         spent["fstat alone"] += t2 - t1
     file.close()
+    file.path.unlink()
     return spent
 
 
