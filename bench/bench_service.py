@@ -14,8 +14,12 @@ Servers on loopback, each one worker on uvloop:
 
 ``wrk`` (Debian package ``wrk``: a C load generator, so the client is not the bottleneck on
 a two-core machine) posts the README's combined-gate test (3 candidates) at 1, 10 and 50
-concurrent connections, closed loop; rounds alternate the servers so drift hits all alike,
-and the best round of each is kept (its p99 with it). Then, unless ``--quick``:
+concurrent connections, closed loop. Every server is started once and all run side by
+side (idle but for the one under load); in each of ``--rounds`` rounds each client count
+is run on every server in turn for ``--seconds``, the order turning every round. A ratio
+is the median over the rounds of the two servers' ratio in the same round, so the load of
+a shared machine, which drifts over seconds, divides out; rates, p99s and CPU per request
+are medians too. Then, unless ``--quick``:
 
 * **open loop**: at a half and a quarter of the recording server's saturated rate (its
   best at 10 clients), 50 connections each wait an exponential time between requests
@@ -29,6 +33,11 @@ and the best round of each is kept (its p99 with it). Then, unless ``--quick``:
   operation's scene topic (``tests/interop/live.mjs``, niced: a viewer runs on another
   machine, not on the server's two cores), rounds alternating, best of each at every
   client count; the aim is at least 0.98x. The publisher's drops are read from /metrics;
+* **layers** (``--layers``, which runs this stage alone): the three apps driven in process
+  as ASGI callables (no HTTP server, no socket; one request at a time on uvloop), rounds
+  alternating, CPU per request: ``off`` minus ``bare`` is what plotgate's layers add
+  (request ids, guards, the warm-up gate, body deadlines, metrics), ``on`` minus ``off``
+  what recording adds; bench/bench_record_writers.py splits the latter step by step;
 * **profile** (``--profile``): py-spy samples the recording server under
   ``--profile-clients`` clients (10 by default) and the top entries, inclusive and self,
   are printed.
@@ -51,6 +60,7 @@ import json
 import os
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -223,7 +233,7 @@ def _summary(row: str, workload: str, peer: str, measured: str, aim: str, met: b
 def _summaries(best: dict[tuple[int, str], dict[str, float]], levels: list[int]) -> None:
     """The front table's rows: recording against bare, its p99, Granian against uvicorn."""
     for c in levels:
-        ratio = best[c, "on"]["rate"] / best[c, "bare"]["rate"]
+        ratio = best[c, "on"]["rate/bare"]
         _summary(
             f"service.recording.c{c}",
             f"gates.test (combined, 3 candidates), recording on, {c} client(s), requests/s",
@@ -234,7 +244,7 @@ def _summaries(best: dict[tuple[int, str], dict[str, float]], levels: list[int])
         )
     top = max(levels)
     kinds = [kind for kind in ("on", "rotating") if (top, kind) in best]
-    p99 = {kind: best[top, kind]["p99"] / best[top, "bare"]["p99"] for kind in kinds}
+    p99 = {kind: best[top, kind]["p99/bare"] for kind in kinds}
     _summary(
         f"service.recording.p99.c{top}",
         f"gates.test, recording on, {top} clients, p99; rotating: files rotating at 4 MiB "
@@ -245,8 +255,8 @@ def _summaries(best: dict[tuple[int, str], dict[str, float]], levels: list[int])
         max(p99.values()) <= 1.5,
     )
     for c in levels:
-        ratio = best[c, "granian"]["rate"] / best[c, "on"]["rate"]
-        cpu = best[c, "granian"]["cpu_ms"] / best[c, "on"]["cpu_ms"]
+        ratio = best[c, "granian"]["rate/on"]
+        cpu = best[c, "granian"]["cpu/on"]
         _summary(
             f"service.granian.c{c}",
             f"plotgate serve's app, recording, {c} client(s), on Granian",
@@ -290,6 +300,94 @@ def _profile(pid: int, seconds: int, url: str, script: Path, clients: int) -> st
     lines += ["self:"]
     lines += [f"  {100 * n / total:5.1f}% {name}" for name, n in own.most_common(20)]
     return "\n".join(lines)
+
+
+def _layers_app(kind: str, folder: Path):
+    """The ``kind`` app as an ASGI callable, built as its server builds it."""
+    if kind == "bare":
+        from bench.bare_app import create_app as bare_app
+
+        return bare_app()
+    from plotgate.service.app import create_app
+    from plotgate.service.config import Settings
+
+    return create_app(Settings(log_dir=folder / kind, record=kind == "on"))
+
+
+async def _drive(app, requests: int) -> None:
+    """``requests`` gate tests, one at a time, straight into the ASGI app."""
+    import asyncio
+
+    scope = {
+        "type": "http",
+        "asgi": {"version": "3.0"},
+        "http_version": "1.1",
+        "method": "POST",
+        "scheme": "http",
+        "path": "/v1/gates/test",
+        "raw_path": b"/v1/gates/test",
+        "root_path": "",
+        "query_string": b"",
+        "headers": [
+            (b"host", b"127.0.0.1"),
+            (b"content-type", b"application/json"),
+            (b"content-length", b"%d" % len(BODY)),
+        ],
+        "client": ("127.0.0.1", 1),
+        "server": ("127.0.0.1", 2),
+    }
+    message = {"type": "http.request", "body": BODY, "more_body": False}
+    statuses = set()
+
+    async def receive() -> dict:
+        return message
+
+    async def send(sent: dict) -> None:
+        if sent["type"] == "http.response.start":
+            statuses.add(sent["status"])
+
+    for _ in range(requests):
+        await app({**scope, "state": {}}, receive, send)
+        await asyncio.sleep(0)  # a turn of the loop between requests, as a server has
+    if statuses != {200}:
+        raise RuntimeError(f"the in-process app answered {statuses}")
+
+
+async def _layer_cpu(kind: str, folder: Path, requests: int) -> float:
+    """CPU s per request of the ``kind`` app in process, its lifespan running, warm."""
+    import asyncio
+
+    app = _layers_app(kind, folder)
+    async with app.router.lifespan_context(app):
+        await _drive(app, 200)
+        warmup = getattr(app.state, "warmup", None)
+        while warmup is not None and (
+            warmup.report()["compiling"] or (warmup.thread and warmup.thread.is_alive())
+        ):
+            await asyncio.sleep(0.2)
+        await _drive(app, 1000)
+        started = time.process_time()
+        await _drive(app, requests)
+        return (time.process_time() - started) / requests
+
+
+def _layers(args: argparse.Namespace, folder: Path) -> None:
+    """The app layers' CPU per request in process: bare, off, on (best of the rounds)."""
+    import uvloop
+
+    requests = 500 if args.quick else 3000
+    best: dict[str, float] = {}
+    for _ in range(args.rounds):
+        for kind in ("bare", "off", "on"):
+            cpu = uvloop.run(_layer_cpu(kind, folder, requests))
+            best[kind] = min(best.get(kind, cpu), cpu)
+    print(f"in process, no HTTP server: CPU us per request, best of {args.rounds} rounds")
+    print("| app | us | vs bare |")
+    print("|---|---:|---:|")
+    for kind, cpu in best.items():
+        print(f"| {kind} | {cpu * 1e6:.1f} | {cpu / best['bare']:.3f}x |")
+    print(f"plotgate's layers (off - bare): {(best['off'] - best['bare']) * 1e6:.1f} us")
+    print(f"recording (on - off): {(best['on'] - best['off']) * 1e6:.1f} us")
 
 
 @contextlib.contextmanager
@@ -359,13 +457,16 @@ def _live(args: argparse.Namespace, folder: Path, script: Path, levels: list[int
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=int, default=10)
+    parser.add_argument("--seconds", type=int, default=3)
     parser.add_argument("--connections", default="1,10,50", help="concurrent clients")
-    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--profile", action="store_true", help="py-spy the recording server")
     parser.add_argument("--profile-clients", type=int, default=10)
     parser.add_argument(
         "--live", action="store_true", help="only the live view's cost (--foxglove-port)"
+    )
+    parser.add_argument(
+        "--layers", action="store_true", help="only the app layers' CPU, in process"
     )
     parser.add_argument(
         "--quick", action="store_true", help="one 1 s round of bare, on and granian"
@@ -377,7 +478,6 @@ def main() -> None:
     if not shutil.which("wrk"):
         sys.exit("wrk not found: apt-get install wrk")
     levels = [int(c) for c in args.connections.split(",")]
-    best: dict[tuple[int, str], dict[str, float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         (folder / "body.json").write_bytes(BODY)
@@ -386,17 +486,10 @@ def main() -> None:
         if args.live:
             _live(args, folder, script, levels)
             return
-        for _ in range(args.rounds):
-            for kind in servers:
-                with _server(kind, folder) as (proc, url):
-                    url += "/v1/gates/test"
-                    _wrk(url, script, 1 if args.quick else 2, max(levels), warm_up=True)
-                    for c in levels:
-                        cpu = _cpu_seconds(proc.pid)
-                        run = _wrk(url, script, args.seconds, c)
-                        run["cpu_ms"] = (_cpu_seconds(proc.pid) - cpu) / run["requests"] * 1e3
-                        if (c, kind) not in best or run["rate"] > best[c, kind]["rate"]:
-                            best[c, kind] = run
+        if args.layers:
+            _layers(args, folder)
+            return
+        best = _closed_loop(args, folder, script, levels, servers)
         if args.quick:
             _report(args, levels, servers, best, {}, {}, "")
             return
@@ -427,6 +520,53 @@ def main() -> None:
     _report(args, levels, servers, best, open_loop, workers, profile)
 
 
+def _closed_loop(
+    args: argparse.Namespace,
+    folder: Path,
+    script: Path,
+    levels: list[int],
+    servers: tuple[str, ...],
+) -> dict[tuple[int, str], dict[str, float]]:
+    """Every server started once, then ``--rounds`` rounds: at each client count each
+    server in turn (the order turning every round) for ``--seconds``. Per (clients,
+    server): the medians over the rounds of its rate, p99 and CPU per request, and of its
+    ratios to ``bare`` (and to ``on``) *in the same round*, so that the load of a shared
+    machine, which drifts over seconds, divides out."""
+    runs: dict[tuple[int, int, str], dict[str, float]] = {}
+    with contextlib.ExitStack() as stack:
+        started = {kind: stack.enter_context(_server(kind, folder)) for kind in servers}
+        for _, url in started.values():
+            _wrk(url + "/v1/gates/test", script, 1 if args.quick else 2, 10, warm_up=True)
+        for r in range(args.rounds):
+            order = servers[r % len(servers) :] + servers[: r % len(servers)]
+            for c in levels:
+                for kind in order:
+                    proc, url = started[kind]
+                    cpu = _cpu_seconds(proc.pid)
+                    run = _wrk(url + "/v1/gates/test", script, args.seconds, c)
+                    run["cpu_ms"] = (_cpu_seconds(proc.pid) - cpu) / run["requests"] * 1e3
+                    runs[r, c, kind] = run
+    rounds = range(args.rounds)
+    table: dict[tuple[int, str], dict[str, float]] = {}
+    for c in levels:
+        for kind in servers:
+            mine = [runs[r, c, kind] for r in rounds]
+            row = {key: statistics.median(run[key] for run in mine) for key in mine[0]}
+            for peer in ("bare", "on"):
+                if peer in servers:
+                    row[f"rate/{peer}"] = statistics.median(
+                        runs[r, c, kind]["rate"] / runs[r, c, peer]["rate"] for r in rounds
+                    )
+                    row[f"p99/{peer}"] = statistics.median(
+                        runs[r, c, kind]["p99"] / runs[r, c, peer]["p99"] for r in rounds
+                    )
+                    row[f"cpu/{peer}"] = statistics.median(
+                        runs[r, c, kind]["cpu_ms"] / runs[r, c, peer]["cpu_ms"] for r in rounds
+                    )
+            table[c, kind] = row
+    return table
+
+
 def _saturated(best: dict[tuple[int, str], dict[str, float]], levels: list[int]) -> float:
     """The recording server's saturated rate: its best at 10 clients (or the most)."""
     return best[10 if 10 in levels else max(levels), "on"]["rate"]
@@ -442,30 +582,29 @@ def _report(
     profile: str,
 ) -> None:
     print(
-        f"wrk -t1 -d{args.seconds}s, best of {args.rounds} rounds, the README's combined-gate "
+        f"wrk -t1 -d{args.seconds}s, medians of {args.rounds} rounds, the README's combined-gate "
         f"test ({len(BODY)} bytes); one worker each, uvloop; uvicorn with httptools but "
         "granian"
     )
     print(
         "\n| clients | server | requests/s | vs bare | p50 ms | p99 ms | p99 vs bare"
-        " | CPU ms/req |"
+        " | CPU ms/req | CPU vs bare |"
     )
-    print("|---:|---|---:|---:|---:|---:|---:|---:|")
+    print("|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for c in levels:
-        bare = best[c, "bare"]
         for kind in servers:
             r = best[c, kind]
             print(
-                f"| {c} | {kind} | {r['rate']:,.0f} | {r['rate'] / bare['rate']:.2f}x | "
-                f"{r['p50']:.2f} | {r['p99']:.2f} | {r['p99'] / bare['p99']:.2f}x | "
-                f"{r['cpu_ms']:.3f} |"
+                f"| {c} | {kind} | {r['rate']:,.0f} | {r['rate/bare']:.3f}x | "
+                f"{r['p50']:.2f} | {r['p99']:.2f} | {r['p99/bare']:.2f}x | "
+                f"{r['cpu_ms']:.3f} | {r['cpu/bare']:.3f}x |"
             )
     print()
     for c in levels:
         if "off" in servers:
-            cost = 1 - best[c, "on"]["rate"] / best[c, "off"]["rate"]
+            cost = 1 - best[c, "on"]["rate/bare"] / best[c, "off"]["rate/bare"]
             print(f"{c} clients: recording costs {cost:.1%} of the throughput (on vs off)")
-        server = best[c, "granian"]["rate"] / best[c, "on"]["rate"]
+        server = best[c, "granian"]["rate/on"]
         print(f"{c} clients: Granian serves {server:.2f}x uvicorn's rate (plotgate, recording)")
     if not open_loop:
         _summaries(best, levels)
