@@ -233,14 +233,15 @@ def _summary(row: str, workload: str, peer: str, measured: str, aim: str, met: b
 def _summaries(best: dict[tuple[int, str], dict[str, float]], levels: list[int]) -> None:
     """The front table's rows: recording against bare, its p99, Granian against uvicorn."""
     for c in levels:
-        ratio = best[c, "on"]["rate/bare"]
+        ratio, cpu = best[c, "on"]["rate/bare"], 1 / best[c, "on"]["cpu/bare"]
         _summary(
             f"service.recording.c{c}",
-            f"gates.test (combined, 3 candidates), recording on, {c} client(s), requests/s",
+            f"gates.test (combined, 3 candidates), recording on, {c} client(s), requests/s "
+            "(and bare's CPU per request over ours, the load-independent figure)",
             "bare FastAPI app on uvicorn, same work",
-            f"{ratio:.2f}x bare",
+            f"{ratio:.2f}x bare (by CPU per request {cpu:.2f}x)",
             ">= 0.95x",
-            ratio >= 0.95,
+            min(ratio, cpu) >= 0.95,  # both: a shared machine's noise lifts either alone
         )
     top = max(levels)
     kinds = [kind for kind in ("on", "rotating") if (top, kind) in best]
