@@ -57,12 +57,14 @@ __all__ = [
     "CHUNK_BYTES",
     "CPU_SHARE",
     "Budget",
+    "BUDGET_RECORDS",
     "COMPRESSION",
     "FAILURES",
     "Compactions",
     "compact",
     "remove_leftovers",
     "temporaries",
+    "yield_to_the_server",
 ]
 
 log = logging.getLogger("plotgate")
@@ -113,7 +115,7 @@ def compact(path: Path, pace: Callable[[], None] | None = None) -> bool:
     """Rewrite a closed unchunked recording as an indexed, chunked, compressed MCAP, in
     place and atomically. False (and nothing changed) when it is not a closed unchunked
     file; ``OSError`` when the copy cannot be written or swapped (the temporary removed,
-    the original intact). ``pace`` is called every :data:`_BUDGET_RECORDS` records (the
+    the original intact). ``pace`` is called every :data:`BUDGET_RECORDS` records (the
     child's :class:`Budget`)."""
     path = Path(path)
     if not closed(path):
@@ -137,7 +139,7 @@ def _copy(source: IO[bytes], out: IO[bytes], size: int, pace: Callable[[], None]
     """Copy every record of an unchunked recording into a chunked writer, in order."""
     writer = Writer(out, chunk_size=CHUNK_BYTES, compression=COMPRESSION)
     for count, record in enumerate(_records(source, size), start=1):
-        if pace is not None and count % _BUDGET_RECORDS == 0:
+        if pace is not None and count % BUDGET_RECORDS == 0:
             pace()
         match record:
             case Header():
@@ -303,7 +305,7 @@ CPU_SHARE = 0.25
 two-core machine it leaves the server its core and most of the other (measured in
 bench/history/recording.md: the p99 at 50 clients while a file compacts)."""
 
-_BUDGET_RECORDS = 256
+BUDGET_RECORDS = 256
 """Records copied between two looks at the child's CPU time."""
 
 
@@ -347,7 +349,7 @@ class Budget:
         self.lifted = bool(woken)
 
 
-def _yield_to_the_server() -> None:
+def yield_to_the_server() -> None:
     """The lowest priority there is: ``nice`` 19 and, on Linux, ``SCHED_IDLE`` (run only
     when nothing else wants the core). Either may be refused (a container's policy):
     the budget still holds."""
@@ -363,7 +365,7 @@ def main(argv: list[str]) -> int:
     and within :data:`CPU_SHARE` of a core. Exit 0 when compacted or nothing to do,
     :data:`NO_SPACE_EXIT` when it failed for lack of space, 1 for any other failure (the
     original intact)."""
-    _yield_to_the_server()
+    yield_to_the_server()
     [path] = argv
     try:
         compact(Path(path), Budget(CPU_SHARE, until=sys.stdin.fileno()).spend)

@@ -318,7 +318,7 @@ def test_compaction_paces_itself_and_keeps_every_record(tmp_path, monkeypatch, m
     copied = len(_records(path)) - 2  # all but the DataEnd and the footer
     calls = []
     assert compact(path, lambda: calls.append(1))
-    assert len(calls) == copied // compaction_module._BUDGET_RECORDS > 0
+    assert len(calls) == copied // compaction_module.BUDGET_RECORDS > 0
     assert _messages(path) == before
     code, _ = mcap_check(path)
     assert code == 0
@@ -328,7 +328,7 @@ def test_the_compaction_child_runs_at_the_lowest_priority():
     """nice 19 and, on Linux, SCHED_IDLE: the child never delays the server's work."""
     code = (
         "import os; from plotgate.service.recording import compaction as c; "
-        "c._yield_to_the_server(); "
+        "c.yield_to_the_server(); "
         "print(os.nice(0), getattr(os, 'sched_getscheduler', lambda p: -1)(0))"
     )
     out = subprocess.run(
