@@ -18,16 +18,32 @@ alone, as at 1 client; 6: a turn of the loop at 10 clients), into a file on ``--
 
 Each is timed per exchange, best of ``--repeat``.
 
+**Steps at one client.** One exchange at a time on a running uvloop loop, as the service
+records it with one client: each step's CPU time (``time.thread_time_ns`` around it, the
+cost of reading the clock taken off), so the recording's share of a request is accounted
+for to the call: the two records built, the request added (its exchange, its header, the
+commit scheduled), the response added and committed at once (one ``writev``, one
+``fstat``, the bookkeeping), the metrics' flush histogram, the loop's turn. ``writev``
+and ``fstat`` alone, on another file, say what the system calls cost by themselves.
+
 **Compaction.** The ``Recorder`` file compacted with LZ4 and with zstd chunks: time to
 compact, size, and time for :class:`plotgate.clients.mcap_reader.RecordReader` and mcap's
 reader to read every message back.
 
+``--quick`` (CI: no time asserted) writes 1,000 exchanges once and compacts 300. The last
+lines are the front table's rows (``SUMMARY {json}``, no aim: ``met`` null): the
+``Recorder`` against the bare ``struct + writev`` floor per commit size, and zstd
+compaction against LZ4.
+
     python bench/bench_record_writers.py [--exchanges 10000 --bytes 1400 --per-commit 1,6]
+        [--quick]
 """
 
 import argparse
+import asyncio
 import contextlib
 import json
+import os
 import random
 import tempfile
 import time
@@ -35,10 +51,12 @@ from collections.abc import Callable
 from pathlib import Path
 from unittest import mock
 
+import uvloop
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
 from plotgate.clients.mcap_reader import RecordReader
+from plotgate.service.metrics import Metrics
 from plotgate.service.recording import Recorder, compaction, request_record, response_record
 from plotgate.service.recording.files import RecordingFile
 from plotgate.service.recording.records import file_head, message_header
@@ -152,7 +170,17 @@ def writers() -> dict[str, Write]:
     return found
 
 
-def time_writers(folder: Path, args: argparse.Namespace) -> None:
+def _summary(row: str, workload: str, peer: str, measured: str) -> None:
+    """One row of bench/README.md's front table (no aim here: ``met`` null)."""
+    fields = {"row": row, "workload": workload, "peer": peer, "measured": measured}
+    print(
+        "SUMMARY "
+        + json.dumps({**fields, "aim": "none (issue 40's aims are end to end)", "met": None})
+    )
+
+
+def time_writers(folder: Path, args: argparse.Namespace) -> dict[tuple[str, int], float]:
+    """Seconds per exchange of every writer at every commit size, best of ``--repeat``."""
     message = b'{"request_id": "r", "body": "%s"}' % (b"x" * (args.bytes - 35))
     print(
         f"{args.exchanges} exchanges of two {len(message)}-byte messages; "
@@ -160,6 +188,7 @@ def time_writers(folder: Path, args: argparse.Namespace) -> None:
     )
     print("\n| writer | " + " | ".join(f"{n} per commit" for n in args.per_commit) + " |")
     print("|---|" + "---:|" * len(args.per_commit))
+    took: dict[tuple[str, int], float] = {}
     for name, write in writers().items():
         cells = []
         for per_commit in args.per_commit:
@@ -171,8 +200,111 @@ def time_writers(folder: Path, args: argparse.Namespace) -> None:
                 started = time.perf_counter()
                 write(path, args.exchanges, per_commit, message)
                 best = min(best, time.perf_counter() - started)
+            took[name, per_commit] = best / args.exchanges
             cells.append(f"{best / args.exchanges * 1e6:.1f}")
         print(f"| {name} | " + " | ".join(cells) + " |")
+    return took
+
+
+STEP_BODY = b"""{"gate": {"kind": "combined", "tau": 5, "v_min": 100, "v_max": 500, "P_G": 0.9},
+  "first": {"frame": "polar", "r": 50000, "az_deg": 0, "sigma_r": 200, "sigma_az_deg": 0.5},
+  "candidates": [
+    {"frame": "polar", "r": 51000, "az_deg": 0.5, "sigma_r": 200, "sigma_az_deg": 0.5},
+    {"frame": "cartesian", "x": 0, "y": 52600, "covariance": [[40000, 0], [0, 40000]]},
+    {"frame": "cartesian", "x": 0, "y": 60000, "covariance": [[40000, 0], [0, 40000]]}
+  ]}"""
+"""bench/bench_service.py's request: the README's combined-gate test."""
+
+STEPS = (
+    "request_record",
+    "Recorder.arequest",
+    "response_record",
+    "Recorder.aresponse (alone: commit)",
+    "Recorder.forget",
+)
+LOOP_TURN = "the loop's next turn (the driver's own, not counted)"
+
+
+async def _steps(folder: Path, exchanges: int) -> dict[str, float]:
+    """CPU ns of each recording step of one exchange at a time, summed over ``exchanges``."""
+    metrics = Metrics(lambda: None)
+    rec = Recorder(folder, OPERATIONS.values(), on_flush=metrics.flush.observe).start()
+    answer = execute(OPERATIONS[OP], STEP_BODY).content
+    clock = time.thread_time_ns
+    spent = dict.fromkeys((*STEPS, LOOP_TURN), 0)
+    for i in range(exchanges + 1000):  # the first thousand warm up, uncounted
+        rid = f"{i:032x}"
+        t0 = clock()
+        asked = request_record(rid, OP, STEP_BODY, True, None)
+        t1 = clock()
+        exchange = await rec.arequest(OP, asked)
+        t2 = clock()
+        told = response_record(rid, OP, 200, 0.000321, answer)
+        t3 = clock()
+        await rec.aresponse(exchange, told)
+        t4 = clock()
+        rec.forget(exchange)
+        t5 = clock()
+        await asyncio.sleep(0)
+        t6 = clock()
+        if i >= 1000:
+            took = (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5)
+            for step, ns in zip((*STEPS, LOOP_TURN), took, strict=True):
+                spent[step] += ns
+    rec.close()
+    return spent
+
+
+def _syscalls(folder: Path, exchanges: int) -> dict[str, float]:
+    """CPU ns of a commit's two system calls alone: ``writev`` of an exchange's four
+    buffers to a file, and ``fstat`` of it."""
+    head, ids = file_head(_channels(), {})
+    file = RecordingFile(folder / "syscalls.mcap", 1, head)
+    buffers = [message_header(ids[TOPICS[0]], 1, 0, 560), b"x" * 560]
+    buffers += [message_header(ids[TOPICS[1]], 2, 0, 300), b"y" * 300]
+    clock = time.thread_time_ns
+    spent = {"writev alone": 0, "fstat alone": 0}
+    for _ in range(exchanges):
+        t0 = clock()
+        os.writev(file.fd, buffers)
+        t1 = clock()
+        os.fstat(file.fd)
+        t2 = clock()
+        spent["writev alone"] += t1 - t0
+        spent["fstat alone"] += t2 - t1
+    file.close()
+    file.path.unlink()
+    return spent
+
+
+def time_steps(folder: Path, args: argparse.Namespace) -> dict[str, float]:
+    """Microseconds of CPU per exchange of every recording step at one client, best of
+    ``--repeat`` (each step its own best), the clock's own cost taken off."""
+    clock = time.thread_time_ns
+    t0 = clock()
+    for _ in range(10_000):
+        clock()
+    read_ns = (clock() - t0) / 10_000
+    best: dict[str, float] = {}
+    for _ in range(args.repeat):
+        spent = uvloop.run(_steps(folder, args.exchanges))
+        spent.update(_syscalls(folder, args.exchanges))
+        for step, ns in spent.items():
+            us = max(ns / args.exchanges - read_ns, 0.0) / 1e3
+            best[step] = min(best.get(step, us), us)
+    total = sum(best[step] for step in STEPS)
+    print(
+        f"\nrecording steps at one client, us of CPU per exchange, best of {args.repeat} "
+        f"(clock read {read_ns:.0f} ns, taken off)"
+    )
+    print("| step | us | share |")
+    print("|---|---:|---:|")
+    for step, us in best.items():
+        share = f"{us / total:.0%}" if step in STEPS else "(inside the commit)"
+        share = "" if step == LOOP_TURN else share
+        print(f"| {step} | {us:.2f} | {share} |")
+    print(f"| all steps | {total:.2f} | 100% |")
+    return {**best, "all": total}
 
 
 def _read_scan(path: Path) -> int:
@@ -184,19 +316,23 @@ def _read_mcap(path: Path) -> int:
         return sum(1 for _ in make_reader(f).iter_messages(log_time_order=False))
 
 
-def time_compaction(folder: Path, args: argparse.Namespace, source: Path) -> None:
+def time_compaction(
+    folder: Path, args: argparse.Namespace, source: Path, exchanges: int
+) -> dict[str, float]:
+    """Seconds to compact ``source`` with LZ4 and with zstd chunks."""
     size = source.stat().st_size / 2**20
-    print(f"\ncompaction of {size:.1f} MiB ({args.exchanges} gates.test exchanges), best of")
+    print(f"\ncompaction of {size:.1f} MiB ({exchanges} gates.test exchanges), best of")
     print(f"{args.repeat} reads (RecordReader: records only; mcap: make_reader().iter_messages())")
     print("| chunks | compact s | MiB | RecordReader records s | mcap messages s |")
     print("|---|---:|---:|---:|---:|")
+    took: dict[str, float] = {}
     for codec in (CompressionType.LZ4, CompressionType.ZSTD):
         path = folder / f"{codec.name}.mcap"
         path.write_bytes(source.read_bytes())
         compaction.COMPRESSION = codec
         started = time.perf_counter()
         assert compaction.compact(path)
-        took = time.perf_counter() - started
+        took[codec.name.lower()] = time.perf_counter() - started
         reads = []
         for read in (_read_scan, _read_mcap):
             best = float("inf")
@@ -206,9 +342,11 @@ def time_compaction(folder: Path, args: argparse.Namespace, source: Path) -> Non
                 best = min(best, time.perf_counter() - started)
             reads.append(best)
         print(
-            f"| {codec.name.lower()} | {took:.2f} | {path.stat().st_size / 2**20:.1f} | "
+            f"| {codec.name.lower()} | {took[codec.name.lower()]:.2f} | "
+            f"{path.stat().st_size / 2**20:.1f} | "
             f"{reads[0]:.2f} | {reads[1]:.2f} |"
         )
+    return took
 
 
 def main() -> None:
@@ -218,14 +356,42 @@ def main() -> None:
     parser.add_argument("--per-commit", default="1,6")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--folder", type=Path, default=None, help="default: a temporary one")
+    parser.add_argument("--quick", action="store_true", help="1,000 exchanges, once")
     args = parser.parse_args()
     args.per_commit = [int(n) for n in args.per_commit.split(",")]
+    if args.quick:
+        args.exchanges, args.repeat = 1000, 1
     with tempfile.TemporaryDirectory(dir=args.folder) as tmp:
         folder = Path(tmp)
-        time_writers(folder, args)
+        writing = time_writers(folder, args)
+        steps = time_steps(folder, args)
         source = folder / "recorded.mcap"
-        recorded(source, args.exchanges)
-        time_compaction(folder, args, source)
+        compacted = 300 if args.quick else args.exchanges
+        recorded(source, compacted)
+        compacting = time_compaction(folder, args, source, compacted)
+    for n in args.per_commit:
+        ours, floor = writing["Recorder (plain code)", n], writing["struct + writev", n]
+        _summary(
+            f"record_writers.recorder.per{n}",
+            f"recording {args.exchanges} exchanges ({args.bytes}-byte messages), {n} per "
+            "commit, in process",
+            "struct + writev: the headers and one writev, nothing else",
+            f"{ours * 1e6:.1f} us an exchange, {ours / floor:.2f}x the floor",
+        )
+    _summary(
+        "record_writers.steps.c1",
+        "recording one exchange at one client on a running loop (the service's request and "
+        "answer), CPU",
+        "its own writev + fstat, the system calls of a commit",
+        f"{steps['all']:.1f} us an exchange, of which writev {steps['writev alone']:.1f} "
+        f"and fstat {steps['fstat alone']:.1f}",
+    )
+    _summary(
+        "record_writers.compaction.zstd",
+        f"compacting {compacted} recorded gates.test exchanges (100 candidates)",
+        "the same with LZ4 chunks",
+        f"{compacting['zstd']:.2f} s, {compacting['zstd'] / compacting['lz4']:.2f}x LZ4",
+    )
 
 
 def recorded(path: Path, exchanges: int) -> None:

@@ -21,11 +21,12 @@ without it by a killed process stays readable as it is: the next start does not 
 it, because with several workers the files of the others are open and growing, and a
 start cannot tell them from a dead one's; ``plotgate recover`` writes its indexed copy.
 
-A server compacts in a child process (:class:`Compactions`), started with ``nice``, so
-the compaction never holds the loop's GIL. The child runs this file as a script, so it
-imports mcap and the standard library only, not the service (which takes seconds on a
-loaded machine); that is why this module imports nothing of plotgate but the
-standard-library :mod:`plotgate.files`. Plain code
+A server compacts in a child process (:class:`Compactions`), so the compaction never
+holds the loop's GIL; the child yields the cores to the server: the lowest priority
+(``nice`` 19, ``SCHED_IDLE``) and at most :data:`CPU_SHARE` of a core (:class:`Budget`).
+The child runs this file as a script, so it imports mcap and the standard library only,
+not the service (which takes seconds on a loaded machine); that is why this module
+imports nothing of plotgate but the standard-library :mod:`plotgate.files`. Plain code
 (``plotgate replay --out``, the benches) compacts in its own thread on ``close``.
 Memory is bounded: records are read one at a time and the writer holds one chunk, its
 message index and one index entry per chunk.
@@ -36,6 +37,7 @@ import errno
 import io
 import logging
 import os
+import select
 import struct
 import subprocess
 import sys
@@ -53,12 +55,16 @@ from plotgate.files import open_regular, replace_into, temporary_beside
 
 __all__ = [
     "CHUNK_BYTES",
+    "CPU_SHARE",
+    "Budget",
+    "BUDGET_RECORDS",
     "COMPRESSION",
     "FAILURES",
     "Compactions",
     "compact",
     "remove_leftovers",
     "temporaries",
+    "yield_to_the_server",
 ]
 
 log = logging.getLogger("plotgate")
@@ -105,11 +111,12 @@ def closed(path: Path) -> bool:
     return end.startswith(_UNSUMMARIZED_END) and end.endswith(MCAP0_MAGIC)
 
 
-def compact(path: Path) -> bool:
+def compact(path: Path, pace: Callable[[], None] | None = None) -> bool:
     """Rewrite a closed unchunked recording as an indexed, chunked, compressed MCAP, in
     place and atomically. False (and nothing changed) when it is not a closed unchunked
     file; ``OSError`` when the copy cannot be written or swapped (the temporary removed,
-    the original intact)."""
+    the original intact). ``pace`` is called every :data:`BUDGET_RECORDS` records (the
+    child's :class:`Budget`)."""
     path = Path(path)
     if not closed(path):
         return False
@@ -117,7 +124,7 @@ def compact(path: Path) -> bool:
     try:
         with os.fdopen(fd, "wb") as out, open_regular(path) as source:
             os.fchmod(fd, 0o644)  # mkstemp's 0600: the recording's mode
-            _copy(source, out, os.fstat(source.fileno()).st_size)
+            _copy(source, out, os.fstat(source.fileno()).st_size, pace)
             out.flush()
             os.fsync(out.fileno())
         replace_into(copy, path)
@@ -128,10 +135,12 @@ def compact(path: Path) -> bool:
     return True
 
 
-def _copy(source: IO[bytes], out: IO[bytes], size: int) -> None:
+def _copy(source: IO[bytes], out: IO[bytes], size: int, pace: Callable[[], None] | None) -> None:
     """Copy every record of an unchunked recording into a chunked writer, in order."""
     writer = Writer(out, chunk_size=CHUNK_BYTES, compression=COMPRESSION)
-    for record in _records(source, size):
+    for count, record in enumerate(_records(source, size), start=1):
+        if pace is not None and count % BUDGET_RECORDS == 0:
+            pace()
         match record:
             case Header():
                 writer.start(record.profile, record.library)
@@ -225,7 +234,9 @@ class Compactions:
     A child process, not a thread: the copy parses and compresses every record, which in
     a thread would take the GIL from the event loop in slices of milliseconds. The child
     runs in its own session, so a terminal's Ctrl-C goes to the server, whose shutdown
-    decides (:meth:`wait`).
+    decides (:meth:`wait`). It keeps to its :class:`Budget` until its standard input
+    closes: the server closes it when nothing is left to yield to (:meth:`wait`, at
+    shutdown; a second compaction of the same file), and so does the server's end.
     """
 
     def __init__(self) -> None:
@@ -239,10 +250,11 @@ class Compactions:
         self.reap()
         earlier = self._running.pop(path, None)
         if earlier is not None:
+            _hurry(earlier)
             earlier.wait()
         self._running[path] = subprocess.Popen(
             [sys.executable, "-P", __file__, str(path)],
-            stdin=subprocess.DEVNULL,
+            stdin=subprocess.PIPE,
             stdout=subprocess.DEVNULL,
             start_new_session=True,
         )
@@ -258,6 +270,7 @@ class Compactions:
         for path, child in list(self._running.items()):
             if child.poll() is not None:
                 del self._running[path]
+                _hurry(child)  # its end of the pipe, closed
                 if child.returncode == NO_SPACE_EXIT:
                     self.no_space.append(path)
                     log.warning("compaction of %s waits for space on the disk", path)
@@ -270,6 +283,8 @@ class Compactions:
         Returns the files left uncompacted that way."""
         deadline = time.monotonic() + timeout_s
         left = []
+        for child in self._running.values():
+            _hurry(child)  # nothing left to yield to: full speed
         for path, child in self._running.items():
             try:
                 child.wait(max(0.0, deadline - time.monotonic()))
@@ -285,15 +300,75 @@ class Compactions:
         return left
 
 
-def main(argv: list[str]) -> int:
-    """``python -P compaction.py FILE``: compact one closed file,
-    at a low priority. Exit 0 when compacted or nothing to do, :data:`NO_SPACE_EXIT` when
-    it failed for lack of space, 1 for any other failure (the original intact)."""
+CPU_SHARE = 0.25
+"""The share of one core a compaction child may use, averaged from its start: on a
+two-core machine it leaves the server its core and most of the other (measured in
+bench/history/recording.md: the p99 at 50 clients while a file compacts)."""
+
+BUDGET_RECORDS = 256
+"""Records copied between two looks at the child's CPU time."""
+
+
+def _hurry(child: "subprocess.Popen[bytes]") -> None:
+    """Close a compaction child's standard input: its budget is lifted."""
+    if child.stdin is not None:
+        with contextlib.suppress(OSError):
+            child.stdin.close()
+
+
+class Budget:
+    """Keeps a process's CPU time within ``share`` of the wall time since it started:
+    :meth:`spend` sleeps off what is over. The compaction child calls it as it copies, so
+    besides running at the lowest priority (which yields only to runnable processes, and
+    a server between requests is not one) it leaves the cores idle most of the time,
+    ready for the next burst of requests.
+
+    ``until``: a file descriptor (the child's standard input, a pipe from the server)
+    whose end (or any byte) lifts the budget for good, even in the middle of a sleep: the
+    server is stopping and waits for the compaction (POSIX; elsewhere it is ignored).
+    """
+
+    def __init__(self, share: float, until: int | None = None) -> None:
+        self.share = share
+        self.until = until if os.name == "posix" else None
+        self.lifted = False
+        self.started = time.monotonic()
+        self.cpu = time.process_time()
+
+    def spend(self) -> None:
+        """Sleep until the CPU used so far is within the share of the time elapsed."""
+        if self.lifted:
+            return
+        ahead = (time.process_time() - self.cpu) / self.share - (time.monotonic() - self.started)
+        if ahead <= 0:
+            return
+        if self.until is None:
+            time.sleep(ahead)
+            return
+        woken, _, _ = select.select([self.until], [], [], ahead)
+        self.lifted = bool(woken)
+
+
+def yield_to_the_server() -> None:
+    """The lowest priority there is: ``nice`` 19 and, on Linux, ``SCHED_IDLE`` (run only
+    when nothing else wants the core). Either may be refused (a container's policy):
+    the budget still holds."""
     with contextlib.suppress(OSError):
-        os.nice(10)
+        os.nice(19)
+    if hasattr(os, "sched_setscheduler"):
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+
+
+def main(argv: list[str]) -> int:
+    """``python -P compaction.py FILE``: compact one closed file, at the lowest priority
+    and within :data:`CPU_SHARE` of a core. Exit 0 when compacted or nothing to do,
+    :data:`NO_SPACE_EXIT` when it failed for lack of space, 1 for any other failure (the
+    original intact)."""
+    yield_to_the_server()
     [path] = argv
     try:
-        compact(Path(path))
+        compact(Path(path), Budget(CPU_SHARE, until=sys.stdin.fileno()).spend)
     except FAILURES as exc:
         with contextlib.suppress(OSError):  # a log on the full disk
             print(f"plotgate: compaction of {path} failed: {exc}", file=sys.stderr)

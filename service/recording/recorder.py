@@ -195,7 +195,8 @@ class Recorder:
         self._sequence = 0  # message records added (their MCAP sequence numbers)
         self._buffers: list[bytes] = []  # record bytes added since the last commit
         self._compactions = Compactions()
-        self._batch: asyncio.Future[None] | None = None
+        self._batch: asyncio.Future[None] | None = None  # made when an answer waits
+        self._due: asyncio.Handle | None = None  # this turn's commit, once scheduled
         self._lock: asyncio.Lock | None = None  # held while a worker thread writes
         self._flush_waiting = False
         self._inflight: set[Exchange] = set()
@@ -356,11 +357,14 @@ class Recorder:
             exchange.response, exchange.response_time = data, time.time_ns()
             await self._exclusive(self._write_response, exchange, len(data))
             if len(self._inflight) == 1 and (self._lock is None or not self._lock.locked()):
-                self._commit_batch()  # alone in flight: no other answer to share a commit
+                # alone in flight: no other answer to share a commit, which takes every
+                # record added so far, so the one scheduled for this turn has none left
+                if self._due is not None:
+                    self._due.cancel()
+                    self._due = None
+                self._commit_batch()
                 return
-            batch = self._schedule()
-            assert batch is not None
-            await asyncio.shield(batch)
+            await asyncio.shield(self._waiter())
         finally:
             self.forget(exchange)
 
@@ -390,7 +394,7 @@ class Recorder:
             finally:
                 if self._flush_waiting:
                     self._flush_waiting = False
-                    asyncio.get_running_loop().call_soon(self._flush_due)
+                    self._due = asyncio.get_running_loop().call_soon(self._flush_due)
 
     def forget(self, exchange: Exchange) -> None:
         """Stop keeping an exchange's records (answered, or refused unrecorded)."""
@@ -504,15 +508,24 @@ class Recorder:
             self._drop(exc, whole_file=False)
             raise RecordingError(f"could not record: {exc}") from exc
 
-    def _schedule(self) -> asyncio.Future[None] | None:
-        """The future of this turn's commit, scheduled once per turn; None off a loop."""
+    def _schedule(self) -> None:
+        """Schedule this turn's commit, once per turn (a request's record needs its commit,
+        not a future to wait on: one is made only for the answers that wait,
+        :meth:`_waiter`); nothing off a loop."""
+        if self._due is not None:
+            return
         try:
             loop = asyncio.get_running_loop()
         except RuntimeError:
-            return None
+            return  # plain code flushes itself
+        self._due = loop.call_soon(self._flush_due)
+
+    def _waiter(self) -> asyncio.Future[None]:
+        """The future of this turn's commit, one for every answer waiting on it, made by
+        the first of them."""
+        self._schedule()
         if self._batch is None:
-            self._batch = loop.create_future()
-            loop.call_soon(self._flush_due)
+            self._batch = asyncio.get_running_loop().create_future()
         return self._batch
 
     def _flush_due(self) -> None:
@@ -520,6 +533,7 @@ class Recorder:
         if self._lock is not None and self._lock.locked():
             self._flush_waiting = True
         else:
+            self._due = None
             self.flush()
 
     def _rotation_due(self, file: RecordingFile) -> bool:

@@ -121,16 +121,6 @@ def message_header(channel: int, sequence: int, log_time: int, size: int) -> byt
     )
 
 
-def _head(request_id: str, operation: str, replay_of: str | None = None) -> bytes:
-    head = b'{"request_id": %s, "operation": "%s"' % (
-        json.dumps(request_id).encode(),
-        operation.encode(),
-    )
-    if replay_of is not None:
-        head += b', "replay_of": %s' % json.dumps(replay_of).encode()
-    return head
-
-
 def request_record(
     request_id: str,
     operation: str,
@@ -142,14 +132,26 @@ def request_record(
 
     ``strict_json`` says which the body is when the caller knows (the service parsed it);
     by default the body is parsed here to find out. ``replay_of`` is, for a request sent by
-    ``plotgate replay``, the request id of the exchange it replays.
+    ``plotgate replay``, the request id of the exchange it replays. Built by one
+    formatting of the whole message (no intermediate pieces: this runs for every request).
     """
     if strict_json is None:
         strict_json = is_strict_json(body)
-    head = _head(request_id, operation, replay_of)
-    if strict_json:
-        return b'%s, "body": %s}' % (head, body)
-    return b'%s, "raw": %s}' % (head, _json_string(body))
+    key, value = (b"body", body) if strict_json else (b"raw", _json_string(body))
+    if replay_of is None:
+        return b'{"request_id": %s, "operation": "%s", "%s": %s}' % (
+            json.dumps(request_id).encode(),
+            operation.encode(),
+            key,
+            value,
+        )
+    return b'{"request_id": %s, "operation": "%s", "replay_of": %s, "%s": %s}' % (
+        json.dumps(request_id).encode(),
+        operation.encode(),
+        json.dumps(replay_of).encode(),
+        key,
+        value,
+    )
 
 
 _CONTROL = re.compile(rb"[\x00-\x1f]")
@@ -172,12 +174,13 @@ def _json_string(body: bytes) -> bytes:
 def response_record(
     request_id: str, operation: str, status: int, duration_s: float, content: bytes
 ) -> bytes:
-    """The response message around an answer's JSON ``content`` (result or problem)."""
-    key = b"result" if status < 400 else b"error"
-    return b'%s, "status": %d, "duration_s": %r, "%s": %s}' % (
-        _head(request_id, operation),
+    """The response message around an answer's JSON ``content`` (result or problem), built
+    by one formatting of the whole message."""
+    return b'{"request_id": %s, "operation": "%s", "status": %d, "duration_s": %r, "%s": %s}' % (
+        json.dumps(request_id).encode(),
+        operation.encode(),
         status,
         duration_s,
-        key,
+        b"result" if status < 400 else b"error",
         content,
     )

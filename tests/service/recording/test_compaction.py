@@ -292,3 +292,65 @@ def test_a_file_closed_while_the_disk_was_full_is_compacted_once_space_returns(
         recorder.close()
 
     asyncio.run(session())
+
+
+def test_the_budget_sleeps_off_the_cpu_over_its_share(monkeypatch):
+    """A child that used 0.1 s of CPU in 0.2 s at a share of a quarter sleeps until 0.4 s
+    have passed; one within its share does not sleep."""
+    clock = {"cpu": 0.0, "wall": 0.0}
+    slept: list[float] = []
+    monkeypatch.setattr(compaction_module.time, "process_time", lambda: clock["cpu"])
+    monkeypatch.setattr(compaction_module.time, "monotonic", lambda: clock["wall"])
+    monkeypatch.setattr(compaction_module.time, "sleep", slept.append)
+    budget = compaction_module.Budget(0.25)
+    clock.update(cpu=0.1, wall=0.2)
+    budget.spend()
+    assert slept == [pytest.approx(0.2)]
+    clock.update(cpu=0.1, wall=0.5)
+    budget.spend()
+    assert len(slept) == 1
+
+
+def test_compaction_paces_itself_and_keeps_every_record(tmp_path, monkeypatch, mcap_check):
+    """The budget is consulted as records are copied, and the copy is the same."""
+    path = _uncompacted(monkeypatch, tmp_path, 300)
+    before = _messages(path)
+    copied = len(_records(path)) - 2  # all but the DataEnd and the footer
+    calls = []
+    assert compact(path, lambda: calls.append(1))
+    assert len(calls) == copied // compaction_module.BUDGET_RECORDS > 0
+    assert _messages(path) == before
+    code, _ = mcap_check(path)
+    assert code == 0
+
+
+def test_the_compaction_child_runs_at_the_lowest_priority():
+    """nice 19 and, on Linux, SCHED_IDLE: the child never delays the server's work."""
+    code = (
+        "import os; from plotgate.service.recording import compaction as c; "
+        "c.yield_to_the_server(); "
+        "print(os.nice(0), getattr(os, 'sched_getscheduler', lambda p: -1)(0))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert int(out[0]) == 19
+    if sys.platform == "linux":
+        assert int(out[1]) == os.SCHED_IDLE
+
+
+def test_the_budget_is_lifted_when_its_pipe_closes(monkeypatch):
+    """The server closes the child's standard input at shutdown: the sleep ends at once
+    and the budget is not consulted again."""
+    clock = {"cpu": 0.0, "wall": 0.0}
+    monkeypatch.setattr(compaction_module.time, "process_time", lambda: clock["cpu"])
+    monkeypatch.setattr(compaction_module.time, "monotonic", lambda: clock["wall"])
+    read, write = os.pipe()
+    try:
+        budget = compaction_module.Budget(0.25, until=read)
+        clock.update(cpu=100.0, wall=1.0)  # 399 s over: a sleep that would never end
+        os.close(write)
+        budget.spend()
+        assert budget.lifted
+    finally:
+        os.close(read)
