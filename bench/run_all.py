@@ -55,20 +55,13 @@ TAIL_LINES = 15
 @dataclass(frozen=True)
 class Bench:
     """One bench: its script, the arguments of a full and of a quick run, the front-table
-    rows it prints (their ids, in table order), and the timeout of a full run.
-
-    ``ready`` is False while the bench does not follow the protocol yet (its ``--quick`` and
-    SUMMARY lines are on another helper's branch, not merged): run_all then reports it as
-    failing without running it, and the table keeps its rows as they were. Set it to True
-    once the branch is merged.
-    """
+    rows it prints (their ids, in table order), and the timeout of a full run."""
 
     script: str
     full: tuple[str, ...]
     quick: tuple[str, ...]
     rows: tuple[str, ...]
     timeout_s: float = 1800.0
-    ready: bool = True
 
     @property
     def name(self) -> str:
@@ -84,10 +77,23 @@ BENCHES: tuple[Bench, ...] = (
         "bench/bench_service.py",
         (),
         QUICK,
-        ("service.c1", "service.c10", "service.c50", "service.p99_c50"),
-        ready=False,
+        (
+            *(f"service.recording.c{c}" for c in (1, 10, 50)),
+            "service.recording.p99.c50",
+            *(f"service.granian.c{c}" for c in (1, 10, 50)),
+        ),
     ),
-    Bench("bench/bench_record_writers.py", (), QUICK, ("record_writers.commit",), ready=False),
+    Bench(
+        "bench/bench_record_writers.py",
+        (),
+        QUICK,
+        (
+            "record_writers.recorder.per1",
+            "record_writers.recorder.per6",
+            "record_writers.steps.c1",
+            "record_writers.compaction.zstd",
+        ),
+    ),
     Bench("bench/bench_reading.py", (), QUICK, ("reading",)),
     Bench("bench/bench_replay.py", (), QUICK, ("replay",)),
     Bench("bench/bench_view.py", (), QUICK, ("view-vs-read",)),
@@ -214,14 +220,6 @@ def tail(text: str, lines: int = TAIL_LINES) -> str:
 
 def run(bench: Bench, quick: bool, root: Path = ROOT) -> Outcome:
     """Run one bench in its own process group (killed whole on a timeout)."""
-    if not bench.ready:
-        return Outcome(
-            bench,
-            [],
-            0.0,
-            f"{bench.script} does not follow the bench protocol yet (--quick, SUMMARY lines):"
-            " BENCHES marks it ready=False until its owner's branch is merged",
-        )
     argv = [sys.executable, *bench.command(quick)[1:]]
     timeout = QUICK_TIMEOUT_S if quick else bench.timeout_s
     start = time.perf_counter()
