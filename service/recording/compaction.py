@@ -74,7 +74,7 @@ CHUNK_BYTES = 2**20
 reach any message, and the summary holds one index entry per chunk."""
 
 COMPRESSION = CompressionType.ZSTD
-"""zstd, chosen by measurement (bench/README.md, "Compaction"): smaller files than LZ4 on
+"""zstd, chosen by measurement (bench/HISTORY.md, "Compaction"): smaller files than LZ4 on
 recordings, read about as fast."""
 
 SUFFIX = ".compacting"
@@ -303,7 +303,8 @@ class Compactions:
 CPU_SHARE = 0.25
 """The share of one core a compaction child may use, averaged from its start: on a
 two-core machine it leaves the server its core and most of the other (measured in
-bench/history/recording.md: the p99 at 50 clients while a file compacts)."""
+bench/HISTORY.md, "Recording and the server (issue 40)": the p99 at 50 clients while a
+file compacts)."""
 
 BUDGET_RECORDS = 256
 """Records copied between two looks at the child's CPU time."""

@@ -347,7 +347,7 @@ class Recorder:
 
         An exchange alone in flight commits at once, here: no other answer could share
         its commit, and waiting for the next turn of the loop (a future, its shield, the
-        turn itself) cost it more than the commit (measured in bench/README.md,
+        turn itself) cost it more than the commit (measured in bench/HISTORY.md,
         "Recording's write path": 36 against 56 us an exchange). With others in flight it
         waits for this turn's group commit, which their records share (one ``writev`` and
         one ``fstat`` for all: committing each at once cost twice as much at 10 and 50

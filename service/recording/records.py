@@ -3,7 +3,7 @@
 The recorder writes MCAP by hand, not with mcap's ``Writer``: on the event loop a message
 record is a 31-byte header packed with :mod:`struct` in front of the message, and a group
 commit hands the headers and messages to the OS in one ``writev`` (measured against
-mcap's ``Writer``, chunked and unchunked, in bench/README.md, "Recording's write path").
+mcap's ``Writer``, chunked and unchunked, in bench/HISTORY.md, "Recording's write path").
 The MCAP specification allows message records at the top level, between the file's
 header, schemas and channels and its ``DataEnd``; every reader of this project, mcap's
 and the TypeScript one of tests/interop read them. Chunks, compression and the index are
