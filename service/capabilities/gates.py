@@ -90,6 +90,7 @@ TEST = Endpoint(
     handler=Reference(_GATES, "test"),
     fields=Reference(_GATES, "TEST_FIELDS"),
     drawer=Reference(_SCENES, "test"),
+    batch_drawer=Reference("plotgate.service.scenes.batched", "TESTS"),
     client_method="test_gate",
     description=(
         "Tests one first plot z1 against many candidate plots z2: for each candidate, "

@@ -30,7 +30,7 @@ from typing import Any, Protocol
 
 import foxglove.messages as fm
 
-from plotgate.service.scenes import batched
+from plotgate.service.scenes.batched import BatchDrawer, Plan
 from plotgate.service.scenes.draw import FRAME, Canvas, colors, timestamp
 from plotgate.service.table import ENDPOINTS
 
@@ -69,6 +69,13 @@ DRAWERS: dict[str, Drawer] = {
     name: e.drawer.load() for name, e in ENDPOINTS.items() if e.drawer is not None
 }
 """Every operation's drawing (its declaration's ``drawer``), by operation name."""
+
+BATCH_DRAWERS: dict[str, BatchDrawer] = {
+    name: e.batch_drawer.load() for name, e in ENDPOINTS.items() if e.batch_drawer is not None
+}
+"""The operations whose exchanges ``view`` draws many at once (a
+:class:`~plotgate.service.scenes.batched.BatchDrawer`, the declaration's
+``batch_drawer``), by operation name."""
 
 _CANNOT_DRAW = (KeyError, TypeError, IndexError, ValueError, AttributeError, OverflowError)
 """What a record of an unexpected shape raises while drawn (geometry's docstring)."""
@@ -235,30 +242,30 @@ class Encoded:
         return [self._encoded(TRANSFORM_TOPIC, radar_transform(log_time))]
 
     def exchanges(self, batch: Sequence[Recorded]) -> list[list[tuple[str, str, bytes]]]:
-        """:meth:`exchange` of each exchange of ``batch``: the ``gates.test`` exchanges of
-        the common form drawn together from their bytes
-        (:mod:`~plotgate.service.scenes.batched`), the others one at a time from their
-        values."""
+        """:meth:`exchange` of each exchange of ``batch``: those of an operation with a batch
+        drawing (:data:`BATCH_DRAWERS`) drawn together from their bytes when of its common
+        form, the others one at a time from their values."""
         out: list[list[tuple[str, str, bytes]] | None] = [None] * len(batch)
-        plans, places = [], []
+        planned: dict[str, tuple[list[Plan], list[int]]] = {}
         for i, ex in enumerate(batch):
+            drawer = BATCH_DRAWERS.get(ex.operation)
             if (
-                ex.operation == "gates.test"
+                drawer is not None
                 and ex.request_bytes is not None
                 and ex.response_bytes is not None
                 and 0 <= ex.log_time <= MAX_TIME_NS
             ):
-                plan = batched.plan(ex.request_bytes, ex.response_bytes, ex.log_time)
+                plan = drawer.plan(ex.request_bytes, ex.response_bytes, ex.log_time)
                 if plan is not None:
+                    plans, places = planned.setdefault(ex.operation, ([], []))
                     plans.append(plan)
                     places.append(i)
                     continue
             out[i] = self.exchange(ex.operation, ex.request, ex.response, ex.log_time)
-        if plans:
-            name = self._schemas[fm.SceneUpdate].name
-            topic = SCENE_PREFIX + "gates.test"
-            for i, scene in zip(
-                places, batched.draw_tests(plans, ENTITY_ID, "gates.test"), strict=True
-            ):
+        name = self._schemas[fm.SceneUpdate].name
+        for operation, (plans, places) in planned.items():
+            topic = SCENE_PREFIX + operation
+            scenes = BATCH_DRAWERS[operation].draw(plans, ENTITY_ID, operation)
+            for i, scene in zip(places, scenes, strict=True):
                 out[i] = [(topic, name, scene)]
         return [messages or [] for messages in out]

@@ -24,6 +24,8 @@ time: the picture of an unusual record is never guessed.
 import itertools
 import math
 import operator
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import msgspec
@@ -44,7 +46,7 @@ from plotgate.service.scenes.draw import (
 from plotgate.service.scenes.geometry import mark_position
 from plotgate.service.scenes.wire import Color, Line, point_fields, scene_update, split_points
 
-__all__ = ["BATCH", "Plan", "draw_tests", "plan"]
+__all__ = ["BATCH", "TESTS", "BatchDrawer", "Plan", "draw_tests", "plan"]
 
 BATCH = 64
 """Exchanges drawn together: enough to spread numpy's per-call cost, few enough to keep
@@ -334,3 +336,19 @@ def _crosses(xy: np.ndarray, arms: np.ndarray) -> np.ndarray:
     out[2::4, 1] -= arm[2::4]
     out[3::4, 1] += arm[3::4]
     return out
+
+
+@dataclass(frozen=True)
+class BatchDrawer:
+    """How ``view`` draws many exchanges of one operation at once (an operation's
+    declaration names one, :attr:`plotgate.service.schemas.Endpoint.batch_drawer`)."""
+
+    plan: Callable[[bytes, bytes, int], Plan | None]
+    """An exchange's request and response bytes and log time -> its picture before
+    drawing, None for a form the batch does not draw (the caller draws that one alone)."""
+    draw: Callable[[list[Plan], str, str], list[bytes]]
+    """The plans, the entity id and the operation -> each plan's ``SceneUpdate`` bytes."""
+
+
+TESTS = BatchDrawer(plan, draw_tests)
+"""The ``gates.test`` exchanges' batch drawing."""

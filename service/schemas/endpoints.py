@@ -86,6 +86,11 @@ class Endpoint:
     drawer: Reference | None = field(default=None, kw_only=True)
     """The scene drawing ``(canvas, request body, result)`` of :mod:`plotgate.service.scenes`
     (without one, ``view`` logs that it cannot draw the operation's exchanges)."""
+    batch_drawer: Reference | None = field(default=None, kw_only=True)
+    """A :class:`plotgate.service.scenes.batched.BatchDrawer` that draws many of the
+    operation's exchanges at once from their recorded bytes, to the same bytes as
+    ``drawer`` one at a time (``view``'s fast path; without one, every exchange goes
+    through ``drawer``)."""
     client_method: str | None = field(default=None, kw_only=True)
     """The typed method of :class:`plotgate.clients.client.Client` that calls it (without
     one, ``Client.call`` runs the operation by name)."""
