@@ -500,11 +500,14 @@ _WORKERS_POLL_S = 0.5
 
 async def while_workers(client: Any) -> None:
     """Return never: raise :class:`ClusterUnavailable` once the scheduler has had no worker
-    for :data:`NO_WORKERS_S`, or does not say within :data:`_CLOSE_S` (it died)."""
+    for :data:`NO_WORKERS_S`, or refuses the question, or does not answer it within
+    :data:`CONNECT_S` (it died: a killed scheduler's client waits to reconnect rather than
+    fail). The bound is a handshake's, not the shorter :data:`_CLOSE_S`: a scheduler busy
+    on a loaded machine answers in seconds, and is not taken for dead."""
     alone_since = None
     while True:
         try:
-            threads = await asyncio.wait_for(_threads(client), _CLOSE_S)
+            threads = await asyncio.wait_for(_threads(client), CONNECT_S)
         except Exception as exc:  # noqa: BLE001 - whatever a dead scheduler's client raises
             raise ClusterUnavailable(
                 f"the Dask scheduler did not report its workers: {type(exc).__name__}: {exc}"

@@ -9,7 +9,10 @@ import time
 import pytest
 
 from plotgate.service import cluster
-from plotgate.service.cluster import NO_WORKERS_S, ClusterUnavailable
+from plotgate.service.cluster import CONNECT_S, NO_WORKERS_S, ClusterUnavailable
+
+SLOW_S = 3.0  # a busy scheduler's answer: past the 2 s a cleanup waits, within a handshake's
+assert SLOW_S < CONNECT_S
 
 
 class _Scheduler:
@@ -22,9 +25,15 @@ class _Scheduler:
         return self.workers.pop(0) if len(self.workers) > 1 else self.workers[0]
 
 
+class _SlowScheduler(_Scheduler):
+    async def ncores(self) -> dict[str, int]:
+        await asyncio.sleep(SLOW_S)  # busy, not dead
+        return await super().ncores()
+
+
 class _Client:
-    def __init__(self, workers: list[dict[str, int]] | None) -> None:
-        self.scheduler = _Scheduler(workers)
+    def __init__(self, workers: list[dict[str, int]] | None, slow: bool = False) -> None:
+        self.scheduler = (_SlowScheduler if slow else _Scheduler)(workers)
 
 
 def _watch(client: _Client) -> tuple[str, float]:
@@ -54,3 +63,10 @@ def test_a_worker_lost_for_a_moment_is_waited_for(monkeypatch):
 def test_a_dead_scheduler_ends_the_work_at_once():
     said, took = _watch(_Client(None))
     assert "did not report its workers" in said and took < 1
+
+
+def test_a_scheduler_slow_to_answer_is_not_taken_for_dead(monkeypatch):
+    monkeypatch.setattr(cluster, "_WORKERS_POLL_S", 0.01)
+    monkeypatch.setattr(cluster, "NO_WORKERS_S", 0.0)
+    said, took = _watch(_Client([{"w": 1}, {}], slow=True))
+    assert "has had no worker" in said and took >= 2 * SLOW_S
