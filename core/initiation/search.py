@@ -21,14 +21,22 @@ from plotgate.core.compiled import kernel
 from plotgate.core.errors import ParameterError
 from plotgate.core.initiation.scan import Scan
 from plotgate.core.initiation.windows import (
+    grown,
     in_windows,
     range_bands,
     sort_run,
-    window_counts,
-    window_fill,
+    window_pairs,
 )
 
-__all__ = ["BAND_WORK", "MAX_CANDIDATES", "PlotIndex", "near_pairs", "near_pairs_reference"]
+__all__ = [
+    "BAND_WORK",
+    "MAX_CANDIDATES",
+    "PlotIndex",
+    "cell_order",
+    "cell_order_reference",
+    "near_pairs",
+    "near_pairs_reference",
+]
 
 MAX_CANDIDATES = 2**24
 """Most candidate (track or initiator, plot) pairs one search may return (about 400 MB):
@@ -126,8 +134,44 @@ def _near(point: np.ndarray, centre: np.ndarray, radius: float, chebyshev: bool)
     return bool(np.sqrt(ex * ex + ey * ey) <= radius)
 
 
-@kernel(f"int64[:]({_GRID})")
-def _grid_counts(
+@kernel("Tuple((int64[:], int64[:]))(int64[:, :], int64, int64)")
+def cell_order(cell: np.ndarray, nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
+    """The plots in order of their cell key (x cell times ny plus y cell; ties by index,
+    as a stable argsort), by two counting sorts (by y cell, then by x cell), and where
+    each x column starts in that order (one entry past the last)."""
+    n = cell.shape[0]
+    by_y = np.zeros(ny + 1, dtype=np.int64)
+    for i in range(n):
+        by_y[cell[i, 1] + 1] += 1
+    by_y = np.cumsum(by_y)
+    rows = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        rows[by_y[cell[i, 1]]] = i
+        by_y[cell[i, 1]] += 1
+    columns = np.zeros(nx + 1, dtype=np.int64)
+    for i in range(n):
+        columns[cell[i, 0] + 1] += 1
+    columns = np.cumsum(columns)
+    at = columns[:-1].copy()
+    order = np.empty(n, dtype=np.int64)
+    for plot in rows:
+        order[at[cell[plot, 0]]] = plot
+        at[cell[plot, 0]] += 1
+    return order, columns
+
+
+def cell_order_reference(cell: np.ndarray, nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cell_order` by numpy: a stable argsort of the keys, and a binary search of
+    each column's first key."""
+    key = cell[:, 0] * ny + cell[:, 1]
+    order = np.argsort(key, kind="stable")
+    columns = np.searchsorted(key[order], np.arange(nx + 1, dtype=np.int64) * ny)
+    return order.astype(np.int64), columns.astype(np.int64)
+
+
+@kernel(f"Tuple((int64[:], int64[:], int64))(int64, {_GRID})")
+def _grid_pairs(
+    limit: int,
     keys: np.ndarray,
     columns: np.ndarray,
     order: np.ndarray,
@@ -137,42 +181,28 @@ def _grid_counts(
     centres: np.ndarray,
     radius: np.ndarray,
     chebyshev: bool,
-) -> np.ndarray:
-    """Pairs within each query's radius: the 3 x 3 cells about its own."""
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """The pairs within each query's radius, from the 3 x 3 cells about its own, in one
+    pass: each query's count, the plots of query q at ``found[offsets[q]:offsets[q + 1]]``
+    (offsets the counts' cumulative sum) in plot order, and the total. Past ``limit`` pairs
+    in all the rest are counted, not stored (the caller refuses the search)."""
     counts = np.zeros(cells.shape[0], dtype=np.int64)
+    found = np.empty(min(limit, 2 * cells.shape[0] + 1024), dtype=np.int64)
+    at = 0
     for q in range(cells.shape[0]):
-        for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, columns.size - 1)):
-            first, last = _cell_span(keys, columns, ny, cx, cells[q, 1])
-            for k in range(first, last):
-                counts[q] += _near(points[order[k]], centres[q], radius[q], chebyshev)
-    return counts
-
-
-@kernel(f"int64[:](int64[:], {_GRID})")
-def _grid_fill(
-    offsets: np.ndarray,
-    keys: np.ndarray,
-    columns: np.ndarray,
-    order: np.ndarray,
-    points: np.ndarray,
-    ny: int,
-    cells: np.ndarray,
-    centres: np.ndarray,
-    radius: np.ndarray,
-    chebyshev: bool,
-) -> np.ndarray:
-    """The plots of each query's pairs, at ``offsets[q]:offsets[q + 1]``, in plot order."""
-    found = np.empty(offsets[-1], dtype=np.int64)
-    for q in range(cells.shape[0]):
-        at = offsets[q]
+        start = at
         for cx in range(max(cells[q, 0] - 1, 0), min(cells[q, 0] + 2, columns.size - 1)):
             first, last = _cell_span(keys, columns, ny, cx, cells[q, 1])
             for k in range(first, last):
                 if _near(points[order[k]], centres[q], radius[q], chebyshev):
-                    found[at] = order[k]
+                    if at < limit:
+                        found = grown(found, at, limit)
+                        found[at] = order[k]
                     at += 1
-        sort_run(found, offsets[q], at)  # a query has a few plots
-    return found
+        counts[q] = at - start
+        if at <= limit:
+            sort_run(found, start, at)  # a query has a few plots
+    return counts, found[: min(at, limit)], at
 
 
 def _grid_search(
@@ -180,28 +210,28 @@ def _grid_search(
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """One bin's pairs on a grid of cells as wide as its largest radius; None when the
     plots spread over more columns of cells than four a plot, or more cells than integer
-    keys hold exactly (the tree searches those)."""
+    keys hold exactly (the tree searches those). The plots are put in cell order by two
+    counting sorts (:func:`cell_order`) when the rows of cells are as few as the columns
+    may be, else by an argsort of their keys (:func:`cell_order_reference`)."""
     width = max(float(radius.max()), 1e-9)
     low = points.min(axis=0)
     extent = np.floor((points.max(axis=0) - low) / width) + 1.0
-    if extent[0] > 4 * points.shape[0] + 2**16 or extent[0] * extent[1] > 2.0**52:
+    few = 4 * points.shape[0] + 2**16
+    if extent[0] > few or extent[0] * extent[1] > 2.0**52:
         return None
     nx, ny = int(extent[0]), int(extent[1])
     cell = np.floor((points - low) / width).astype(np.int64)
-    key = cell[:, 0] * ny + cell[:, 1]
-    order = np.argsort(key, kind="stable")
-    keys = key[order]
-    columns = np.searchsorted(keys, np.arange(nx + 1, dtype=np.int64) * ny).astype(np.int64)
+    order, columns = (cell_order if ny <= few else cell_order_reference)(cell, nx, ny)
+    keys = cell[order, 0] * ny + cell[order, 1]
     # a query's cell, clipped one cell beyond the grid: its 3 x 3 block then holds no plot
     query = np.clip(np.floor((centres - low) / width), -2.0, extent + 1.0).astype(np.int64)
     centres = np.ascontiguousarray(centres, dtype=float)
     radius = np.ascontiguousarray(radius, dtype=float)
     grid = (keys, columns, order, points, ny, query, centres, radius, chebyshev)
-    counts = _grid_counts(*grid)
-    if counted + int(counts.sum()) > MAX_CANDIDATES:
-        raise _too_many(counted + int(counts.sum()))
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    return np.repeat(np.arange(centres.shape[0]), counts), _grid_fill(offsets, *grid)
+    counts, found, total = _grid_pairs(MAX_CANDIDATES - counted, *grid)
+    if counted + total > MAX_CANDIDATES:
+        raise _too_many(counted + total)
+    return np.repeat(np.arange(centres.shape[0]), counts), found
 
 
 def near_pairs(
@@ -215,7 +245,8 @@ def near_pairs(
     compiled loop: the plots sorted by cell, each column's found by its start, each
     cell's by a binary search in its column; no tree to build). A bin whose plots spread
     over more columns than four a plot (far wider than the gates) goes to the tree
-    (:func:`near_pairs_reference`). The pairs are counted before any is stored.
+    (:func:`near_pairs_reference`). The pairs are found in one pass, stored in an array
+    grown by doubling, and only counted past :data:`MAX_CANDIDATES`.
 
     Raises
     ------
@@ -293,11 +324,10 @@ class PlotIndex:
         if int((last - first).sum()) > BAND_WORK + 64 * (self.scan.size + r.size):
             return self._grid_window(*queries)
         bands = (self.r_sorted, self.az_sorted, self.by_range, first, last, *queries)
-        counts = window_counts(*bands)
-        if int(counts.sum()) > MAX_CANDIDATES:
-            raise _too_many(int(counts.sum()))
-        offsets = np.concatenate([[0], np.cumsum(counts)])
-        return np.repeat(np.arange(r.size), counts), window_fill(offsets, *bands)
+        counts, found, total = window_pairs(MAX_CANDIDATES, *bands)
+        if total > MAX_CANDIDATES:
+            raise _too_many(total)
+        return np.repeat(np.arange(r.size), counts), found
 
     def _grid_window(
         self, r: np.ndarray, az: np.ndarray, reach_r: np.ndarray, reach_az: np.ndarray

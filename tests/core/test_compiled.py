@@ -4,7 +4,7 @@ from tests.support.kernels import compiled_kernels
 
 
 def test_the_kernels_are_found():
-    assert "plotgate.core.initiation.search._grid_counts" in compiled_kernels()
+    assert "plotgate.core.initiation.search._grid_pairs" in compiled_kernels()
 
 
 def test_every_kernel_is_compiled_at_import_and_cached_on_disk():

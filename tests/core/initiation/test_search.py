@@ -62,3 +62,30 @@ def test_too_many_pairs_are_refused_before_they_are_stored(monkeypatch):
     with pytest.raises(ParameterError) as err:
         near_pairs(points, np.zeros((10, 2)), np.ones(10), 2.0)
     assert err.value.field == "scans" and "200 candidate" in str(err.value)
+
+
+def test_dense_gates_grow_the_pairs_array_past_its_first_size():
+    # 10 queries each holding all 3,000 plots: 30,000 pairs, past the first 1,044 slots
+    rng = np.random.default_rng(11)
+    points = rng.uniform(0.0, 10.0, (3000, 2))
+    rows, _ = _both(points, rng.uniform(4.0, 6.0, (10, 2)), np.full(10, 20.0), 2.0)
+    assert rows.size == 30_000
+
+
+def test_plots_on_a_tall_strip_are_ordered_by_argsort():
+    # one column of cells, far more rows of cells than plots: the counting sort's rows
+    # would outgrow the plots, so the keys are argsorted
+    rng = np.random.default_rng(12)
+    points = np.column_stack([rng.uniform(0.0, 1.0, 300), rng.uniform(-1e7, 1e7, 300)])
+    _both(points, points[:40] + 0.25, np.full(40, 1.0), np.inf)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_counting_sort_orders_the_cells_as_a_stable_argsort(seed):
+    rng = np.random.default_rng(seed)
+    nx, ny = rng.integers(1, 60, 2)
+    cell = np.column_stack([rng.integers(0, nx, 2000), rng.integers(0, ny, 2000)])
+    got = search.cell_order(cell, int(nx), int(ny))
+    want = search.cell_order_reference(cell, int(nx), int(ny))
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
