@@ -5,9 +5,11 @@ windows) holds the plots of the band of ranges r_q +- reach_r whose azimuth lies
 reach_az of az_q, the difference wrapped to [0, pi]. With the plots sorted by range once
 per scan, each window's band is found by two binary searches (:func:`range_bands`); a
 compiled loop then reads the band's plots in range order and tests their azimuths
-(:func:`window_counts`, then :func:`window_fill` into arrays of exactly that size). The
-work is the plots in the bands, known before any is read, so a caller can send windows
-whose bands are too full (plots on one ring of range) to another search.
+(:func:`window_pairs`: a band counted in vector code, read again only where it holds a
+plot, the plots found stored in an array grown by doubling, counted but no longer stored
+past a limit). The work is the plots in the bands, known before any is
+read, so a caller can send windows whose bands are too full (plots on one ring of range)
+to another search.
 
 :func:`in_windows` is the test in numpy on given pairs, and :func:`near_windows_reference`
 the whole search by brute force in numpy: the references the kernels are held to, with
@@ -24,9 +26,9 @@ __all__ = [
     "in_windows",
     "near_windows_reference",
     "range_bands",
+    "grown",
     "sort_run",
-    "window_counts",
-    "window_fill",
+    "window_pairs",
 ]
 
 _TWO_PI = 2.0 * np.pi
@@ -59,15 +61,51 @@ def range_bands(
     return first, np.maximum(last, first)
 
 
-@kernel("boolean(float64, float64, float64, float64, float64, float64)")
-def _inside(r_p: float, az_p: float, r: float, az: float, reach_r: float, reach_az: float) -> bool:
-    """Whether a plot lies in one window (the azimuth difference wrapped to [0, pi])."""
+@kernel("boolean(float64, float64, float64, float64, float64, float64, boolean)", inline=True)
+def _inside(
+    r_p: float, az_p: float, r: float, az: float, reach_r: float, reach_az: float, beyond: bool
+) -> bool:
+    """Whether a plot lies in one window (the azimuth difference wrapped to [0, pi]).
+
+    ``beyond``: an azimuth of the plots or of the window lies beyond +-pi, so the
+    difference may pass a turn (rare: the remainder, and its branch, only then). The rest
+    has no branch on the plot's numbers, so a band's loop compiles to vector code: a band
+    reads plots in range order, their azimuths at random, and a branch on them would be
+    mispredicted every other plot. ``min(d, 2 pi - d)`` is the reference's ``2 pi - d``
+    where ``d > pi``, the same double."""
     d_az = abs(az_p - az)
-    if d_az > _TWO_PI:  # azimuths beyond +-pi: rare, and the remainder is slow
+    if beyond and d_az > _TWO_PI:
         d_az %= _TWO_PI
-    if d_az > np.pi:
-        d_az = _TWO_PI - d_az
-    return bool(d_az <= reach_az and abs(r_p - r) <= reach_r)
+    d_az = min(d_az, _TWO_PI - d_az)
+    return (d_az <= reach_az) & (abs(r_p - r) <= reach_r)
+
+
+@kernel(
+    "int64(float64[:], float64[:], int64, int64, float64, float64, float64, float64, boolean)",
+    inline=True,
+)
+def _band_count(
+    r_sorted: np.ndarray,
+    az_sorted: np.ndarray,
+    first: int,
+    last: int,
+    r: float,
+    az: float,
+    reach_r: float,
+    reach_az: float,
+    beyond: bool,
+) -> int:
+    """The plots of one window's band in the window. Two loops, ``beyond`` known in each:
+    a flag tested inside the loop keeps it from vector code (numba leaves the branch in,
+    and the band's loop costs three times as much)."""
+    count = 0
+    if beyond:
+        for k in range(first, last):
+            count += _inside(r_sorted[k], az_sorted[k], r, az, reach_r, reach_az, True)
+    else:
+        for k in range(first, last):
+            count += _inside(r_sorted[k], az_sorted[k], r, az, reach_r, reach_az, False)
+    return count
 
 
 @kernel("void(int64[:], int64, int64)")
@@ -81,8 +119,20 @@ def sort_run(found: np.ndarray, start: int, stop: int) -> None:
         found[j + 1] = plot
 
 
-@kernel(f"int64[:]({_BANDS})")
-def window_counts(
+@kernel("int64[:](int64[:], int64, int64)")
+def grown(found: np.ndarray, at: int, limit: int) -> np.ndarray:
+    """``found`` with room for a plot at ``at`` (``at < limit``): itself, or a copy twice as
+    long, never longer than ``limit``, holding its first ``at`` plots."""
+    if at < found.size:
+        return found
+    bigger = np.empty(min(2 * found.size + 1, limit), dtype=np.int64)
+    bigger[:at] = found[:at]
+    return bigger
+
+
+@kernel(f"Tuple((int64[:], int64[:], int64))(int64, {_BANDS})")
+def window_pairs(
+    limit: int,
     r_sorted: np.ndarray,
     az_sorted: np.ndarray,
     order: np.ndarray,
@@ -92,38 +142,34 @@ def window_counts(
     az: np.ndarray,
     reach_r: np.ndarray,
     reach_az: np.ndarray,
-) -> np.ndarray:
-    """Plots in each window: its band's plots read in range order."""
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """The plots in each window (its band's plots read in range order: counted, then read
+    again to store them where it holds any): each window's count, the plots of window q
+    at ``found[offsets[q]:offsets[q + 1]]`` (offsets the counts' cumulative sum) in plot
+    order, and the total. Past ``limit`` plots in all the rest are counted, not stored
+    (the caller refuses the search)."""
     counts = np.zeros(r.size, dtype=np.int64)
+    found = np.empty(min(limit, 2 * r.size + 1024), dtype=np.int64)
+    in_turn = np.abs(az_sorted).max() <= np.pi if az_sorted.size else True
+    at = 0
     for q in range(r.size):
+        beyond = not (in_turn and abs(az[q]) <= np.pi)
+        count = _band_count(
+            r_sorted, az_sorted, first[q], last[q], r[q], az[q], reach_r[q], reach_az[q], beyond
+        )
+        counts[q] = count
+        if count == 0:  # most windows: the band read once, in vector code
+            continue
+        start = at
         for k in range(first[q], last[q]):
-            counts[q] += _inside(r_sorted[k], az_sorted[k], r[q], az[q], reach_r[q], reach_az[q])
-    return counts
-
-
-@kernel(f"int64[:](int64[:], {_BANDS})")
-def window_fill(
-    offsets: np.ndarray,
-    r_sorted: np.ndarray,
-    az_sorted: np.ndarray,
-    order: np.ndarray,
-    first: np.ndarray,
-    last: np.ndarray,
-    r: np.ndarray,
-    az: np.ndarray,
-    reach_r: np.ndarray,
-    reach_az: np.ndarray,
-) -> np.ndarray:
-    """The plots of each window at ``offsets[q]:offsets[q + 1]``, in plot order."""
-    found = np.empty(offsets[-1], dtype=np.int64)
-    for q in range(r.size):
-        at = offsets[q]
-        for k in range(first[q], last[q]):
-            if _inside(r_sorted[k], az_sorted[k], r[q], az[q], reach_r[q], reach_az[q]):
-                found[at] = order[k]
+            if _inside(r_sorted[k], az_sorted[k], r[q], az[q], reach_r[q], reach_az[q], beyond):
+                if at < limit:
+                    found = grown(found, at, limit)
+                    found[at] = order[k]
                 at += 1
-        sort_run(found, offsets[q], at)  # a window has a few plots
-    return found
+        if at <= limit:
+            sort_run(found, start, at)  # a window has a few plots
+    return counts, found[: min(at, limit)], at
 
 
 def in_windows(

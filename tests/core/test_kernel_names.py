@@ -38,11 +38,11 @@ HELPERS = {
         "the density table's interpolation, held to prior_density_reference by the "
         "probability tests (a table has no numpy twin)"
     ),
-    "plotgate.core.initiation.windows.window_counts": (
-        "first pass of PlotIndex.window's band search, held to near_windows_reference"
+    "plotgate.core.initiation.windows.window_pairs": (
+        "PlotIndex.window's band search, held to near_windows_reference"
     ),
-    "plotgate.core.initiation.windows.window_fill": (
-        "second pass of PlotIndex.window's band search, held to near_windows_reference"
+    "plotgate.core.initiation.windows.grown": (
+        "an array doubled, the plots copied: no arithmetic to hold (the searches' tests grow it)"
     ),
     "plotgate.core.validation.first_invalid_covariance": (
         "as_covariance's one compiled pass; its numpy diagnosis is the reference"

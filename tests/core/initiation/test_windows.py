@@ -11,8 +11,7 @@ from plotgate.core.initiation.windows import (
     in_windows,
     near_windows_reference,
     range_bands,
-    window_counts,
-    window_fill,
+    window_pairs,
 )
 
 
@@ -21,9 +20,9 @@ def near_windows(plot_r, plot_az, r, az, reach_r, reach_az):
     order = np.argsort(plot_r, kind="stable").astype(np.int64)
     first, last = range_bands(plot_r[order], r, reach_r)
     bands = (plot_r[order], plot_az[order], order, first, last, r, az, reach_r, reach_az)
-    counts = window_counts(*bands)
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    return np.repeat(np.arange(r.size), counts), window_fill(offsets, *bands)
+    counts, found, total = window_pairs(search.MAX_CANDIDATES, *bands)
+    assert total == found.size
+    return np.repeat(np.arange(r.size), counts), found
 
 
 def random_windows(rng, n, m):
